@@ -1,0 +1,590 @@
+//! The command catalogue: all 139 commands of chapter 4, declared once.
+//!
+//! [`table`](self) holds one entry per command — wire name, aliases,
+//! document section, request parameters with their types, ranges and units,
+//! and the values of its success reply. The `catalogue!` macro below turns
+//! that table into:
+//!
+//! * [`CommandId`], with names, aliases and sections,
+//! * one struct per command in [`request`] and in [`response`],
+//! * the [`Request`] and [`Response`] enums (plus `Unknown` for names this
+//!   crate does not know: newer firmware keeps working),
+//! * reading, writing, range checks and a generic [`Visitor`] walk for each.
+//!
+//! A reply is read against the request it answers ([`ReplyExpect`]), so
+//! `ReadBoxDI,5,6,;` expects exactly two values back.
+//!
+//! Where the document, its examples and the vendor SDKs disagree on the
+//! order of fields, `quirks` reorders the accepted alternative into the
+//! canonical order before the table's reader runs; output is always the
+//! canonical form.
+
+use crate::error::{EncodeError, ParseError, RangeError};
+use crate::grammar::{Cursor, Kind, RawMessage};
+use crate::types::Visitor;
+use crate::writer::Writer;
+use crate::ErrorCode;
+
+mod quirks;
+mod table;
+
+pub use table::{request, response, CommandId, Request, Response};
+
+/// Implemented by every request struct of [`request`].
+pub trait Command<'a>: Sized {
+    /// Which command this is.
+    const ID: CommandId;
+
+    /// Reads this command from one message (with or without `;`). Aliases of
+    /// its name are accepted.
+    fn parse(text: &'a str) -> Result<Self, ParseError<'a>>;
+
+    /// Writes the canonical message `Name,p1,...,pn,;` into `buf` and returns
+    /// its length.
+    fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError>;
+
+    /// What the reply to this request must look like.
+    fn expect(&self) -> ReplyExpect;
+
+    /// Checks every parameter against the range of the document's tables.
+    fn validate(&self) -> Result<(), RangeError>;
+
+    /// Walks the parameters in wire order.
+    fn visit(&self, v: &mut dyn Visitor);
+}
+
+/// How a table struct reads and writes its fields (crate-internal).
+pub(crate) trait Message<'a>: Sized {
+    fn read_fields(c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>>;
+    fn write_fields(&self, w: &mut Writer<'_>) -> Result<(), EncodeError>;
+}
+
+/// Most fields any command with a field-order quirk has.
+const QUIRK_FIELDS: usize = 48;
+
+/// Reads the fields of known command `id` from `raw`, reordering them first
+/// if `quirks` recognises an alternative layout.
+pub(crate) fn read_known<'a, T>(
+    id: CommandId,
+    raw: &RawMessage<'a>,
+    list_len: Option<u16>,
+    read: impl FnOnce(&mut Cursor<'_, 'a>) -> Result<T, ParseError<'a>>,
+) -> Result<T, ParseError<'a>> {
+    let mut scratch = heapless::Vec::<&'a str, QUIRK_FIELDS>::new();
+    let mut c = if quirks::reorder(id, raw, &mut scratch) {
+        Cursor::from_slice(&scratch, id)
+    } else {
+        Cursor::new(raw, id)
+    }
+    .with_list_len(list_len);
+    let v = read(&mut c)?;
+    c.finish()?;
+    Ok(v)
+}
+
+fn parse_request_as<'a, M: Message<'a>>(id: CommandId, text: &'a str) -> Result<M, ParseError<'a>> {
+    let raw = RawMessage::parse(text)?;
+    if raw.kind() != Kind::Request {
+        return Err(ParseError::NotARequest);
+    }
+    if CommandId::from_name(raw.name()) != Some(id) {
+        return Err(ParseError::NameMismatch {
+            expected: id,
+            got: raw.name(),
+        });
+    }
+    read_known(id, &raw, None, M::read_fields)
+}
+
+fn encode_with(
+    name: &str,
+    ok: bool,
+    buf: &mut [u8],
+    fields: impl FnOnce(&mut Writer<'_>) -> Result<(), EncodeError>,
+) -> Result<usize, EncodeError> {
+    let mut w = Writer::new(buf);
+    w.name(name)?;
+    if ok {
+        w.raw_field("OK")?;
+    }
+    fields(&mut w)?;
+    w.finish()
+}
+
+fn encode_raw(raw: &RawMessage<'_>, ok: bool, buf: &mut [u8]) -> Result<usize, EncodeError> {
+    encode_with(raw.name(), ok, buf, |w| {
+        raw.fields().try_for_each(|f| {
+            if crate::writer::is_carriable(f) {
+                w.raw_field(f)
+            } else {
+                Err(EncodeError::InvalidText { param: "field" })
+            }
+        })
+    })
+}
+
+/// What the reply to a request must look like: which command must answer,
+/// and for list replies how many values (`ReadBoxDI,5,6,;` → 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ReplyExpect {
+    /// The command that must answer; `None` for names this crate does not
+    /// know (the reply is then read as [`Response::Unknown`]).
+    pub command: Option<CommandId>,
+    /// For replies whose length depends on the request, the number of values.
+    pub count: Option<u16>,
+}
+
+impl ReplyExpect {
+    /// The reply of `command`, of any valid length.
+    pub const fn of(command: CommandId) -> Self {
+        ReplyExpect {
+            command: Some(command),
+            count: None,
+        }
+    }
+
+    /// A reply read by its own name, without knowing the request: known
+    /// names are typed (lists of any valid length), others stay generic.
+    pub fn from_name(name: &str) -> Self {
+        ReplyExpect {
+            command: CommandId::from_name(name),
+            count: None,
+        }
+    }
+}
+
+/// A `Fail` reply: `Name,Fail,code[,anything],;`.
+///
+/// Controllers send the code alone, the code plus an explanation, an
+/// explanation containing commas, or data fields before the explanation;
+/// everything after the code is kept verbatim in `detail`. The name is not
+/// checked against the request: a failure is reported whatever it is called
+/// (the document itself has `ReadActPos,Fail` under `ReadCmdPos`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Failure<'a> {
+    /// The name the reply carries.
+    pub name: &'a str,
+    /// The error code.
+    pub code: ErrorCode,
+    /// Everything after the code, untrimmed inside, without terminator.
+    pub detail: &'a str,
+}
+
+impl<'a> Failure<'a> {
+    /// The command named by the reply, if known.
+    pub fn command(&self) -> Option<CommandId> {
+        CommandId::from_name(self.name)
+    }
+
+    /// Writes `Name,Fail,code,;` or `Name,Fail,code,detail,;`.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        let detail_ok = self
+            .detail
+            .bytes()
+            .all(|b| (0x20..0x7f).contains(&b) && b != b';');
+        if !detail_ok {
+            return Err(EncodeError::InvalidText { param: "detail" });
+        }
+        let mut w = Writer::new(buf);
+        w.name(self.name)?;
+        w.raw_field("Fail")?;
+        w.int(i64::from(self.code.code()))?;
+        let d = crate::grammar::trim(self.detail);
+        let d = d.strip_suffix(',').unwrap_or(d);
+        if !d.is_empty() {
+            w.raw_field(d)?;
+        }
+        w.finish()
+    }
+}
+
+/// A reply from the controller.
+///
+/// It is as large as the largest reply (`ReadActPos`, 24 numbers, ~400
+/// bytes) because nothing is boxed: the codec does not allocate.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Reply<'a> {
+    /// `Name,OK,...,;` with its typed values.
+    Ok(Response<'a>),
+    /// `Name,Fail,code,...;`.
+    Fail(Failure<'a>),
+    /// `errorcmd,...`: the controller could not parse the request. The
+    /// fields are kept as sent (no full capture of this reply is public).
+    ErrorCmd(RawMessage<'a>),
+}
+
+impl<'a> Reply<'a> {
+    /// Reads a reply to the request described by `expect`. A success reply
+    /// must carry the request's name (or one of its aliases).
+    pub fn parse(text: &'a str, expect: ReplyExpect) -> Result<Self, ParseError<'a>> {
+        let raw = RawMessage::parse(text)?;
+        match raw.kind() {
+            Kind::ErrorCmd => Ok(Reply::ErrorCmd(raw)),
+            Kind::Request => Err(ParseError::NotAReply),
+            Kind::Fail => {
+                let rest = raw.skip_first();
+                let mut fields = rest.fields();
+                let code = match fields.next() {
+                    None => return Err(ParseError::BadErrorCode(crate::error::Got::End)),
+                    Some(f) => f
+                        .parse::<i32>()
+                        .map_err(|_| ParseError::BadErrorCode(crate::error::Got::Field(f)))?,
+                };
+                let detail = rest.skip_first();
+                Ok(Reply::Fail(Failure {
+                    name: raw.name(),
+                    code: ErrorCode::from(code),
+                    detail: if detail.is_empty() { "" } else { detail.body() },
+                }))
+            }
+            Kind::Ok => {
+                let body = raw.skip_first();
+                let Some(id) = expect.command else {
+                    return Ok(Reply::Ok(Response::Unknown(body)));
+                };
+                if CommandId::from_name(raw.name()) != Some(id) {
+                    return Err(ParseError::NameMismatch {
+                        expected: id,
+                        got: raw.name(),
+                    });
+                }
+                read_known(id, &body, expect.count, |c| Response::read(id, c)).map(Reply::Ok)
+            }
+        }
+    }
+
+    /// Writes the reply canonically.
+    pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        match self {
+            Reply::Ok(r) => r.encode(buf),
+            Reply::Fail(f) => f.encode(buf),
+            Reply::ErrorCmd(raw) => encode_raw(raw, false, buf),
+        }
+    }
+
+    /// The failure code, for `Fail` replies.
+    pub fn error_code(&self) -> Option<ErrorCode> {
+        match self {
+            Reply::Fail(f) => Some(f.code),
+            _ => None,
+        }
+    }
+}
+
+/// Defines the whole catalogue from the table. See `table.rs`.
+macro_rules! catalogue {
+    ($(
+        $(#[doc = $doc:literal])*
+        $Cmd:ident $(<$lt:lifetime>)? = $wire:literal $(| $alias:literal)* @ $section:literal
+            $(, len = $len:expr)? ;
+        { $( $(#[doc = $fdoc:literal])* $field:ident : $fty:ty $(= $range:expr)? ),* $(,)? }
+        => $(<$rlt:lifetime>)? { $( $(#[doc = $rdoc:literal])* $rfield:ident : $rty:ty ),* $(,)? }
+    )*) => {
+        /// Identifies a command of the catalogue.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum CommandId {
+            $( #[doc = concat!("`", $wire, "` (section ", $section, ").")] $Cmd, )*
+        }
+
+        impl CommandId {
+            /// Every command, in document order.
+            pub const ALL: &'static [CommandId] = &[$(CommandId::$Cmd),*];
+
+            /// The name written on the wire.
+            pub const fn name(self) -> &'static str {
+                match self { $(CommandId::$Cmd => $wire,)* }
+            }
+
+            /// Other names accepted on input for this command.
+            pub const fn aliases(self) -> &'static [&'static str] {
+                match self { $(CommandId::$Cmd => &[$($alias),*],)* }
+            }
+
+            /// The section of the protocol document (`"4.10.5"`).
+            pub const fn section(self) -> &'static str {
+                match self { $(CommandId::$Cmd => $section,)* }
+            }
+
+            /// The command with this wire name or alias (exact letter case).
+            pub fn from_name(name: &str) -> Option<CommandId> {
+                match name {
+                    $( $wire $(| $alias)* => Some(CommandId::$Cmd), )*
+                    _ => None,
+                }
+            }
+        }
+
+        impl core::fmt::Display for CommandId {
+            fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                f.write_str(self.name())
+            }
+        }
+
+        /// Request structs, one per command: the parameters in wire order.
+        pub mod request {
+            #[allow(unused_imports)]
+            use super::*;
+            $(
+                $(#[doc = $doc])*
+                #[doc = ""]
+                #[doc = concat!("Wire: `", $wire, "`, document section ", $section, ".")]
+                #[derive(Clone, Debug, Default, PartialEq)]
+                #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+                pub struct $Cmd $(<$lt>)? { $( $(#[doc = $fdoc])* pub $field: $fty, )* }
+            )*
+        }
+
+        /// Success-reply structs, one per command: the values after `OK`.
+        pub mod response {
+            #[allow(unused_imports)]
+            use super::*;
+            $(
+                #[doc = concat!("Values of a `", $wire, ",OK,...,;` reply (section ", $section, ").")]
+                #[derive(Clone, Debug, PartialEq)]
+                #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+                pub struct $Cmd $(<$rlt>)? { $( $(#[doc = $rdoc])* pub $rfield: $rty, )* }
+            )*
+        }
+
+        $(
+            impl<'a> Message<'a> for request::$Cmd $(<$lt>)? {
+                #[allow(unused_variables)]
+                fn read_fields(c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>> {
+                    let names: &[&str] = &[$(stringify!($field)),*];
+                    if names.is_empty() {
+                        c.skip_stray_robot_id();
+                    }
+                    Ok(request::$Cmd { $( $field: Field::read(c, stringify!($field))?, )* })
+                }
+                #[allow(unused_variables)]
+                fn write_fields(&self, w: &mut Writer<'_>) -> Result<(), EncodeError> {
+                    $( Field::write(&self.$field, w, stringify!($field))?; )*
+                    Ok(())
+                }
+            }
+
+            impl<'a> Command<'a> for request::$Cmd $(<$lt>)? {
+                const ID: CommandId = CommandId::$Cmd;
+
+                fn parse(text: &'a str) -> Result<Self, ParseError<'a>> {
+                    parse_request_as(CommandId::$Cmd, text)
+                }
+
+                fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
+                    encode_with($wire, false, buf, |w| self.write_fields(w))
+                }
+
+                fn expect(&self) -> ReplyExpect {
+                    ReplyExpect {
+                        command: Some(CommandId::$Cmd),
+                        count: None $( .or({
+                            let f: fn(&Self) -> usize = $len;
+                            Some(u16::try_from(f(self)).unwrap_or(u16::MAX))
+                        }) )?,
+                    }
+                }
+
+                fn validate(&self) -> Result<(), RangeError> {
+                    $( $(
+                        if let Some(element) = Field::check(&self.$field, &$range) {
+                            return Err(RangeError {
+                                command: CommandId::$Cmd,
+                                param: stringify!($field),
+                                element,
+                                range: $range,
+                            });
+                        }
+                    )? )*
+                    Ok(())
+                }
+
+                #[allow(unused_variables)]
+                fn visit(&self, v: &mut dyn Visitor) {
+                    $( Field::visit(&self.$field, stringify!($field), v); )*
+                }
+            }
+
+            impl<'a> From<request::$Cmd $(<$lt>)?> for Request<'a> {
+                fn from(r: request::$Cmd $(<$lt>)?) -> Self {
+                    Request::$Cmd(r)
+                }
+            }
+
+            impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
+                #[allow(unused_variables)]
+                fn read_fields(c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>> {
+                    Ok(response::$Cmd { $( $rfield: Field::read(c, stringify!($rfield))?, )* })
+                }
+                #[allow(unused_variables)]
+                fn write_fields(&self, w: &mut Writer<'_>) -> Result<(), EncodeError> {
+                    $( Field::write(&self.$rfield, w, stringify!($rfield))?; )*
+                    Ok(())
+                }
+            }
+
+            impl<'a> From<response::$Cmd $(<$rlt>)?> for Response<'a> {
+                fn from(r: response::$Cmd $(<$rlt>)?) -> Self {
+                    Response::$Cmd(r)
+                }
+            }
+        )*
+
+        /// A request of any command, or an unknown one passed through.
+        #[derive(Clone, Debug, PartialEq)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum Request<'a> {
+            $( #[doc = concat!("`", $wire, "`.")] $Cmd(request::$Cmd $(<$lt>)?), )*
+            /// A name this crate does not know, with its fields as sent.
+            Unknown(RawMessage<'a>),
+        }
+
+        impl<'a> Request<'a> {
+            /// Reads a request. Names this crate does not know come back as
+            /// [`Request::Unknown`], not as an error.
+            pub fn parse(text: &'a str) -> Result<Self, ParseError<'a>> {
+                let raw = RawMessage::parse(text)?;
+                if raw.kind() != Kind::Request {
+                    return Err(ParseError::NotARequest);
+                }
+                match CommandId::from_name(raw.name()) {
+                    None => Ok(Request::Unknown(raw)),
+                    Some(id) => read_known(id, &raw, None, |c| Ok(match id {
+                        $( CommandId::$Cmd => Request::$Cmd(Message::read_fields(c)?), )*
+                    })),
+                }
+            }
+
+            /// The command, or `None` for an unknown name.
+            pub fn command(&self) -> Option<CommandId> {
+                match self {
+                    $( Request::$Cmd(_) => Some(CommandId::$Cmd), )*
+                    Request::Unknown(_) => None,
+                }
+            }
+
+            /// The name written on the wire (as received for unknown names).
+            pub fn name(&self) -> &'a str {
+                match self {
+                    $( Request::$Cmd(_) => $wire, )*
+                    Request::Unknown(raw) => raw.name(),
+                }
+            }
+
+            /// Writes the canonical message and returns its length.
+            pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
+                match self {
+                    $( Request::$Cmd(r) => r.encode(buf), )*
+                    Request::Unknown(raw) => encode_raw(raw, false, buf),
+                }
+            }
+
+            /// What the reply must look like.
+            pub fn expect(&self) -> ReplyExpect {
+                match self {
+                    $( Request::$Cmd(r) => r.expect(), )*
+                    Request::Unknown(_) => ReplyExpect { command: None, count: None },
+                }
+            }
+
+            /// Checks the parameters against the document's ranges (unknown
+            /// commands always pass).
+            pub fn validate(&self) -> Result<(), RangeError> {
+                match self {
+                    $( Request::$Cmd(r) => r.validate(), )*
+                    Request::Unknown(_) => Ok(()),
+                }
+            }
+
+            /// Walks the parameters in wire order (unknown commands: each
+            /// field as text named by its index).
+            pub fn visit(&self, v: &mut dyn Visitor) {
+                match self {
+                    $( Request::$Cmd(r) => r.visit(v), )*
+                    Request::Unknown(raw) => visit_raw(raw, v),
+                }
+            }
+        }
+
+        /// The values of a success reply of any command.
+        #[derive(Clone, Debug, PartialEq)]
+        #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+        pub enum Response<'a> {
+            $( #[doc = concat!("`", $wire, ",OK,...`.")] $Cmd(response::$Cmd $(<$rlt>)?), )*
+            /// The reply of a command this crate does not know: its name and
+            /// the fields after `OK`, as sent.
+            Unknown(RawMessage<'a>),
+        }
+
+        impl<'a> Response<'a> {
+            pub(crate) fn read(id: CommandId, c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>> {
+                Ok(match id {
+                    $( CommandId::$Cmd => Response::$Cmd(Message::read_fields(c)?), )*
+                })
+            }
+
+            /// The command, or `None` for an unknown name.
+            pub fn command(&self) -> Option<CommandId> {
+                match self {
+                    $( Response::$Cmd(_) => Some(CommandId::$Cmd), )*
+                    Response::Unknown(_) => None,
+                }
+            }
+
+            /// Writes `Name,OK,v1,...,vn,;` and returns its length.
+            pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
+                match self {
+                    $( Response::$Cmd(r) => encode_with($wire, true, buf, |w| r.write_fields(w)), )*
+                    Response::Unknown(raw) => encode_raw(raw, true, buf),
+                }
+            }
+
+            /// Walks the values in wire order.
+            pub fn visit(&self, v: &mut dyn Visitor) {
+                match self {
+                    $( Response::$Cmd(_r) => { $( Field::visit(&_r.$rfield, stringify!($rfield), v); )* } )*
+                    Response::Unknown(raw) => visit_raw(raw, v),
+                }
+            }
+        }
+    };
+}
+use catalogue;
+
+/// Visits the fields of an unknown message as texts named `0`, `1`, ...
+fn visit_raw(raw: &RawMessage<'_>, v: &mut dyn Visitor) {
+    let mut name = itoa::Buffer::new();
+    for (i, f) in raw.fields().enumerate() {
+        v.text(name.format(i), f);
+    }
+}
+
+impl CommandId {
+    /// `true` for commands that start a motion whose end is observed by
+    /// polling `ReadRobotState` (chapter 6): the moves of section 4.10 and
+    /// the path moves `MovePath` and `MovePathL`.
+    pub fn is_motion(self) -> bool {
+        use CommandId as C;
+        matches!(
+            self,
+            C::MoveRelJ
+                | C::MoveRelL
+                | C::WayPointRel
+                | C::WayPointEx
+                | C::WayPoint
+                | C::WayPoint2
+                | C::MoveJ
+                | C::MoveL
+                | C::MoveC
+                | C::MoveZ
+                | C::MoveE
+                | C::MoveS
+                | C::MovePath
+                | C::MovePathL
+        )
+    }
+}

@@ -1,0 +1,86 @@
+//! Alternative field orders accepted on input.
+//!
+//! Where the document's signature, its examples and the vendor's SDKs send
+//! the same command with fields in another order, the alternative is
+//! recognised by the types of its fields and reordered into the canonical
+//! order of the table. Output is always canonical. Each case:
+//!
+//! * `MoveS`: the signature puts `sTcpName,sUcsName` before the velocity;
+//!   the document's example and the vendor SDK put them after the radius.
+//!   Canonical: the example/SDK order (names after the numbers, as in every
+//!   other move). The signature order is recognised by a name at field 3.
+//! * `WayPoint2`: the vendor's Python SDK sends `EndPos, AuxPos, cmdID, Tcp,
+//!   Ucs, Vel, Acc, Radius, type, isJoint, isSeek, bit, state, Joints`;
+//!   the document's signature (canonical here) is `EndPos, Joints, Tcp, Ucs,
+//!   Vel, Acc, Radius, type, isJoint, isSeek, bit, state, AuxPos, cmdID`.
+//!   Both have 30 fields; the SDK order has a name at field 15 where the
+//!   document has the velocity.
+//! * `MoveJ`: the signature has 23 fields; the document's examples send 24,
+//!   with a move type (always 0) after the radius, as `WayPoint` does. The
+//!   extra field is dropped.
+
+use super::{CommandId, QUIRK_FIELDS};
+use crate::grammar::RawMessage;
+use crate::number::Decimal;
+
+type Scratch<'a> = heapless::Vec<&'a str, QUIRK_FIELDS>;
+
+/// If `raw` is an alternative layout of `id`, writes its fields in canonical
+/// order into `out` and returns `true`.
+pub(crate) fn reorder<'a>(id: CommandId, raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {
+    match id {
+        CommandId::MoveS => move_s(raw, out),
+        CommandId::WayPoint2 => way_point2(raw, out),
+        CommandId::MoveJ => move_j(raw, out),
+        _ => false,
+    }
+}
+
+fn is_number(f: &str) -> bool {
+    f.is_empty() || Decimal::parse(f).is_ok()
+}
+
+fn collect<'a>(raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {
+    out.clear();
+    raw.fields().all(|f| out.push(f).is_ok())
+}
+
+/// Rewrites `out` as `out[perm[0]], out[perm[1]], ...`.
+fn permute(out: &mut Scratch<'_>, perm: &[usize]) -> bool {
+    let src = out.clone();
+    out.clear();
+    perm.iter()
+        .all(|&i| src.get(i).is_some_and(|f| out.push(f).is_ok()))
+}
+
+fn field<'a>(out: &Scratch<'a>, i: usize) -> &'a str {
+    out.get(i).copied().unwrap_or("")
+}
+
+fn move_s<'a>(raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {
+    // Signature: rbt, incr, diam, tcp, ucs, vel, acc, radius, cmd
+    const FROM_SIGNATURE: [usize; 9] = [0, 1, 2, 5, 6, 7, 3, 4, 8];
+    raw.len() == 9
+        && collect(raw, out)
+        && !is_number(field(out, 3))
+        && is_number(field(out, 5))
+        && permute(out, &FROM_SIGNATURE)
+}
+
+fn way_point2<'a>(raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {
+    // SDK: 0 rbt, 1-6 end, 7-12 aux, 13 cmd, 14 tcp, 15 ucs, 16 vel, 17 acc,
+    // 18 radius, 19 type, 20 isJoint, 21 seek, 22 bit, 23 state, 24-29 joints.
+    const FROM_SDK: [usize; 30] = [
+        0, 1, 2, 3, 4, 5, 6, 24, 25, 26, 27, 28, 29, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 7, 8,
+        9, 10, 11, 12, 13,
+    ];
+    raw.len() == 30 && collect(raw, out) && !is_number(field(out, 15)) && permute(out, &FROM_SDK)
+}
+
+fn move_j<'a>(raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {
+    // Examples: ..., 17 radius, 18 move type, 19 isUseJoint, ... 23 cmd.
+    const DROP_MOVE_TYPE: [usize; 23] = [
+        0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 19, 20, 21, 22, 23,
+    ];
+    raw.len() == 24 && collect(raw, out) && permute(out, &DROP_MOVE_TYPE)
+}

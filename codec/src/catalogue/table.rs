@@ -1,0 +1,1771 @@
+//! THE command table: every command of chapter 4 of HR-TCP V1.0.0.3, in
+//! document order, declared once.
+//!
+//! Entry syntax:
+//!
+//! ```text
+//! /// description
+//! Name<'a> = "WireName" | "Alias" @ "section", len = |r| <reply list length>;
+//! { /// doc   param: Type = range, ... }      // request, wire order
+//! => <'a> { /// doc   value: Type, ... }      // success reply, wire order
+//! ```
+//!
+//! Parameter names are snake_case versions of the document's (`nRbtID` →
+//! `rbt_id`); each doc line gives the document's name, unit and valid
+//! range. Ranges marked with `=` are checked by `validate()`, not by
+//! parsing: an out-of-range request still parses so that a controller (or
+//! the simulator) can answer it with `Fail,20006`.
+//!
+//! Deviations from the document's signatures, each from `NOTES.md`:
+//! `ReadBoxAO` takes a channel list like `ReadBoxAI`; `SetMaxAcsRange` has
+//! 1 + 12 parameters; `ReadLinearMaxVel` replies 3 values; `ReadFTControlState`
+//! sends only `nRbtID`; `MoveRelL`'s `nToolMotion` may be omitted; `MoveJ`
+//! and `MoveL` send the tool name first; `InitMovePathL` sends the UCS name
+//! before the TCP name; `PushServoP` and `WayPointEx` send the UCS block
+//! before the TCP block; `PushMovePaths` and `SetMoveTraceInitParams` follow
+//! their tables; `ReadSoftMotionProgress` is the wire name (the heading says
+//! `...Process`, accepted as an alias); `Base2UcsTcp` has 6 + 6 + 6 values
+//! (its signature lacks `dUcs_Ry`). `HRSetControlGoal`'s six distances may be
+//! omitted (the vendor SDK sends them only sometimes) and `ReadBoxInfo`
+//! replies with 6 or 8 values.
+
+use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect};
+use super::{encode_raw, read_known, visit_raw};
+use crate::error::{EncodeError, ParseError, RangeError};
+use crate::fsm::FsmState;
+use crate::grammar::{Cursor, Kind, RawMessage};
+use crate::number::Decimal;
+use crate::types::{
+    above, at_least, either, int, num, CountedList, Field, Joints, PointList, Pose, Range, RobotId,
+    TextList, Visitor,
+};
+use crate::writer::Writer;
+
+/// `nRbtID`: 0-5.
+const RBT: Range = int(0, 5);
+/// A 0/1 switch.
+const FLAG: Range = int(0, 1);
+/// A box digital I/O bit index 0-7.
+const BOX_BIT: Range = int(0, 7);
+
+catalogue! {
+    // ---------------------------------------------------------------- 4.1
+    /// Controller power off: stop, disable, cut 48 V (and optionally reboot).
+    OSCmd = "OSCmd" @ "4.1.1";
+    {
+        /// `nCmdType`: 1 = stop, disable, cut 48 V; 2 = the same, then restart the OS.
+        cmd_type: i32 = int(1, 2),
+    } => {}
+
+    /// Connect to the electric box.
+    ConnectToBox = "ConnectToBox" @ "4.1.2";
+    {} => {}
+
+    /// Switch robot (48 V) power on.
+    Electrify = "Electrify" @ "4.1.3";
+    {} => {}
+
+    /// Switch robot (48 V) power off.
+    BlackOut = "BlackOut" @ "4.1.4";
+    {} => {}
+
+    /// Connect to the controller (starts the EtherCAT master).
+    StartMaster = "StartMaster" @ "4.1.5";
+    {} => {}
+
+    /// Disconnect from the controller (closes the master).
+    CloseMaster = "CloseMaster" @ "4.1.6";
+    {} => {}
+
+    /// Whether the robot is simulated.
+    IsSimulation = "IsSimulation" @ "4.1.7";
+    {} => {
+        /// `nSimulateRobot`: 0 = real robot, 1 = simulated.
+        simulated: i32,
+    }
+
+    /// Whether the controller has finished starting.
+    ReadControllerState = "ReadControllerState" @ "4.1.8";
+    {} => {
+        /// `nStarted`: 0 = not started, 1 = started.
+        started: i32,
+    }
+
+    /// The robot model.
+    ReadRobotModel = "ReadRobotModel" @ "4.1.9";
+    {} => <'a> {
+        /// `strModel`: model name, e.g. `5KG`.
+        model: &'a str,
+    }
+
+    // ---------------------------------------------------------------- 4.2
+    /// Enable the axis group (servo on). SDKs also send `GrpPowerOn`.
+    GrpEnable = "GrpEnable" | "GrpPowerOn" @ "4.2.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Disable the axis group (servo off). SDKs also send `GrpPowerOff`.
+    GrpDisable = "GrpDisable" | "GrpPowerOff" @ "4.2.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Reset (clear errors).
+    GrpReset = "GrpReset" @ "4.2.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Stop the motion.
+    GrpStop = "GrpStop" @ "4.2.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Pause the motion.
+    GrpInterrupt = "GrpInterrupt" @ "4.2.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Continue a paused motion.
+    GrpContinue = "GrpContinue" @ "4.2.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Close free drive.
+    GrpCloseFreeDriver = "GrpCloseFreeDriver" @ "4.2.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Open free drive (hand guiding).
+    GrpOpenFreeDriver = "GrpOpenFreeDriver" @ "4.2.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.3
+    /// Run a script function by name.
+    RunFunc<'a> = "RunFunc" @ "4.3.1";
+    {
+        /// `strFuncName`: the script function (as named on the teach pendant).
+        func_name: &'a str,
+        /// `sParams1..n`: its parameters, any number.
+        params: TextList<'a>,
+    } => <'a> {
+        /// `strName`: the function that runs.
+        func_name: &'a str,
+    }
+
+    /// Run the compiled script's `Func_main`.
+    StartScript = "StartScript" @ "4.3.2";
+    {} => {}
+
+    /// Stop the running script.
+    StopScript = "StopScript" @ "4.3.3";
+    {} => {}
+
+    /// Pause the running script.
+    PauseScript = "PauseScript" @ "4.3.4";
+    {} => {}
+
+    /// Continue a paused script (`Fail,20018` when not paused).
+    ContinueScript = "ContinueScript" @ "4.3.5";
+    {} => {}
+
+    // ---------------------------------------------------------------- 4.4
+    /// Electric box information.
+    ReadBoxInfo = "ReadBoxInfo" @ "4.4.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nConnected`: box connected, 0/1.
+        connected: i32,
+        /// `n48V_ON`: 48 V present (> 36 V), 0/1.
+        power_48v: i32,
+        /// `db48OUT_Voltag`: 48 V output voltage [V], 0-53.
+        out_voltage: Decimal,
+        /// `db48OUT_Current`: 48 V output current [A].
+        out_current: Decimal,
+        /// `nRemoteBTN`: remote shutdown button signal, 0/1.
+        remote_button: i32,
+        /// `nThreeStageBTN`: three-position enabling button signal, 0/1.
+        three_stage_button: i32,
+        /// 12 V voltage [V]; newer firmware only (8-value reply).
+        voltage_12v: Option<Decimal>,
+        /// 12 V current [A]; newer firmware only (8-value reply).
+        current_12v: Option<Decimal>,
+    }
+
+    /// Box control digital inputs (CI), 1-8 bits per request.
+    ReadBoxCI = "ReadBoxCI" @ "4.4.2", len = |r| r.bits.len();
+    {
+        /// `nBit0..7`: bit indices 0-7, one to eight of them.
+        bits: heapless::Vec<i32, 8> = BOX_BIT,
+    } => {
+        /// `nVal0..7`: one level (0/1) per bit asked for.
+        values: heapless::Vec<i32, 8>,
+    }
+
+    /// Box general digital inputs (DI), 1-8 bits per request.
+    ReadBoxDI = "ReadBoxDI" @ "4.4.3", len = |r| r.bits.len();
+    {
+        /// `nBit0..7`: bit indices 0-7, one to eight of them.
+        bits: heapless::Vec<i32, 8> = BOX_BIT,
+    } => {
+        /// `nVal0..7`: one level (0/1) per bit asked for.
+        values: heapless::Vec<i32, 8>,
+    }
+
+    /// Box control digital outputs (CO), 1-8 bits per request.
+    ReadBoxCO = "ReadBoxCO" @ "4.4.4", len = |r| r.bits.len();
+    {
+        /// `nBit0..7`: bit indices 0-7, one to eight of them.
+        bits: heapless::Vec<i32, 8> = BOX_BIT,
+    } => {
+        /// `nVal0..7`: one level (0/1) per bit asked for.
+        values: heapless::Vec<i32, 8>,
+    }
+
+    /// Box general digital outputs (DO), 1-8 bits per request.
+    ReadBoxDO = "ReadBoxDO" @ "4.4.5", len = |r| r.bits.len();
+    {
+        /// `nBit0..7`: bit indices 0-7, one to eight of them.
+        bits: heapless::Vec<i32, 8> = BOX_BIT,
+    } => {
+        /// `nVal0..7`: one level (0/1) per bit asked for.
+        values: heapless::Vec<i32, 8>,
+    }
+
+    /// Box analog inputs, one or two channels.
+    ReadBoxAI = "ReadBoxAI" @ "4.4.6", len = |r| r.channels.len();
+    {
+        /// `nBit0..1`: channels 0/1, one or two of them.
+        channels: heapless::Vec<i32, 2> = FLAG,
+    } => {
+        /// `dVal0..1`: one value per channel [mA in current mode 4-20, V in voltage mode 0-10].
+        values: heapless::Vec<Decimal, 2>,
+    }
+
+    /// Box analog outputs, one or two channels (read like `ReadBoxAI`, see
+    /// `NOTES.md`).
+    ReadBoxAO = "ReadBoxAO" @ "4.4.7", len = |r| r.channels.len();
+    {
+        /// `nBit`: channels 0/1, one or two of them.
+        channels: heapless::Vec<i32, 2> = FLAG,
+    } => {
+        /// `dVal`: one value per channel [mA or V, 0-20].
+        values: heapless::Vec<Decimal, 2>,
+    }
+
+    /// Set a box control digital output (CO).
+    SetBoxCO = "SetBoxCO" @ "4.4.8";
+    {
+        /// `nBit`: bit index 0-7.
+        bit: i32 = BOX_BIT,
+        /// `nVal`: 0 = low, 1 = high.
+        value: i32 = FLAG,
+    } => {}
+
+    /// Set a box general digital output (DO).
+    SetBoxDO = "SetBoxDO" @ "4.4.9";
+    {
+        /// `nBit`: bit index 0-7.
+        bit: i32 = BOX_BIT,
+        /// `nVal`: 0 = low, 1 = high.
+        value: i32 = FLAG,
+    } => {}
+
+    /// Set a box analog output's mode.
+    SetBoxAOMode = "SetBoxAOMode" @ "4.4.10";
+    {
+        /// `nBit`: channel 0/1.
+        channel: i32 = FLAG,
+        /// `nMode`: 1 = voltage, 2 = current.
+        mode: i32 = int(1, 2),
+    } => {}
+
+    /// Set a box analog output's value and mode.
+    SetBoxAO = "SetBoxAO" @ "4.4.11";
+    {
+        /// `nBit`: channel 0/1.
+        channel: i32 = FLAG,
+        /// `dVal`: value [mA 4-20 in current mode, V 0-10 in voltage mode], 0-20.
+        value: Decimal = num("0", "20"),
+        /// `nMode`: 1 = voltage, 2 = current.
+        mode: i32 = int(1, 2),
+    } => {}
+
+    /// Set a tool-end digital output.
+    SetEndDO = "SetEndDO" @ "4.4.12";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nBit`: end output index 0-3.
+        bit: i32 = int(0, 3),
+        /// `nVal`: 0 = low, 1 = high.
+        value: i32 = FLAG,
+    } => {}
+
+    /// Tool-end digital inputs, 1-3 bits per request.
+    ReadEI = "ReadEI" @ "4.4.13", len = |r| r.bits.len();
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nBit0..2`: end input indices 0-2, one to three of them.
+        bits: heapless::Vec<i32, 3> = int(0, 2),
+    } => {
+        /// `nVal0..2`: one level (0/1) per bit asked for.
+        values: heapless::Vec<i32, 3>,
+    }
+
+    /// Tool-end digital outputs, 1-3 bits per request.
+    ReadEO = "ReadEO" @ "4.4.14", len = |r| r.bits.len();
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nBit0..2`: end output indices 0-2, one to three of them.
+        bits: heapless::Vec<i32, 3> = int(0, 2),
+    } => {
+        /// `nVal0..2`: one level (0/1) per bit asked for.
+        values: heapless::Vec<i32, 3>,
+    }
+
+    /// A tool-end analog input.
+    ReadEAI = "ReadEAI" @ "4.4.15";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nBit`: channel 0/1.
+        channel: i32 = FLAG,
+    } => {
+        /// `dVal`: value [mA 4-20 or V 0-10], 0-20.
+        value: Decimal,
+    }
+
+    // ---------------------------------------------------------------- 4.5
+    /// Set the speed override (not while moving).
+    SetOverride = "SetOverride" @ "4.5.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dOverride`: speed ratio 0.01-1.
+        ratio: Decimal = num("0.01", "1"),
+    } => {}
+
+    /// Switch tool-frame motion mode. SDKs also send `SetTCPMotion`.
+    SetToolMotion = "SetToolMotion" | "SetTCPMotion" @ "4.5.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 = off, 1 = on.
+        state: i32 = FLAG,
+    } => {}
+
+    /// Set the payload.
+    SetPayload = "SetPayload" @ "4.5.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMass`: mass [kg], 0 to the model's maximum payload.
+        mass: Decimal = at_least("0"),
+        /// `dX, dY, dZ`: centre-of-mass offset [mm], each >= 0.
+        center: [Decimal; 3] = at_least("0"),
+    } => {}
+
+    /// Set the joints' maximum velocities.
+    SetJointMaxVel = "SetJointMaxVel" @ "4.5.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dJ1..dJ6`: maximum velocity [°/s], 0-200 (model dependent).
+        joints: Joints = num("0", "200"),
+    } => {}
+
+    /// Set the joints' maximum accelerations.
+    SetJointMaxAcc = "SetJointMaxAcc" @ "4.5.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dJ1..dJ6`: maximum acceleration [°/s²], 0-720 (model dependent).
+        joints: Joints = num("0", "720"),
+    } => {}
+
+    /// Set the maximum linear velocity.
+    SetLinearMaxVel = "SetLinearMaxVel" @ "4.5.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMaxVel`: [mm/s], 0-3000, default 2000.
+        max_vel: Decimal = num("0", "3000"),
+    } => {}
+
+    /// Set the maximum linear acceleration.
+    SetLinearMaxAcc = "SetLinearMaxAcc" @ "4.5.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMaxAcc`: [mm/s²], 0-2500, default 2500.
+        max_acc: Decimal = num("0", "2500"),
+    } => {}
+
+    /// Set the joint-space limits.
+    SetMaxAcsRange = "SetMaxAcsRange" @ "4.5.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMaxJ1..dMaxJ6`: upper limits [°].
+        max: Joints,
+        /// `dMinJ1..dMinJ6`: lower limits [°].
+        min: Joints,
+    } => {}
+
+    /// Set the Cartesian-space limits.
+    SetMaxPcsRange = "SetMaxPcsRange" @ "4.5.9";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMaxX..dMaxRz`: upper limits [mm, °] (rotations unused, 0).
+        max: Pose,
+        /// `dMinX..dMinRz`: lower limits [mm, °].
+        min: Pose,
+        /// `dUcs_X..dUcs_Rz`: the user frame the limits are in [mm, °].
+        ucs: Pose,
+    } => {}
+
+    /// The joints' maximum velocities.
+    ReadJointMaxVel = "ReadJointMaxVel" @ "4.5.10";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [°/s].
+        joints: Joints,
+    }
+
+    /// The joints' maximum accelerations.
+    ReadJointMaxAcc = "ReadJointMaxAcc" @ "4.5.11";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [°/s²].
+        joints: Joints,
+    }
+
+    /// The joints' maximum jerks.
+    ReadJointMaxJerk = "ReadJointMaxJerk" @ "4.5.12";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [°/s³], 0-3600.
+        joints: Joints,
+    }
+
+    /// Linear motion limits.
+    ReadLinearMaxVel = "ReadLinearMaxVel" @ "4.5.13";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dMaxVel`: [mm/s].
+        max_vel: Decimal,
+        /// `dMaxAcc`: [mm/s²].
+        max_acc: Decimal,
+        /// `dMaxJerk`: [mm/s³].
+        max_jerk: Decimal,
+    }
+
+    /// Emergency-stop and safety-guard circuits.
+    ReadEmergencyInfo = "ReadEmergencyInfo" @ "4.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nESTO_Error`: the two e-stop channels disagree, 0/1.
+        estop_error: i32,
+        /// `nESTO`: emergency stop active, 0/1.
+        estop: i32,
+        /// `nSafetyGuard_Error`: the two safety-guard channels disagree, 0/1.
+        safety_guard_error: i32,
+        /// `nSafetyGuard`: safety guard active, 0/1.
+        safety_guard: i32,
+    }
+
+    /// The robot's state flags; poll it to follow a motion (chapter 6).
+    ReadRobotState = "ReadRobotState" @ "4.5.15";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nMovingState`: 1 while moving.
+        moving: i32,
+        /// `nEnableState`: 1 when enabled.
+        enabled: i32,
+        /// `nErrorState`: 1 when an error is active.
+        error: i32,
+        /// `nErrorCode`: the robot's error code.
+        error_code: i32,
+        /// `nErrorAxis`: the axis in error, 0-5.
+        error_axis: i32,
+        /// `nBreaking`: 0 = brakes applied, 1 = released.
+        brake_released: i32,
+        /// `nPause`: 1 when paused.
+        paused: i32,
+        /// `nEmergencyStop`: 1 in emergency stop.
+        emergency_stop: i32,
+        /// `nSaftyGuard`: 1 when the safety guard is active.
+        safety_guard: i32,
+        /// `nElectrify`: 1 when powered.
+        powered: i32,
+        /// `nIsConnectToBox`: 1 when the box is connected.
+        box_connected: i32,
+        /// `nBlendingDone`: 1 when the way-point motion is done.
+        blending_done: i32,
+        /// `nInPos`: 1 when the actual position reached the command position.
+        in_position: i32,
+    }
+
+    /// The id of the way point being executed.
+    ReadCurWayPointID = "ReadCurWayPointID" @ "4.5.16";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => <'a> {
+        /// `strCurWaypointID`: the `strCmdID` of the current way point.
+        id: &'a str,
+    }
+
+    /// Axis error codes.
+    ReadAxisErrorCode = "ReadAxisErrorCode" @ "4.5.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nErrorCode`: group error code, 0 when none.
+        code: i32,
+        /// `nJ1..nJ6`: per-axis error codes, 0 when none.
+        axes: [i32; 6],
+    }
+
+    /// The FSM state.
+    ReadCurFSM = "ReadCurFSM" @ "4.5.18";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nCurFSM`: the state, see [`FsmState`].
+        state: FsmState,
+    }
+
+    // ---------------------------------------------------------------- 4.6
+    /// Actual joint position, Cartesian pose, current TCP and UCS.
+    ReadActPos = "ReadActPos" @ "4.6.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: actual joints [°].
+        joints: Joints,
+        /// `dX..dRz`: actual pose [mm, °].
+        pose: Pose,
+        /// `dTcp_X..dTcp_Rz`: current tool frame [mm, °].
+        tcp: Pose,
+        /// `dUcs_X..dUcs_Rz`: current user frame [mm, °].
+        ucs: Pose,
+    }
+
+    /// Command joint position and Cartesian pose.
+    ReadCmdPos = "ReadCmdPos" @ "4.6.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: command joints [°].
+        joints: Joints,
+        /// `dX..dRz`: command pose [mm, °].
+        pose: Pose,
+    }
+
+    /// Command joint velocities.
+    ReadCmdJointVel = "ReadCmdJointVel" @ "4.6.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [°/s].
+        joints: Joints,
+    }
+
+    /// Actual joint velocities.
+    ReadActJointVel = "ReadActJointVel" @ "4.6.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [°/s].
+        joints: Joints,
+    }
+
+    /// Command TCP velocity.
+    ReadCmdTcpVel = "ReadCmdTcpVel" @ "4.6.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dX..dRz`: [mm/s, °/s].
+        velocity: Pose,
+    }
+
+    /// Actual TCP velocity.
+    ReadActTcpVel = "ReadActTcpVel" @ "4.6.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dX..dRz`: [mm/s, °/s].
+        velocity: Pose,
+    }
+
+    /// Command joint currents.
+    ReadCmdJointCur = "ReadCmdJointCur" @ "4.6.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [A].
+        joints: Joints,
+    }
+
+    /// Actual joint currents.
+    ReadActJointCur = "ReadActJointCur" @ "4.6.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dJ1..dJ6`: [A].
+        joints: Joints,
+    }
+
+    /// Combined XYZ speed of the TCP.
+    ReadTcpVelocity = "ReadTcpVelocity" @ "4.6.9";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dCmdVel`: command speed [mm/s].
+        cmd: Decimal,
+        /// `dActVel`: actual speed [mm/s].
+        act: Decimal,
+    }
+
+    // ---------------------------------------------------------------- 4.7
+    /// Quaternion to roll-pitch-yaw.
+    Quaternion2RPY = "Quaternion2RPY" @ "4.7.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dQuaW, dQuaX, dQuaY, dQuaZ`.
+        quaternion: [Decimal; 4],
+    } => {
+        /// `dRx, dRy, dRz`: [°], -180-180.
+        rpy: [Decimal; 3],
+    }
+
+    /// Roll-pitch-yaw to quaternion.
+    RPY2Quaternion = "RPY2Quaternion" @ "4.7.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `Rx, Ry, Rz`: [°], -180-180.
+        rpy: [Decimal; 3] = num("-180", "180"),
+    } => {
+        /// `dQuaW, dQuaX, dQuaY, dQuaZ`.
+        quaternion: [Decimal; 4],
+    }
+
+    /// Inverse kinematics: pose in a TCP/UCS to joints. Also `PCS2ACS`.
+    GetInverseKin = "GetInverseKin" | "PCS2ACS" @ "4.7.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target pose [mm, °].
+        pose: Pose,
+        /// `dJ1..dJ6`: reference joints choosing among solutions [°].
+        reference: Joints,
+        /// `dTcp_X..dTcp_Rz`: tool frame (all 0 for none) [mm, °].
+        tcp: Pose,
+        /// `dUcs_X..dUcs_Rz`: user frame (all 0 for none) [mm, °].
+        ucs: Pose,
+    } => {
+        /// `dTargetJ1..dTargetJ6`: [°].
+        joints: Joints,
+    }
+
+    /// Forward kinematics: joints to a pose in a TCP/UCS. Also `ACS2PCS`.
+    GetForwardKin = "GetForwardKin" | "ACS2PCS" @ "4.7.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dJ1..dJ6`: joints [°].
+        joints: Joints,
+        /// `dTcp_X..dTcp_Rz`: tool frame (all 0 for none) [mm, °].
+        tcp: Pose,
+        /// `dUcs_X..dUcs_Rz`: user frame (all 0 for none) [mm, °].
+        ucs: Pose,
+    } => {
+        /// `dX..dRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// A base-frame pose expressed in a UCS and TCP.
+    Base2UcsTcp = "Base2UcsTcp" @ "4.7.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: pose in the base frame [mm, °].
+        pose: Pose,
+        /// `dTcp_X..dTcp_Rz`: tool frame [mm, °].
+        tcp: Pose,
+        /// `dUcs_X..dUcs_Rz`: user frame [mm, °].
+        ucs: Pose,
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// A pose in a UCS and TCP expressed in the base frame.
+    UcsTcp2Base = "UcsTcp2Base" @ "4.7.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: pose in the user frame [mm, °].
+        pose: Pose,
+        /// `dTcp_X..dTcp_Rz`: tool frame [mm, °].
+        tcp: Pose,
+        /// `dUcs_X..dUcs_Rz`: user frame [mm, °].
+        ucs: Pose,
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// Pose "addition": the second pose left-multiplies the first.
+    PoseAdd = "PoseAdd" @ "4.7.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..dPose1_Rz`: [mm, °].
+        pose1: Pose,
+        /// `dPose2_X..dPose2_Rz`: [mm, °].
+        pose2: Pose,
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// Pose "subtraction", relative to the second pose.
+    PoseSub = "PoseSub" @ "4.7.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..dPose1_Rz`: [mm, °].
+        pose1: Pose,
+        /// `dPose2_X..dPose2_Rz`: [mm, °].
+        pose2: Pose,
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// Frame transformation of two poses.
+    PoseTrans = "PoseTrans" @ "4.7.9";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..dPose1_Rz`: [mm, °].
+        pose1: Pose,
+        /// `dPose2_X..dPose2_Rz`: [mm, °].
+        pose2: Pose,
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// Inverse of a pose.
+    PoseInverse = "PoseInverse" @ "4.7.10";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..dPose1_Rz`: [mm, °].
+        pose: Pose,
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// Distance and orientation difference between two poses.
+    PoseDist = "PoseDist" @ "4.7.11";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..dPose1_Rz`: [mm, °].
+        pose1: Pose,
+        /// `dPose2_X..dPose2_Rz`: [mm, °].
+        pose2: Pose,
+    } => {
+        /// `dDistance`: [mm].
+        distance: Decimal,
+        /// `dAngle`: [°].
+        angle: Decimal,
+    }
+
+    /// Linear interpolation between two poses.
+    PoseInterpolate = "PoseInterpolate" @ "4.7.12";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..dPose1_Rz`: [mm, °].
+        pose1: Pose,
+        /// `dPose2_X..dPose2_Rz`: [mm, °].
+        pose2: Pose,
+        /// `dAlpha`: 0 = pose1, 1 = pose2, 0-1.
+        alpha: Decimal = num("0", "1"),
+    } => {
+        /// `dTargetX..dTargetRz`: [mm, °].
+        pose: Pose,
+    }
+
+    /// A user frame from three points before and three after a rotation.
+    /// Also `DefdFrame`.
+    PoseDefdFrame = "PoseDefdFrame" | "DefdFrame" @ "4.7.13";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose1_X..Z`: [mm].
+        p1: [Decimal; 3],
+        /// `dPose2_X..Z`: [mm].
+        p2: [Decimal; 3],
+        /// `dPose3_X..Z`: [mm].
+        p3: [Decimal; 3],
+        /// `dPose4_X..Z`: [mm].
+        p4: [Decimal; 3],
+        /// `dPose5_X..Z`: [mm].
+        p5: [Decimal; 3],
+        /// `dPose6_X..Z`: [mm].
+        p6: [Decimal; 3],
+    } => {
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    }
+
+    // ---------------------------------------------------------------- 4.8
+    /// Set the current tool frame (not saved).
+    SetCurTCP = "SetCurTCP" @ "4.8.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dTcp_X..dTcp_Rz`: [mm, °].
+        tcp: Pose,
+    } => {}
+
+    /// Set the current user frame (not saved).
+    SetCurUCS = "SetCurUCS" @ "4.8.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    } => {}
+
+    /// The current tool frame.
+    ReadCurTCP = "ReadCurTCP" @ "4.8.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dTcp_X..dTcp_Rz`: [mm, °].
+        tcp: Pose,
+    }
+
+    /// The current user frame.
+    ReadCurUCS = "ReadCurUCS" @ "4.8.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    }
+
+    /// Select a taught tool frame by name (`Fail,20029` if unknown).
+    SetTCPByName<'a> = "SetTCPByName" @ "4.8.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTcpName`: tool frame name.
+        name: &'a str,
+    } => {}
+
+    /// Select a taught user frame by name (`Fail,20030` if unknown).
+    SetUCSByName<'a> = "SetUCSByName" @ "4.8.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sUcsName`: user frame name.
+        name: &'a str,
+    } => {}
+
+    /// A taught tool frame by name.
+    ReadTCPByName<'a> = "ReadTCPByName" @ "4.8.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTcpName`: tool frame name.
+        name: &'a str,
+    } => {
+        /// `dTcp_X..dTcp_Rz`: [mm, °].
+        tcp: Pose,
+    }
+
+    /// A taught user frame by name.
+    ReadUCSByName<'a> = "ReadUCSByName" @ "4.8.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sUcsName`: user frame name.
+        name: &'a str,
+    } => {
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    }
+
+    // ---------------------------------------------------------------- 4.9
+    /// Switch force control on or off.
+    SetForceControlState = "SetForceControlState" @ "4.9.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 = off, 1 = on.
+        state: i32 = FLAG,
+    } => {}
+
+    /// The force-control state.
+    ReadFTControlState = "ReadFTControlState" @ "4.9.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nState`: 0 off, 1 searching, 2 search done, 3 free drive.
+        state: i32,
+    }
+
+    /// Use tool-frame directions for force control.
+    SetForceToolCoordinateMotion = "SetForceToolCoordinateMotion" @ "4.9.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nMode`: 0 = off, 1 = on.
+        mode: i32 = FLAG,
+    } => {}
+
+    /// Pause force control only.
+    GrpFCInterrupt = "GrpFCInterrupt" @ "4.9.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Continue force control only.
+    GrpFCContinue = "GrpFCContinue" @ "4.9.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Re-zero the force sensor.
+    SetForceZero = "SetForceZero" @ "4.9.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Maximum force-search velocities.
+    HRSetMaxSearchVelocities = "HRSetMaxSearchVelocities" @ "4.9.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMaxLinearVelocity`: [mm/s], > 0.
+        max_linear: Decimal = above("0"),
+        /// `dMaxAngularVelocity`: [°/s], > 0.
+        max_angular: Decimal = above("0"),
+    } => {}
+
+    /// Force-search degrees of freedom.
+    HRSetControlFreedom = "HRSetControlFreedom" @ "4.9.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nX..nRz`: 0 = off, 1 = on, per direction.
+        freedom: [i32; 6] = FLAG,
+    } => {}
+
+    /// Force-control strategy.
+    HRSetForceControlStrategy = "HRSetForceControlStrategy" @ "4.9.9";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 constant force, 1 compliant, 2 compliant with obstacle crossing.
+        strategy: i32 = int(0, 2),
+    } => {}
+
+    /// Force sensor mounting pose relative to the flange.
+    SetFTPosition = "SetFTPosition" @ "4.9.10";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: [mm, °].
+        pose: Pose,
+    } => {}
+
+    /// Force-search PID parameters.
+    HRSetPIDControlParams = "HRSetPIDControlParams" @ "4.9.11";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dFp, dFi, dFd, dTp, dTi, dTd`.
+        pid: [Decimal; 6],
+    } => {}
+
+    /// Inertia (mass) control parameters.
+    HRSetMassParams = "HRSetMassParams" @ "4.9.12";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: per direction.
+        mass: [Decimal; 6],
+    } => {}
+
+    /// Damping (b) control parameters.
+    HRSetDampParams = "HRSetDampParams" @ "4.9.13";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: per direction.
+        damp: [Decimal; 6],
+    } => {}
+
+    /// Stiffness (k) control parameters.
+    HRSetStiffParams = "HRSetStiffParams" @ "4.9.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: per direction.
+        stiff: [Decimal; 6],
+    } => {}
+
+    /// Force-control target force (and unused target distances).
+    HRSetControlGoal = "HRSetControlGoal" @ "4.9.15";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target force [N, N·m].
+        force: [Decimal; 6],
+        /// `dDistance1..6`: not used yet, 0; may be omitted.
+        distance: Option<[Decimal; 6]>,
+    } => {}
+
+    /// Force limits beyond which the controller cuts power.
+    HRSetForceDataLimit = "HRSetForceDataLimit" @ "4.9.16";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMax_X..dMax_Rz`: [N, N·m].
+        max: [Decimal; 6],
+        /// `dMin_X..dMin_Rz`: [N, N·m].
+        min: [Decimal; 6],
+    } => {}
+
+    /// Force-control deformation range.
+    HRSetForceDistanceLimit = "HRSetForceDistanceLimit" @ "4.9.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dAllowDistance`: maximum deformation [mm].
+        allow_distance: Decimal,
+        /// `dStrengthLevel`: exponent of the resistance, 2 or 3.
+        strength_level: Decimal = either("2", "3"),
+    } => {}
+
+    /// Force-control free drive on or off.
+    SetForceFreeDriveMode = "SetForceFreeDriveMode" @ "4.9.18";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nMode`: 0 = off, 1 = on.
+        mode: i32 = FLAG,
+    } => {}
+
+    /// Calibrated force-sensor data.
+    ReadFTCabData = "ReadFTCabData" @ "4.9.19";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dX..dRz`: [N, N·m].
+        data: [Decimal; 6],
+    }
+
+    // ---------------------------------------------------------------- 4.10
+    /// Relative joint move.
+    MoveRelJ = "MoveRelJ" @ "4.10.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nAxisId`: joint J1-J6 as 0-5.
+        axis: i32 = int(0, 5),
+        /// `nDirection`: 0 = negative, 1 = positive.
+        direction: i32 = FLAG,
+        /// `dDistance`: [°].
+        distance: Decimal,
+    } => {}
+
+    /// Relative Cartesian move.
+    MoveRelL = "MoveRelL" @ "4.10.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nAxisId`: X, Y, Z, Rx, Ry, Rz as 0-5.
+        axis: i32 = int(0, 5),
+        /// `nDirection`: 0 = negative, 1 = positive.
+        direction: i32 = FLAG,
+        /// `dDistance`: [mm or °].
+        distance: Decimal,
+        /// `nToolMotion`: 0 = user frame, 1 = tool frame; omitted = the frame
+        /// chosen on the jog page.
+        tool_motion: Option<i32> = FLAG,
+    } => {}
+
+    /// Way-point relative move.
+    WayPointRel<'a> = "WayPointRel" @ "4.10.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nType`: 0 = joint relative, 1 = linear relative.
+        move_type: i32 = FLAG,
+        /// `nPointList`: 1 = use the point below as base.
+        use_point_list: i32 = FLAG,
+        /// `dPos_X..dPos_Rz`: base pose [mm, °] (0 when unused).
+        pose: Pose,
+        /// `dPos_J1..dPos_J6`: base joints [°] (0 when unused).
+        joints: Joints,
+        /// `nrelMoveType`: 0 = absolute, 1 = added.
+        rel_move_type: i32 = FLAG,
+        /// `nAxisMask_1..6`: 1 = move along this axis/direction.
+        axis_mask: [i32; 6] = FLAG,
+        /// `dTarget_1..6`: distances per axis [mm, °].
+        target: [Decimal; 6],
+        /// `sTcpName`: tool frame name (default `TCP`).
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name (default `Base`).
+        ucs_name: &'a str,
+        /// `dVelocity`: [°/s joint, mm/s linear].
+        velocity: Decimal,
+        /// `dAcc`: [°/s² joint, mm/s² linear].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `nIsUseJoint`: 1 = target given as joints.
+        use_joint: i32 = FLAG,
+        /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
+        seek: i32 = FLAG,
+        /// `nIOBit`: box DI index 0-7.
+        io_bit: i32 = BOX_BIT,
+        /// `nIOState`: DI level 0/1.
+        io_state: i32 = FLAG,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Way-point move with explicit TCP and UCS values.
+    WayPointEx<'a> = "WayPointEx" @ "4.10.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target pose [mm, °].
+        pose: Pose,
+        /// `dJ1..dJ6`: target or reference joints [°].
+        joints: Joints,
+        /// `dUcs_X..dUcs_Rz`: user frame values [mm, °].
+        ucs: Pose,
+        /// `dTcp_X..dTcp_Rz`: tool frame values [mm, °].
+        tcp: Pose,
+        /// `dVelocity`: [°/s joint, mm/s linear].
+        velocity: Decimal,
+        /// `dAcc`: [°/s² joint, mm/s² linear].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `nMoveType`: 0 = joint, 1 = linear.
+        move_type: i32 = FLAG,
+        /// `nIsUseJoint`: 1 = move to `joints` (joint moves only).
+        use_joint: i32 = FLAG,
+        /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
+        seek: i32 = FLAG,
+        /// `nIOBit`: box DI index 0-7.
+        io_bit: i32 = BOX_BIT,
+        /// `nIOState`: DI level 0/1.
+        io_state: i32 = FLAG,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Way-point move with taught TCP and UCS names: the everyday move.
+    WayPoint<'a> = "WayPoint" @ "4.10.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target pose [mm, °] (joint moves: solved by IK unless `use_joint`).
+        pose: Pose,
+        /// `dJ1..dJ6`: target joints when `use_joint`, else IK reference [°].
+        joints: Joints,
+        /// `sTcpName`: tool frame name (default `TCP`).
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name (default `Base`).
+        ucs_name: &'a str,
+        /// `dVelocity`: [°/s joint, mm/s linear].
+        velocity: Decimal,
+        /// `dAcc`: [°/s² joint, mm/s² linear].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `nMoveType`: 0 = joint, 1 = linear.
+        move_type: i32 = FLAG,
+        /// `nIsUseJoint`: 1 = move to `joints` (joint moves only).
+        use_joint: i32 = FLAG,
+        /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
+        seek: i32 = FLAG,
+        /// `nIOBit`: box DI index 0-7.
+        io_bit: i32 = BOX_BIT,
+        /// `nIOState`: DI level 0/1.
+        io_state: i32 = FLAG,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Way-point move that also blends into arcs without slowing down.
+    WayPoint2<'a> = "WayPoint2" @ "4.10.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dEndPos_X..dEndPos_Rz`: target pose [mm, °].
+        end_pose: Pose,
+        /// `dJ1..dJ6`: target joints when `use_joint`, else IK reference [°].
+        joints: Joints,
+        /// `sTcpName`: tool frame name (default `TCP`).
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name (default `Base`).
+        ucs_name: &'a str,
+        /// `dVelocity`: [°/s joint, mm/s linear].
+        velocity: Decimal,
+        /// `dAcc`: [°/s² joint, mm/s² linear].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `nMoveType`: 0 = joint, 1 = linear, 2 = arc through `aux_pose`.
+        move_type: i32 = int(0, 2),
+        /// `nIsUseJoint`: 1 = move to `joints` (joint moves only).
+        use_joint: i32 = FLAG,
+        /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
+        seek: i32 = FLAG,
+        /// `nIOBit`: box DI index 0-7.
+        io_bit: i32 = BOX_BIT,
+        /// `nIOState`: DI level 0/1.
+        io_state: i32 = FLAG,
+        /// `dAuxPos_X..dAuxPos_Rz`: arc via point [mm, °] (arc moves only).
+        aux_pose: Pose,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Joint move (deprecated in the document; use `WayPoint`).
+    MoveJ<'a> = "MoveJ" @ "4.10.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target pose [mm, °].
+        pose: Pose,
+        /// `dJ1..dJ6`: target joints when `use_joint`, else IK reference [°].
+        joints: Joints,
+        /// `sTcpName`: tool frame name (the examples send it first).
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+        /// `dVelocity`: [°/s].
+        velocity: Decimal,
+        /// `dAcc`: [°/s²].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `nIsUseJoint`: 1 = move to `joints`.
+        use_joint: i32 = FLAG,
+        /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
+        seek: i32 = FLAG,
+        /// `nIOBit`: box DI index 0-7.
+        io_bit: i32 = BOX_BIT,
+        /// `nIOState`: DI level 0/1.
+        io_state: i32 = FLAG,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Linear move (deprecated in the document; use `WayPoint`).
+    MoveL<'a> = "MoveL" @ "4.10.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target pose [mm, °].
+        pose: Pose,
+        /// `dJ1..dJ6`: IK reference joints [°].
+        joints: Joints,
+        /// `sTcpName`: tool frame name (the examples send it first).
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+        /// `dVelocity`: [mm/s].
+        velocity: Decimal,
+        /// `dAcc`: [mm/s²].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
+        seek: i32 = FLAG,
+        /// `nIOBit`: box DI index 0-7.
+        io_bit: i32 = BOX_BIT,
+        /// `nIOState`: DI level 0/1.
+        io_state: i32 = FLAG,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Circular move (arc or full circles).
+    MoveC<'a> = "MoveC" @ "4.10.9";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dStartPos_X..Rz`: start [mm, °].
+        start: Pose,
+        /// `dAuxPos_X..Rz`: via point [mm, °].
+        aux: Pose,
+        /// `dEndPos_X..Rz`: end [mm, °].
+        end: Pose,
+        /// `nFixedPosure`: 1 = keep the orientation.
+        fixed_posture: i32 = FLAG,
+        /// `nMoveCType`: 0 = full circle, 1 = arc.
+        circle_type: i32 = FLAG,
+        /// `dRadLen`: number of full circles (full-circle moves only).
+        rad_len: Decimal,
+        /// `dVelocity`: [mm/s].
+        velocity: Decimal,
+        /// `dAcc`: [mm/s²].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Zig-zag move.
+    MoveZ<'a> = "MoveZ" @ "4.10.10";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dStartPos_X..Rz`: [mm, °].
+        start: Pose,
+        /// `dEndPos_X..Rz`: [mm, °].
+        end: Pose,
+        /// `dPlanePos_X..Rz`: point fixing the plane [mm, °].
+        plane: Pose,
+        /// `dVelocity`: [mm/s].
+        velocity: Decimal,
+        /// `dAcc`: [mm/s²].
+        acc: Decimal,
+        /// `dWidth`: zig-zag width.
+        width: Decimal,
+        /// `dDensity`: zig-zag density.
+        density: Decimal,
+        /// `nEnableDensity`: 1 = use `density`.
+        enable_density: i32 = FLAG,
+        /// `nEnablePlane`: 1 = use `plane`.
+        enable_plane: i32 = FLAG,
+        /// `nEnableWaiTime`: 1 = wait at turning points.
+        enable_wait_time: i32 = FLAG,
+        /// `nPosiTime`: wait at positive turns [ms].
+        positive_time: i32,
+        /// `nNegaTime`: wait at negative turns [ms].
+        negative_time: i32,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Elliptical move through five taught points.
+    MoveE<'a> = "MoveE" @ "4.10.11";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dP1_X..Rz`: [mm, °].
+        p1: Pose,
+        /// `dP2_X..Rz`: [mm, °].
+        p2: Pose,
+        /// `dP3_X..Rz`: [mm, °].
+        p3: Pose,
+        /// `dP4_X..Rz`: [mm, °].
+        p4: Pose,
+        /// `dP5_X..Rz`: [mm, °].
+        p5: Pose,
+        /// `nOrientMode`: 0 = elliptical arc, 1 = whole ellipse.
+        orient_mode: i32 = FLAG,
+        /// `nMoveType`: 1 = keep the orientation.
+        move_type: i32 = FLAG,
+        /// `dArcLength`: [°].
+        arc_length: Decimal,
+        /// `dVelocity`: [mm/s].
+        velocity: Decimal,
+        /// `dAcc`: [mm/s²].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    /// Archimedean spiral from a 1 mm radius. Written in the order of the
+    /// document's example and the vendor SDK; the signature's order (names
+    /// before the velocity) is accepted on input.
+    MoveS<'a> = "MoveS" @ "4.10.12";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dSpiralIncrement`: radius increase per turn [mm], > 0.
+        increment: Decimal = above("0"),
+        /// `dSpiralDiameter`: end radius [mm], > 1.
+        diameter: Decimal = above("1"),
+        /// `dVelocity`: [°/s].
+        velocity: Decimal,
+        /// `dAcc`: [°/s²].
+        acc: Decimal,
+        /// `dRadius`: blend radius [mm].
+        radius: Decimal,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+        /// `strCmdID`: way-point id, free text.
+        cmd_id: &'a str,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.11
+    /// Start a joint path.
+    StartPushMovePath<'a> = "StartPushMovePath" @ "4.11.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+        /// `dSpeedRatio`: 0-1.
+        speed_ratio: Decimal = num("0", "1"),
+        /// `dRadius`: blend radius [mm], > 0.
+        radius: Decimal = above("0"),
+    } => {}
+
+    /// Add a joint point to a path (usually more than 4).
+    PushMovePathJ<'a> = "PushMovePathJ" @ "4.11.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+        /// `dJ1..dJ6`: [°].
+        joints: Joints,
+    } => {}
+
+    /// End a joint path and start computing it.
+    EndPushMovePath<'a> = "EndPushMovePath" @ "4.11.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+    } => {}
+
+    /// Run a joint path. SDKs also send `MovePathJ`.
+    MovePath<'a> = "MovePath" | "MovePathJ" @ "4.11.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+    } => {}
+
+    /// The state of a path.
+    ReadMovePathState<'a> = "ReadMovePathState" @ "4.11.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+    } => {
+        /// `nState`: 0 not taught, 1 teaching, 2 computing, 3 ready, 4 teaching ended, 5 computation error.
+        state: i32,
+    }
+
+    /// Rename a path.
+    UpdateMovePathName<'a> = "UpdateMovePathName" @ "4.11.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: current name.
+        track: &'a str,
+        /// `sTrackNewName`: new name.
+        new_name: &'a str,
+    } => {}
+
+    /// Delete a path.
+    DelMovePath<'a> = "DelMovePath" @ "4.11.7";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+    } => {}
+
+    /// Progress of a `MovePathL` run. The heading calls it
+    /// `ReadSoftMotionProcess`, accepted as an alias.
+    ReadSoftMotionProgress = "ReadSoftMotionProgress" | "ReadSoftMotionProcess" @ "4.11.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dProcess`: 0-1, above 0.999999 = done.
+        progress: Decimal,
+        /// `nIndex`: index of the current point.
+        index: i32,
+    }
+
+    /// Start a Cartesian path.
+    InitMovePathL<'a> = "InitMovePathL" @ "4.11.9";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+        /// `dVelocity`: [mm/s].
+        velocity: Decimal,
+        /// `dAcc`: [mm/s²].
+        acc: Decimal,
+        /// `dJerk`: [mm/s³].
+        jerk: Decimal,
+        /// `sUcsName`: user frame name (sent before the tool name).
+        ucs_name: &'a str,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+    } => {}
+
+    /// Add a Cartesian point to a path (usually more than 4).
+    PushMovePathL<'a> = "PushMovePathL" @ "4.11.10";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+        /// `dX..dRz`: [mm, °].
+        pose: Pose,
+    } => {}
+
+    /// Add many points to a path in one message.
+    PushMovePaths<'a> = "PushMovePaths" @ "4.11.11";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+        /// `nMoveType`: 0 = joint points (for `MovePath`), 1 = Cartesian (for `MovePathL`).
+        move_type: i32 = FLAG,
+        /// `nPointsSize` and `sPoints`: the points, six values each.
+        points: PointList<'a>,
+    } => {}
+
+    /// Run a Cartesian path (computes 2-4 s, then moves).
+    MovePathL<'a> = "MovePathL" @ "4.11.12";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTrackName`: path name.
+        track: &'a str,
+    } => {}
+
+    /// Speed ratio of a running `MovePath`.
+    SetMovePathOverride = "SetMovePathOverride" @ "4.11.13";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dOverride`: 0.01-1.
+        ratio: Decimal = num("0.01", "1"),
+    } => {}
+
+    // ---------------------------------------------------------------- 4.12
+    /// Start online (servo) control.
+    StartServo = "StartServo" @ "4.12.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dServoTime`: update period [s], > 0.
+        servo_time: Decimal = above("0"),
+        /// `dLookaheadTime`: look-ahead [s], > 0.
+        lookahead_time: Decimal = above("0"),
+    } => {}
+
+    /// Stream a joint target.
+    PushServoJ = "PushServoJ" @ "4.12.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dJ1..dJ6`: [°].
+        joints: Joints,
+    } => {}
+
+    /// Stream a Cartesian target.
+    PushServoP = "PushServoP" @ "4.12.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: [mm, °].
+        pose: Pose,
+        /// `dUcs_X..dUcs_Rz`: user frame [mm, °] (sent before the tool frame).
+        ucs: Pose,
+        /// `dTcp_X..dTcp_Rz`: tool frame [mm, °].
+        tcp: Pose,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.13
+    /// Relative tracking parameters.
+    SetMoveTraceParams = "SetMoveTraceParams" @ "4.13.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 = off, 1 = on.
+        state: i32 = FLAG,
+        /// `dDistance`: distance to keep, > 0.
+        distance: Decimal = above("0"),
+        /// `dAwayVelocity`: search speed away, > 0.
+        away_velocity: Decimal = above("0"),
+        /// `dBackVelocity`: search speed back, > 0.
+        back_velocity: Decimal = above("0"),
+    } => {}
+
+    /// Relative tracking sensor parameters (`y = dK·x + dB`).
+    SetMoveTraceInitParams = "SetMoveTraceInitParams" @ "4.13.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dK`.
+        k: Decimal,
+        /// `dB`.
+        b: Decimal,
+        /// `dMaxLimit`: largest sensor distance.
+        max_limit: Decimal,
+        /// `dMinLimit`: smallest sensor distance.
+        min_limit: Decimal,
+    } => {}
+
+    /// Relative tracking search direction.
+    SetMoveTraceUcs = "SetMoveTraceUcs" @ "4.13.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: X, Y, Z unused; Rx, Ry, Rz the direction [°].
+        direction: Pose,
+    } => {}
+
+    /// Conveyor tracking on or off.
+    SetTrackingState = "SetTrackingState" @ "4.13.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 = off, 1 = on.
+        state: i32 = FLAG,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.14
+    /// Run a plug-in app command.
+    HRAppCmd<'a> = "HRAppCmd" @ "4.14.1";
+    {
+        /// `HRAppName`: the plug-in app.
+        app: &'a str,
+        /// `HRAppCmdName, sParams1..n`: the command name, then its parameters.
+        args: TextList<'a>,
+    } => {}
+
+    /// Write registers of the tool-flange Modbus slave (EtherCAT end I/O).
+    WriteHoldingRegisters = "WriteHoldingRegisters" @ "4.14.2";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nSlaveID`: 0/1.
+        slave: i32 = FLAG,
+        /// `nFunction`: Modbus function code, > 0 (16 writes registers).
+        function: i32 = int(1, 255),
+        /// `nRegAddr`: first register address.
+        address: i32 = int(0, 65535),
+        /// `nRegCount` and `vecData`: 1-11 consecutive register values.
+        data: CountedList<i32, 11>,
+    } => {}
+
+    /// Read registers of the tool-flange Modbus slave (EtherCAT end I/O).
+    ReadHoldingRegisters = "ReadHoldingRegisters" @ "4.14.3", len = |r| usize::try_from(r.count).unwrap_or(0);
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nSlaveID`: 0/1.
+        slave: i32 = FLAG,
+        /// `nFunction`: Modbus function code, > 0 (3 reads holding registers).
+        function: i32 = int(1, 255),
+        /// `nRegAddr`: first register address.
+        address: i32 = int(0, 65535),
+        /// `nRegCount`: 1-12.
+        count: i32 = int(1, 12),
+    } => {
+        /// `vecData1..`: one value per register asked for.
+        values: heapless::Vec<i32, 12>,
+    }
+}
+
+// The table must cover the whole of chapter 4.
+const _: () = assert!(CommandId::ALL.len() == 139);

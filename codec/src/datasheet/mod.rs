@@ -1,0 +1,1 @@
+//! DataSheet service (chapter 5): packet header, deframer and JSON payload.

@@ -1,0 +1,390 @@
+//! The message grammar of chapter 2: `Name,p1,...,pn,;`.
+//!
+//! Reading is lenient, writing is strict. [`RawMessage::parse`] accepts every
+//! variation that controllers, SDKs and the document itself produce:
+//!
+//! | input | read as |
+//! |---|---|
+//! | `Name,p1,p2,;` (canonical) | `Name` + `[p1, p2]` |
+//! | `OSCmd,1;` (comma missing before `;`) | `OSCmd` + `[1]` |
+//! | `ReadBoxCO,OK,0,1,;;` (doubled `;`) | `ReadBoxCO` + `[OK, 0, 1]` |
+//! | `SetJointMaxAcc,0,360, 360,;` (spaces) | every field trimmed |
+//! | `ReadCIConfig,,;` (empty field) | `ReadCIConfig` + `[""]` |
+//! | `Name` or `Name,p1` (no `;`, as a framer body) | same as with `;` |
+//!
+//! Fields are split on `,` only; the protocol has no quoting, so a text field
+//! can never contain `,` or `;` (the writer refuses such text). Splitting uses
+//! nom on the borrowed input: nothing is copied.
+
+use nom::bytes::complete::take_till;
+use nom::{IResult, Parser};
+
+use crate::catalogue::CommandId;
+use crate::error::{Expected, Got, ParseError};
+
+/// Whitespace the reader trims around fields and messages.
+pub(crate) fn is_space(b: u8) -> bool {
+    matches!(b, b' ' | b'\t' | b'\r' | b'\n')
+}
+
+pub(crate) fn trim(s: &str) -> &str {
+    s.trim_matches(|c: char| c.is_ascii() && is_space(c as u8))
+}
+
+fn field(i: &str) -> IResult<&str, &str> {
+    take_till(|c| c == ',').parse(i)
+}
+
+/// Splits off the first field of `rest`; `None` when nothing is left.
+fn split_field(rest: &str) -> (&str, Option<&str>) {
+    match field(rest) {
+        Ok((after, f)) => match after.strip_prefix(',') {
+            Some(tail) => (f, Some(tail)),
+            None => (f, None),
+        },
+        // `take_till` on a complete input cannot fail; treat as "all of it".
+        Err(_) => (rest, None),
+    }
+}
+
+/// What kind of message a line is, judged from its shape alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Kind {
+    /// A request: `Name,p1,...,;`.
+    Request,
+    /// A success reply: `Name,OK,...,;`.
+    Ok,
+    /// A failure reply: `Name,Fail,code,...;`.
+    Fail,
+    /// The controller's reply to a message it could not parse: `errorcmd,...`.
+    ErrorCmd,
+}
+
+/// A message split into its name and fields, borrowed from the input.
+///
+/// This is the generic view used for unknown command names (newer firmware
+/// keeps working) and underneath every typed parse.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RawMessage<'a> {
+    name: &'a str,
+    /// The fields' text after the name: no leading `,`, no terminator.
+    body: &'a str,
+    count: u16,
+}
+
+/// Why a text is not a message at all.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GrammarError {
+    /// Nothing but whitespace and terminators.
+    Empty,
+    /// The name is empty or has characters other than `A-Z a-z 0-9 _`
+    /// (the document's garbled `Pose Trans,...` lands here).
+    BadName,
+    /// More than 65535 fields.
+    TooManyFields,
+}
+
+impl<'a> RawMessage<'a> {
+    /// Splits one message. `text` may carry the terminator (`...,;`) or not
+    /// (a body as the framer delivers it), and surrounding whitespace.
+    pub fn parse(text: &'a str) -> Result<Self, GrammarError> {
+        let mut t = trim(text);
+        while let Some(s) = t.strip_suffix(';') {
+            t = trim(s);
+        }
+        if let Some(s) = t.strip_suffix(',') {
+            t = s;
+        }
+        if t.is_empty() {
+            return Err(GrammarError::Empty);
+        }
+        let (name, rest) = split_field(t);
+        let name = trim(name);
+        if name.is_empty() || !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_') {
+            return Err(GrammarError::BadName);
+        }
+        let body = rest.unwrap_or("");
+        let count = match rest {
+            None => 0,
+            Some(b) => b.bytes().filter(|&c| c == b',').count() + 1,
+        };
+        let count = u16::try_from(count).map_err(|_| GrammarError::TooManyFields)?;
+        Ok(RawMessage { name, body, count })
+    }
+
+    /// The command name as written.
+    pub fn name(&self) -> &'a str {
+        self.name
+    }
+
+    /// The number of fields after the name.
+    pub fn len(&self) -> usize {
+        usize::from(self.count)
+    }
+
+    /// `true` when there are no fields after the name.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// The fields after the name, each trimmed.
+    pub fn fields(&self) -> Fields<'a> {
+        Fields {
+            rest: if self.count == 0 {
+                None
+            } else {
+                Some(self.body)
+            },
+        }
+    }
+
+    /// The fields' text after the name, untrimmed, without terminator.
+    pub fn body(&self) -> &'a str {
+        self.body
+    }
+
+    /// The kind of message, from its shape: `errorcmd` as name, `OK` or
+    /// `Fail` (any letter case) as first field, else a request.
+    pub fn kind(&self) -> Kind {
+        if self.name.eq_ignore_ascii_case("errorcmd") {
+            return Kind::ErrorCmd;
+        }
+        match self.fields().next() {
+            Some(f) if f.eq_ignore_ascii_case("OK") => Kind::Ok,
+            Some(f) if f.eq_ignore_ascii_case("Fail") => Kind::Fail,
+            _ => Kind::Request,
+        }
+    }
+
+    /// This message without its first field (used to step past `OK`/`Fail`).
+    pub(crate) fn skip_first(&self) -> RawMessage<'a> {
+        match self.body.split_once(',') {
+            Some((_, rest)) => RawMessage {
+                name: self.name,
+                body: rest,
+                count: self.count.saturating_sub(1),
+            },
+            None => RawMessage {
+                name: self.name,
+                body: "",
+                count: 0,
+            },
+        }
+    }
+}
+
+/// Iterator over trimmed fields of a message.
+#[derive(Clone, Debug)]
+pub struct Fields<'a> {
+    rest: Option<&'a str>,
+}
+
+impl<'a> Iterator for Fields<'a> {
+    type Item = &'a str;
+    fn next(&mut self) -> Option<&'a str> {
+        let r = self.rest?;
+        let (f, rest) = split_field(r);
+        self.rest = rest;
+        Some(trim(f))
+    }
+}
+
+/// Where a [`Cursor`] reads its fields from.
+#[derive(Clone, Copy, Debug)]
+enum Source<'s, 'a> {
+    /// The message text, split lazily.
+    Text(Option<&'a str>),
+    /// Fields already split and reordered by a quirk handler.
+    Slice(&'s [&'a str]),
+}
+
+/// Reads the fields of one message in order, for the typed parsers.
+#[derive(Clone, Debug)]
+pub struct Cursor<'s, 'a> {
+    src: Source<'s, 'a>,
+    pos: u16,
+    total: u16,
+    command: CommandId,
+    /// In a reply: how many values a list must have, from the request.
+    list_len: Option<u16>,
+}
+
+impl<'s, 'a> Cursor<'s, 'a> {
+    pub(crate) fn new(msg: &RawMessage<'a>, command: CommandId) -> Self {
+        Cursor {
+            src: Source::Text(if msg.count == 0 { None } else { Some(msg.body) }),
+            pos: 0,
+            total: msg.count,
+            command,
+            list_len: None,
+        }
+    }
+
+    pub(crate) fn from_slice(fields: &'s [&'a str], command: CommandId) -> Self {
+        Cursor {
+            src: Source::Slice(fields),
+            pos: 0,
+            total: u16::try_from(fields.len()).unwrap_or(u16::MAX),
+            command,
+            list_len: None,
+        }
+    }
+
+    pub(crate) fn with_list_len(mut self, n: Option<u16>) -> Self {
+        self.list_len = n;
+        self
+    }
+
+    /// In a reply, how many values its list must have (from the request).
+    pub fn expected_len(&self) -> Option<u16> {
+        self.list_len
+    }
+
+    /// The command being parsed.
+    pub fn command(&self) -> CommandId {
+        self.command
+    }
+
+    /// Fields not yet read.
+    pub fn remaining(&self) -> u16 {
+        self.total.saturating_sub(self.pos)
+    }
+
+    /// Index of the next field (0 = first after the name).
+    pub fn position(&self) -> u16 {
+        self.pos
+    }
+
+    /// The next field, trimmed, or `None` at the end.
+    pub fn next_field(&mut self) -> Option<&'a str> {
+        let f = match &mut self.src {
+            Source::Text(rest) => {
+                let r = (*rest)?;
+                let (f, tail) = split_field(r);
+                *rest = tail;
+                trim(f)
+            }
+            Source::Slice(s) => {
+                let (first, tail) = s.split_first()?;
+                *s = tail;
+                trim(first)
+            }
+        };
+        self.pos = self.pos.saturating_add(1);
+        Some(f)
+    }
+
+    /// All remaining fields as one borrowed text (for variable lists), and
+    /// their count. Only available on message text; a reordered cursor has no
+    /// contiguous text and yields `None`.
+    pub(crate) fn take_rest(&mut self) -> Option<(&'a str, u16)> {
+        match &mut self.src {
+            Source::Text(rest) => {
+                let n = self.total.saturating_sub(self.pos);
+                let r = rest.take().unwrap_or("");
+                self.pos = self.total;
+                Some((r, n))
+            }
+            Source::Slice(_) => None,
+        }
+    }
+
+    /// A field error at the current position.
+    pub(crate) fn error(
+        &self,
+        param: &'static str,
+        expected: Expected,
+        got: Got<'a>,
+    ) -> ParseError<'a> {
+        ParseError::Field {
+            command: self.command,
+            param,
+            // A field just read is at pos - 1; the end or a list starts at pos.
+            index: match got {
+                Got::Field(_) => self.pos.saturating_sub(1),
+                _ => self.pos,
+            },
+            expected,
+            got,
+        }
+    }
+
+    /// A command without parameters ignores one stray robot id or empty
+    /// field (`ConnectToBox,0,;` in the document, `ReadRobotModel,0,;` and
+    /// `StopScript,0,;` from SDKs).
+    pub(crate) fn skip_stray_robot_id(&mut self) {
+        if self.pos == 0 && self.total == 1 {
+            let mut probe = self.clone();
+            if let Some(f) = probe.next_field() {
+                if f.is_empty() || f.bytes().all(|b| b.is_ascii_digit()) {
+                    *self = probe;
+                }
+            }
+        }
+    }
+
+    /// Fails if fields are left over.
+    pub(crate) fn finish(mut self) -> Result<(), ParseError<'a>> {
+        let expected = self.pos;
+        match self.next_field() {
+            None => Ok(()),
+            Some(extra) => Err(ParseError::TooManyFields {
+                command: self.command,
+                expected,
+                got: self.total,
+                first_extra: extra,
+            }),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fields(m: &RawMessage<'_>) -> heapless::Vec<heapless::String<16>, 8> {
+        m.fields()
+            .map(|f| heapless::String::try_from(f).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn lenient_forms() {
+        let m = RawMessage::parse("OSCmd,1;").unwrap();
+        assert_eq!((m.name(), m.len()), ("OSCmd", 1));
+        let m = RawMessage::parse("ReadBoxCO,OK,0,1,;;").unwrap();
+        assert_eq!(fields(&m), ["OK", "0", "1"]);
+        let m = RawMessage::parse(" SetJointMaxAcc ,0,360, 360 ,;\r\n").unwrap();
+        assert_eq!(m.name(), "SetJointMaxAcc");
+        assert_eq!(fields(&m), ["0", "360", "360"]);
+        let m = RawMessage::parse("ReadCIConfig,,;").unwrap();
+        assert_eq!(fields(&m), [""]);
+        let m = RawMessage::parse("StartMaster,;").unwrap();
+        assert!(m.is_empty());
+        let m = RawMessage::parse("StartMaster").unwrap();
+        assert!(m.is_empty());
+    }
+
+    #[test]
+    fn kinds() {
+        let k = |t| RawMessage::parse(t).unwrap().kind();
+        assert_eq!(k("GrpEnable,0,;"), Kind::Request);
+        assert_eq!(k("GrpEnable,OK,;"), Kind::Ok);
+        assert_eq!(k("GrpEnable,Fail,20018,;"), Kind::Fail);
+        assert_eq!(k("errorcmd,;"), Kind::ErrorCmd);
+    }
+
+    #[test]
+    fn bad_messages() {
+        assert_eq!(RawMessage::parse(" ;; "), Err(GrammarError::Empty));
+        assert_eq!(RawMessage::parse(",x,;"), Err(GrammarError::BadName));
+        assert_eq!(RawMessage::parse(",;"), Err(GrammarError::Empty));
+        assert_eq!(
+            RawMessage::parse("Pose Trans, 0,1,;"),
+            Err(GrammarError::BadName)
+        );
+    }
+}

@@ -1,0 +1,610 @@
+//! Exact decimal numbers, as the protocol writes them.
+//!
+//! Controllers reply with fixed decimals (`10.759`, `-0.000`, `10000000.000`,
+//! sometimes `1.500000`) and clients send whatever their language prints
+//! (`420`, `420.0`, `0.5`, `1e-05`, `1.0E-4`). [`Decimal`] keeps the digits and
+//! the number of decimals exactly as read, so text → value → text is
+//! byte-identical for every form a controller sends, including the sign of
+//! `-0.000`.
+//!
+//! # Precision
+//! A `Decimal` holds up to 19 significant digits (an unsigned 64-bit
+//! coefficient) and up to [`MAX_SCALE`] decimals. Reading never rounds integer
+//! digits: a number whose integer part does not fit is an error. Fractional
+//! digits beyond what fits are dropped (truncated toward zero); no controller
+//! or SDK sends that many. Exponent forms are normalised to plain decimals
+//! (`1e-05` is written back as `0.00001`).
+//!
+//! Why not `f64`: core's float formatting costs ~14 KiB and float parsing
+//! ~20 KiB of flash on Cortex-M, Cortex-M4F has no double-precision FPU, and a
+//! float cannot tell `-0.000` from `0` or `1.5` from `1.500000`. This type
+//! costs well under a kilobyte.
+
+use core::cmp::Ordering;
+use core::fmt;
+
+use nom::branch::alt;
+use nom::bytes::complete::take_while1;
+use nom::character::complete::{char, one_of};
+use nom::combinator::{opt, recognize};
+use nom::sequence::{pair, preceded};
+use nom::{IResult, Parser};
+
+/// The largest number of decimals a [`Decimal`] keeps.
+pub const MAX_SCALE: u8 = 18;
+
+/// Powers of ten that fit in a `u64` (10^0 .. 10^19). Built at compile time;
+/// the indexing below never runs on input.
+#[allow(clippy::indexing_slicing)]
+const POW10: [u64; 20] = {
+    let mut t = [1u64; 20];
+    let mut i = 1;
+    while i < 20 {
+        t[i] = t[i - 1] * 10;
+        i += 1;
+    }
+    t
+};
+
+fn pow10(n: u8) -> Option<u64> {
+    POW10.get(usize::from(n)).copied()
+}
+
+/// An exact decimal number: sign, coefficient and number of decimals.
+///
+/// Equality and ordering are numeric (`1.5 == 1.500`, `-0.000 == 0`); use
+/// [`Decimal::is_identical`] to compare the written form.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Decimal {
+    coeff: u64,
+    scale: u8,
+    negative: bool,
+}
+
+/// Why a text is not a number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NumberError {
+    /// Not of the form `[+-]digits[.digits][e[+-]digits]`.
+    Syntax,
+    /// The value does not fit (integer part over 19 digits, or an exponent
+    /// that moves it out of range).
+    OutOfRange,
+}
+
+impl fmt::Display for NumberError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            NumberError::Syntax => f.write_str("not a number"),
+            NumberError::OutOfRange => f.write_str("number out of range"),
+        }
+    }
+}
+
+/// The pieces of a number as recognised by the grammar, still as text.
+struct Lexed<'a> {
+    negative: bool,
+    int: &'a [u8],
+    frac: &'a [u8],
+    exp_negative: bool,
+    exp: &'a [u8],
+}
+
+fn digits(i: &[u8]) -> IResult<&[u8], &[u8]> {
+    take_while1(|c: u8| c.is_ascii_digit())(i)
+}
+
+/// `[+-]? (digits [. digits?] | . digits) ([eE] [+-]? digits)?`
+fn lex(input: &[u8]) -> IResult<&[u8], Lexed<'_>> {
+    let (i, sign) = opt(one_of("+-")).parse(input)?;
+    let (i, (int, frac)) = alt((
+        pair(digits, opt(preceded(char('.'), opt(digits)))).map(|(d, f)| (d, f.flatten())),
+        preceded(char('.'), digits).map(|f| (&b""[..], Some(f))),
+    ))
+    .parse(i)?;
+    let (i, exp) = opt(preceded(
+        one_of("eE"),
+        pair(opt(one_of("+-")), recognize(digits)),
+    ))
+    .parse(i)?;
+    let (exp_negative, exp) = match exp {
+        Some((s, d)) => (s == Some('-'), d),
+        None => (false, &b""[..]),
+    };
+    Ok((
+        i,
+        Lexed {
+            negative: sign == Some('-'),
+            int,
+            frac: frac.unwrap_or(b""),
+            exp_negative,
+            exp,
+        },
+    ))
+}
+
+impl Decimal {
+    /// Zero, written `0`.
+    pub const ZERO: Decimal = Decimal {
+        coeff: 0,
+        scale: 0,
+        negative: false,
+    };
+
+    /// Builds a decimal from its parts: `(-1)^negative × coeff × 10^-scale`.
+    ///
+    /// Returns `None` when `scale` exceeds [`MAX_SCALE`].
+    pub const fn from_parts(negative: bool, coeff: u64, scale: u8) -> Option<Self> {
+        if scale > MAX_SCALE {
+            return None;
+        }
+        Some(Decimal {
+            coeff,
+            scale,
+            negative,
+        })
+    }
+
+    /// An integer, written without decimals.
+    pub const fn from_int(v: i64) -> Self {
+        Decimal {
+            coeff: v.unsigned_abs(),
+            scale: 0,
+            negative: v < 0,
+        }
+    }
+
+    /// A value in thousandths, written with three decimals as controllers do
+    /// (`from_milli(-1181)` is `-1.181`).
+    pub const fn from_milli(v: i64) -> Self {
+        Decimal {
+            coeff: v.unsigned_abs(),
+            scale: 3,
+            negative: v < 0,
+        }
+    }
+
+    /// Parses one number in any of the forms clients send: `420`, `-0`,
+    /// `420.0`, `.5`, `5.`, `+1`, `1e-05`, `1.0E-4`. Surrounding spaces are
+    /// not accepted here (the grammar trims fields before).
+    pub fn parse(text: &str) -> Result<Self, NumberError> {
+        Self::parse_bytes(text.as_bytes())
+    }
+
+    /// Like [`Decimal::parse`], on bytes.
+    pub fn parse_bytes(text: &[u8]) -> Result<Self, NumberError> {
+        let lexed = match lex(text) {
+            Ok((&[], l)) => l,
+            _ => return Err(NumberError::Syntax),
+        };
+        Self::from_lexed(&lexed)
+    }
+
+    fn from_lexed(l: &Lexed<'_>) -> Result<Self, NumberError> {
+        // Exponent: anything beyond four digits is out of range for us.
+        let mut exp: i32 = 0;
+        for &d in l.exp {
+            exp = exp * 10 + i32::from(d - b'0');
+            if exp > 9999 {
+                return Err(NumberError::OutOfRange);
+            }
+        }
+        if l.exp_negative {
+            exp = -exp;
+        }
+        let mut coeff: u64 = 0;
+        let mut overflowed = false;
+        for &d in l.int {
+            coeff = coeff
+                .checked_mul(10)
+                .and_then(|c| c.checked_add(u64::from(d - b'0')))
+                .ok_or(NumberError::OutOfRange)?;
+        }
+        // Decimals written, before the exponent shifts them.
+        let mut frac_kept: i32 = 0;
+        for &d in l.frac {
+            match coeff
+                .checked_mul(10)
+                .and_then(|c| c.checked_add(u64::from(d - b'0')))
+            {
+                Some(c) if !overflowed => {
+                    coeff = c;
+                    frac_kept += 1;
+                }
+                _ => overflowed = true,
+            }
+        }
+        // value = coeff × 10^(exp - frac_kept)
+        let mut scale = frac_kept - exp;
+        while scale < 0 {
+            coeff = coeff.checked_mul(10).ok_or(NumberError::OutOfRange)?;
+            scale += 1;
+        }
+        while scale > i32::from(MAX_SCALE) {
+            if coeff == 0 {
+                scale = i32::from(MAX_SCALE);
+                break;
+            }
+            // Dropping a digit that is not there would change the value.
+            if scale - i32::from(MAX_SCALE) > 19 {
+                return Err(NumberError::OutOfRange);
+            }
+            coeff /= 10;
+            scale -= 1;
+        }
+        Ok(Decimal {
+            coeff,
+            scale: scale as u8,
+            negative: l.negative,
+        })
+    }
+
+    /// `true` when the number is written with a minus sign (also `-0.000`).
+    pub const fn is_sign_negative(&self) -> bool {
+        self.negative
+    }
+
+    /// The coefficient: the written digits without sign and decimal point.
+    pub const fn coefficient(&self) -> u64 {
+        self.coeff
+    }
+
+    /// The number of decimals written.
+    pub const fn scale(&self) -> u8 {
+        self.scale
+    }
+
+    /// `true` when the value is zero (`0`, `-0`, `0.000`).
+    pub const fn is_zero(&self) -> bool {
+        self.coeff == 0
+    }
+
+    /// `true` when both are written identically (same sign, digits and number
+    /// of decimals), unlike `==` which compares values.
+    pub const fn is_identical(&self, other: &Decimal) -> bool {
+        self.coeff == other.coeff && self.scale == other.scale && self.negative == other.negative
+    }
+
+    /// The value as an `f64` (nearest representable).
+    pub fn to_f64(&self) -> f64 {
+        let div = pow10(self.scale).unwrap_or(1) as f64;
+        let v = self.coeff as f64 / div;
+        if self.negative {
+            -v
+        } else {
+            v
+        }
+    }
+
+    /// The value as an `f32` (nearest representable, computed in single
+    /// precision on the FPU of a Cortex-M4F for values under 2^24).
+    pub fn to_f32(&self) -> f32 {
+        let div = pow10(self.scale).unwrap_or(1) as f32;
+        let v = self.coeff as f32 / div;
+        if self.negative {
+            -v
+        } else {
+            v
+        }
+    }
+
+    /// The value if it is a whole number that fits an `i64` (`5`, `5.000`,
+    /// `-0`).
+    pub fn to_i64(&self) -> Option<i64> {
+        let div = pow10(self.scale)?;
+        if !self.coeff.is_multiple_of(div) {
+            return None;
+        }
+        let whole = i64::try_from(self.coeff / div).ok()?;
+        Some(if self.negative { -whole } else { whole })
+    }
+
+    /// The value in units of 10^-`scale`, rounded half away from zero
+    /// (`to_scaled(3)` gives thousandths). `None` if it does not fit.
+    pub fn to_scaled(&self, scale: u8) -> Option<i64> {
+        let c = if scale >= self.scale {
+            self.coeff.checked_mul(pow10(scale - self.scale)?)?
+        } else {
+            let div = pow10(self.scale - scale)?;
+            let q = self.coeff / div;
+            if (self.coeff % div).checked_mul(2)? >= div {
+                q + 1
+            } else {
+                q
+            }
+        };
+        let v = i64::try_from(c).ok()?;
+        Some(if self.negative { -v } else { v })
+    }
+
+    /// Rounds `v` to `scale` decimals (half away from zero). `None` for NaN,
+    /// infinities, values over ~1.8e19 at that scale, or `scale` over
+    /// [`MAX_SCALE`]. Negative values that round to zero keep their sign
+    /// (`-0.000`), as controllers print them.
+    pub fn from_f64(v: f64, scale: u8) -> Option<Self> {
+        if !v.is_finite() || scale > MAX_SCALE {
+            return None;
+        }
+        let scaled = (if v < 0.0 { -v } else { v }) * pow10(scale)? as f64 + 0.5;
+        if scaled >= 18_446_744_073_709_551_615.0 {
+            return None;
+        }
+        Some(Decimal {
+            coeff: scaled as u64,
+            scale,
+            negative: v.is_sign_negative(),
+        })
+    }
+
+    /// Like [`Decimal::from_f64`], for `f32` (single-precision arithmetic).
+    pub fn from_f32(v: f32, scale: u8) -> Option<Self> {
+        if !v.is_finite() || scale > MAX_SCALE {
+            return None;
+        }
+        let scaled = (if v < 0.0 { -v } else { v }) * pow10(scale)? as f32 + 0.5;
+        if scaled >= 18_446_744_073_709_551_615.0 {
+            return None;
+        }
+        Some(Decimal {
+            coeff: scaled as u64,
+            scale,
+            negative: v.is_sign_negative(),
+        })
+    }
+
+    /// This value written with exactly `scale` decimals (rounding half away
+    /// from zero when decimals are removed). `None` if it does not fit.
+    pub fn rescale(&self, scale: u8) -> Option<Self> {
+        if scale > MAX_SCALE {
+            return None;
+        }
+        let scaled = self.to_scaled(scale)?;
+        Some(Decimal {
+            coeff: scaled.unsigned_abs(),
+            scale,
+            negative: self.negative,
+        })
+    }
+
+    /// Writes the canonical text (`-0.000`, `10.759`, `420`) into `out` and
+    /// returns the number of bytes written, or `None` if `out` is too small.
+    /// At most [`Decimal::MAX_TEXT`] bytes are ever needed.
+    pub fn write_to(&self, out: &mut [u8]) -> Option<usize> {
+        let mut digits = itoa::Buffer::new();
+        let d = digits.format(self.coeff).as_bytes();
+        let scale = usize::from(self.scale);
+        // Leading zeros needed so that there is one digit before the point.
+        let pad = (scale + 1).saturating_sub(d.len());
+        let int_len = d.len() + pad - scale;
+        let total = usize::from(self.negative) + d.len() + pad + usize::from(scale > 0);
+        let out = out.get_mut(..total)?;
+        let mut w = 0;
+        let mut put = |b: u8| {
+            if let Some(slot) = out.get_mut(w) {
+                *slot = b;
+            }
+            w += 1;
+        };
+        if self.negative {
+            put(b'-');
+        }
+        let mut all = core::iter::repeat_n(b'0', pad).chain(d.iter().copied());
+        for _ in 0..int_len {
+            put(all.next().unwrap_or(b'0'));
+        }
+        if scale > 0 {
+            put(b'.');
+            for b in all {
+                put(b);
+            }
+        }
+        Some(total)
+    }
+
+    /// The longest text [`Decimal::write_to`] produces.
+    pub const MAX_TEXT: usize = 1 + 20 + 1 + MAX_SCALE as usize;
+
+    /// Parses a literal at compile time; used for the ranges of the command
+    /// table. Invalid literals fail the build, never a running program
+    /// (every call site is a `const`).
+    #[allow(clippy::indexing_slicing)]
+    pub(crate) const fn lit(s: &str) -> Decimal {
+        let b = s.as_bytes();
+        let mut i = 0;
+        let negative = !b.is_empty() && b[0] == b'-';
+        if negative {
+            i = 1;
+        }
+        let mut coeff: u64 = 0;
+        let mut scale: u8 = 0;
+        let mut seen_point = false;
+        while i < b.len() {
+            let c = b[i];
+            if c == b'.' {
+                seen_point = true;
+            } else {
+                assert!(c.is_ascii_digit(), "invalid decimal literal");
+                coeff = coeff * 10 + (c - b'0') as u64;
+                if seen_point {
+                    scale += 1;
+                }
+            }
+            i += 1;
+        }
+        Decimal {
+            coeff,
+            scale,
+            negative,
+        }
+    }
+
+    fn cmp_value(&self, other: &Decimal) -> Ordering {
+        let a_neg = self.negative && self.coeff != 0;
+        let b_neg = other.negative && other.coeff != 0;
+        match (a_neg, b_neg) {
+            (false, true) => return Ordering::Greater,
+            (true, false) => return Ordering::Less,
+            _ => {}
+        }
+        // Compare magnitudes at a common scale, in u128 so nothing overflows.
+        let s = self.scale.max(other.scale);
+        let a = u128::from(self.coeff) * u128::from(pow10(s - self.scale).unwrap_or(1));
+        let b = u128::from(other.coeff) * u128::from(pow10(s - other.scale).unwrap_or(1));
+        let mag = a.cmp(&b);
+        if a_neg {
+            mag.reverse()
+        } else {
+            mag
+        }
+    }
+}
+
+impl PartialEq for Decimal {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp_value(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Decimal {}
+
+impl PartialOrd for Decimal {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Decimal {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.cmp_value(other)
+    }
+}
+
+impl fmt::Display for Decimal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut buf = [0u8; Decimal::MAX_TEXT];
+        let n = self.write_to(&mut buf).unwrap_or(0);
+        // Only ASCII digits, '-' and '.' are ever written.
+        f.write_str(core::str::from_utf8(buf.get(..n).unwrap_or(b"")).unwrap_or(""))
+    }
+}
+
+impl core::str::FromStr for Decimal {
+    type Err = NumberError;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Decimal::parse(s)
+    }
+}
+
+impl From<i32> for Decimal {
+    fn from(v: i32) -> Self {
+        Decimal::from_int(i64::from(v))
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Decimal {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        let mut buf = [0u8; Decimal::MAX_TEXT];
+        let n = self.write_to(&mut buf).unwrap_or(0);
+        defmt::write!(
+            f,
+            "{=str}",
+            core::str::from_utf8(buf.get(..n).unwrap_or(b"")).unwrap_or("")
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn text(d: Decimal) -> heapless::String<48> {
+        let mut s = heapless::String::new();
+        let _ = core::fmt::write(&mut s, format_args!("{d}"));
+        s
+    }
+
+    #[test]
+    fn controller_forms_round_trip_exactly() {
+        for t in [
+            "10.759",
+            "-0.000",
+            "10000000.000",
+            "1.500000",
+            "0",
+            "-12.50",
+            "0.05",
+            "420",
+            "18446744073709551615",
+        ] {
+            assert_eq!(text(Decimal::parse(t).unwrap()).as_str(), t);
+        }
+    }
+
+    #[test]
+    fn client_forms_are_read() {
+        let cases = [
+            ("420.0", "420.0"),
+            ("1e-05", "0.00001"),
+            ("1.0E-4", "0.00010"),
+            ("+5", "5"),
+            (".5", "0.5"),
+            ("5.", "5"),
+            ("2.5e2", "250"),
+            ("-0", "-0"),
+        ];
+        for (i, o) in cases {
+            assert_eq!(text(Decimal::parse(i).unwrap()).as_str(), o, "{i}");
+        }
+    }
+
+    #[test]
+    fn bad_numbers_are_errors() {
+        for t in [
+            "", "-", ".", "e5", "1e", "1.2.3", "0x10", "inf", "NaN", " 1", "1 ",
+        ] {
+            assert_eq!(Decimal::parse(t), Err(NumberError::Syntax), "{t:?}");
+        }
+        assert_eq!(
+            Decimal::parse("123456789012345678901"),
+            Err(NumberError::OutOfRange)
+        );
+        assert_eq!(Decimal::parse("1e99999"), Err(NumberError::OutOfRange));
+        assert_eq!(Decimal::parse("1e-40"), Err(NumberError::OutOfRange));
+        assert_eq!(Decimal::parse("0e-40"), Ok(Decimal::ZERO));
+    }
+
+    #[test]
+    fn equality_is_numeric() {
+        assert_eq!(
+            Decimal::parse("1.5").unwrap(),
+            Decimal::parse("1.500").unwrap()
+        );
+        assert_eq!(Decimal::parse("-0.000").unwrap(), Decimal::ZERO);
+        assert!(Decimal::parse("-1").unwrap() < Decimal::parse("-0.5").unwrap());
+        assert!(!Decimal::parse("-0.000")
+            .unwrap()
+            .is_identical(&Decimal::ZERO));
+    }
+
+    #[test]
+    fn conversions() {
+        let d = Decimal::parse("-1.181").unwrap();
+        assert_eq!(d.to_scaled(3), Some(-1181));
+        assert_eq!(d.to_scaled(1), Some(-12));
+        assert_eq!(d.to_f64(), -1.181);
+        assert_eq!(
+            Decimal::from_f64(-0.0004, 3).map(text).unwrap().as_str(),
+            "-0.000"
+        );
+        assert_eq!(
+            Decimal::from_f64(445.0, 3).map(text).unwrap().as_str(),
+            "445.000"
+        );
+        assert_eq!(Decimal::from_f64(f64::NAN, 3), None);
+        assert_eq!(Decimal::parse("5.000").unwrap().to_i64(), Some(5));
+        assert_eq!(Decimal::parse("5.5").unwrap().to_i64(), None);
+        assert_eq!(text(Decimal::from_milli(-1181)).as_str(), "-1.181");
+        assert_eq!(text(Decimal::lit("0.01")).as_str(), "0.01");
+    }
+}

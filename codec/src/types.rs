@@ -1,0 +1,618 @@
+//! Parameter types of the command table and how each reads and writes.
+//!
+//! | type | wire fields | used for |
+//! |---|---|---|
+//! | `i32` | 1 | the document's `int` parameters; also reads `5.0` and `-0` |
+//! | [`Decimal`] | 1 | `double` parameters, exact |
+//! | `&str` | 1 | names (`TCP`, `Base`, track names, command ids) |
+//! | [`RobotId`] | 1 | `nRbtID`; a message without it reads as robot 0 |
+//! | `[T; N]` | N | poses (`[Decimal; 6]` = X, Y, Z mm, Rx, Ry, Rz °), joints, masks |
+//! | `Option<T>` | 0 or width of T | trailing optional parameters (`MoveRelL`'s `nToolMotion`) |
+//! | `heapless::Vec<T, N>` | 1..=N (rest of message) | bit-index lists, reply value lists |
+//! | [`CountedList`] | count + count values | `WriteHoldingRegisters` data |
+//! | [`PointList`] | count + 6 × count values | `PushMovePaths` points, borrowed |
+//! | [`TextList`] | 0.. (rest of message) | `RunFunc` / `HRAppCmd` parameters, borrowed |
+//!
+//! Lenient reading: an empty numeric field reads as 0 (the document sends
+//! unused parameters as 0 and the Java SDK sends them empty).
+
+use core::fmt;
+
+use crate::error::{EncodeError, Expected, Got, ParseError};
+use crate::grammar::{trim, Cursor};
+use crate::number::Decimal;
+use crate::writer::{is_carriable, Writer};
+
+/// A Cartesian pose: X, Y, Z in mm, Rx, Ry, Rz in degrees.
+pub type Pose = [Decimal; 6];
+/// Six joint values J1..J6 (degrees, °/s, °/s², A, as the command says).
+pub type Joints = [Decimal; 6];
+
+/// Receives the typed values of a message, parameter by parameter, in wire
+/// order. Used to print messages generically (`hansctl decode` writes JSON
+/// with it); arrays and lists arrive between `begin_list` and `end_list`
+/// with an empty name for each element.
+pub trait Visitor {
+    /// An integer parameter.
+    fn int(&mut self, name: &str, v: i32);
+    /// A decimal parameter.
+    fn num(&mut self, name: &str, v: Decimal);
+    /// A text parameter.
+    fn text(&mut self, name: &str, v: &str);
+    /// The start of an array or list parameter.
+    fn begin_list(&mut self, name: &str);
+    /// The end of the current array or list.
+    fn end_list(&mut self);
+}
+
+/// The valid range of a parameter, from the document's tables.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Range {
+    /// An integer in `min..=max`.
+    Int {
+        /// Smallest valid value.
+        min: i32,
+        /// Largest valid value.
+        max: i32,
+    },
+    /// A number in `min..=max`.
+    Num {
+        /// Smallest valid value.
+        min: Decimal,
+        /// Largest valid value.
+        max: Decimal,
+    },
+    /// A number of at least `min` (the document's `>=`).
+    AtLeast(Decimal),
+    /// A number strictly above `min` (the document's `>`).
+    Above(Decimal),
+    /// One of two numbers (the document's `2/3`).
+    Either(Decimal, Decimal),
+}
+
+impl Range {
+    /// `true` when `v` is inside the range.
+    pub fn contains(&self, v: Decimal) -> bool {
+        match *self {
+            Range::Int { min, max } => {
+                v >= Decimal::from(min) && v <= Decimal::from(max) && v.to_i64().is_some()
+            }
+            Range::Num { min, max } => v >= min && v <= max,
+            Range::AtLeast(min) => v >= min,
+            Range::Above(min) => v > min,
+            Range::Either(a, b) => v == a || v == b,
+        }
+    }
+}
+
+impl fmt::Display for Range {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Range::Int { min, max } => write!(f, "{min}..={max}"),
+            Range::Num { min, max } => write!(f, "{min}..={max}"),
+            Range::AtLeast(m) => write!(f, ">= {m}"),
+            Range::Above(m) => write!(f, "> {m}"),
+            Range::Either(a, b) => write!(f, "{a} or {b}"),
+        }
+    }
+}
+
+/// Table shorthand: integers `min..=max`.
+pub(crate) const fn int(min: i32, max: i32) -> Range {
+    Range::Int { min, max }
+}
+/// Table shorthand: numbers `min..=max`.
+pub(crate) const fn num(min: &str, max: &str) -> Range {
+    Range::Num {
+        min: Decimal::lit(min),
+        max: Decimal::lit(max),
+    }
+}
+/// Table shorthand: numbers `>= min`.
+pub(crate) const fn at_least(min: &str) -> Range {
+    Range::AtLeast(Decimal::lit(min))
+}
+/// Table shorthand: numbers `> min`.
+pub(crate) const fn above(min: &str) -> Range {
+    Range::Above(Decimal::lit(min))
+}
+/// Table shorthand: one of two numbers.
+pub(crate) const fn either(a: &str, b: &str) -> Range {
+    Range::Either(Decimal::lit(a), Decimal::lit(b))
+}
+
+/// How one parameter type reads, writes, checks and shows itself.
+pub(crate) trait Field<'a>: Sized {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>>;
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError>;
+    fn visit(&self, name: &str, v: &mut dyn Visitor);
+    /// Index of the first element outside `range`, if any.
+    fn check(&self, range: &Range) -> Option<u16>;
+}
+
+fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Decimal, ParseError<'a>> {
+    match c.next_field() {
+        None => Err(c.error(param, Expected::Number, Got::End)),
+        Some("") => Ok(Decimal::ZERO),
+        Some(f) => Decimal::parse(f).map_err(|_| c.error(param, Expected::Number, Got::Field(f))),
+    }
+}
+
+fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<i32, ParseError<'a>> {
+    match c.next_field() {
+        None => Err(c.error(param, Expected::Integer, Got::End)),
+        Some("") => Ok(0),
+        Some(f) => Decimal::parse(f)
+            .ok()
+            .and_then(|d| d.to_i64())
+            .and_then(|v| i32::try_from(v).ok())
+            .ok_or_else(|| c.error(param, Expected::Integer, Got::Field(f))),
+    }
+}
+
+impl<'a> Field<'a> for i32 {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        read_int(c, param)
+    }
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
+        w.int(i64::from(*self))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.int(name, *self)
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        (!range.contains(Decimal::from(*self))).then_some(0)
+    }
+}
+
+impl<'a> Field<'a> for Decimal {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        read_num(c, param)
+    }
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
+        w.num(self)
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.num(name, *self)
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        (!range.contains(*self)).then_some(0)
+    }
+}
+
+impl<'a> Field<'a> for &'a str {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        c.next_field()
+            .ok_or_else(|| c.error(param, Expected::Text, Got::End))
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        w.text(self, param)
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.text(name, self)
+    }
+    fn check(&self, _: &Range) -> Option<u16> {
+        None
+    }
+}
+
+/// `nRbtID`, the robot (axis group) id, 0-5; 0 on single-arm controllers.
+///
+/// Some SDKs omit it (`ReadBoxInfo,;`): a message that ends where the robot id
+/// should be reads as robot 0. It is always written.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RobotId(pub i32);
+
+impl<'a> Field<'a> for RobotId {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        if c.remaining() == 0 {
+            return Ok(RobotId(0));
+        }
+        read_int(c, param).map(RobotId)
+    }
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
+        w.int(i64::from(self.0))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.int(name, self.0)
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        self.0.check(range)
+    }
+}
+
+impl<'a, T: Field<'a> + Copy + Default, const N: usize> Field<'a> for [T; N] {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        let mut out = [T::default(); N];
+        for slot in out.iter_mut() {
+            *slot = T::read(c, param)?;
+        }
+        Ok(out)
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        self.iter().try_for_each(|e| e.write(w, param))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.begin_list(name);
+        self.iter().for_each(|e| e.visit("", v));
+        v.end_list();
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        check_all(self.iter(), range)
+    }
+}
+
+fn check_all<'a, 'e, T: Field<'a> + 'e>(
+    items: impl Iterator<Item = &'e T>,
+    range: &Range,
+) -> Option<u16> {
+    items
+        .enumerate()
+        .find(|(_, e)| e.check(range).is_some())
+        .map(|(i, _)| u16::try_from(i).unwrap_or(u16::MAX))
+}
+
+impl<'a, T: Field<'a>> Field<'a> for Option<T> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        if c.remaining() == 0 {
+            Ok(None)
+        } else {
+            T::read(c, param).map(Some)
+        }
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        match self {
+            Some(t) => t.write(w, param),
+            None => Ok(()),
+        }
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        if let Some(t) = self {
+            t.visit(name, v)
+        }
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        self.as_ref().and_then(|t| t.check(range))
+    }
+}
+
+/// A list of 1..=N values taking the rest of the message. In a reply to a
+/// request that says how many values come back (`ReadBoxDI,5,6,;` expects
+/// two), exactly that many are required.
+impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        let n = c.remaining();
+        let cap = u16::try_from(N).unwrap_or(u16::MAX);
+        if let Some(want) = c.expected_len() {
+            if n != want {
+                return Err(c.error(param, Expected::Exactly(want), Got::Count(n)));
+            }
+        }
+        if n == 0 {
+            return Err(c.error(param, Expected::AtLeast(1), Got::End));
+        }
+        if n > cap {
+            return Err(c.error(param, Expected::AtMost(cap), Got::Count(n)));
+        }
+        let mut out = heapless::Vec::new();
+        while c.remaining() > 0 {
+            let v = T::read(c, param)?;
+            // Capacity was checked above; a failed push cannot happen.
+            if out.push(v).is_err() {
+                return Err(c.error(param, Expected::AtMost(cap), Got::Count(n)));
+            }
+        }
+        Ok(out)
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        self.iter().try_for_each(|e| e.write(w, param))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.begin_list(name);
+        self.iter().for_each(|e| e.visit("", v));
+        v.end_list();
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        check_all(self.iter(), range)
+    }
+}
+
+/// A count field followed by exactly that many values, 1..=N
+/// (`WriteHoldingRegisters`: `nRegCount` then the register values).
+///
+/// The count is not stored: it is the length of the list, so the two can
+/// never disagree.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CountedList<T, const N: usize>(pub heapless::Vec<T, N>);
+
+impl<T: Clone, const N: usize> CountedList<T, N> {
+    /// A list from a slice; `None` if it holds more than N values.
+    pub fn from_slice(values: &[T]) -> Option<Self> {
+        heapless::Vec::from_slice(values).ok().map(CountedList)
+    }
+
+    /// The values.
+    pub fn as_slice(&self) -> &[T] {
+        &self.0
+    }
+}
+
+impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        let count = read_int(c, param)?;
+        let cap = u16::try_from(N).unwrap_or(u16::MAX);
+        let count = match u16::try_from(count) {
+            Ok(n) if n >= 1 && n <= cap => n,
+            _ => {
+                return Err(c.error(
+                    param,
+                    Expected::AtMost(cap),
+                    Got::Count(u16::try_from(count).unwrap_or(0)),
+                ))
+            }
+        };
+        if c.remaining() != count {
+            return Err(c.error(param, Expected::Exactly(count), Got::Count(c.remaining())));
+        }
+        let mut out = heapless::Vec::new();
+        for _ in 0..count {
+            let v = T::read(c, param)?;
+            if out.push(v).is_err() {
+                return Err(c.error(param, Expected::AtMost(cap), Got::Count(count)));
+            }
+        }
+        Ok(CountedList(out))
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        if self.0.is_empty() {
+            return Err(EncodeError::ListTooLong { param });
+        }
+        w.int(self.0.len() as i64)?;
+        self.0.iter().try_for_each(|e| e.write(w, param))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        self.0.visit(name, v)
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        check_all(self.0.iter(), range)
+    }
+}
+
+/// Where a borrowed list's elements are: still in the message text, or in
+/// the caller's slice when building a message to send.
+#[derive(Clone, Copy)]
+enum ListRepr<'a, T: 'a> {
+    Wire { text: &'a str, count: u16 },
+    Slice(&'a [T]),
+}
+
+/// Text parameters taking the rest of the message (`RunFunc`'s and
+/// `HRAppCmd`'s parameter lists), borrowed: no copy, no capacity limit other
+/// than the message buffer.
+#[derive(Clone, Copy)]
+pub struct TextList<'a>(ListRepr<'a, &'a str>);
+
+impl<'a> TextList<'a> {
+    /// A list to send, from the caller's texts.
+    pub const fn new(items: &'a [&'a str]) -> Self {
+        TextList(ListRepr::Slice(items))
+    }
+
+    /// The number of texts.
+    pub fn len(&self) -> usize {
+        match self.0 {
+            ListRepr::Wire { count, .. } => usize::from(count),
+            ListRepr::Slice(s) => s.len(),
+        }
+    }
+
+    /// `true` when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The texts, trimmed as the reader trims fields.
+    pub fn iter(&self) -> impl Iterator<Item = &'a str> + 'a {
+        let (wire, slice) = match self.0 {
+            ListRepr::Wire { text, count } => {
+                ((count > 0).then(|| text.split(',').map(trim)), None)
+            }
+            ListRepr::Slice(s) => (None, Some(s.iter().copied())),
+        };
+        wire.into_iter()
+            .flatten()
+            .chain(slice.into_iter().flatten())
+    }
+}
+
+impl Default for TextList<'_> {
+    fn default() -> Self {
+        TextList(ListRepr::Slice(&[]))
+    }
+}
+
+impl fmt::Debug for TextList<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
+impl PartialEq for TextList<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.len() == other.len() && self.iter().eq(other.iter())
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for TextList<'_> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "[");
+        for (i, t) in self.iter().enumerate() {
+            if i > 0 {
+                defmt::write!(f, ", ");
+            }
+            defmt::write!(f, "{=str}", t);
+        }
+        defmt::write!(f, "]");
+    }
+}
+
+fn rest_text<'a>(
+    c: &mut Cursor<'_, 'a>,
+    param: &'static str,
+) -> Result<(&'a str, u16), ParseError<'a>> {
+    c.take_rest()
+        .ok_or_else(|| c.error(param, Expected::Text, Got::End))
+}
+
+impl<'a> Field<'a> for TextList<'a> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        let (text, count) = rest_text(c, param)?;
+        Ok(TextList(ListRepr::Wire { text, count }))
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        self.iter().try_for_each(|t| w.text(t, param))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.begin_list(name);
+        self.iter().for_each(|t| v.text("", t));
+        v.end_list();
+    }
+    fn check(&self, _: &Range) -> Option<u16> {
+        None
+    }
+}
+
+/// `PushMovePaths` points: `nPointsSize` followed by six values per point
+/// (joints or a pose, as `nMoveType` says), borrowed from the message. Any
+/// number of points up to what the message buffer holds; every value is
+/// checked when the message is read.
+#[derive(Clone, Copy)]
+pub struct PointList<'a>(ListRepr<'a, [Decimal; 6]>);
+
+impl<'a> PointList<'a> {
+    /// A list to send, from the caller's points.
+    pub const fn new(points: &'a [[Decimal; 6]]) -> Self {
+        PointList(ListRepr::Slice(points))
+    }
+
+    /// The number of points.
+    pub fn len(&self) -> usize {
+        match self.0 {
+            ListRepr::Wire { count, .. } => usize::from(count),
+            ListRepr::Slice(s) => s.len(),
+        }
+    }
+
+    /// `true` when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The points.
+    pub fn iter(&self) -> impl Iterator<Item = [Decimal; 6]> + 'a {
+        let (wire, slice) = match self.0 {
+            ListRepr::Wire { text, count } => {
+                let mut values = text.split(',').map(|f| match trim(f) {
+                    "" => Decimal::ZERO,
+                    t => Decimal::parse(t).unwrap_or(Decimal::ZERO),
+                });
+                let points = core::iter::from_fn(move || {
+                    let mut p = [Decimal::ZERO; 6];
+                    for slot in p.iter_mut() {
+                        *slot = values.next()?;
+                    }
+                    Some(p)
+                })
+                .take(usize::from(count));
+                (Some(points), None)
+            }
+            ListRepr::Slice(s) => (None, Some(s.iter().copied())),
+        };
+        wire.into_iter()
+            .flatten()
+            .chain(slice.into_iter().flatten())
+    }
+}
+
+impl Default for PointList<'_> {
+    fn default() -> Self {
+        PointList(ListRepr::Slice(&[]))
+    }
+}
+
+impl fmt::Debug for PointList<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
+impl PartialEq for PointList<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.len() == other.len() && self.iter().eq(other.iter())
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for PointList<'_> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "{=usize} points", self.len());
+    }
+}
+
+impl<'a> Field<'a> for PointList<'a> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        let count = read_int(c, param)?;
+        let count = u16::try_from(count)
+            .map_err(|_| c.error(param, Expected::AtLeast(0), Got::Count(0)))?;
+        let want = u32::from(count) * 6;
+        if u32::from(c.remaining()) != want {
+            let want = u16::try_from(want).unwrap_or(u16::MAX);
+            return Err(c.error(param, Expected::Exactly(want), Got::Count(c.remaining())));
+        }
+        // Check every value now, so that iterating later cannot meet garbage.
+        let mut probe = c.clone();
+        while probe.remaining() > 0 {
+            read_num(&mut probe, param)?;
+        }
+        let (text, _) = rest_text(c, param)?;
+        Ok(PointList(ListRepr::Wire { text, count }))
+    }
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+        let n = i64::try_from(self.len()).map_err(|_| EncodeError::ListTooLong { param })?;
+        w.int(n)?;
+        self.iter().try_for_each(|p| p.write(w, param))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.begin_list(name);
+        self.iter().for_each(|p| p.visit("", v));
+        v.end_list();
+    }
+    fn check(&self, _: &Range) -> Option<u16> {
+        None
+    }
+}
+
+/// The FSM state as a parameter (`ReadCurFSM` reply).
+impl<'a> Field<'a> for crate::fsm::FsmState {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+        read_int(c, param).map(Self::from)
+    }
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
+        w.int(i64::from(self.code()))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.int(name, self.code())
+    }
+    fn check(&self, range: &Range) -> Option<u16> {
+        self.code().check(range)
+    }
+}
+
+/// `true` if the text is acceptable as a text parameter on output.
+pub fn is_valid_text(s: &str) -> bool {
+    is_carriable(s)
+}

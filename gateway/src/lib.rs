@@ -1,0 +1,2 @@
+//! Gateway logic between a PLC (Modbus TCP) and a Hans robot controller.
+#![no_std]

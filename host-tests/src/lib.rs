@@ -1,0 +1,1 @@
+//! Host-side support for tests, the simulator and tools.
