@@ -210,6 +210,8 @@ pub struct Cursor<'s, 'a> {
     command: CommandId,
     /// In a reply: how many values a list must have, from the request.
     list_len: Option<u16>,
+    /// The first error met; later reads return defaults and are ignored.
+    err: Option<ParseError<'a>>,
 }
 
 impl<'s, 'a> Cursor<'s, 'a> {
@@ -220,6 +222,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
             total: msg.count,
             command,
             list_len: None,
+            err: None,
         }
     }
 
@@ -230,6 +233,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
             total: u16::try_from(fields.len()).unwrap_or(u16::MAX),
             command,
             list_len: None,
+            err: None,
         }
     }
 
@@ -292,6 +296,19 @@ impl<'s, 'a> Cursor<'s, 'a> {
         }
     }
 
+    /// Records an error (the first one wins).
+    pub(crate) fn record(&mut self, e: ParseError<'a>) {
+        if self.err.is_none() {
+            self.err = Some(e);
+        }
+    }
+
+    /// Records a field error at the current position (the first one wins).
+    pub(crate) fn fail(&mut self, param: &'static str, expected: Expected, got: Got<'a>) {
+        let e = self.error(param, expected, got);
+        self.record(e);
+    }
+
     /// A field error at the current position.
     pub(crate) fn error(
         &self,
@@ -326,8 +343,11 @@ impl<'s, 'a> Cursor<'s, 'a> {
         }
     }
 
-    /// Fails if fields are left over.
+    /// The first error recorded, else an error if fields are left over.
     pub(crate) fn finish(mut self) -> Result<(), ParseError<'a>> {
+        if let Some(e) = self.err {
+            return Err(e);
+        }
         let expected = self.pos;
         match self.next_field() {
             None => Ok(()),

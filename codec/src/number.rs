@@ -50,15 +50,65 @@ fn pow10(n: u8) -> Option<u64> {
     POW10.get(usize::from(n)).copied()
 }
 
+/// `(v / 10^n, v % 10^n)` by repeated subtraction of powers of ten.
+///
+/// Written by hand because Cortex-M has no 64-bit divide instruction: `/`
+/// on `u64` links ~1 KiB of runtime division code, this loop is a few dozen
+/// bytes and at most 9 × 20 iterations.
+fn div_pow10(mut v: u64, n: u8) -> (u64, u64) {
+    let mut q = 0u64;
+    for (k, &p) in POW10.iter().enumerate().rev() {
+        let Some(step) = k.checked_sub(usize::from(n)).and_then(|e| POW10.get(e)) else {
+            break;
+        };
+        while v >= p {
+            v -= p;
+            q += step;
+        }
+    }
+    (q, v)
+}
+
+/// The decimal digits of `v` (no leading zeros; `0` for zero), written into
+/// `buf` by subtracting powers of ten (see [`div_pow10`] for why).
+fn write_digits(mut v: u64, buf: &mut [u8; 20]) -> &[u8] {
+    let mut n = 0;
+    for (k, &p) in POW10.iter().enumerate().rev() {
+        let mut d = b'0';
+        while v >= p {
+            v -= p;
+            d += 1;
+        }
+        if d != b'0' || n > 0 || k == 0 {
+            if let Some(slot) = buf.get_mut(n) {
+                *slot = d;
+            }
+            n += 1;
+        }
+    }
+    buf.get(..n).unwrap_or(&[])
+}
+
 /// An exact decimal number: sign, coefficient and number of decimals.
 ///
 /// Equality and ordering are numeric (`1.5 == 1.500`, `-0.000 == 0`); use
 /// [`Decimal::is_identical`] to compare the written form.
-#[derive(Clone, Copy, Debug, Default)]
+///
+/// It occupies 12 bytes with 4-byte alignment: three words (coefficient low
+/// and high, then scale and sign) keep copies of large replies cheap on
+/// 32-bit targets.
+#[derive(Clone, Copy, Default)]
 pub struct Decimal {
-    coeff: u64,
-    scale: u8,
-    negative: bool,
+    lo: u32,
+    hi: u32,
+    /// Bits 0-7: scale; bit 8: minus sign.
+    meta: u32,
+}
+
+impl fmt::Debug for Decimal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Decimal({self})")
+    }
 }
 
 /// Why a text is not a number.
@@ -124,12 +174,24 @@ fn lex(input: &[u8]) -> IResult<&[u8], Lexed<'_>> {
 }
 
 impl Decimal {
+    const fn make(negative: bool, coeff: u64, scale: u8) -> Self {
+        Decimal {
+            lo: coeff as u32,
+            hi: (coeff >> 32) as u32,
+            meta: scale as u32 | if negative { 0x100 } else { 0 },
+        }
+    }
+
+    const fn coeff(&self) -> u64 {
+        self.coefficient()
+    }
+
+    const fn negative(&self) -> bool {
+        self.is_sign_negative()
+    }
+
     /// Zero, written `0`.
-    pub const ZERO: Decimal = Decimal {
-        coeff: 0,
-        scale: 0,
-        negative: false,
-    };
+    pub const ZERO: Decimal = Decimal::make(false, 0, 0);
 
     /// Builds a decimal from its parts: `(-1)^negative × coeff × 10^-scale`.
     ///
@@ -138,30 +200,18 @@ impl Decimal {
         if scale > MAX_SCALE {
             return None;
         }
-        Some(Decimal {
-            coeff,
-            scale,
-            negative,
-        })
+        Some(Decimal::make(negative, coeff, scale))
     }
 
     /// An integer, written without decimals.
     pub const fn from_int(v: i64) -> Self {
-        Decimal {
-            coeff: v.unsigned_abs(),
-            scale: 0,
-            negative: v < 0,
-        }
+        Decimal::make(v < 0, v.unsigned_abs(), 0)
     }
 
     /// A value in thousandths, written with three decimals as controllers do
     /// (`from_milli(-1181)` is `-1.181`).
     pub const fn from_milli(v: i64) -> Self {
-        Decimal {
-            coeff: v.unsigned_abs(),
-            scale: 3,
-            negative: v < 0,
-        }
+        Decimal::make(v < 0, v.unsigned_abs(), 3)
     }
 
     /// Parses one number in any of the forms clients send: `420`, `-0`,
@@ -229,47 +279,45 @@ impl Decimal {
             if scale - i32::from(MAX_SCALE) > 19 {
                 return Err(NumberError::OutOfRange);
             }
-            coeff /= 10;
+            coeff = div_pow10(coeff, 1).0;
             scale -= 1;
         }
-        Ok(Decimal {
-            coeff,
-            scale: scale as u8,
-            negative: l.negative,
-        })
+        Ok(Decimal::make(l.negative, coeff, scale as u8))
     }
 
     /// `true` when the number is written with a minus sign (also `-0.000`).
     pub const fn is_sign_negative(&self) -> bool {
-        self.negative
+        self.meta & 0x100 != 0
     }
 
     /// The coefficient: the written digits without sign and decimal point.
     pub const fn coefficient(&self) -> u64 {
-        self.coeff
+        (self.hi as u64) << 32 | self.lo as u64
     }
 
     /// The number of decimals written.
     pub const fn scale(&self) -> u8 {
-        self.scale
+        (self.meta & 0xff) as u8
     }
 
     /// `true` when the value is zero (`0`, `-0`, `0.000`).
     pub const fn is_zero(&self) -> bool {
-        self.coeff == 0
+        self.coeff() == 0
     }
 
     /// `true` when both are written identically (same sign, digits and number
     /// of decimals), unlike `==` which compares values.
     pub const fn is_identical(&self, other: &Decimal) -> bool {
-        self.coeff == other.coeff && self.scale == other.scale && self.negative == other.negative
+        self.coeff() == other.coeff()
+            && self.scale() == other.scale()
+            && self.negative() == other.negative()
     }
 
     /// The value as an `f64` (nearest representable).
     pub fn to_f64(&self) -> f64 {
-        let div = pow10(self.scale).unwrap_or(1) as f64;
-        let v = self.coeff as f64 / div;
-        if self.negative {
+        let div = pow10(self.scale()).unwrap_or(1) as f64;
+        let v = self.coeff() as f64 / div;
+        if self.negative() {
             -v
         } else {
             v
@@ -279,9 +327,9 @@ impl Decimal {
     /// The value as an `f32` (nearest representable, computed in single
     /// precision on the FPU of a Cortex-M4F for values under 2^24).
     pub fn to_f32(&self) -> f32 {
-        let div = pow10(self.scale).unwrap_or(1) as f32;
-        let v = self.coeff as f32 / div;
-        if self.negative {
+        let div = pow10(self.scale()).unwrap_or(1) as f32;
+        let v = self.coeff() as f32 / div;
+        if self.negative() {
             -v
         } else {
             v
@@ -291,30 +339,30 @@ impl Decimal {
     /// The value if it is a whole number that fits an `i64` (`5`, `5.000`,
     /// `-0`).
     pub fn to_i64(&self) -> Option<i64> {
-        let div = pow10(self.scale)?;
-        if !self.coeff.is_multiple_of(div) {
+        let (whole, frac) = div_pow10(self.coeff(), self.scale());
+        if frac != 0 {
             return None;
         }
-        let whole = i64::try_from(self.coeff / div).ok()?;
-        Some(if self.negative { -whole } else { whole })
+        let whole = i64::try_from(whole).ok()?;
+        Some(if self.negative() { -whole } else { whole })
     }
 
     /// The value in units of 10^-`scale`, rounded half away from zero
     /// (`to_scaled(3)` gives thousandths). `None` if it does not fit.
     pub fn to_scaled(&self, scale: u8) -> Option<i64> {
-        let c = if scale >= self.scale {
-            self.coeff.checked_mul(pow10(scale - self.scale)?)?
+        let c = if scale >= self.scale() {
+            self.coeff().checked_mul(pow10(scale - self.scale())?)?
         } else {
-            let div = pow10(self.scale - scale)?;
-            let q = self.coeff / div;
-            if (self.coeff % div).checked_mul(2)? >= div {
+            let div = pow10(self.scale() - scale)?;
+            let (q, r) = div_pow10(self.coeff(), self.scale() - scale);
+            if r.checked_mul(2)? >= div {
                 q + 1
             } else {
                 q
             }
         };
         let v = i64::try_from(c).ok()?;
-        Some(if self.negative { -v } else { v })
+        Some(if self.negative() { -v } else { v })
     }
 
     /// Rounds `v` to `scale` decimals (half away from zero). `None` for NaN,
@@ -329,11 +377,7 @@ impl Decimal {
         if scaled >= 18_446_744_073_709_551_615.0 {
             return None;
         }
-        Some(Decimal {
-            coeff: scaled as u64,
-            scale,
-            negative: v.is_sign_negative(),
-        })
+        Some(Decimal::make(v.is_sign_negative(), scaled as u64, scale))
     }
 
     /// Like [`Decimal::from_f64`], for `f32` (single-precision arithmetic).
@@ -345,11 +389,7 @@ impl Decimal {
         if scaled >= 18_446_744_073_709_551_615.0 {
             return None;
         }
-        Some(Decimal {
-            coeff: scaled as u64,
-            scale,
-            negative: v.is_sign_negative(),
-        })
+        Some(Decimal::make(v.is_sign_negative(), scaled as u64, scale))
     }
 
     /// This value written with exactly `scale` decimals (rounding half away
@@ -359,24 +399,20 @@ impl Decimal {
             return None;
         }
         let scaled = self.to_scaled(scale)?;
-        Some(Decimal {
-            coeff: scaled.unsigned_abs(),
-            scale,
-            negative: self.negative,
-        })
+        Some(Decimal::make(self.negative(), scaled.unsigned_abs(), scale))
     }
 
     /// Writes the canonical text (`-0.000`, `10.759`, `420`) into `out` and
     /// returns the number of bytes written, or `None` if `out` is too small.
     /// At most [`Decimal::MAX_TEXT`] bytes are ever needed.
     pub fn write_to(&self, out: &mut [u8]) -> Option<usize> {
-        let mut digits = itoa::Buffer::new();
-        let d = digits.format(self.coeff).as_bytes();
-        let scale = usize::from(self.scale);
+        let mut digit_buf = [0u8; 20];
+        let d = write_digits(self.coeff(), &mut digit_buf);
+        let scale = usize::from(self.scale());
         // Leading zeros needed so that there is one digit before the point.
         let pad = (scale + 1).saturating_sub(d.len());
         let int_len = d.len() + pad - scale;
-        let total = usize::from(self.negative) + d.len() + pad + usize::from(scale > 0);
+        let total = usize::from(self.negative()) + d.len() + pad + usize::from(scale > 0);
         let out = out.get_mut(..total)?;
         let mut w = 0;
         let mut put = |b: u8| {
@@ -385,7 +421,7 @@ impl Decimal {
             }
             w += 1;
         };
-        if self.negative {
+        if self.negative() {
             put(b'-');
         }
         let mut all = core::iter::repeat_n(b'0', pad).chain(d.iter().copied());
@@ -431,26 +467,25 @@ impl Decimal {
             }
             i += 1;
         }
-        Decimal {
-            coeff,
-            scale,
-            negative,
-        }
+        Decimal::make(negative, coeff, scale)
     }
 
     fn cmp_value(&self, other: &Decimal) -> Ordering {
-        let a_neg = self.negative && self.coeff != 0;
-        let b_neg = other.negative && other.coeff != 0;
+        let a_neg = self.negative() && self.coeff() != 0;
+        let b_neg = other.negative() && other.coeff() != 0;
         match (a_neg, b_neg) {
             (false, true) => return Ordering::Greater,
             (true, false) => return Ordering::Less,
             _ => {}
         }
-        // Compare magnitudes at a common scale, in u128 so nothing overflows.
-        let s = self.scale.max(other.scale);
-        let a = u128::from(self.coeff) * u128::from(pow10(s - self.scale).unwrap_or(1));
-        let b = u128::from(other.coeff) * u128::from(pow10(s - other.scale).unwrap_or(1));
-        let mag = a.cmp(&b);
+        // Compare magnitudes: integer parts first, then the fractions at a
+        // common scale (a fraction is below 10^18, so this cannot overflow).
+        let (ai, af) = div_pow10(self.coeff(), self.scale());
+        let (bi, bf) = div_pow10(other.coeff(), other.scale());
+        let s = self.scale().max(other.scale());
+        let af = af.saturating_mul(pow10(s - self.scale()).unwrap_or(1));
+        let bf = bf.saturating_mul(pow10(s - other.scale()).unwrap_or(1));
+        let mag = ai.cmp(&bi).then(af.cmp(&bf));
         if a_neg {
             mag.reverse()
         } else {

@@ -18,7 +18,7 @@
 
 use core::fmt;
 
-use crate::error::{EncodeError, Expected, Got, ParseError};
+use crate::error::{EncodeError, Expected, Got};
 use crate::grammar::{trim, Cursor};
 use crate::number::Decimal;
 use crate::writer::{is_carriable, Writer};
@@ -123,70 +123,97 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
 }
 
 /// How one parameter type reads, writes, checks and shows itself.
+///
+/// Reading and writing never return errors: the first error is recorded in
+/// the [`Cursor`] / [`Writer`] (a default value is returned) and reported
+/// once at the end of the message. That keeps the code the table generates
+/// per parameter to one call, which is what makes 139 commands fit in a few
+/// kilobytes of flash.
 pub(crate) trait Field<'a>: Sized {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>>;
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError>;
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self;
+    fn write(&self, w: &mut Writer<'_>, param: &'static str);
     fn visit(&self, name: &str, v: &mut dyn Visitor);
     /// Index of the first element outside `range`, if any.
     fn check(&self, range: &Range) -> Option<u16>;
 }
 
-fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Decimal, ParseError<'a>> {
+#[inline(never)]
+fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
     match c.next_field() {
-        None => Err(c.error(param, Expected::Number, Got::End)),
-        Some("") => Ok(Decimal::ZERO),
-        Some(f) => Decimal::parse(f).map_err(|_| c.error(param, Expected::Number, Got::Field(f))),
+        None => c.fail(param, Expected::Number, Got::End),
+        Some("") => {}
+        Some(f) => match Decimal::parse(f) {
+            Ok(d) => return d,
+            Err(_) => c.fail(param, Expected::Number, Got::Field(f)),
+        },
     }
+    Decimal::ZERO
 }
 
-fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<i32, ParseError<'a>> {
+#[inline(never)]
+fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
     match c.next_field() {
-        None => Err(c.error(param, Expected::Integer, Got::End)),
-        Some("") => Ok(0),
-        Some(f) => Decimal::parse(f)
+        None => c.fail(param, Expected::Integer, Got::End),
+        Some("") => {}
+        Some(f) => match Decimal::parse(f)
             .ok()
             .and_then(|d| d.to_i64())
             .and_then(|v| i32::try_from(v).ok())
-            .ok_or_else(|| c.error(param, Expected::Integer, Got::Field(f))),
+        {
+            Some(v) => return v,
+            None => c.fail(param, Expected::Integer, Got::Field(f)),
+        },
     }
+    0
+}
+
+#[inline(never)]
+fn check_num(v: Decimal, range: &Range) -> Option<u16> {
+    (!range.contains(v)).then_some(0)
 }
 
 impl<'a> Field<'a> for i32 {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_int(c, param)
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
-        w.int(i64::from(*self))
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+        w.int(*self)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.int(name, *self)
     }
     fn check(&self, range: &Range) -> Option<u16> {
-        (!range.contains(Decimal::from(*self))).then_some(0)
+        check_num(Decimal::from(*self), range)
     }
 }
 
 impl<'a> Field<'a> for Decimal {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_num(c, param)
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
         w.num(self)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.num(name, *self)
     }
     fn check(&self, range: &Range) -> Option<u16> {
-        (!range.contains(*self)).then_some(0)
+        check_num(*self, range)
     }
 }
 
 impl<'a> Field<'a> for &'a str {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        c.next_field()
-            .ok_or_else(|| c.error(param, Expected::Text, Got::End))
+    #[inline(never)]
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+        match c.next_field() {
+            Some(f) => f,
+            None => {
+                c.fail(param, Expected::Text, Got::End);
+                ""
+            }
+        }
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
         w.text(self, param)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -206,14 +233,15 @@ impl<'a> Field<'a> for &'a str {
 pub struct RobotId(pub i32);
 
 impl<'a> Field<'a> for RobotId {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+    #[inline(never)]
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         if c.remaining() == 0 {
-            return Ok(RobotId(0));
+            return RobotId(0);
         }
-        read_int(c, param).map(RobotId)
+        RobotId(read_int(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
-        w.int(i64::from(self.0))
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+        w.int(self.0)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.int(name, self.0)
@@ -224,15 +252,17 @@ impl<'a> Field<'a> for RobotId {
 }
 
 impl<'a, T: Field<'a> + Copy + Default, const N: usize> Field<'a> for [T; N] {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
+    #[inline(never)]
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = [T::default(); N];
         for slot in out.iter_mut() {
-            *slot = T::read(c, param)?;
+            *slot = T::read(c, param);
         }
-        Ok(out)
+        out
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
-        self.iter().try_for_each(|e| e.write(w, param))
+    #[inline(never)]
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+        self.iter().for_each(|e| e.write(w, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.begin_list(name);
@@ -255,17 +285,12 @@ fn check_all<'a, 'e, T: Field<'a> + 'e>(
 }
 
 impl<'a, T: Field<'a>> Field<'a> for Option<T> {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        if c.remaining() == 0 {
-            Ok(None)
-        } else {
-            T::read(c, param).map(Some)
-        }
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+        (c.remaining() > 0).then(|| T::read(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
-        match self {
-            Some(t) => t.write(w, param),
-            None => Ok(()),
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+        if let Some(t) = self {
+            t.write(w, param)
         }
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -278,36 +303,45 @@ impl<'a, T: Field<'a>> Field<'a> for Option<T> {
     }
 }
 
+/// Checks that a list of `n` fields may follow: what the reply must have
+/// (from the request), at least one, at most `cap`.
+fn list_len_ok(c: &mut Cursor<'_, '_>, param: &'static str, n: u16, cap: u16) -> bool {
+    if let Some(want) = c.expected_len() {
+        if n != want {
+            c.fail(param, Expected::Exactly(want), Got::Count(n));
+            return false;
+        }
+    }
+    if n == 0 {
+        c.fail(param, Expected::AtLeast(1), Got::End);
+        return false;
+    }
+    if n > cap {
+        c.fail(param, Expected::AtMost(cap), Got::Count(n));
+        return false;
+    }
+    true
+}
+
 /// A list of 1..=N values taking the rest of the message. In a reply to a
 /// request that says how many values come back (`ReadBoxDI,5,6,;` expects
 /// two), exactly that many are required.
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        let n = c.remaining();
-        let cap = u16::try_from(N).unwrap_or(u16::MAX);
-        if let Some(want) = c.expected_len() {
-            if n != want {
-                return Err(c.error(param, Expected::Exactly(want), Got::Count(n)));
-            }
-        }
-        if n == 0 {
-            return Err(c.error(param, Expected::AtLeast(1), Got::End));
-        }
-        if n > cap {
-            return Err(c.error(param, Expected::AtMost(cap), Got::Count(n)));
-        }
+    #[inline(never)]
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
-        while c.remaining() > 0 {
-            let v = T::read(c, param)?;
-            // Capacity was checked above; a failed push cannot happen.
-            if out.push(v).is_err() {
-                return Err(c.error(param, Expected::AtMost(cap), Got::Count(n)));
+        let n = c.remaining();
+        if list_len_ok(c, param, n, u16::try_from(N).unwrap_or(u16::MAX)) {
+            while c.remaining() > 0 {
+                // The length was checked against N above.
+                let _ = out.push(T::read(c, param));
             }
         }
-        Ok(out)
+        out
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
-        self.iter().try_for_each(|e| e.write(w, param))
+    #[inline(never)]
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+        self.iter().for_each(|e| e.write(w, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.begin_list(name);
@@ -341,37 +375,34 @@ impl<T: Clone, const N: usize> CountedList<T, N> {
 }
 
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        let count = read_int(c, param)?;
-        let cap = u16::try_from(N).unwrap_or(u16::MAX);
-        let count = match u16::try_from(count) {
-            Ok(n) if n >= 1 && n <= cap => n,
-            _ => {
-                return Err(c.error(
-                    param,
-                    Expected::AtMost(cap),
-                    Got::Count(u16::try_from(count).unwrap_or(0)),
-                ))
-            }
-        };
-        if c.remaining() != count {
-            return Err(c.error(param, Expected::Exactly(count), Got::Count(c.remaining())));
-        }
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
-        for _ in 0..count {
-            let v = T::read(c, param)?;
-            if out.push(v).is_err() {
-                return Err(c.error(param, Expected::AtMost(cap), Got::Count(count)));
+        let count = read_int(c, param);
+        let cap = u16::try_from(N).unwrap_or(u16::MAX);
+        match u16::try_from(count) {
+            Ok(n) if (1..=cap).contains(&n) => {
+                if c.remaining() != n {
+                    let got = c.remaining();
+                    c.fail(param, Expected::Exactly(n), Got::Count(got));
+                } else {
+                    for _ in 0..n {
+                        let _ = out.push(T::read(c, param));
+                    }
+                }
+            }
+            _ => {
+                let got = u16::try_from(count.max(0)).unwrap_or(u16::MAX);
+                c.fail(param, Expected::AtMost(cap), Got::Count(got));
             }
         }
-        Ok(CountedList(out))
+        CountedList(out)
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
         if self.0.is_empty() {
-            return Err(EncodeError::ListTooLong { param });
+            w.fail(EncodeError::ListTooLong { param });
         }
-        w.int(self.0.len() as i64)?;
-        self.0.iter().try_for_each(|e| e.write(w, param))
+        w.int(i32::try_from(self.0.len()).unwrap_or(i32::MAX));
+        self.0.write(w, param)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         self.0.visit(name, v)
@@ -460,21 +491,23 @@ impl defmt::Format for TextList<'_> {
     }
 }
 
-fn rest_text<'a>(
-    c: &mut Cursor<'_, 'a>,
-    param: &'static str,
-) -> Result<(&'a str, u16), ParseError<'a>> {
-    c.take_rest()
-        .ok_or_else(|| c.error(param, Expected::Text, Got::End))
+fn rest_text<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> (&'a str, u16) {
+    match c.take_rest() {
+        Some(r) => r,
+        None => {
+            c.fail(param, Expected::Text, Got::End);
+            ("", 0)
+        }
+    }
 }
 
 impl<'a> Field<'a> for TextList<'a> {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        let (text, count) = rest_text(c, param)?;
-        Ok(TextList(ListRepr::Wire { text, count }))
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+        let (text, count) = rest_text(c, param);
+        TextList(ListRepr::Wire { text, count })
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
-        self.iter().try_for_each(|t| w.text(t, param))
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+        self.iter().for_each(|t| w.text(t, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.begin_list(name);
@@ -564,27 +597,40 @@ impl defmt::Format for PointList<'_> {
 }
 
 impl<'a> Field<'a> for PointList<'a> {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        let count = read_int(c, param)?;
-        let count = u16::try_from(count)
-            .map_err(|_| c.error(param, Expected::AtLeast(0), Got::Count(0)))?;
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+        let count = read_int(c, param);
+        let Ok(count) = u16::try_from(count) else {
+            c.fail(param, Expected::AtLeast(0), Got::Count(0));
+            return PointList::default();
+        };
         let want = u32::from(count) * 6;
         if u32::from(c.remaining()) != want {
-            let want = u16::try_from(want).unwrap_or(u16::MAX);
-            return Err(c.error(param, Expected::Exactly(want), Got::Count(c.remaining())));
+            let got = c.remaining();
+            c.fail(
+                param,
+                Expected::Exactly(u16::try_from(want).unwrap_or(u16::MAX)),
+                Got::Count(got),
+            );
+            return PointList::default();
         }
         // Check every value now, so that iterating later cannot meet garbage.
         let mut probe = c.clone();
         while probe.remaining() > 0 {
-            read_num(&mut probe, param)?;
+            read_num(&mut probe, param);
         }
-        let (text, _) = rest_text(c, param)?;
-        Ok(PointList(ListRepr::Wire { text, count }))
+        if let Err(e) = probe.finish() {
+            c.record(e);
+            return PointList::default();
+        }
+        let (text, _) = rest_text(c, param);
+        PointList(ListRepr::Wire { text, count })
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) -> Result<(), EncodeError> {
-        let n = i64::try_from(self.len()).map_err(|_| EncodeError::ListTooLong { param })?;
-        w.int(n)?;
-        self.iter().try_for_each(|p| p.write(w, param))
+    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+        match i32::try_from(self.len()) {
+            Ok(n) => w.int(n),
+            Err(_) => w.fail(EncodeError::ListTooLong { param }),
+        }
+        self.iter().for_each(|p| p.write(w, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.begin_list(name);
@@ -598,11 +644,11 @@ impl<'a> Field<'a> for PointList<'a> {
 
 /// The FSM state as a parameter (`ReadCurFSM` reply).
 impl<'a> Field<'a> for crate::fsm::FsmState {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Result<Self, ParseError<'a>> {
-        read_int(c, param).map(Self::from)
+    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+        Self::from(read_int(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) -> Result<(), EncodeError> {
-        w.int(i64::from(self.code()))
+    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+        w.int(self.code())
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.int(name, self.code())

@@ -3,12 +3,16 @@
 use crate::error::EncodeError;
 use crate::number::Decimal;
 
-/// Writes one message into a caller's buffer. Every method either writes
-/// completely or returns [`EncodeError::BufferTooSmall`]; it never panics.
+/// Writes one message into a caller's buffer. It never panics: the first
+/// error (buffer too small, text the grammar cannot carry) is kept, later
+/// writes do nothing, and [`Writer::finish`] returns it. Keeping the error
+/// instead of returning it from every call keeps the code generated per
+/// parameter to a single call.
 #[derive(Debug)]
 pub struct Writer<'b> {
     buf: &'b mut [u8],
     len: usize,
+    err: Option<EncodeError>,
 }
 
 /// `true` for text the grammar can carry unchanged: printable ASCII without
@@ -23,7 +27,11 @@ pub(crate) fn is_carriable(s: &str) -> bool {
 impl<'b> Writer<'b> {
     /// A writer at the start of `buf`.
     pub fn new(buf: &'b mut [u8]) -> Self {
-        Writer { buf, len: 0 }
+        Writer {
+            buf,
+            len: 0,
+            err: None,
+        }
     }
 
     /// Bytes written so far.
@@ -36,59 +44,72 @@ impl<'b> Writer<'b> {
         self.len == 0
     }
 
-    fn bytes(&mut self, b: &[u8]) -> Result<(), EncodeError> {
-        let end = self
-            .len
-            .checked_add(b.len())
-            .ok_or(EncodeError::BufferTooSmall)?;
-        self.buf
-            .get_mut(self.len..end)
-            .ok_or(EncodeError::BufferTooSmall)?
-            .copy_from_slice(b);
-        self.len = end;
-        Ok(())
+    /// Records an error (the first one is kept).
+    pub fn fail(&mut self, e: EncodeError) {
+        if self.err.is_none() {
+            self.err = Some(e);
+        }
+    }
+
+    fn bytes(&mut self, b: &[u8]) {
+        if self.err.is_some() {
+            return;
+        }
+        let end = self.len.saturating_add(b.len());
+        match self.buf.get_mut(self.len..end) {
+            Some(dst) => {
+                dst.copy_from_slice(b);
+                self.len = end;
+            }
+            None => self.fail(EncodeError::BufferTooSmall),
+        }
+    }
+
+    /// Raw field text followed by `,`; the caller has validated it.
+    pub(crate) fn raw_field(&mut self, s: &str) {
+        self.bytes(s.as_bytes());
+        self.bytes(b",");
     }
 
     /// The command name and its separator: `Name,`.
-    pub fn name(&mut self, name: &str) -> Result<(), EncodeError> {
-        self.bytes(name.as_bytes())?;
-        self.bytes(b",")
+    pub fn name(&mut self, name: &str) {
+        self.raw_field(name)
     }
 
     /// An integer field: `v,`.
-    pub fn int(&mut self, v: i64) -> Result<(), EncodeError> {
+    #[inline(never)]
+    pub fn int(&mut self, v: i32) {
+        // 32-bit formatting: the protocol's integers are C `int`s.
         let mut b = itoa::Buffer::new();
-        self.bytes(b.format(v).as_bytes())?;
-        self.bytes(b",")
+        self.raw_field(b.format(v))
     }
 
     /// A decimal field, with exactly its decimals: `v,`.
-    pub fn num(&mut self, v: &Decimal) -> Result<(), EncodeError> {
+    #[inline(never)]
+    pub fn num(&mut self, v: &Decimal) {
         let mut b = [0u8; Decimal::MAX_TEXT];
-        let n = v.write_to(&mut b).ok_or(EncodeError::BufferTooSmall)?;
-        self.bytes(b.get(..n).ok_or(EncodeError::BufferTooSmall)?)?;
-        self.bytes(b",")
+        let n = v.write_to(&mut b).unwrap_or(0);
+        self.bytes(b.get(..n).unwrap_or(b""));
+        self.bytes(b",");
     }
 
     /// A text field, checked to be carriable: `s,`.
-    pub fn text(&mut self, s: &str, param: &'static str) -> Result<(), EncodeError> {
-        if !is_carriable(s) {
-            return Err(EncodeError::InvalidText { param });
+    #[inline(never)]
+    pub fn text(&mut self, s: &str, param: &'static str) {
+        if is_carriable(s) {
+            self.raw_field(s)
+        } else {
+            self.fail(EncodeError::InvalidText { param })
         }
-        self.bytes(s.as_bytes())?;
-        self.bytes(b",")
     }
 
-    /// Raw, already-validated field text followed by `,` (used for the
-    /// `OK`/`Fail` markers and pass-through fields).
-    pub(crate) fn raw_field(&mut self, s: &str) -> Result<(), EncodeError> {
-        self.bytes(s.as_bytes())?;
-        self.bytes(b",")
-    }
-
-    /// Terminates the message with `;` and returns its length.
+    /// Terminates the message with `;` and returns its length, or the
+    /// first error met.
     pub fn finish(mut self) -> Result<usize, EncodeError> {
-        self.bytes(b";")?;
-        Ok(self.len)
+        self.bytes(b";");
+        match self.err {
+            Some(e) => Err(e),
+            None => Ok(self.len),
+        }
     }
 }

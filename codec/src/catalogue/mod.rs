@@ -21,7 +21,7 @@
 
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::grammar::{Cursor, Kind, RawMessage};
-use crate::types::Visitor;
+use crate::types::{Field, Range, Visitor};
 use crate::writer::Writer;
 use crate::ErrorCode;
 
@@ -55,8 +55,8 @@ pub trait Command<'a>: Sized {
 
 /// How a table struct reads and writes its fields (crate-internal).
 pub(crate) trait Message<'a>: Sized {
-    fn read_fields(c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>>;
-    fn write_fields(&self, w: &mut Writer<'_>) -> Result<(), EncodeError>;
+    fn read_fields(c: &mut Cursor<'_, 'a>) -> Self;
+    fn write_fields(&self, w: &mut Writer<'_>);
 }
 
 /// Most fields any command with a field-order quirk has.
@@ -68,7 +68,7 @@ pub(crate) fn read_known<'a, T>(
     id: CommandId,
     raw: &RawMessage<'a>,
     list_len: Option<u16>,
-    read: impl FnOnce(&mut Cursor<'_, 'a>) -> Result<T, ParseError<'a>>,
+    read: impl FnOnce(&mut Cursor<'_, 'a>) -> T,
 ) -> Result<T, ParseError<'a>> {
     let mut scratch = heapless::Vec::<&'a str, QUIRK_FIELDS>::new();
     let mut c = if quirks::reorder(id, raw, &mut scratch) {
@@ -77,7 +77,7 @@ pub(crate) fn read_known<'a, T>(
         Cursor::new(raw, id)
     }
     .with_list_len(list_len);
-    let v = read(&mut c)?;
+    let v = read(&mut c);
     c.finish()?;
     Ok(v)
 }
@@ -100,27 +100,55 @@ fn encode_with(
     name: &str,
     ok: bool,
     buf: &mut [u8],
-    fields: impl FnOnce(&mut Writer<'_>) -> Result<(), EncodeError>,
+    fields: impl FnOnce(&mut Writer<'_>),
 ) -> Result<usize, EncodeError> {
     let mut w = Writer::new(buf);
-    w.name(name)?;
+    w.name(name);
     if ok {
-        w.raw_field("OK")?;
+        w.raw_field("OK");
     }
-    fields(&mut w)?;
+    fields(&mut w);
     w.finish()
 }
 
 fn encode_raw(raw: &RawMessage<'_>, ok: bool, buf: &mut [u8]) -> Result<usize, EncodeError> {
     encode_with(raw.name(), ok, buf, |w| {
-        raw.fields().try_for_each(|f| {
-            if crate::writer::is_carriable(f) {
-                w.raw_field(f)
-            } else {
-                Err(EncodeError::InvalidText { param: "field" })
-            }
-        })
+        raw.fields().for_each(|f| w.text(f, "field"))
     })
+}
+
+/// A range violation before the command is known: parameter, element, range.
+type Violation = (&'static str, u16, &'static Range);
+
+/// Collects the first range violation of a request. It does not know the
+/// command, so the checks of commands with the same parameters compile to
+/// one function.
+#[derive(Default)]
+struct Validator {
+    first: Option<Violation>,
+}
+
+impl Validator {
+    #[inline(never)]
+    fn check<'a, T: Field<'a>>(&mut self, v: &T, param: &'static str, range: &'static Range) {
+        if self.first.is_none() {
+            if let Some(element) = v.check(range) {
+                self.first = Some((param, element, range));
+            }
+        }
+    }
+}
+
+fn range_error(command: CommandId, v: Option<Violation>) -> Result<(), RangeError> {
+    match v {
+        None => Ok(()),
+        Some((param, element, range)) => Err(RangeError {
+            command,
+            param,
+            element,
+            range: *range,
+        }),
+    }
 }
 
 /// What the reply to a request must look like: which command must answer,
@@ -188,13 +216,13 @@ impl<'a> Failure<'a> {
             return Err(EncodeError::InvalidText { param: "detail" });
         }
         let mut w = Writer::new(buf);
-        w.name(self.name)?;
-        w.raw_field("Fail")?;
-        w.int(i64::from(self.code.code()))?;
+        w.name(self.name);
+        w.raw_field("Fail");
+        w.int(self.code.code());
         let d = crate::grammar::trim(self.detail);
         let d = d.strip_suffix(',').unwrap_or(d);
         if !d.is_empty() {
-            w.raw_field(d)?;
+            w.raw_field(d);
         }
         w.finish()
     }
@@ -301,8 +329,8 @@ macro_rules! catalogue {
             }
 
             /// Other names accepted on input for this command.
-            pub const fn aliases(self) -> &'static [&'static str] {
-                match self { $(CommandId::$Cmd => &[$($alias),*],)* }
+            pub fn aliases(self) -> impl Iterator<Item = &'static str> {
+                ALIASES.iter().filter(move |(_, id)| *id == self).map(|(a, _)| *a)
             }
 
             /// The section of the protocol document (`"4.10.5"`).
@@ -312,12 +340,17 @@ macro_rules! catalogue {
 
             /// The command with this wire name or alias (exact letter case).
             pub fn from_name(name: &str) -> Option<CommandId> {
-                match name {
-                    $( $wire $(| $alias)* => Some(CommandId::$Cmd), )*
-                    _ => None,
-                }
+                // A scan of the name table: smaller than a generated match.
+                CommandId::ALL
+                    .iter()
+                    .copied()
+                    .find(|id| id.name() == name)
+                    .or_else(|| ALIASES.iter().find(|(a, _)| *a == name).map(|(_, id)| *id))
             }
         }
+
+        /// Every alias with its command (a short list: most commands have none).
+        const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
 
         impl core::fmt::Display for CommandId {
             fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -353,18 +386,19 @@ macro_rules! catalogue {
 
         $(
             impl<'a> Message<'a> for request::$Cmd $(<$lt>)? {
+                #[inline(never)]
                 #[allow(unused_variables)]
-                fn read_fields(c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>> {
+                fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
                     let names: &[&str] = &[$(stringify!($field)),*];
                     if names.is_empty() {
                         c.skip_stray_robot_id();
                     }
-                    Ok(request::$Cmd { $( $field: Field::read(c, stringify!($field))?, )* })
+                    request::$Cmd { $( $field: Field::read(c, stringify!($field)), )* }
                 }
+                #[inline(never)]
                 #[allow(unused_variables)]
-                fn write_fields(&self, w: &mut Writer<'_>) -> Result<(), EncodeError> {
-                    $( Field::write(&self.$field, w, stringify!($field))?; )*
-                    Ok(())
+                fn write_fields(&self, w: &mut Writer<'_>) {
+                    $( Field::write(&self.$field, w, stringify!($field)); )*
                 }
             }
 
@@ -376,7 +410,7 @@ macro_rules! catalogue {
                 }
 
                 fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
-                    encode_with($wire, false, buf, |w| self.write_fields(w))
+                    encode_with(CommandId::$Cmd.name(), false, buf, |w| self.write_fields(w))
                 }
 
                 fn expect(&self) -> ReplyExpect {
@@ -390,22 +424,22 @@ macro_rules! catalogue {
                 }
 
                 fn validate(&self) -> Result<(), RangeError> {
-                    $( $(
-                        if let Some(element) = Field::check(&self.$field, &$range) {
-                            return Err(RangeError {
-                                command: CommandId::$Cmd,
-                                param: stringify!($field),
-                                element,
-                                range: $range,
-                            });
-                        }
-                    )? )*
-                    Ok(())
+                    range_error(CommandId::$Cmd, self.violation())
                 }
 
                 #[allow(unused_variables)]
                 fn visit(&self, v: &mut dyn Visitor) {
                     $( Field::visit(&self.$field, stringify!($field), v); )*
+                }
+            }
+
+            impl $(<$lt>)? request::$Cmd $(<$lt>)? {
+                #[inline(never)]
+                #[allow(unused_mut)]
+                fn violation(&self) -> Option<Violation> {
+                    let mut v = Validator::default();
+                    $( $( v.check(&self.$field, stringify!($field), const { &$range }); )? )*
+                    v.first
                 }
             }
 
@@ -416,14 +450,15 @@ macro_rules! catalogue {
             }
 
             impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
+                #[inline(never)]
                 #[allow(unused_variables)]
-                fn read_fields(c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>> {
-                    Ok(response::$Cmd { $( $rfield: Field::read(c, stringify!($rfield))?, )* })
+                fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
+                    response::$Cmd { $( $rfield: Field::read(c, stringify!($rfield)), )* }
                 }
+                #[inline(never)]
                 #[allow(unused_variables)]
-                fn write_fields(&self, w: &mut Writer<'_>) -> Result<(), EncodeError> {
-                    $( Field::write(&self.$rfield, w, stringify!($rfield))?; )*
-                    Ok(())
+                fn write_fields(&self, w: &mut Writer<'_>) {
+                    $( Field::write(&self.$rfield, w, stringify!($rfield)); )*
                 }
             }
 
@@ -453,9 +488,9 @@ macro_rules! catalogue {
                 }
                 match CommandId::from_name(raw.name()) {
                     None => Ok(Request::Unknown(raw)),
-                    Some(id) => read_known(id, &raw, None, |c| Ok(match id {
-                        $( CommandId::$Cmd => Request::$Cmd(Message::read_fields(c)?), )*
-                    })),
+                    Some(id) => read_known(id, &raw, None, |c| match id {
+                        $( CommandId::$Cmd => Request::$Cmd(Message::read_fields(c)), )*
+                    }),
                 }
             }
 
@@ -469,18 +504,22 @@ macro_rules! catalogue {
 
             /// The name written on the wire (as received for unknown names).
             pub fn name(&self) -> &'a str {
-                match self {
-                    $( Request::$Cmd(_) => $wire, )*
-                    Request::Unknown(raw) => raw.name(),
+                match self.command() {
+                    Some(id) => id.name(),
+                    None => match self {
+                        Request::Unknown(raw) => raw.name(),
+                        _ => "",
+                    },
                 }
             }
 
             /// Writes the canonical message and returns its length.
             pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
-                match self {
-                    $( Request::$Cmd(r) => r.encode(buf), )*
-                    Request::Unknown(raw) => encode_raw(raw, false, buf),
-                }
+                // One writer for all commands; each arm is a single call.
+                encode_with(self.name(), false, buf, |w| match self {
+                    $( Request::$Cmd(r) => r.write_fields(w), )*
+                    Request::Unknown(raw) => raw.fields().for_each(|f| w.text(f, "field")),
+                })
             }
 
             /// What the reply must look like.
@@ -494,9 +533,13 @@ macro_rules! catalogue {
             /// Checks the parameters against the document's ranges (unknown
             /// commands always pass).
             pub fn validate(&self) -> Result<(), RangeError> {
-                match self {
-                    $( Request::$Cmd(r) => r.validate(), )*
-                    Request::Unknown(_) => Ok(()),
+                let v = match self {
+                    $( Request::$Cmd(r) => r.violation(), )*
+                    Request::Unknown(_) => return Ok(()),
+                };
+                match self.command() {
+                    Some(id) => range_error(id, v),
+                    None => Ok(()),
                 }
             }
 
@@ -521,10 +564,10 @@ macro_rules! catalogue {
         }
 
         impl<'a> Response<'a> {
-            pub(crate) fn read(id: CommandId, c: &mut Cursor<'_, 'a>) -> Result<Self, ParseError<'a>> {
-                Ok(match id {
-                    $( CommandId::$Cmd => Response::$Cmd(Message::read_fields(c)?), )*
-                })
+            pub(crate) fn read(id: CommandId, c: &mut Cursor<'_, 'a>) -> Self {
+                match id {
+                    $( CommandId::$Cmd => Response::$Cmd(Message::read_fields(c)), )*
+                }
             }
 
             /// The command, or `None` for an unknown name.
@@ -535,12 +578,23 @@ macro_rules! catalogue {
                 }
             }
 
+            /// The name written on the wire (as received for unknown names).
+            pub fn name(&self) -> &'a str {
+                match self.command() {
+                    Some(id) => id.name(),
+                    None => match self {
+                        Response::Unknown(raw) => raw.name(),
+                        _ => "",
+                    },
+                }
+            }
+
             /// Writes `Name,OK,v1,...,vn,;` and returns its length.
             pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
-                match self {
-                    $( Response::$Cmd(r) => encode_with($wire, true, buf, |w| r.write_fields(w)), )*
-                    Response::Unknown(raw) => encode_raw(raw, true, buf),
-                }
+                encode_with(self.name(), true, buf, |w| match self {
+                    $( Response::$Cmd(r) => r.write_fields(w), )*
+                    Response::Unknown(raw) => raw.fields().for_each(|f| w.text(f, "field")),
+                })
             }
 
             /// Walks the values in wire order.

@@ -29,8 +29,8 @@
 //! omitted (the vendor SDK sends them only sometimes) and `ReadBoxInfo`
 //! replies with 6 or 8 values.
 
-use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect};
-use super::{encode_raw, read_known, visit_raw};
+use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect, Validator};
+use super::{range_error, read_known, visit_raw, Violation};
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::fsm::FsmState;
 use crate::grammar::{Cursor, Kind, RawMessage};
