@@ -1,0 +1,2 @@
+//! `hansctl`: decode and send Hans protocol messages.
+fn main() {}

@@ -1,0 +1,1 @@
+//! Simulator of a Hans / Huayan robot controller.

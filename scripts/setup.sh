@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs everything the project needs on a fresh Debian machine. Idempotent:
+# each step checks first and does nothing when already done.
+set -euo pipefail
+
+need_apt=()
+command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
+command -v mbpoll >/dev/null || need_apt+=(mbpoll)
+if ((${#need_apt[@]})); then
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  echo "setup: apt-get install ${need_apt[*]}"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_apt[@]}" >/dev/null
+fi
+
+if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
+  echo "setup: rustup target add thumbv7em-none-eabihf"
+  rustup target add thumbv7em-none-eabihf
+fi
+
+if [ "${SETUP_FUZZ:-1}" = 1 ]; then
+  if ! rustup toolchain list | grep -q '^nightly'; then
+    echo "setup: rustup toolchain install nightly --profile minimal"
+    rustup toolchain install nightly --profile minimal
+  fi
+  if ! cargo fuzz --version >/dev/null 2>&1; then
+    echo "setup: cargo install cargo-fuzz"
+    cargo install --locked --quiet cargo-fuzz
+  fi
+fi

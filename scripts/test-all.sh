@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Runs every check and test of the project, installing what it needs first.
+# This is the README's test command and what CI runs (.ci/run).
+#
+# Each step is timed; the run stops at the first failing step. The last line
+# is the total of tests passed and failed across all test runners.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+LOG_DIR=$(mktemp -d)
+trap 'rm -rf "$LOG_DIR"' EXIT
+
+bash scripts/setup.sh
+
+PASSED=0
+FAILED=0
+STEPS=()
+
+# Adds the "test result: ok. N passed; M failed" lines of a log to the totals.
+count_tests() {
+  local p f
+  p=$(grep -Eo 'test result: [a-zA-Z]+\. [0-9]+ passed' "$1" | awk '{s+=$4} END {print s+0}')
+  f=$(grep -Eo '[0-9]+ failed' "$1" | awk '{s+=$1} END {print s+0}')
+  PASSED=$((PASSED + p))
+  FAILED=$((FAILED + f))
+}
+
+step() {
+  local name=$1
+  shift
+  local log="$LOG_DIR/step-${#STEPS[@]}.log"
+  local start=$SECONDS
+  echo "==> $name"
+  if "$@" 2>&1 | tee "$log"; then
+    count_tests "$log"
+    STEPS+=("ok   $((SECONDS - start))s  $name")
+  else
+    count_tests "$log"
+    STEPS+=("FAIL $((SECONDS - start))s  $name")
+    printf '%s\n' "${STEPS[@]}"
+    echo "$PASSED passed, $((FAILED > 0 ? FAILED : 1)) failed"
+    exit 1
+  fi
+}
+
+step "rustfmt" cargo fmt --all -- --check
+step "clippy (host workspace)" cargo clippy --workspace --all-targets --locked -- -D warnings
+step "clippy (codec with defmt)" cargo clippy -p hans-codec --all-targets --features defmt --locked -- -D warnings
+step "host tests" cargo test --workspace --locked
+step "codec builds for thumbv7em-none-eabihf" \
+  cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
+
+echo
+echo "Summary:"
+printf '  %s\n' "${STEPS[@]}"
+echo "$PASSED passed, $FAILED failed"
