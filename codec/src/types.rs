@@ -167,6 +167,24 @@ fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
     0
 }
 
+/// Reads a count field (`nRegCount`, `nPointsSize`): an integer in
+/// `min..=max`. A count out of range is reported with its own text
+/// (`at least 1, got "0"`), not as a list length.
+#[inline(never)]
+fn read_count<'a>(c: &mut Cursor<'_, 'a>, param: &'static str, min: u16, max: u16) -> Option<u16> {
+    let Some(f) = c.next_field() else {
+        c.fail(param, Expected::Integer, Got::End);
+        return None;
+    };
+    match Decimal::parse(f).ok().and_then(|d| d.to_i64()) {
+        None => c.fail(param, Expected::Integer, Got::Field(f)),
+        Some(v) if v < i64::from(min) => c.fail(param, Expected::AtLeast(min), Got::Field(f)),
+        Some(v) if v > i64::from(max) => c.fail(param, Expected::AtMost(max), Got::Field(f)),
+        Some(v) => return u16::try_from(v).ok(),
+    }
+    None
+}
+
 #[inline(never)]
 fn check_num(v: Decimal, range: &Range) -> Option<u16> {
     (!range.contains(v)).then_some(0)
@@ -377,22 +395,16 @@ impl<T: Clone, const N: usize> CountedList<T, N> {
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
-        let count = read_int(c, param);
         let cap = u16::try_from(N).unwrap_or(u16::MAX);
-        match u16::try_from(count) {
-            Ok(n) if (1..=cap).contains(&n) => {
-                if c.remaining() != n {
-                    let got = c.remaining();
-                    c.fail(param, Expected::Exactly(n), Got::Count(got));
-                } else {
-                    for _ in 0..n {
-                        let _ = out.push(T::read(c, param));
-                    }
+        if let Some(n) = read_count(c, param, 1, cap) {
+            if c.remaining() != n {
+                let got = c.remaining();
+                c.fail(param, Expected::Exactly(n), Got::Count(got));
+            } else {
+                for _ in 0..n {
+                    // At most `cap` = N values: the push cannot fail.
+                    let _ = out.push(T::read(c, param));
                 }
-            }
-            _ => {
-                let got = u16::try_from(count.max(0)).unwrap_or(u16::MAX);
-                c.fail(param, Expected::AtMost(cap), Got::Count(got));
             }
         }
         CountedList(out)
@@ -598,9 +610,7 @@ impl defmt::Format for PointList<'_> {
 
 impl<'a> Field<'a> for PointList<'a> {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
-        let count = read_int(c, param);
-        let Ok(count) = u16::try_from(count) else {
-            c.fail(param, Expected::AtLeast(0), Got::Count(0));
+        let Some(count) = read_count(c, param, 0, u16::MAX) else {
             return PointList::default();
         };
         let want = u32::from(count) * 6;
