@@ -1,0 +1,136 @@
+//! Board support for the Arm MPS2+ AN386 (Cortex-M4F) as emulated by QEMU's
+//! `mps2-an386` machine: the CI board of this project.
+//!
+//! What the board provides, and nothing more:
+//! * clocks: a fixed 25 MHz system clock; SysTick drives `embassy-time`;
+//! * the interrupt vector table (the chip has no PAC crate) with the LAN9118
+//!   Ethernet interrupt on line 13;
+//! * the LAN9118 driver and an `embassy-net` stack on it with the guest
+//!   address QEMU's user-mode network expects (10.0.2.15/24, gateway
+//!   10.0.2.2);
+//! * logs: `defmt` over semihosting (QEMU writes the frames to its stdout;
+//!   decode with `defmt-print -e <elf>`);
+//! * exit codes: [`exit`] and the panic handler end QEMU through semihosting,
+//!   so a test sees 0 for pass and 1 for fail.
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod irq;
+
+use cortex_m::peripheral::NVIC;
+use defmt_semihosting as _;
+use embassy_executor::Spawner;
+use embassy_net::{Ipv4Address, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
+use lan9118::Lan9118;
+use static_cell::StaticCell;
+
+/// System (and SysTick) clock of the AN386 image, in Hz.
+pub const SYSCLK_HZ: u32 = 25_000_000;
+
+/// Base address of the LAN9118 register window.
+pub const ETH_BASE: usize = 0x4020_0000;
+
+/// The guest address QEMU's user-mode network (slirp) expects by default.
+pub const GUEST_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 15);
+
+/// Slirp's gateway (and host alias).
+pub const GATEWAY_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 2);
+
+/// The address `scripts/qemu-run.sh` forwards (`guestfwd`) to the robot
+/// simulator on the host's loopback.
+pub const SIM_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 100);
+
+/// The port of [`SIM_IP`] that reaches the simulator's command port.
+pub const SIM_PORT: u16 = 10003;
+
+/// Number of sockets the network stack is sized for. Each costs a few
+/// hundred bytes of bookkeeping; their buffers belong to the tasks using them.
+pub const SOCKETS: usize = 8;
+
+/// Why the board could not start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+pub enum BoardError {
+    /// The core peripherals were already taken.
+    CorePeripherals,
+    /// SysTick rejected the clock.
+    Time,
+    /// The Ethernet controller did not come up.
+    Ethernet(lan9118::InitError),
+    /// A task could not be spawned (its pool is exhausted).
+    Spawn,
+}
+
+/// Ends the program: QEMU exits with `code` (0 pass, anything else fail).
+pub fn exit(code: i32) -> ! {
+    semihosting::process::exit(code)
+}
+
+/// Logs a board error and exits with status 1.
+pub fn fail(error: BoardError) -> ! {
+    defmt::error!("board: {}", error);
+    exit(1)
+}
+
+/// Starts time, the Ethernet controller and the network stack, and spawns the
+/// stack's task. Returns the stack, configured with [`GUEST_IP`].
+pub fn init(spawner: Spawner) -> Result<Stack<'static>, BoardError> {
+    let core = cortex_m::Peripherals::take().ok_or(BoardError::CorePeripherals)?;
+    systick_time::init(core.SYST, SYSCLK_HZ).map_err(|_| BoardError::Time)?;
+
+    // SAFETY: ETH_BASE is the LAN9118's window on this machine and nothing
+    // else touches it; the interrupt handler only uses the same window.
+    let eth = unsafe { Lan9118::new(ETH_BASE) }.map_err(BoardError::Ethernet)?;
+    let mac = eth.mac_address();
+    defmt::info!("lan9118: up, MAC {=[u8]:02x}", mac);
+    // SAFETY: the handler it enables (`irq::ETHERNET`) only touches
+    // lock-free wakers and the controller, so unmasking it breaks no
+    // critical section.
+    unsafe { NVIC::unmask(irq::Interrupt::Ethernet) };
+
+    let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
+        address: Ipv4Cidr::new(GUEST_IP, 24),
+        gateway: Some(GATEWAY_IP),
+        dns_servers: heapless::Vec::new(),
+    });
+    static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
+    // QEMU has no entropy source; the seed only varies TCP initial sequence
+    // numbers and local ports, so derive it from the MAC (unique per -nic).
+    let seed = u64::from_le_bytes([mac[0], mac[1], mac[2], mac[3], mac[4], mac[5], 0x48, 0x53]);
+    let (stack, runner) =
+        embassy_net::new(eth, config, RESOURCES.init(StackResources::new()), seed);
+    spawner.spawn(net_task(runner).map_err(|_| BoardError::Spawn)?);
+    Ok(stack)
+}
+
+#[embassy_executor::task]
+async fn net_task(mut runner: embassy_net::Runner<'static, Lan9118>) -> ! {
+    runner.run().await
+}
+
+/// Logs the stack high-water mark and the Ethernet counters.
+pub fn report() {
+    let stack = fw_support::stack::usage();
+    defmt::info!(
+        "stack: {=usize} of {=usize} bytes used (high-water mark)",
+        stack.used,
+        stack.size
+    );
+    defmt::info!("lan9118: {}", lan9118::stats());
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    // Location and static message only: formatting arbitrary panic arguments
+    // would link core::fmt's float and padding machinery for a path that
+    // should never run.
+    match info.location() {
+        Some(loc) => defmt::error!(
+            "panic at {=str}:{=u32}: {=str}",
+            loc.file(),
+            loc.line(),
+            info.message().as_str().unwrap_or("(formatted message)")
+        ),
+        None => defmt::error!("panic"),
+    }
+    exit(1)
+}

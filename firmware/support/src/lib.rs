@@ -1,0 +1,5 @@
+//! Board-independent helpers shared by the firmware boards.
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod stack;

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Runs a firmware ELF on QEMU's mps2-an386 machine with user-mode networking.
+# This is the cargo runner of firmware/ (`cargo run --bin gateway` from there).
+#
+#   scripts/qemu-run.sh FIRMWARE.elf
+#
+# Environment:
+#   MODBUS_PORT  host port forwarded to the firmware's Modbus port 502
+#                (default 5020; bound on 127.0.0.1 only)
+#   SIM_PORT     host port of the robot simulator; the firmware reaches it as
+#                10.0.2.100:10003 (default 10003)
+#   ADMIN_PORT   host port forwarded to the firmware's test/diagnostics port
+#                5021, if set (QEMU gateway firmware only)
+#   DEFMT_OUT    file to write the raw defmt log stream to; when unset the
+#                stream is decoded with defmt-print if it is installed, else
+#                written raw to stdout
+#
+# QEMU's exit status is the firmware's semihosting exit code (0 pass, 1 fail).
+# `restrict=on` isolates the guest: its only ways out are the forwards below,
+# and every host-side socket QEMU opens is on 127.0.0.1.
+set -euo pipefail
+
+elf=${1:?usage: qemu-run.sh FIRMWARE.elf}
+modbus_port=${MODBUS_PORT:-5020}
+sim_port=${SIM_PORT:-10003}
+
+nic="user,model=lan9118,restrict=on"
+nic+=",hostfwd=tcp:127.0.0.1:${modbus_port}-10.0.2.15:502"
+if [ -n "${ADMIN_PORT:-}" ]; then
+  nic+=",hostfwd=tcp:127.0.0.1:${ADMIN_PORT}-10.0.2.15:5021"
+fi
+nic+=",guestfwd=tcp:10.0.2.100:10003-tcp:127.0.0.1:${sim_port}"
+
+qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
+  -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$elf")
+
+if [ -n "${DEFMT_OUT:-}" ]; then
+  exec "${qemu[@]}" >"$DEFMT_OUT"
+elif command -v defmt-print >/dev/null; then
+  # Decode the log; QEMU's status is the pipeline's first element.
+  "${qemu[@]}" | defmt-print -e "$elf"
+  exit "${PIPESTATUS[0]}"
+else
+  exec "${qemu[@]}"
+fi
