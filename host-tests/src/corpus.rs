@@ -271,9 +271,11 @@ impl Corpus {
 
 /// Splits `=> x`, `!> x`, `v: x`, `range!> x`.
 fn expectation(line: &str) -> Option<(&str, &str)> {
-    ["=>", "!>", "v:", "range!>"]
-        .into_iter()
-        .find_map(|p| line.strip_prefix(p).and_then(|r| r.strip_prefix(' ')).map(|r| (p, r)))
+    ["=>", "!>", "v:", "range!>"].into_iter().find_map(|p| {
+        line.strip_prefix(p)
+            .and_then(|r| r.strip_prefix(' '))
+            .map(|r| (p, r))
+    })
 }
 
 /// What the codec does with one vector.
@@ -399,7 +401,13 @@ fn or_dash(s: String) -> String {
 /// Compares a vector's expectations with the codec's outcome; one line per
 /// difference, naming the vector.
 pub fn differences(v: &Vector, o: &Outcome) -> Vec<String> {
-    let at = format!("line {} ({} {} {:?})", v.line, v.kind.as_str(), v.section, v.text);
+    let at = format!(
+        "line {} ({} {} {:?})",
+        v.line,
+        v.kind.as_str(),
+        v.section,
+        v.text
+    );
     let mut d: Vec<String> = o.problems.iter().map(|p| format!("{at}: {p}")).collect();
     match (&v.error, &o.error) {
         (Some(want), Some(got)) if want != got => {

@@ -20,7 +20,9 @@ fn corpus_files() -> Vec<PathBuf> {
 }
 
 fn load(name: &str) -> Corpus {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("vectors")
+        .join(name);
     Corpus::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -45,7 +47,12 @@ fn every_vector_behaves_as_the_corpus_says() {
         }
     }
     assert!(total > 500, "only {total} vectors");
-    assert!(report.is_empty(), "{} differences:\n{}", report.len(), report.join("\n"));
+    assert!(
+        report.is_empty(),
+        "{} differences:\n{}",
+        report.len(),
+        report.join("\n")
+    );
 }
 
 /// Every command of the catalogue has a request and a reply in the corpus
