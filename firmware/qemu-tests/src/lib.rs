@@ -1,0 +1,278 @@
+//! Harness for running the mps2-an386 firmware under QEMU from host tests.
+//!
+//! * [`Qemu`] starts `scripts/qemu-run.sh` under `timeout`, so QEMU dies within
+//!   a fixed time even if this process is killed; dropping it stops QEMU.
+//! * [`Process`] does the same for any host program (the robot simulator).
+//! * [`modbus::Client`] is a minimal blocking Modbus TCP client with timeouts.
+//! * [`free_port`] picks an unused port on 127.0.0.1.
+//!
+//! Every socket here binds or connects to 127.0.0.1 only.
+
+pub mod modbus;
+
+use std::io::{self, Read, Write};
+use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// The loopback address every test socket uses.
+pub const LOOPBACK: Ipv4Addr = Ipv4Addr::LOCALHOST;
+
+/// The repository root (two levels above this crate).
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Where the release firmware ELFs are: `$FIRMWARE_BIN_DIR`, else
+/// `$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release`, else
+/// `firmware/target/thumbv7em-none-eabihf/release`.
+pub fn firmware_elf(bin: &str) -> PathBuf {
+    if let Some(dir) = std::env::var_os("FIRMWARE_BIN_DIR") {
+        return PathBuf::from(dir).join(bin);
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo_root().join("firmware/target"));
+    target.join("thumbv7em-none-eabihf/release").join(bin)
+}
+
+/// A port on 127.0.0.1 that was free a moment ago.
+pub fn free_port() -> u16 {
+    let listener = TcpListener::bind((LOOPBACK, 0)).expect("bind 127.0.0.1:0");
+    listener.local_addr().expect("local addr").port()
+}
+
+/// Directory for logs of this test run: `$QEMU_LOG_DIR` or the system temp dir.
+pub fn log_dir() -> PathBuf {
+    let dir = std::env::var_os("QEMU_LOG_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| std::env::temp_dir().join("hans-qemu-tests"));
+    let _ = std::fs::create_dir_all(&dir);
+    dir
+}
+
+extern "C" {
+    fn kill(pid: i32, sig: i32) -> i32;
+}
+const SIGTERM: i32 = 15;
+
+/// A child process run under `timeout(1)`, stopped on drop.
+///
+/// `timeout` forwards SIGTERM to the program and SIGKILLs it 5 s later if it
+/// is still there; the `max` given at start bounds its life even if the test
+/// process dies without running destructors.
+pub struct Process {
+    name: String,
+    child: Child,
+    status: Option<ExitStatus>,
+}
+
+impl Process {
+    /// Starts `program args..` with `env`, stdout and stderr to `log`.
+    pub fn start(
+        name: &str,
+        max: Duration,
+        program: &Path,
+        args: &[&str],
+        env: &[(&str, String)],
+        log: &Path,
+    ) -> io::Result<Process> {
+        let out = std::fs::File::create(log)?;
+        let err = out.try_clone()?;
+        let mut cmd = Command::new("timeout");
+        cmd.arg("--kill-after=5")
+            .arg(format!("{}", max.as_secs().max(1)))
+            .arg(program)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(out)
+            .stderr(err);
+        for (k, v) in env {
+            cmd.env(k, v);
+        }
+        let child = cmd.spawn()?;
+        Ok(Process {
+            name: name.to_string(),
+            child,
+            status: None,
+        })
+    }
+
+    /// Waits up to `limit` for the process to end by itself.
+    pub fn wait(&mut self, limit: Duration) -> Option<ExitStatus> {
+        let start = Instant::now();
+        while self.status.is_none() && start.elapsed() < limit {
+            match self.child.try_wait() {
+                Ok(Some(status)) => self.status = Some(status),
+                Ok(None) => std::thread::sleep(Duration::from_millis(50)),
+                Err(_) => break,
+            }
+        }
+        self.status
+    }
+
+    /// Whether it is still running.
+    pub fn running(&mut self) -> bool {
+        self.wait(Duration::ZERO).is_none()
+    }
+
+    /// Stops it (SIGTERM through `timeout`, then SIGKILL) and waits for it.
+    pub fn stop(&mut self) -> Option<ExitStatus> {
+        if self.running() {
+            // SAFETY: plain kill(2) on our own child's pid.
+            unsafe { kill(self.child.id() as i32, SIGTERM) };
+            if self.wait(Duration::from_secs(8)).is_none() {
+                let _ = self.child.kill();
+                self.status = self.child.wait().ok();
+            }
+        }
+        self.status
+    }
+
+    /// The name given at start.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// Host ports of one QEMU instance (all on 127.0.0.1).
+#[derive(Debug, Clone, Copy)]
+pub struct Ports {
+    /// Forwarded to the firmware's Modbus port 502.
+    pub modbus: u16,
+    /// Where the firmware's 10.0.2.100:10003 leads (the simulator).
+    pub sim: u16,
+    /// Forwarded to the firmware's diagnostics port 5021.
+    pub admin: u16,
+}
+
+impl Ports {
+    /// Three free ports.
+    pub fn pick() -> Ports {
+        Ports {
+            modbus: free_port(),
+            sim: free_port(),
+            admin: free_port(),
+        }
+    }
+}
+
+/// One QEMU running a firmware ELF; its raw defmt log goes to a file.
+pub struct Qemu {
+    process: Process,
+    elf: PathBuf,
+    log: PathBuf,
+    /// The ports it was started with.
+    pub ports: Ports,
+}
+
+impl Qemu {
+    /// Starts `elf` with `ports`, alive for at most `max`.
+    pub fn start(name: &str, elf: &Path, ports: Ports, max: Duration) -> io::Result<Qemu> {
+        assert!(
+            elf.exists(),
+            "firmware {} not built (run scripts/firmware-tests.sh)",
+            elf.display()
+        );
+        let dir = log_dir();
+        let log = dir.join(format!("{name}.defmt"));
+        let stderr = dir.join(format!("{name}.qemu.log"));
+        let script = repo_root().join("scripts/qemu-run.sh");
+        let elf_arg = elf.display().to_string();
+        let process = Process::start(
+            name,
+            max,
+            Path::new("bash"),
+            &[script.to_str().expect("utf-8 path"), &elf_arg],
+            &[
+                ("MODBUS_PORT", ports.modbus.to_string()),
+                ("SIM_PORT", ports.sim.to_string()),
+                ("ADMIN_PORT", ports.admin.to_string()),
+                ("DEFMT_OUT", log.display().to_string()),
+            ],
+            &stderr,
+        )?;
+        Ok(Qemu {
+            process,
+            elf: elf.to_path_buf(),
+            log,
+            ports,
+        })
+    }
+
+    /// The process (to wait for or stop it).
+    pub fn process(&mut self) -> &mut Process {
+        &mut self.process
+    }
+
+    /// The firmware log, decoded with `defmt-print` if it is installed.
+    pub fn log_text(&self) -> String {
+        decode_defmt(&self.elf, &self.log)
+    }
+}
+
+/// Decodes a raw defmt stream with `defmt-print`, or says why not.
+pub fn decode_defmt(elf: &Path, raw: &Path) -> String {
+    let Ok(input) = std::fs::File::open(raw) else {
+        return format!("(no log at {})", raw.display());
+    };
+    let out = Command::new("defmt-print")
+        .arg("-e")
+        .arg(elf)
+        .stdin(input)
+        .stderr(Stdio::null())
+        .output();
+    match out {
+        Ok(out) => String::from_utf8_lossy(&out.stdout).into_owned(),
+        Err(_) => format!(
+            "(raw defmt log at {}; install defmt-print to decode it)",
+            raw.display()
+        ),
+    }
+}
+
+/// Connects to 127.0.0.1:`port`, retrying until `limit`: QEMU accepts on its
+/// forwarded ports at once, but the guest may not be listening yet, in which
+/// case the connection is closed straight away.
+pub fn connect_retry(port: u16, limit: Duration) -> io::Result<TcpStream> {
+    let start = Instant::now();
+    let addr = SocketAddr::from((LOOPBACK, port));
+    loop {
+        let attempt = TcpStream::connect_timeout(&addr, Duration::from_secs(2));
+        if let Ok(stream) = attempt {
+            return Ok(stream);
+        }
+        if start.elapsed() >= limit {
+            return attempt;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// Sends `line` on a fresh connection and reads the answer until the peer
+/// closes or `limit` passes. Retries while the guest is not yet listening
+/// (slirp accepts, then closes at once with nothing read).
+pub fn request_line(port: u16, line: &str, limit: Duration) -> io::Result<String> {
+    let start = Instant::now();
+    loop {
+        let mut stream = connect_retry(port, limit)?;
+        stream.set_read_timeout(Some(Duration::from_secs(5)))?;
+        stream.write_all(line.as_bytes())?;
+        let mut answer = Vec::new();
+        let _ = stream.read_to_end(&mut answer);
+        if !answer.is_empty() {
+            return Ok(String::from_utf8_lossy(&answer).into_owned());
+        }
+        if start.elapsed() >= limit {
+            return Err(io::Error::new(io::ErrorKind::TimedOut, "no answer"));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+    }
+}
