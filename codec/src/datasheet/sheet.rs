@@ -1,0 +1,1166 @@
+//! The DataSheet payload (chapter 5.1): a typed model, its decoder and its
+//! encoder.
+//!
+//! # Layout
+//! The payload is one JSON object whose members are groups (objects) of
+//! fields. Every field this crate models, in the order the encoder writes
+//! it, with its Rust home and the form the vendor sends:
+//!
+//! | group | field | Rust | form |
+//! |---|---|---|---|
+//! | `PosAndVel` | `Actual_Position` | [`PosAndVel::position`] | 6 or 12 strings |
+//! | | `Actual_PCS_TCP`, `Actual_PCS_Base`, `Actual_PCS_Tool` | `pcs_tcp`, `pcs_base`, `pcs_tool` | 6 strings |
+//! | | `Actual_Joint_Current`, `_Velocity`, `_Acceleration` | `joint_current`, ... | 6 strings |
+//! | | `Actual_Override` | `override_ratio` | string |
+//! | `EndIO` | `EndDI`, `EndDO`, `EndButton` | `end_di`, `end_do`, `end_button` | integer lists |
+//! | | `EnableEndBTN` | `enable_end_btn` | integer |
+//! | | `EndAI` | `end_ai` | number list |
+//! | `ElectricBoxIO` | `BoxCI`, `BoxCO`, `BoxDI`, `BoxDO` | `box_ci`, ... | integer lists |
+//! | | `Conveyor` / `Encode` | `conveyor` / `encode` | string / integer |
+//! | `ElectricBoxAnalogIO` | `BoxAnalogOutMode_1/2` | `out_mode` | integers |
+//! | | `BoxAnalogOut_1/2`, `BoxAnalogIn_1/2` | `out`, `input` | strings |
+//! | `StateAndError` | `robotState` | [`StateAndError::robot_state`] | integer |
+//! | | `robotEnabled`, `robotPaused`, `robotMoving`, `robotBlendingDone`, `InPos` | flags | 0 / 1 |
+//! | | `Error_AxisID`, `Error_Code` | `error_axis_id`, `error_code` | integers |
+//! | | `BrakeState`, `nAxisStatus`, `nAxisErrorCode` | 6 integers each | lists |
+//! | | `nResetSafeSpace`, `nAxisGroupStatus`, `nAxisGroupErrorCode` | per axis group | lists |
+//! | `HardLoad` | `EtherCAT_TotalFrame`, `_FramesPerSecond`, `_TotalLostFrame`, `_TxErrorFrame`, `_RxErrorFrame` | counters | integers |
+//! | | `Box48IN_Voltage`, `Box48IN_Current`, `Box48Out_Voltage`, `Box48Out_Current` | `box48_*` | numbers |
+//! | | `Slave_temperature`, `Slave_Voltage` | per module | number lists |
+//! | `FTData` | `FTControlState` / `FTData`, `FTSrcData` | [`FtData`] | integer / 6 numbers |
+//! | `Script` | `errorCode` | [`Script::error_code`] | integer |
+//!
+//! # Reading
+//! [`DataSheet::parse`] is lenient where controllers and documents differ,
+//! strict where a value would be wrong:
+//! * Field names match ignoring ASCII case, with a space equal to `_`
+//!   (`"Actual Position"`, `"Box48OUT_Voltage"` and `"Box48Out_Voltage"` all
+//!   match). Escapes in names are not decoded (a name spelt with `\u`
+//!   escapes does not match and is skipped).
+//! * Fields are found in any of the groups above and at the top level, so a
+//!   payload that nests the groups differently still reads. Unknown members
+//!   (`pluginsdata`, `cmdid`, `GlobalVar`, new fields) are skipped whatever
+//!   their shape, and nothing inside an unknown object is read.
+//! * A number may be a JSON number or a string holding one (`"0.000"`,
+//!   `48.00`, `"33"`), in any form [`Decimal::parse`] reads; flags and
+//!   integers also accept `true` / `false`. `null` or `""` leaves a field
+//!   unset. NUL, `\n` and `\t` bytes are ignored anywhere (see
+//!   [`json`](super::json)).
+//! * A missing field stays `None` (lists: empty).
+//! * A value of the wrong kind, an integer with decimals or out of its type's
+//!   range, a flag other than 0/1, a list of the wrong length: a
+//!   [`DataSheetError::Field`] naming the field, what was expected and the
+//!   offset.
+//!
+//! Lists have a fixed capacity (the constants below, about twice what the
+//! document shows); a longer list is a [`FieldExpected::AtMost`] error, not
+//! a silent cut.
+//!
+//! # Writing
+//! [`DataSheet::write_json`] writes compact JSON in the layout above: groups
+//! in that order, names with underscores, each decimal in the form the
+//! vendor uses for that field (string or number) with at least three
+//! decimals (`"0.000"`, `48.000`; a value with more decimals keeps them all,
+//! so nothing is ever rounded). Fields that are `None` are left out; lists
+//! are always written. `parse(write_json(x)) == x` for every `DataSheet`.
+
+use core::fmt;
+
+use heapless::Vec;
+
+use super::header::{emit_header, HEADER_LEN, MAX_PAYLOAD};
+use super::json::{significant, JsonError, JsonErrorKind, Token, Tokenizer, Writer};
+use crate::error::EncodeError;
+use crate::fsm::FsmState;
+use crate::number::Decimal;
+
+/// Capacity of the tool-flange I/O lists (`EndDI`, `EndDO`, `EndButton`;
+/// the document shows 4).
+pub const MAX_END_IO: usize = 8;
+/// Capacity of `EndAI` (the document shows 2).
+pub const MAX_END_AI: usize = 4;
+/// Capacity of the electric-box I/O lists (`BoxCI`, `BoxCO`, `BoxDI`,
+/// `BoxDO`; the document shows 8 or 9).
+pub const MAX_BOX_IO: usize = 16;
+/// Capacity of the per-axis-group lists (`nResetSafeSpace`, ...; the
+/// document shows 1).
+pub const MAX_AXIS_GROUPS: usize = 4;
+/// Capacity of the per-module lists (`Slave_temperature`, `Slave_Voltage`;
+/// the document shows 3).
+pub const MAX_SLAVES: usize = 8;
+
+/// `Actual_Position`: six joint angles, then (on controllers that send 12
+/// values) the TCP pose in the current user and tool frames.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Position {
+    /// Joint angles J1-J6 (°).
+    pub joints: [Decimal; 6],
+    /// X, Y, Z (mm), Rx, Ry, Rz (°) in the current UCS/TCP, when sent.
+    pub pose: Option<[Decimal; 6]>,
+}
+
+/// Group `PosAndVel`: positions, velocities, currents.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct PosAndVel {
+    /// `Actual_Position`: joints, and the pose in the current UCS/TCP.
+    pub position: Option<Position>,
+    /// `Actual_PCS_TCP`: pose in the current tool frame.
+    pub pcs_tcp: Option<[Decimal; 6]>,
+    /// `Actual_PCS_Base`: pose in the base frame.
+    pub pcs_base: Option<[Decimal; 6]>,
+    /// `Actual_PCS_Tool`: pose in the tool frame (no longer sent by newer
+    /// controllers).
+    pub pcs_tool: Option<[Decimal; 6]>,
+    /// `Actual_Joint_Current` (A).
+    pub joint_current: Option<[Decimal; 6]>,
+    /// `Actual_Joint_Velocity` (°/s).
+    pub joint_velocity: Option<[Decimal; 6]>,
+    /// `Actual_Joint_Acceleration` (°/s²).
+    pub joint_acceleration: Option<[Decimal; 6]>,
+    /// `Actual_Override`: speed ratio, 0 to 1.
+    pub override_ratio: Option<Decimal>,
+}
+
+/// Group `EndIO`: the tool flange's I/O.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EndIo {
+    /// `EndDI`: digital inputs.
+    pub end_di: Vec<i32, MAX_END_IO>,
+    /// `EndDO`: digital outputs.
+    pub end_do: Vec<i32, MAX_END_IO>,
+    /// `EndButton`: the flange buttons.
+    pub end_button: Vec<i32, MAX_END_IO>,
+    /// `EnableEndBTN`: whether the flange buttons are enabled.
+    pub enable_end_btn: Option<i32>,
+    /// `EndAI`: analog inputs.
+    pub end_ai: Vec<Decimal, MAX_END_AI>,
+}
+
+/// Group `ElectricBoxIO`: the control box's digital I/O.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoxIo {
+    /// `BoxCI`: configurable inputs.
+    pub box_ci: Vec<i32, MAX_BOX_IO>,
+    /// `BoxCO`: configurable outputs.
+    pub box_co: Vec<i32, MAX_BOX_IO>,
+    /// `BoxDI`: digital inputs.
+    pub box_di: Vec<i32, MAX_BOX_IO>,
+    /// `BoxDO`: digital outputs.
+    pub box_do: Vec<i32, MAX_BOX_IO>,
+    /// `Conveyor`: conveyor value.
+    pub conveyor: Option<Decimal>,
+    /// `Encode`: encoder value.
+    pub encode: Option<i32>,
+}
+
+/// Group `ElectricBoxAnalogIO`: the control box's analog I/O. Index 0 is
+/// the document's channel `_1`, index 1 channel `_2`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoxAnalogIo {
+    /// `BoxAnalogOutMode_1/2`: 0 channel off, 1 voltage, 2 current.
+    pub out_mode: [Option<i32>; 2],
+    /// `BoxAnalogOut_1/2`: output values.
+    pub out: [Option<Decimal>; 2],
+    /// `BoxAnalogIn_1/2`: input values.
+    pub input: [Option<Decimal>; 2],
+}
+
+/// Group `StateAndError`: state machine, motion flags and errors.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StateAndError {
+    /// `robotState`: the controller's state machine.
+    pub robot_state: Option<FsmState>,
+    /// `robotEnabled`.
+    pub enabled: Option<bool>,
+    /// `robotPaused`.
+    pub paused: Option<bool>,
+    /// `robotMoving`.
+    pub moving: Option<bool>,
+    /// `robotBlendingDone`: way-point motion finished.
+    pub blending_done: Option<bool>,
+    /// `InPos`: at the target position.
+    pub in_pos: Option<bool>,
+    /// `Error_AxisID`: axis in error, 1-6.
+    pub error_axis_id: Option<i32>,
+    /// `Error_Code`: the controller's error code.
+    pub error_code: Option<i32>,
+    /// `BrakeState`: per axis, 0 braked, 1 released.
+    pub brake_state: Option<[i32; 6]>,
+    /// `nAxisStatus`: per axis status.
+    pub axis_status: Option<[i32; 6]>,
+    /// `nAxisErrorCode`: per axis error code.
+    pub axis_error_code: Option<[i32; 6]>,
+    /// `nResetSafeSpace`: per axis group, whether it moves back into its
+    /// safe space.
+    pub reset_safe_space: Vec<i32, MAX_AXIS_GROUPS>,
+    /// `nAxisGroupStatus`: per axis group.
+    pub axis_group_status: Vec<i32, MAX_AXIS_GROUPS>,
+    /// `nAxisGroupErrorCode`: per axis group.
+    pub axis_group_error_code: Vec<i32, MAX_AXIS_GROUPS>,
+}
+
+/// Group `HardLoad`: bus statistics and power.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HardLoad {
+    /// `EtherCAT_TotalFrame`: frames exchanged with the arm.
+    pub ethercat_total_frame: Option<u64>,
+    /// `EtherCAT_FramesPerSecond`.
+    pub ethercat_frames_per_second: Option<u64>,
+    /// `EtherCAT_TotalLostFrame`.
+    pub ethercat_total_lost_frame: Option<u64>,
+    /// `EtherCAT_TxErrorFrame`.
+    pub ethercat_tx_error_frame: Option<u64>,
+    /// `EtherCAT_RxErrorFrame`.
+    pub ethercat_rx_error_frame: Option<u64>,
+    /// `Box48IN_Voltage`: 48 V supply voltage (V).
+    pub box48_in_voltage: Option<Decimal>,
+    /// `Box48IN_Current`: 48 V supply current (A).
+    pub box48_in_current: Option<Decimal>,
+    /// `Box48Out_Voltage` (the table spells it `Box48OUT_`): voltage to the
+    /// arm (V).
+    pub box48_out_voltage: Option<Decimal>,
+    /// `Box48Out_Current`: current to the arm (A).
+    pub box48_out_current: Option<Decimal>,
+    /// `Slave_temperature`: per joint module (°C).
+    pub slave_temperature: Vec<Decimal, MAX_SLAVES>,
+    /// `Slave_Voltage`: per joint module (V).
+    pub slave_voltage: Vec<Decimal, MAX_SLAVES>,
+}
+
+/// Group `FTData`: the force/torque sensor.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FtData {
+    /// `FTControlState`: 0 force control off, 1 on.
+    pub control_state: Option<i32>,
+    /// `FTData`: calibrated X, Y, Z (N), Rx, Ry, Rz (Nm).
+    pub data: Option<[Decimal; 6]>,
+    /// `FTSrcData`: raw sensor values, same units.
+    pub src_data: Option<[Decimal; 6]>,
+}
+
+/// Group `Script`: script execution. Its `cmdid` and `GlobalVar` lists are
+/// skipped (strings of unbounded number and size).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Script {
+    /// `errorCode`: the script's error code.
+    pub error_code: Option<i32>,
+}
+
+/// One DataSheet payload, decoded. Every field is optional (lists: may be
+/// empty); `Default` is the empty sheet.
+///
+/// ```
+/// use hans_codec::datasheet::DataSheet;
+/// use hans_codec::{Decimal, FsmState};
+///
+/// let payload = br#"{"PosAndVel":{"Actual Position":["0.000","-0.000","90.000",
+///     "0.000","90.000","0.000"],"Actual_Override":"0.050"},
+///     "StateAndError":{"robotState":33,"robotMoving":0},"pluginsdata":{}}"#;
+/// let sheet = DataSheet::parse(payload).unwrap();
+/// assert_eq!(sheet.state.robot_state, Some(FsmState::StandBy));
+/// assert_eq!(sheet.state.moving, Some(false));
+/// let joints = sheet.pos_and_vel.position.unwrap().joints;
+/// assert_eq!(joints[2], Decimal::from_int(90));
+///
+/// let mut out = [0u8; 512];
+/// let n = sheet.write_json(&mut out).unwrap();
+/// assert!(out[..n].starts_with(br#"{"PosAndVel":{"Actual_Position":["0.000","-0.000","90.000""#));
+/// assert_eq!(DataSheet::parse(&out[..n]).unwrap(), sheet);
+/// ```
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DataSheet {
+    /// `PosAndVel`.
+    pub pos_and_vel: PosAndVel,
+    /// `EndIO`.
+    pub end_io: EndIo,
+    /// `ElectricBoxIO`.
+    pub box_io: BoxIo,
+    /// `ElectricBoxAnalogIO`.
+    pub box_analog_io: BoxAnalogIo,
+    /// `StateAndError`.
+    pub state: StateAndError,
+    /// `HardLoad`.
+    pub hard_load: HardLoad,
+    /// `FTData`.
+    pub ft: FtData,
+    /// `Script`.
+    pub script: Script,
+}
+
+/// What a field's value should have been.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FieldExpected {
+    /// A number, or a string holding one.
+    Number,
+    /// A whole number that fits the field's type.
+    Integer,
+    /// 0 or 1 (or `true` / `false`).
+    Flag,
+    /// A single value, not a list or object.
+    Single,
+    /// A list.
+    List,
+    /// A list of exactly this many values.
+    Exactly(u16),
+    /// A list of 6 or 12 values (`Actual_Position`).
+    SixOrTwelve,
+    /// A list of at most this many values (the capacity).
+    AtMost(u16),
+}
+
+impl fmt::Display for FieldExpected {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FieldExpected::Number => f.write_str("a number"),
+            FieldExpected::Integer => f.write_str("an integer in range"),
+            FieldExpected::Flag => f.write_str("0 or 1"),
+            FieldExpected::Single => f.write_str("a single value"),
+            FieldExpected::List => f.write_str("a list"),
+            FieldExpected::Exactly(n) => write!(f, "exactly {n} values"),
+            FieldExpected::SixOrTwelve => f.write_str("6 or 12 values"),
+            FieldExpected::AtMost(n) => write!(f, "at most {n} values"),
+        }
+    }
+}
+
+/// Why a payload could not be decoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DataSheetError {
+    /// The payload is not well-formed JSON.
+    Json(JsonError),
+    /// The payload is JSON but not an object.
+    NotAnObject,
+    /// A known field has a value of the wrong kind or size.
+    Field {
+        /// The field, as this crate names it (`"Actual_PCS_TCP"`).
+        field: &'static str,
+        /// What it should have been.
+        expected: FieldExpected,
+        /// Byte offset in the payload of the offending value or element.
+        offset: usize,
+    },
+}
+
+impl From<JsonError> for DataSheetError {
+    fn from(e: JsonError) -> Self {
+        DataSheetError::Json(e)
+    }
+}
+
+impl fmt::Display for DataSheetError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DataSheetError::Json(e) => e.fmt(f),
+            DataSheetError::NotAnObject => f.write_str("DataSheet payload is not a JSON object"),
+            DataSheetError::Field {
+                field,
+                expected,
+                offset,
+            } => write!(f, "{field} must be {expected} (offset {offset})"),
+        }
+    }
+}
+
+impl core::error::Error for DataSheetError {}
+
+/// Whether a decimal is written as a JSON string (`"0.000"`) or a number.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Form {
+    Text,
+    Plain,
+}
+
+/// A field name as sent, against a name of the table: ASCII case ignored,
+/// space equal to `_`, ignored bytes skipped.
+fn key_is(raw: &[u8], name: &str) -> bool {
+    let norm = |b: u8| {
+        if b == b' ' {
+            b'_'
+        } else {
+            b.to_ascii_lowercase()
+        }
+    };
+    significant(raw).map(norm).eq(name.bytes().map(norm))
+}
+
+/// The number in a number or string token. `Ok(None)` for `null` and `""`;
+/// `Err(())` for anything else that is not a number.
+fn decimal_of(token: &Token<'_>) -> Result<Option<Decimal>, ()> {
+    let raw = match *token {
+        Token::Number(raw) | Token::Str(raw) => raw,
+        Token::Bool(b) => return Ok(Some(Decimal::from_int(i64::from(b)))),
+        Token::Null => return Ok(None),
+        _ => return Err(()),
+    };
+    // Copy the significant bytes (the longest number worth reading is far
+    // shorter than this); spaces around a number in a string are trimmed.
+    let mut buf = [0u8; 64];
+    let mut n = 0;
+    for b in significant(raw) {
+        let slot = buf.get_mut(n).ok_or(())?;
+        *slot = b;
+        n += 1;
+    }
+    let text = buf.get(..n).unwrap_or(&[]).trim_ascii();
+    if text.is_empty() {
+        return Ok(None);
+    }
+    Decimal::parse_bytes(text).map(Some).map_err(|_| ())
+}
+
+/// One value of a field or list element.
+trait Scalar: Copy {
+    /// A placeholder value (fills arrays before they are read).
+    const ZERO: Self;
+    /// What [`Scalar::from_token`] wants.
+    const EXPECTED: FieldExpected;
+    /// The value of a scalar token; `Ok(None)` for `null` / `""`.
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected>;
+    fn write(&self, form: Form, w: &mut Writer<'_>);
+}
+
+impl Scalar for Decimal {
+    const ZERO: Self = Decimal::ZERO;
+    const EXPECTED: FieldExpected = FieldExpected::Number;
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        decimal_of(token).map_err(|()| Self::EXPECTED)
+    }
+    fn write(&self, form: Form, w: &mut Writer<'_>) {
+        // Three decimals as controllers write them; more are kept, never
+        // rounded away; a value too large to rescale is written as it is.
+        let v = self.rescale(self.scale().max(3)).unwrap_or(*self);
+        w.decimal(&v, form == Form::Text)
+    }
+}
+
+fn integer_of(token: &Token<'_>) -> Result<Option<i64>, FieldExpected> {
+    match decimal_of(token) {
+        Ok(Some(d)) => d.to_i64().map(Some).ok_or(FieldExpected::Integer),
+        Ok(None) => Ok(None),
+        Err(()) => Err(FieldExpected::Integer),
+    }
+}
+
+impl Scalar for i32 {
+    const ZERO: Self = 0;
+    const EXPECTED: FieldExpected = FieldExpected::Integer;
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        match integer_of(token)? {
+            Some(v) => i32::try_from(v).map(Some).map_err(|_| Self::EXPECTED),
+            None => Ok(None),
+        }
+    }
+    fn write(&self, _: Form, w: &mut Writer<'_>) {
+        w.int(i64::from(*self))
+    }
+}
+
+impl Scalar for u64 {
+    const ZERO: Self = 0;
+    const EXPECTED: FieldExpected = FieldExpected::Integer;
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        let d = match decimal_of(token) {
+            Ok(Some(d)) => d,
+            Ok(None) => return Ok(None),
+            Err(()) => return Err(Self::EXPECTED),
+        };
+        if d.is_sign_negative() && !d.is_zero() {
+            return Err(Self::EXPECTED);
+        }
+        // Whole numbers above i64::MAX are read from the coefficient.
+        if d.scale() == 0 {
+            return Ok(Some(d.coefficient()));
+        }
+        d.to_i64()
+            .and_then(|v| u64::try_from(v).ok())
+            .map(Some)
+            .ok_or(Self::EXPECTED)
+    }
+    fn write(&self, _: Form, w: &mut Writer<'_>) {
+        w.uint(*self)
+    }
+}
+
+impl Scalar for bool {
+    const ZERO: Self = false;
+    const EXPECTED: FieldExpected = FieldExpected::Flag;
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        match integer_of(token).map_err(|_| Self::EXPECTED)? {
+            Some(0) => Ok(Some(false)),
+            Some(1) => Ok(Some(true)),
+            Some(_) => Err(Self::EXPECTED),
+            None => Ok(None),
+        }
+    }
+    fn write(&self, _: Form, w: &mut Writer<'_>) {
+        w.int(i64::from(*self))
+    }
+}
+
+impl Scalar for FsmState {
+    const ZERO: Self = FsmState::UnInitialize;
+    const EXPECTED: FieldExpected = FieldExpected::Integer;
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        Ok(i32::from_token(token)?.map(FsmState::from))
+    }
+    fn write(&self, _: Form, w: &mut Writer<'_>) {
+        w.int(i64::from(self.code()))
+    }
+}
+
+/// A field of the table: reads its value from the tokenizer, writes itself.
+trait Member {
+    /// Reads the value whose first token, `first`, was just taken from `t`.
+    fn read(
+        &mut self,
+        first: Token<'_>,
+        t: &mut Tokenizer<'_>,
+        field: &'static str,
+    ) -> Result<(), DataSheetError>;
+    /// Writes `"name":value` (or nothing for an unset optional field).
+    fn write(&self, name: &str, form: Form, w: &mut Writer<'_>);
+}
+
+fn field_error(field: &'static str, expected: FieldExpected, t: &Tokenizer<'_>) -> DataSheetError {
+    DataSheetError::Field {
+        field,
+        expected,
+        offset: t.offset(),
+    }
+}
+
+impl<T: Scalar> Member for Option<T> {
+    fn read(
+        &mut self,
+        first: Token<'_>,
+        t: &mut Tokenizer<'_>,
+        field: &'static str,
+    ) -> Result<(), DataSheetError> {
+        if matches!(first, Token::BeginArray | Token::BeginObject) {
+            return Err(field_error(field, FieldExpected::Single, t));
+        }
+        *self = T::from_token(&first).map_err(|e| field_error(field, e, t))?;
+        Ok(())
+    }
+    fn write(&self, name: &str, form: Form, w: &mut Writer<'_>) {
+        if let Some(v) = self {
+            w.key(name);
+            v.write(form, w);
+        }
+    }
+}
+
+/// Reads the elements of a list whose `[` was just taken, handing each to
+/// `put` with its index. `put` returns `false` when the list is full.
+/// Returns how many elements were read, or `Ok(None)` for `null`.
+fn read_list<T: Scalar>(
+    first: Token<'_>,
+    t: &mut Tokenizer<'_>,
+    field: &'static str,
+    full: FieldExpected,
+    mut put: impl FnMut(usize, T) -> bool,
+) -> Result<Option<usize>, DataSheetError> {
+    match first {
+        Token::BeginArray => {}
+        Token::Null => return Ok(None),
+        _ => return Err(field_error(field, FieldExpected::List, t)),
+    }
+    let mut n = 0;
+    loop {
+        let token = t.next_token()?;
+        let value = match token {
+            Some(Token::EndArray) => return Ok(Some(n)),
+            // An element that is null, "" or not a scalar is an error: a
+            // list cannot have holes.
+            Some(ref tok) => match T::from_token(tok) {
+                Ok(Some(v)) => v,
+                Ok(None) | Err(_) => return Err(field_error(field, T::EXPECTED, t)),
+            },
+            None => return Err(field_error(field, FieldExpected::List, t)),
+        };
+        if !put(n, value) {
+            return Err(field_error(field, full, t));
+        }
+        n += 1;
+    }
+}
+
+impl<T: Scalar, const N: usize> Member for Option<[T; N]> {
+    fn read(
+        &mut self,
+        first: Token<'_>,
+        t: &mut Tokenizer<'_>,
+        field: &'static str,
+    ) -> Result<(), DataSheetError> {
+        let want = FieldExpected::Exactly(N as u16);
+        let mut a = [T::ZERO; N];
+        let got = read_list(first, t, field, want, |i, v| match a.get_mut(i) {
+            Some(slot) => {
+                *slot = v;
+                true
+            }
+            None => false,
+        })?;
+        *self = match got {
+            Some(n) if n == N => Some(a),
+            Some(_) => return Err(field_error(field, want, t)),
+            None => None,
+        };
+        Ok(())
+    }
+    fn write(&self, name: &str, form: Form, w: &mut Writer<'_>) {
+        if let Some(a) = self {
+            w.key(name);
+            write_list(a, form, w);
+        }
+    }
+}
+
+fn write_list<T: Scalar>(values: &[T], form: Form, w: &mut Writer<'_>) {
+    w.begin_array();
+    for v in values {
+        v.write(form, w);
+    }
+    w.end_array();
+}
+
+impl<T: Scalar, const N: usize> Member for Vec<T, N> {
+    fn read(
+        &mut self,
+        first: Token<'_>,
+        t: &mut Tokenizer<'_>,
+        field: &'static str,
+    ) -> Result<(), DataSheetError> {
+        self.clear();
+        let full = FieldExpected::AtMost(N as u16);
+        read_list(first, t, field, full, |_, v| self.push(v).is_ok())?;
+        Ok(())
+    }
+    fn write(&self, name: &str, form: Form, w: &mut Writer<'_>) {
+        w.key(name);
+        write_list(self, form, w);
+    }
+}
+
+impl Member for Option<Position> {
+    fn read(
+        &mut self,
+        first: Token<'_>,
+        t: &mut Tokenizer<'_>,
+        field: &'static str,
+    ) -> Result<(), DataSheetError> {
+        let want = FieldExpected::SixOrTwelve;
+        let mut a = [Decimal::ZERO; 12];
+        let got = read_list(first, t, field, want, |i, v| match a.get_mut(i) {
+            Some(slot) => {
+                *slot = v;
+                true
+            }
+            None => false,
+        })?;
+        let [j0, j1, j2, j3, j4, j5, p0, p1, p2, p3, p4, p5] = a;
+        let joints = [j0, j1, j2, j3, j4, j5];
+        *self = match got {
+            None => None,
+            Some(6) => Some(Position { joints, pose: None }),
+            Some(12) => Some(Position {
+                joints,
+                pose: Some([p0, p1, p2, p3, p4, p5]),
+            }),
+            Some(_) => return Err(field_error(field, want, t)),
+        };
+        Ok(())
+    }
+    fn write(&self, name: &str, form: Form, w: &mut Writer<'_>) {
+        if let Some(p) = self {
+            w.key(name);
+            w.begin_array();
+            for v in p.joints.iter().chain(p.pose.iter().flatten()) {
+                v.write(form, w);
+            }
+            w.end_array();
+        }
+    }
+}
+
+/// The field table: every group and field, once. It generates the lookup
+/// the decoder uses and the encoder's member order.
+macro_rules! layout {
+    ($(
+        $group:literal => $g:ident {
+            $( $name:literal => ($form:ident, $($f:tt)+), )*
+        }
+    )*) => {
+        /// Names of the groups whose members are read.
+        const GROUPS: &[&str] = &[$($group),*];
+
+        /// The field named `key` and its name in the table.
+        fn member<'d>(
+            ds: &'d mut DataSheet,
+            key: &[u8],
+        ) -> Option<(&'static str, &'d mut dyn Member)> {
+            $($(
+                if key_is(key, $name) {
+                    return Some(($name, &mut ds.$g.$($f)+));
+                }
+            )*)*
+            None
+        }
+
+        /// Writes every group, in table order.
+        fn write_groups(ds: &DataSheet, w: &mut Writer<'_>) {
+            $(
+                w.key($group);
+                w.begin_object();
+                $( Member::write(&ds.$g.$($f)+, $name, Form::$form, w); )*
+                w.end_object();
+            )*
+        }
+    };
+}
+
+layout! {
+    "PosAndVel" => pos_and_vel {
+        "Actual_Position" => (Text, position),
+        "Actual_PCS_TCP" => (Text, pcs_tcp),
+        "Actual_PCS_Base" => (Text, pcs_base),
+        "Actual_PCS_Tool" => (Text, pcs_tool),
+        "Actual_Joint_Current" => (Text, joint_current),
+        "Actual_Joint_Velocity" => (Text, joint_velocity),
+        "Actual_Joint_Acceleration" => (Text, joint_acceleration),
+        "Actual_Override" => (Text, override_ratio),
+    }
+    "EndIO" => end_io {
+        "EndDI" => (Plain, end_di),
+        "EndDO" => (Plain, end_do),
+        "EndButton" => (Plain, end_button),
+        "EnableEndBTN" => (Plain, enable_end_btn),
+        "EndAI" => (Plain, end_ai),
+    }
+    "ElectricBoxIO" => box_io {
+        "BoxCI" => (Plain, box_ci),
+        "BoxCO" => (Plain, box_co),
+        "BoxDI" => (Plain, box_di),
+        "BoxDO" => (Plain, box_do),
+        "Conveyor" => (Text, conveyor),
+        "Encode" => (Plain, encode),
+    }
+    "ElectricBoxAnalogIO" => box_analog_io {
+        "BoxAnalogOutMode_1" => (Plain, out_mode[0]),
+        "BoxAnalogOutMode_2" => (Plain, out_mode[1]),
+        "BoxAnalogOut_1" => (Text, out[0]),
+        "BoxAnalogOut_2" => (Text, out[1]),
+        "BoxAnalogIn_1" => (Text, input[0]),
+        "BoxAnalogIn_2" => (Text, input[1]),
+    }
+    "StateAndError" => state {
+        "robotState" => (Plain, robot_state),
+        "robotEnabled" => (Plain, enabled),
+        "robotPaused" => (Plain, paused),
+        "robotMoving" => (Plain, moving),
+        "robotBlendingDone" => (Plain, blending_done),
+        "InPos" => (Plain, in_pos),
+        "Error_AxisID" => (Plain, error_axis_id),
+        "Error_Code" => (Plain, error_code),
+        "BrakeState" => (Plain, brake_state),
+        "nAxisStatus" => (Plain, axis_status),
+        "nAxisErrorCode" => (Plain, axis_error_code),
+        "nResetSafeSpace" => (Plain, reset_safe_space),
+        "nAxisGroupStatus" => (Plain, axis_group_status),
+        "nAxisGroupErrorCode" => (Plain, axis_group_error_code),
+    }
+    "HardLoad" => hard_load {
+        "EtherCAT_TotalFrame" => (Plain, ethercat_total_frame),
+        "EtherCAT_FramesPerSecond" => (Plain, ethercat_frames_per_second),
+        "EtherCAT_TotalLostFrame" => (Plain, ethercat_total_lost_frame),
+        "EtherCAT_TxErrorFrame" => (Plain, ethercat_tx_error_frame),
+        "EtherCAT_RxErrorFrame" => (Plain, ethercat_rx_error_frame),
+        "Box48IN_Voltage" => (Plain, box48_in_voltage),
+        "Box48IN_Current" => (Plain, box48_in_current),
+        "Box48Out_Voltage" => (Plain, box48_out_voltage),
+        "Box48Out_Current" => (Plain, box48_out_current),
+        "Slave_temperature" => (Plain, slave_temperature),
+        "Slave_Voltage" => (Plain, slave_voltage),
+    }
+    "FTData" => ft {
+        "FTControlState" => (Plain, control_state),
+        "FTData" => (Plain, data),
+        "FTSrcData" => (Plain, src_data),
+    }
+    "Script" => script {
+        "errorCode" => (Plain, error_code),
+    }
+}
+
+/// Reads the members of an object whose `{` was just taken, up to its `}`.
+/// Recurses only into known groups, so at most [`MAX_DEPTH`] deep.
+///
+/// [`MAX_DEPTH`]: super::json::MAX_DEPTH
+fn read_object(t: &mut Tokenizer<'_>, ds: &mut DataSheet) -> Result<(), DataSheetError> {
+    loop {
+        let key = match t.next_token()? {
+            Some(Token::Key(k)) => k,
+            // The tokenizer yields only keys and `}` inside an object.
+            _ => return Ok(()),
+        };
+        let Some(value) = t.next_token()? else {
+            return Err(DataSheetError::Json(JsonError {
+                offset: t.offset(),
+                kind: JsonErrorKind::UnexpectedEnd,
+            }));
+        };
+        if value == Token::BeginObject && GROUPS.iter().any(|g| key_is(key, g)) {
+            read_object(t, ds)?;
+        } else if let Some((name, m)) = member(ds, key) {
+            m.read(value, t, name)?;
+        } else if matches!(value, Token::BeginObject | Token::BeginArray) {
+            t.skip_container()?;
+        }
+    }
+}
+
+impl DataSheet {
+    /// Upper bound of [`DataSheet::write_json`]'s output for any sheet whose
+    /// decimals have at most three decimals and at most 15 integer digits
+    /// (a buffer this size never fails for what a controller reports).
+    pub const MAX_JSON_LEN: usize = 5120;
+
+    /// Decodes a payload (as delivered by the [`Deframer`](super::Deframer),
+    /// or still holding NUL/`\n`/`\t` bytes: they are ignored either way).
+    /// See the [module documentation](self) for what is accepted.
+    pub fn parse(payload: &[u8]) -> Result<DataSheet, DataSheetError> {
+        let mut t = Tokenizer::new(payload);
+        if t.next_token()? != Some(Token::BeginObject) {
+            return Err(DataSheetError::NotAnObject);
+        }
+        let mut ds = DataSheet::default();
+        read_object(&mut t, &mut ds)?;
+        // Only whitespace may follow; the tokenizer reports anything else.
+        t.next_token()?;
+        Ok(ds)
+    }
+
+    /// Writes the payload JSON into `out`; returns its length, or
+    /// [`EncodeError::BufferTooSmall`].
+    pub fn write_json(&self, out: &mut [u8]) -> Result<usize, EncodeError> {
+        let mut w = Writer::new(out);
+        w.begin_object();
+        write_groups(self, &mut w);
+        w.end_object();
+        w.finish()
+    }
+
+    /// Writes a whole packet, header then JSON payload, into `out`; returns
+    /// its length, or [`EncodeError::BufferTooSmall`].
+    ///
+    /// ```
+    /// use hans_codec::datasheet::{DataSheet, Deframer};
+    ///
+    /// let mut sheet = DataSheet::default();
+    /// sheet.state.moving = Some(true);
+    /// let mut wire = [0u8; DataSheet::MAX_JSON_LEN + 12];
+    /// let n = sheet.write_packet(&mut wire).unwrap();
+    /// assert_eq!(&wire[..4], b"LTBR");
+    ///
+    /// let mut deframer = Deframer::<{ DataSheet::MAX_JSON_LEN }>::new();
+    /// let (used, item) = deframer.push(&wire[..n]);
+    /// assert_eq!(used, n);
+    /// assert_eq!(DataSheet::parse(item.unwrap().unwrap()).unwrap(), sheet);
+    /// ```
+    pub fn write_packet(&self, out: &mut [u8]) -> Result<usize, EncodeError> {
+        let (head, body) = out
+            .split_at_mut_checked(HEADER_LEN)
+            .ok_or(EncodeError::BufferTooSmall)?;
+        let cap = body.len().min(MAX_PAYLOAD);
+        let n = self.write_json(body.get_mut(..cap).unwrap_or(&mut []))?;
+        // 0 < n <= MAX_PAYLOAD and `head` is a whole header: cannot fail.
+        emit_header(n, head).map_err(|_| EncodeError::BufferTooSmall)?;
+        Ok(HEADER_LEN + n)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn d(s: &str) -> Decimal {
+        Decimal::parse(s).unwrap()
+    }
+
+    fn six(vals: [&str; 6]) -> [Decimal; 6] {
+        vals.map(d)
+    }
+
+    fn round_trip(ds: &DataSheet) -> DataSheet {
+        let mut buf = [0u8; DataSheet::MAX_JSON_LEN];
+        let n = ds.write_json(&mut buf).unwrap();
+        DataSheet::parse(&buf[..n]).unwrap()
+    }
+
+    #[test]
+    fn document_spellings_and_forms() {
+        let payload = br#"{"PosAndVel":{"Actual Position":["1.000","2","3","4","5","6",
+            "7","8","9","10","11","-0.000"],"Actual PCS TCP":["0.5",0,0,0,0,0],
+            "Actual Override": "0.050"},
+          "ElectricBoxAnalogIO":{"BoxAnalogOutMode 1":0,"BoxAnalogOut 2":"0.00",
+            "BoxAnalogIn_1":"-12.50"},
+          "StateAndError": {"robotState": "33", "robotEnabled": true, "InPos": 0,
+            "BrakeState": [0, 0, 0, 0, 0, 1],},
+          "HardLoad":{"Box48OUT_Voltage":48.00,"box48in_voltage":1,"EtherCAT_TotalFrame":18446744073709551615},
+          "FTData":{"FTData":[0.00,0.00,0.00,0.00,0.00,1.25],"FTControlState":"0"}}"#;
+        let ds = DataSheet::parse(payload).unwrap();
+        let p = ds.pos_and_vel.position.unwrap();
+        assert_eq!(p.joints, six(["1", "2", "3", "4", "5", "6"]));
+        assert_eq!(p.pose, Some(six(["7", "8", "9", "10", "11", "0"])));
+        assert_eq!(
+            ds.pos_and_vel.pcs_tcp,
+            Some(six(["0.5", "0", "0", "0", "0", "0"]))
+        );
+        assert_eq!(ds.pos_and_vel.override_ratio, Some(d("0.05")));
+        assert_eq!(ds.box_analog_io.out_mode, [Some(0), None]);
+        assert_eq!(ds.box_analog_io.out, [None, Some(d("0"))]);
+        assert_eq!(ds.box_analog_io.input, [Some(d("-12.5")), None]);
+        assert_eq!(ds.state.robot_state, Some(FsmState::StandBy));
+        assert_eq!(ds.state.enabled, Some(true));
+        assert_eq!(ds.state.in_pos, Some(false));
+        assert_eq!(ds.state.brake_state, Some([0, 0, 0, 0, 0, 1]));
+        assert_eq!(ds.hard_load.box48_out_voltage, Some(d("48")));
+        // Case is ignored.
+        assert_eq!(ds.hard_load.box48_in_voltage, Some(d("1")));
+        assert_eq!(ds.hard_load.ethercat_total_frame, Some(u64::MAX));
+        assert_eq!(ds.ft.data, Some(six(["0", "0", "0", "0", "0", "1.25"])));
+        assert_eq!(ds.ft.control_state, Some(0));
+        assert_eq!(ds.end_io, EndIo::default());
+        assert_eq!(round_trip(&ds), ds);
+    }
+
+    #[test]
+    fn unknown_members_are_skipped_and_groups_read_at_any_level() {
+        let payload = br#"{"pluginsdata":{"robotState":5,"x":[{"y":[]}]},
+            "Script":{"errorCode":7,"cmdid":["","",""],"GlobalVar":[]},
+            "PosAndVel":{"EndIO":{"EndDI":[1,0,1,0]}},
+            "robotMoving":1, "newField":{"a":[1,2,{"b":null}]}, "other":"text"}"#;
+        let ds = DataSheet::parse(payload).unwrap();
+        assert_eq!(ds.state.robot_state, None);
+        assert_eq!(ds.script.error_code, Some(7));
+        assert_eq!(&ds.end_io.end_di[..], &[1, 0, 1, 0]);
+        assert_eq!(ds.state.moving, Some(true));
+    }
+
+    #[test]
+    fn ignored_bytes_anywhere() {
+        let payload =
+            b"\0{\"StateAndError\":{\"robot\nState\":3\t3,\n\"Error_Code\":\"2\x000\"}}\0\0";
+        let ds = DataSheet::parse(payload).unwrap();
+        assert_eq!(ds.state.robot_state, Some(FsmState::StandBy));
+        assert_eq!(ds.state.error_code, Some(20));
+    }
+
+    #[test]
+    fn null_and_empty_leave_fields_unset() {
+        let ds = DataSheet::parse(
+            br#"{"Actual_Override":null,"Error_Code":"","BoxDI":null,"FTData":null,"Actual_Position":null}"#,
+        )
+        .unwrap();
+        assert_eq!(ds, DataSheet::default());
+    }
+
+    fn field_err(payload: &[u8]) -> (&'static str, FieldExpected, usize) {
+        match DataSheet::parse(payload) {
+            Err(DataSheetError::Field {
+                field,
+                expected,
+                offset,
+            }) => (field, expected, offset),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn typed_errors() {
+        use FieldExpected::*;
+        assert_eq!(
+            field_err(br#"{"robotState":"abc"}"#),
+            ("robotState", Integer, 14)
+        );
+        assert_eq!(field_err(br#"{"robotState":1.5}"#).1, Integer);
+        assert_eq!(field_err(br#"{"Error_Code":3000000000}"#).1, Integer);
+        assert_eq!(
+            field_err(br#"{"robotMoving":2}"#),
+            ("robotMoving", Flag, 15)
+        );
+        assert_eq!(field_err(br#"{"robotMoving":[1]}"#).1, Single);
+        assert_eq!(field_err(br#"{"robotMoving":{}}"#).1, Single);
+        assert_eq!(field_err(br#"{"BoxDI":1}"#), ("BoxDI", List, 9));
+        assert_eq!(
+            field_err(br#"{"Actual_PCS_TCP":["1","2"]}"#),
+            ("Actual_PCS_TCP", Exactly(6), 26)
+        );
+        assert_eq!(
+            field_err(br#"{"Actual_PCS_TCP":[1,2,3,4,5,6,7]}"#).1,
+            Exactly(6)
+        );
+        assert_eq!(
+            field_err(br#"{"Actual_Position":[1,2,3,4,5,6,7]}"#).1,
+            SixOrTwelve
+        );
+        assert_eq!(
+            field_err(br#"{"Actual_Position":[1,2,3,4,5,6,7,8,9,10,11,12,13]}"#).1,
+            SixOrTwelve
+        );
+        assert_eq!(
+            field_err(br#"{"EndAI":[1,2,3,4,5]}"#),
+            ("EndAI", AtMost(4), 18)
+        );
+        assert_eq!(field_err(br#"{"EndAI":[1,null]}"#), ("EndAI", Number, 12));
+        assert_eq!(field_err(br#"{"EndDI":[1,[0]]}"#).1, Integer);
+        assert_eq!(field_err(br#"{"EtherCAT_TotalFrame":-1}"#).1, Integer);
+        assert_eq!(
+            DataSheet::parse(b"[1]").unwrap_err(),
+            DataSheetError::NotAnObject
+        );
+        assert!(matches!(
+            DataSheet::parse(b"{\"a\":1} x"),
+            Err(DataSheetError::Json(JsonError { offset: 8, .. }))
+        ));
+        assert!(matches!(
+            DataSheet::parse(b""),
+            Err(DataSheetError::Json(_))
+        ));
+    }
+
+    #[test]
+    fn write_forms_follow_the_document() {
+        let mut ds = DataSheet::default();
+        ds.pos_and_vel.override_ratio = Some(d("0.05"));
+        ds.hard_load.box48_in_voltage = Some(d("48"));
+        ds.hard_load.slave_temperature.push(d("31.25")).unwrap();
+        ds.box_io.conveyor = Some(d("-0"));
+        ds.state.robot_state = Some(FsmState::Unknown(99));
+        ds.state.moving = Some(false);
+        ds.ft.data = Some(six(["1.23456", "0", "0", "0", "0", "0"]));
+        let mut buf = [0u8; 1024];
+        let n = ds.write_json(&mut buf).unwrap();
+        let text = core::str::from_utf8(&buf[..n]).unwrap();
+        for part in [
+            r#"{"PosAndVel":{"Actual_Override":"0.050"},"EndIO":{"EndDI":[],"#,
+            r#""ElectricBoxIO":{"BoxCI":[],"BoxCO":[],"BoxDI":[],"BoxDO":[],"Conveyor":"-0.000"},"#,
+            r#""ElectricBoxAnalogIO":{},"StateAndError":{"robotState":99,"robotMoving":0,"#,
+            r#""Box48IN_Voltage":48.000,"#,
+            r#""Slave_temperature":[31.250],"#,
+            r#""FTData":{"FTData":[1.23456,0.000,"#,
+            r#""Script":{}}"#,
+        ] {
+            assert!(text.contains(part), "{part} not in {text}");
+        }
+        assert_eq!(round_trip(&ds), ds);
+        // Too small a buffer is an error, at every size.
+        for len in 0..n {
+            assert_eq!(
+                ds.write_json(&mut buf[..len]),
+                Err(EncodeError::BufferTooSmall)
+            );
+        }
+        let mut packet = [0u8; 1024];
+        assert_eq!(
+            ds.write_packet(&mut packet[..n + 11]),
+            Err(EncodeError::BufferTooSmall)
+        );
+        assert_eq!(ds.write_packet(&mut packet[..n + 12]), Ok(n + 12));
+        assert_eq!(&packet[12..n + 12], &buf[..n]);
+    }
+
+    /// The largest sheet the bound promises: every field set, every list
+    /// full, every value as long as allowed.
+    #[test]
+    fn max_json_len_holds_for_the_largest_sheet() {
+        let big = d("-123456789012345.678");
+        let big6 = [big; 6];
+        let int = i32::MIN;
+        let full_i = |n: usize| (0..n).map(|_| int);
+        let mut ds = DataSheet {
+            pos_and_vel: PosAndVel {
+                position: Some(Position {
+                    joints: big6,
+                    pose: Some(big6),
+                }),
+                pcs_tcp: Some(big6),
+                pcs_base: Some(big6),
+                pcs_tool: Some(big6),
+                joint_current: Some(big6),
+                joint_velocity: Some(big6),
+                joint_acceleration: Some(big6),
+                override_ratio: Some(big),
+            },
+            ..DataSheet::default()
+        };
+        ds.end_io.end_di.extend(full_i(MAX_END_IO));
+        ds.end_io.end_do.extend(full_i(MAX_END_IO));
+        ds.end_io.end_button.extend(full_i(MAX_END_IO));
+        ds.end_io.enable_end_btn = Some(int);
+        ds.end_io.end_ai.extend((0..MAX_END_AI).map(|_| big));
+        ds.box_io.box_ci.extend(full_i(MAX_BOX_IO));
+        ds.box_io.box_co.extend(full_i(MAX_BOX_IO));
+        ds.box_io.box_di.extend(full_i(MAX_BOX_IO));
+        ds.box_io.box_do.extend(full_i(MAX_BOX_IO));
+        ds.box_io.conveyor = Some(big);
+        ds.box_io.encode = Some(int);
+        ds.box_analog_io = BoxAnalogIo {
+            out_mode: [Some(int); 2],
+            out: [Some(big); 2],
+            input: [Some(big); 2],
+        };
+        ds.state = StateAndError {
+            robot_state: Some(FsmState::Unknown(int)),
+            enabled: Some(true),
+            paused: Some(true),
+            moving: Some(true),
+            blending_done: Some(true),
+            in_pos: Some(true),
+            error_axis_id: Some(int),
+            error_code: Some(int),
+            brake_state: Some([int; 6]),
+            axis_status: Some([int; 6]),
+            axis_error_code: Some([int; 6]),
+            reset_safe_space: full_i(MAX_AXIS_GROUPS).collect(),
+            axis_group_status: full_i(MAX_AXIS_GROUPS).collect(),
+            axis_group_error_code: full_i(MAX_AXIS_GROUPS).collect(),
+        };
+        let count = Some(u64::MAX);
+        ds.hard_load = HardLoad {
+            ethercat_total_frame: count,
+            ethercat_frames_per_second: count,
+            ethercat_total_lost_frame: count,
+            ethercat_tx_error_frame: count,
+            ethercat_rx_error_frame: count,
+            box48_in_voltage: Some(big),
+            box48_in_current: Some(big),
+            box48_out_voltage: Some(big),
+            box48_out_current: Some(big),
+            slave_temperature: (0..MAX_SLAVES).map(|_| big).collect(),
+            slave_voltage: (0..MAX_SLAVES).map(|_| big).collect(),
+        };
+        ds.ft = FtData {
+            control_state: Some(int),
+            data: Some(big6),
+            src_data: Some(big6),
+        };
+        ds.script.error_code = Some(int);
+        let mut buf = [0u8; DataSheet::MAX_JSON_LEN];
+        let n = ds.write_json(&mut buf).unwrap();
+        assert!(n > DataSheet::MAX_JSON_LEN * 3 / 4, "bound too loose: {n}");
+        assert_eq!(DataSheet::parse(&buf[..n]).unwrap(), ds);
+    }
+}
