@@ -65,7 +65,11 @@ pub enum Kind {
 ///
 /// This is the generic view used for unknown command names (newer firmware
 /// keeps working) and underneath every typed parse.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+///
+/// Two messages are equal when they have the same name and the same fields
+/// as read (trimmed): `A, 1 ,;` equals `A,1,;`, as its canonical encoding
+/// does.
+#[derive(Clone, Copy, Debug)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct RawMessage<'a> {
     name: &'a str,
@@ -73,6 +77,14 @@ pub struct RawMessage<'a> {
     body: &'a str,
     count: u16,
 }
+
+impl PartialEq for RawMessage<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name && self.count == other.count && self.fields().eq(other.fields())
+    }
+}
+
+impl Eq for RawMessage<'_> {}
 
 /// Why a text is not a message at all.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -196,7 +196,8 @@ pub struct Failure<'a> {
     pub name: &'a str,
     /// The error code.
     pub code: ErrorCode,
-    /// Everything after the code, untrimmed inside, without terminator.
+    /// Everything after the code, without terminator, trimmed at its ends
+    /// (inside, commas and spaces are kept as sent).
     pub detail: &'a str,
 }
 
@@ -219,8 +220,10 @@ impl<'a> Failure<'a> {
         w.name(self.name);
         w.raw_field("Fail");
         w.int(self.code.code());
+        // Written as read: `detail` then the terminator `,;`, so that
+        // reading it back gives the same detail (an empty last field in it
+        // included).
         let d = crate::grammar::trim(self.detail);
-        let d = d.strip_suffix(',').unwrap_or(d);
         if !d.is_empty() {
             w.raw_field(d);
         }
@@ -266,7 +269,11 @@ impl<'a> Reply<'a> {
                 Ok(Reply::Fail(Failure {
                     name: raw.name(),
                     code: ErrorCode::from(code),
-                    detail: if detail.is_empty() { "" } else { detail.body() },
+                    detail: if detail.is_empty() {
+                        ""
+                    } else {
+                        crate::grammar::trim(detail.body())
+                    },
                 }))
             }
             Kind::Ok => {
