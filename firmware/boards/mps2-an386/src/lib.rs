@@ -15,6 +15,7 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod diag;
 pub mod irq;
 
 use cortex_m::peripheral::NVIC;

@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Firmware checks: builds both firmwares in release, prints their size report
+# (and fails if the gateway firmwares exceed 128 KiB flash / 64 KiB static
+# RAM), then runs the QEMU tests (smoke firmware; gateway firmware with the
+# robot simulator and a Modbus client), which print the stack high-water mark.
+#
+# Bounded: each QEMU and simulator process runs under timeout(1) and is
+# stopped by the tests on every exit path; the whole test run is under a
+# timeout here as well. Only 127.0.0.1 is used on the host.
+#
+# Environment: CARGO_TARGET_DIR (default: firmware/target for the firmware,
+# target/ for the host crates, as cargo does).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+
+command -v qemu-system-arm >/dev/null || SETUP_FUZZ=0 bash scripts/setup.sh
+
+FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
+HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
+BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"
+
+echo "==> build firmware (release): mps2-an386 (QEMU)"
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release --locked -p board-mps2-an386 --bins)
+echo "==> build firmware (release): nucleo-f767zi"
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release --locked -p board-nucleo-f767zi)
+
+echo "==> firmware size"
+bash scripts/firmware-size.sh smoke="$BIN_DIR/smoke"
+bash scripts/firmware-size.sh --budget \
+  gateway-mps2-an386="$BIN_DIR/gateway" \
+  gateway-nucleo-f767zi="$BIN_DIR/nucleo-f767zi"
+
+echo "==> build robot simulator"
+CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release --locked -p hans-sim
+
+echo "==> QEMU tests"
+LOG=$(mktemp)
+trap 'rm -f "$LOG"' EXIT
+# One test at a time: each runs a QEMU, and the machine has two cores.
+set +e
+FIRMWARE_BIN_DIR="$BIN_DIR" HANS_SIM_BIN="$HOST_TARGET/release/hans-sim" \
+  CARGO_TARGET_DIR="$HOST_TARGET" \
+  timeout --kill-after=10 900 \
+  cargo test --locked --manifest-path firmware/qemu-tests/Cargo.toml -- --test-threads=1 --nocapture \
+  2>&1 | tee "$LOG"
+status=${PIPESTATUS[0]}
+set -e
+
+echo "==> stack high-water marks measured under QEMU (painted stack)"
+grep -E 'stack: [0-9]+ of [0-9]+ bytes used|^stack_used=|stack_used=' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
+exit "$status"
