@@ -8,7 +8,7 @@
 #   MODBUS_PORT  host port forwarded to the firmware's Modbus port 502
 #                (default 5020; bound on 127.0.0.1 only)
 #   SIM_PORT     host port of the robot simulator; the firmware reaches it as
-#                10.0.2.100:10003 (default 10003)
+#                10.0.2.100:10003 (default 10003), through socat
 #   ADMIN_PORT   host port forwarded to the firmware's test/diagnostics port
 #                5021, if set (QEMU gateway firmware only)
 #   DEFMT_OUT    file to write the raw defmt log stream to; when unset the
@@ -29,7 +29,14 @@ nic+=",hostfwd=tcp:127.0.0.1:${modbus_port}-10.0.2.15:502"
 if [ -n "${ADMIN_PORT:-}" ]; then
   nic+=",hostfwd=tcp:127.0.0.1:${ADMIN_PORT}-10.0.2.15:5021"
 fi
-nic+=",guestfwd=tcp:10.0.2.100:10003-tcp:127.0.0.1:${sim_port}"
+# `cmd:` spawns one relay per guest connection, so every connection the
+# firmware opens is a new connection to the simulator, and one attempted
+# while the simulator is down fails as it would on a real network. (A
+# `tcp:` chardev target would be one shared stream, opened once at QEMU's
+# start, that fails QEMU when the simulator is not up yet and never
+# reconnects after the simulator restarts.)
+command -v socat >/dev/null || { echo "qemu-run.sh: socat is needed (apt-get install socat)" >&2; exit 2; }
+nic+=",guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:${sim_port}"
 
 qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
   -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$elf")
