@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Builds every fuzz target and runs each for a bounded time.
+#
+#   bash host-tests/fuzz/run.sh [SECONDS_PER_TARGET]   (default 20)
+#
+# Seeds come from the test vectors (seeds.py, into the git-ignored corpus/).
+# Fails (non-zero exit) on the first crash; libFuzzer leaves the input in
+# artifacts/<target>/. Idempotent: run it again and it carries on from the
+# corpus it built. Needs the nightly toolchain and cargo-fuzz
+# (scripts/setup.sh installs both). Set FUZZ_TARGETS="framer reply" to run a
+# subset.
+set -euo pipefail
+cd "$(dirname "$0")"
+
+secs=${1:-20}
+targets=(${FUZZ_TARGETS:-framer request reply datasheet})
+
+if ! rustup toolchain list | grep -q '^nightly'; then
+  echo "fuzz: the nightly toolchain is missing (bash scripts/setup.sh installs it)" >&2
+  exit 1
+fi
+if ! cargo +nightly fuzz --version >/dev/null 2>&1; then
+  echo "fuzz: cargo-fuzz is missing (bash scripts/setup.sh installs it)" >&2
+  exit 1
+fi
+
+python3 seeds.py
+cargo +nightly fuzz build
+log=$(mktemp)
+trap 'rm -f "$log"' EXIT
+for t in "${targets[@]}"; do
+  echo "==> fuzz $t for ${secs}s"
+  mkdir -p "corpus/$t" "artifacts/$t"
+  status=0
+  cargo +nightly fuzz run "$t" "corpus/$t" -- \
+    -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 -max_len=8192 \
+    -print_final_stats=1 >"$log" 2>&1 || status=$?
+  grep -E 'stat::number_of_executed_units|stat::new_units_added|Done [0-9]+ runs' "$log" || true
+  if [ "$status" -ne 0 ]; then
+    tail -n 60 "$log" >&2
+    echo "fuzz: $t FAILED (exit $status); the input is in host-tests/fuzz/artifacts/$t/" >&2
+    exit 1
+  fi
+done
+echo "fuzz: ${#targets[@]} targets, ${secs}s each, no crash"
