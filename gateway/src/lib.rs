@@ -1,2 +1,66 @@
-//! Gateway logic between a PLC (Modbus TCP) and a Hans robot controller.
-#![no_std]
+//! # hans-gateway
+//!
+//! A gateway between a PLC (Modbus TCP server) and a Hans / Huayan Elfin
+//! robot controller (its TCP command port): the PLC writes a few registers
+//! and the robot moves, with Busy, Done and Error coming back the PLCopen
+//! way. The register map for PLC programmers is `REGISTERS.md` beside this
+//! crate's `Cargo.toml`.
+//!
+//! The logic is `no_std`, allocation-free and board-independent; it runs on
+//! embassy (embassy-sync, embassy-time) over a small socket interface
+//! ([`net`]) with two adapters: tokio on Linux (feature `std`, used by the
+//! `hans-gateway` binary and the tests) and embassy-net on boards (feature
+//! `embassy-net`, entry point [`board::run`]).
+//!
+//! ## Where things are
+//! | module | what |
+//! |---|---|
+//! | [`link`] | robot link: connect or listen, one request in flight, framing, reply timeout |
+//! | [`modbus`] | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
+//! | [`registers`] | the register map: addresses, types, access |
+//! | [`engine`] | command channels, PLCopen handshake, FIFO queue, motion completion, watchdog |
+//! | [`status`] | status mirror: polling the command port |
+//! | [`config`] | configuration, its registers, [`Storage`] |
+//! | [`net`] | the socket interface and its adapters |
+//! | [`board`] | the entry point for boards (feature `embassy-net`) |
+//!
+//! Triggers (the stored command table) are register texts turned into jobs
+//! by the same path as RAW commands (`gateway.rs`, [`engine::job`]).
+//!
+//! ## Bounds
+//! Every buffer and queue is fixed: [`MAX_SESSIONS`] Modbus clients,
+//! [`engine::job::QUEUE_DEPTH`] queued commands (more end in Error 39600),
+//! RAW requests of 256 characters and replies of 512 (longer replies are
+//! cut and flagged), robot replies up to [`link::REPLY_MAX`] bytes (longer:
+//! Error 39502), Modbus ADUs of 260 bytes.
+//!
+//! ## Features
+//! * `std` (default): tokio adapter, `log` output, embassy-time's std driver.
+//! * `embassy-net`: the embassy-net adapter and [`board`].
+//! * `defmt`: log through defmt.
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+#[macro_use]
+mod fmt;
+
+#[cfg(feature = "embassy-net")]
+pub mod board;
+pub mod config;
+pub mod engine;
+mod gateway;
+#[cfg(feature = "std")]
+pub mod host;
+pub mod link;
+pub mod modbus;
+pub mod net;
+pub mod registers;
+pub mod status;
+
+pub use config::{Config, RamStorage, Storage, StorageError};
+pub use gateway::{run, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF, VERSION};

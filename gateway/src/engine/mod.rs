@@ -1,0 +1,643 @@
+//! The command engine: the only user of the robot link.
+//!
+//! * Jobs leave the FIFO queue one at a time; one request is in flight.
+//! * A motion command is Done when the robot has finished it (chapter 6):
+//!   `ReadRobotState` is polled every [`MOTION_POLL`] until moving ends
+//!   (plus blending done / in position if configured); Error when the robot
+//!   refuses it or reports an error, emergency stop or safety guard.
+//! * While a motion runs, other commands still go out in queue order, but a
+//!   motion at the head of the queue waits for the running one to finish
+//!   (the robot takes one motion at a time); stop, pause and continue
+//!   commands pass such a waiting motion. A successful `GrpStop` ends the
+//!   running motion's command in CommandAborted.
+//! * Between commands the engine polls the status (see [`crate::status`]).
+//! * The PLC watchdog: while a motion runs, the heartbeat register must
+//!   change at least every configured period, else the configured action
+//!   is sent and reported.
+//! * A reply timeout ends the command in Error and resets the link; when
+//!   the link drops, every queued and running command ends in Error (link
+//!   lost) and nothing is re-sent. Reconnects back off from
+//!   [`MIN_BACKOFF`] to [`MAX_BACKOFF`].
+
+pub mod commands;
+pub mod job;
+
+use core::convert::Infallible;
+
+use embassy_futures::select::{select3, Either3};
+use embassy_time::{Duration, Instant, Timer};
+use hans_codec::{
+    request, Command, CommandId, ParseError, Reply, ReplyExpect, Request, Response, RobotId,
+};
+
+pub use job::{ErrorSource, GatewayError, Outcome, Source};
+
+use crate::config::{Config, LinkMode, WatchdogAction};
+use crate::gateway::{millis, Ctx};
+use crate::link::{IdleEvent, Link, LinkError, Target};
+use crate::net::Socket;
+use crate::registers as r;
+use crate::status::{self, LinkState, PollStep};
+use job::{Job, Results};
+
+/// Poll period of `ReadRobotState` while a motion runs.
+pub const MOTION_POLL: Duration = Duration::from_millis(10);
+/// First reconnect delay.
+pub const MIN_BACKOFF: Duration = Duration::from_millis(200);
+/// Longest reconnect delay.
+pub const MAX_BACKOFF: Duration = Duration::from_secs(5);
+
+struct Active {
+    source: Source,
+    since: Instant,
+    seen_moving: bool,
+    /// The watchdog already acted on this motion.
+    watchdog_fired: bool,
+}
+
+struct Engine<'c, 'a> {
+    ctx: &'c Ctx<'a>,
+    config: Config,
+    config_gen: u32,
+    target: Target,
+    active: Option<Active>,
+    backoff: Duration,
+    retry_at: Instant,
+    next_tick: Instant,
+    round: Option<usize>,
+    next_motion_poll: Instant,
+    buf: [u8; 160],
+}
+
+fn target_of(c: &Config) -> Target {
+    match c.link_mode {
+        LinkMode::Listen => Target::Listen(c.listen_port),
+        LinkMode::Connect if c.robot_ip.is_unspecified() => Target::None,
+        LinkMode::Connect => Target::Connect(c.robot()),
+    }
+}
+
+/// Runs the engine forever.
+pub(crate) async fn run<S: Socket>(ctx: &Ctx<'_>, mut link: Link<S>) -> Infallible {
+    let (config, config_gen) = ctx.with(|s| (s.config, s.config_gen));
+    let now = Instant::now();
+    let mut e = Engine {
+        ctx,
+        config,
+        config_gen,
+        target: target_of(&config),
+        active: None,
+        backoff: MIN_BACKOFF,
+        retry_at: now,
+        next_tick: now,
+        round: None,
+        next_motion_poll: now,
+        buf: [0; 160],
+    };
+    loop {
+        e.step(&mut link).await;
+    }
+}
+
+impl<'c, 'a> Engine<'c, 'a> {
+    fn set_link_state(&self, st: LinkState) {
+        self.ctx
+            .with(|s| s.regs.set(r::STATUS_LINK_STATE, st as u16));
+    }
+
+    async fn step<S: Socket>(&mut self, link: &mut Link<S>) {
+        self.follow_config(link).await;
+        let now = Instant::now();
+        if now >= self.next_tick {
+            self.next_tick = now + millis(self.config.poll_ms);
+            self.ctx.with(|s| {
+                let hb = s.regs.get(r::STATUS_HEARTBEAT).wrapping_add(1);
+                s.regs.set(r::STATUS_HEARTBEAT, hb);
+            });
+            if link.is_up()
+                && self.round.is_none()
+                && self.config.status_source == crate::config::StatusSource::Polling
+            {
+                self.round = Some(0);
+            }
+        }
+        if !link.is_up() {
+            self.bring_up(link).await;
+            return;
+        }
+        if self.check_watchdog(link, now).await {
+            return;
+        }
+        if let Some(job) = self.take_job() {
+            self.run_job(link, job).await;
+            return;
+        }
+        if self.active.is_some() && now >= self.next_motion_poll {
+            self.poll_motion(link).await;
+            return;
+        }
+        if let Some(i) = self.round {
+            self.poll_status(link, i).await;
+            return;
+        }
+        let mut due = self.next_tick;
+        if self.active.is_some() {
+            due = due.min(self.next_motion_poll);
+        }
+        if let Some(w) = self.watchdog_due() {
+            due = due.min(w);
+        }
+        let listen = match self.target {
+            Target::Listen(p) => Some(p),
+            _ => None,
+        };
+        match select3(link.idle(listen), self.ctx.wake.wait(), Timer::at(due)).await {
+            Either3::First(IdleEvent::Lost(e)) => {
+                warn!("robot link: {}", e.as_str());
+                self.link_lost(link, GatewayError::LinkLost).await;
+            }
+            Either3::First(IdleEvent::Replaced) => {
+                info!(
+                    "robot link: the controller connected again; new connection replaces the old"
+                );
+                self.ctx.with(|s| {
+                    let n = s.regs.get(r::STATUS_LINK_CONNECTS).wrapping_add(1);
+                    s.regs.set(r::STATUS_LINK_CONNECTS, n);
+                });
+            }
+            _ => {}
+        }
+    }
+
+    /// Picks up a changed configuration; a changed robot address drops the
+    /// link.
+    async fn follow_config<S: Socket>(&mut self, link: &mut Link<S>) {
+        let (config, gen) = self.ctx.with(|s| (s.config, s.config_gen));
+        if gen == self.config_gen {
+            return;
+        }
+        self.config_gen = gen;
+        self.config = config;
+        let target = target_of(&config);
+        if target != self.target {
+            info!("robot link: target changed");
+            if link.is_up() {
+                self.link_lost(link, GatewayError::LinkLost).await;
+            }
+            link.close_all().await;
+            self.target = target;
+            self.backoff = MIN_BACKOFF;
+            self.retry_at = Instant::now();
+        }
+    }
+
+    async fn bring_up<S: Socket>(&mut self, link: &mut Link<S>) {
+        self.ctx.with(|s| s.fail_queue(GatewayError::NotConnected));
+        let now = Instant::now();
+        match self.target {
+            Target::None => {
+                self.set_link_state(LinkState::Down);
+                let _ = embassy_futures::select::select(
+                    self.ctx.wake.wait(),
+                    Timer::at(self.next_tick),
+                )
+                .await;
+            }
+            Target::Connect(addr) => {
+                if now < self.retry_at {
+                    self.set_link_state(LinkState::Down);
+                    let due = self.retry_at.min(self.next_tick);
+                    let _ =
+                        embassy_futures::select::select(self.ctx.wake.wait(), Timer::at(due)).await;
+                    return;
+                }
+                self.set_link_state(LinkState::Connecting);
+                // Bounded by CONNECT_TIMEOUT; awaited whole so that slow
+                // connects are not cut by the poll tick.
+                match link.establish(Target::Connect(addr)).await {
+                    Ok(()) => self.on_connected(link),
+                    Err(e) => {
+                        debug!("robot link: connect failed: {}", e.as_str());
+                        self.backoff_after(GatewayError::NotConnected);
+                    }
+                }
+            }
+            Target::Listen(port) => {
+                self.set_link_state(LinkState::Listening);
+                match select3(
+                    link.establish(Target::Listen(port)),
+                    self.ctx.wake.wait(),
+                    Timer::at(self.next_tick),
+                )
+                .await
+                {
+                    Either3::First(Ok(())) => self.on_connected(link),
+                    Either3::First(Err(e)) => {
+                        warn!("robot link: listen failed: {}", e.as_str());
+                        self.backoff_after(GatewayError::NotConnected);
+                        Timer::at(self.retry_at).await;
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+
+    fn backoff_after(&mut self, e: GatewayError) {
+        self.retry_at = Instant::now() + self.backoff;
+        self.backoff = (self.backoff * 2).min(MAX_BACKOFF);
+        self.ctx.with(|s| {
+            s.regs.set(r::STATUS_LINK_STATE, LinkState::Down as u16);
+            s.regs.set(r::STATUS_LINK_LAST_ERROR, e.code() as u16);
+        });
+    }
+
+    fn on_connected<S: Socket>(&mut self, link: &Link<S>) {
+        self.backoff = MIN_BACKOFF;
+        if let Some(p) = link.peer() {
+            info!("robot link: up, peer {}:{}", p.ip().octets()[3], p.port());
+        } else {
+            info!("robot link: up");
+        }
+        self.ctx.with(|s| {
+            s.link_up = true;
+            s.regs
+                .set(r::STATUS_LINK_STATE, LinkState::Connected as u16);
+            let n = s.regs.get(r::STATUS_LINK_CONNECTS).wrapping_add(1);
+            s.regs.set(r::STATUS_LINK_CONNECTS, n);
+        });
+        if self.config.status_source == crate::config::StatusSource::Polling {
+            self.round = Some(0);
+        }
+    }
+
+    /// The link is gone: every queued and running command ends in Error.
+    async fn link_lost<S: Socket>(&mut self, link: &mut Link<S>, e: GatewayError) {
+        let active = self.active.take();
+        self.round = None;
+        self.ctx.with(|s| {
+            if let Some(a) = &active {
+                s.finish(a.source, Outcome::gateway(GatewayError::LinkLost));
+                s.regs.set(r::STATUS_ACTIVE_MOTION, 0);
+            }
+            s.fail_queue(GatewayError::LinkLost);
+            s.link_up = false;
+            status::invalidate(&mut s.regs);
+            s.regs.set_bits(r::STATUS_WATCHDOG, 1, false);
+        });
+        link.close().await;
+        warn!("robot link: lost ({}), reconnecting", e.as_str());
+        self.backoff_after(e);
+    }
+
+    /// Takes the next job that may go now.
+    fn take_job(&mut self) -> Option<Job> {
+        let motion_running = self.active.is_some();
+        self.ctx.with(|s| {
+            let i = match s.queue.first() {
+                None => return None,
+                Some(j) if !motion_running || !j.motion => 0,
+                Some(_) => s.queue.iter().position(|j| j.interrupting)?,
+            };
+            if i >= s.queue.len() {
+                return None;
+            }
+            let job = s.queue.remove(i);
+            job.source.set_dequeued(&mut s.regs);
+            s.update_queue_reg();
+            Some(job)
+        })
+    }
+
+    fn deadline(&self) -> Instant {
+        Instant::now() + millis(self.config.reply_timeout_ms)
+    }
+
+    /// Sends a job's messages in turn and ends it (or starts its motion).
+    async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job) {
+        let mut last = None;
+        for msg in job.text.split_inclusive(';') {
+            info!(
+                "{} #{}: send {}",
+                job.source.name(),
+                job.source.index(),
+                msg
+            );
+            let req = Request::parse(msg).ok();
+            let expect = req.as_ref().map(|q| q.expect()).unwrap_or(ReplyExpect {
+                command: None,
+                count: None,
+            });
+            last = req.as_ref().and_then(|q| q.command());
+            let req_name = req.as_ref().map(|q| q.name()).unwrap_or("");
+            let deadline = self.deadline();
+            let outcome = match link.transact(msg.as_bytes(), deadline).await {
+                Err(LinkError::Timeout) => {
+                    self.end(job.source, Outcome::gateway(GatewayError::ReplyTimeout));
+                    self.link_lost(link, GatewayError::ReplyTimeout).await;
+                    return;
+                }
+                Err(LinkError::Lost(_)) => {
+                    self.end(job.source, Outcome::gateway(GatewayError::LinkLost));
+                    self.link_lost(link, GatewayError::LinkLost).await;
+                    return;
+                }
+                Err(LinkError::BadFrame(_)) => Some(Outcome::gateway(GatewayError::BadReply)),
+                Ok(text) => {
+                    let order = self.config.word_order;
+                    let parsed = Reply::parse(text, expect);
+                    self.ctx.with(|s| {
+                        if job.source == Source::Raw {
+                            let b = text.as_bytes();
+                            s.regs.set_text(r::RAW_REPLY, r::RAW_REPLY_REGS, b);
+                            s.regs.set(r::RAW_REPLY_LEN, b.len() as u16);
+                            let cut = b.len() > 2 * r::RAW_REPLY_REGS as usize;
+                            s.regs.set(r::RAW_REPLY_TRUNCATED, u16::from(cut));
+                        }
+                        match &parsed {
+                            Ok(Reply::Ok(Response::Unknown(raw))) if raw.name() != req_name => {
+                                Some(Outcome::gateway(GatewayError::ReplyMismatch))
+                            }
+                            Ok(Reply::Ok(resp)) => {
+                                status::apply_response(resp, &mut s.regs, order);
+                                if let (
+                                    Results::ActPos,
+                                    Response::ReadActPos(p),
+                                    Source::Channel(i),
+                                ) = (job.results, resp, job.source)
+                                {
+                                    let b = r::channel_base(usize::from(i)) + r::CH_RESULTS;
+                                    let all =
+                                        p.joints.iter().chain(&p.pose).chain(&p.tcp).chain(&p.ucs);
+                                    for (k, v) in all.enumerate() {
+                                        s.regs.set_f32(b + 2 * k as u16, v.to_f32(), order);
+                                    }
+                                }
+                                if let Some(Request::SetOverride(o)) = &req {
+                                    s.regs.set_f32(r::STATUS_OVERRIDE, o.ratio.to_f32(), order);
+                                }
+                                None
+                            }
+                            Ok(Reply::Fail(f)) => {
+                                Some(Outcome::Error(ErrorSource::RobotFail, f.code.code()))
+                            }
+                            Ok(Reply::ErrorCmd(_)) => {
+                                Some(Outcome::gateway(GatewayError::BadReply))
+                            }
+                            Err(ParseError::NameMismatch { .. }) => {
+                                Some(Outcome::gateway(GatewayError::ReplyMismatch))
+                            }
+                            Err(_) => Some(Outcome::gateway(GatewayError::BadReply)),
+                        }
+                    })
+                }
+            };
+            if let Some(outcome) = outcome {
+                self.end(job.source, outcome);
+                if outcome == Outcome::gateway(GatewayError::ReplyMismatch) {
+                    // Replies no longer match requests: start afresh.
+                    self.link_lost(link, GatewayError::ReplyMismatch).await;
+                }
+                return;
+            }
+        }
+        let now = Instant::now();
+        if job.motion {
+            self.ctx.with(|s| {
+                job.source.set_active(&mut s.regs, true);
+                s.regs.set(r::STATUS_ACTIVE_MOTION, job.source.code());
+            });
+            self.active = Some(Active {
+                source: job.source,
+                since: now,
+                seen_moving: false,
+                watchdog_fired: false,
+            });
+            self.next_motion_poll = now + MOTION_POLL;
+            return;
+        }
+        if last == Some(CommandId::GrpStop) {
+            if let Some(a) = self.active.take() {
+                self.end_motion(a.source, Outcome::Aborted);
+            }
+        }
+        self.end(job.source, Outcome::Done);
+    }
+
+    fn end(&self, source: Source, outcome: Outcome) {
+        self.ctx.with(|s| s.finish(source, outcome));
+    }
+
+    fn end_motion(&self, source: Source, outcome: Outcome) {
+        self.ctx.with(|s| {
+            s.finish(source, outcome);
+            s.regs.set(r::STATUS_ACTIVE_MOTION, 0);
+            s.regs.set_bits(r::STATUS_WATCHDOG, 1, false);
+        });
+    }
+
+    /// Sends the request in `self.buf[..len]` and hands its reply to `f`.
+    /// `Err(())` when the link was lost (already handled), `Ok(None)` when
+    /// the reply could not be read.
+    async fn poll<S: Socket, R>(
+        &mut self,
+        link: &mut Link<S>,
+        len: usize,
+        expect: ReplyExpect,
+        what: &str,
+        f: impl FnOnce(&Reply<'_>, &mut crate::gateway::Shared, crate::config::WordOrder) -> R,
+    ) -> Result<Option<R>, ()> {
+        let deadline = self.deadline();
+        let order = self.config.word_order;
+        let ctx = self.ctx;
+        let msg = self.buf.get(..len).unwrap_or(&[]);
+        let err = match link.transact(msg, deadline).await {
+            Err(LinkError::Timeout) => GatewayError::ReplyTimeout,
+            Err(LinkError::Lost(_)) => GatewayError::LinkLost,
+            Err(LinkError::BadFrame(_)) => return Ok(None),
+            Ok(text) => {
+                return match Reply::parse(text, expect) {
+                    Ok(reply) => Ok(Some(ctx.with(|s| f(&reply, s, order)))),
+                    Err(_) => {
+                        debug!("{}: unreadable reply", what);
+                        Ok(None)
+                    }
+                }
+            }
+        };
+        warn!("{}: {}", what, err.as_str());
+        self.link_lost(link, err).await;
+        Err(())
+    }
+
+    /// One request of the status round.
+    async fn poll_status<S: Socket>(&mut self, link: &mut Link<S>, i: usize) {
+        let Some(step) = PollStep::ROUND.get(i).copied() else {
+            self.round = None;
+            return;
+        };
+        let Some((len, expect)) = step.request(self.config.robot_id, &mut self.buf) else {
+            self.round = None;
+            return;
+        };
+        let r = self
+            .poll(link, len, expect, "status", |reply, s, order| {
+                step.apply(reply, &mut s.regs, order)
+            })
+            .await;
+        if r.is_err() {
+            return;
+        }
+        if i + 1 >= PollStep::ROUND.len() {
+            self.round = None;
+            self.ctx.with(|s| s.status_time = Some(Instant::now()));
+        } else {
+            self.round = Some(i + 1);
+        }
+    }
+
+    /// `ReadRobotState` while a motion runs: decides Done or Error.
+    async fn poll_motion<S: Socket>(&mut self, link: &mut Link<S>) {
+        self.next_motion_poll = Instant::now() + MOTION_POLL;
+        let Some((len, expect)) = PollStep::RobotState.request(self.config.robot_id, &mut self.buf)
+        else {
+            return;
+        };
+        let state = self
+            .poll(link, len, expect, "motion", |reply, s, order| match reply {
+                Reply::Ok(Response::ReadRobotState(rs)) => {
+                    status::apply_robot_state(rs, &mut s.regs, order);
+                    Some(rs.clone())
+                }
+                _ => None,
+            })
+            .await;
+        let Ok(Some(Some(rs))) = state else {
+            return;
+        };
+        let Some(a) = self.active.as_mut() else {
+            return;
+        };
+        let now = Instant::now();
+        let outcome = if rs.error != 0 {
+            Some(match rs.error_code {
+                0 => Outcome::gateway(GatewayError::RobotErrorNoCode),
+                c => Outcome::Error(ErrorSource::RobotMotion, c),
+            })
+        } else if rs.emergency_stop != 0 {
+            Some(Outcome::gateway(GatewayError::EmergencyStop))
+        } else if rs.safety_guard != 0 {
+            Some(Outcome::gateway(GatewayError::SafetyGuard))
+        } else if rs.moving != 0 {
+            a.seen_moving = true;
+            None
+        } else if rs.paused != 0 {
+            None
+        } else if a.seen_moving
+            || now.saturating_duration_since(a.since) >= millis(self.config.start_grace_ms)
+        {
+            let blend_ok = !self.config.wait_blending_done || rs.blending_done != 0;
+            let pos_ok = !self.config.wait_in_position || rs.in_position != 0;
+            (blend_ok && pos_ok).then_some(Outcome::Done)
+        } else {
+            None
+        };
+        let Some(outcome) = outcome else {
+            return;
+        };
+        let source = a.source;
+        self.active = None;
+        self.end_motion(source, outcome);
+        if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
+            info!("auto-reset: GrpReset after the motion error");
+            let cmd = request::GrpReset {
+                rbt_id: RobotId(i32::from(self.config.robot_id)),
+            };
+            self.send_internal(link, &cmd).await;
+        }
+    }
+
+    /// Sends a command of the gateway's own (watchdog action, auto reset).
+    async fn send_internal<'x, S: Socket, C: Command<'x>>(&mut self, link: &mut Link<S>, cmd: &C) {
+        let Ok(len) = cmd.encode(&mut self.buf) else {
+            return;
+        };
+        let name = C::ID.name();
+        let r = self
+            .poll(link, len, cmd.expect(), name, |reply, _, _| match reply {
+                Reply::Ok(_) => 0,
+                Reply::Fail(f) => f.code.code(),
+                Reply::ErrorCmd(_) => GatewayError::BadReply.code(),
+            })
+            .await;
+        match r {
+            Ok(Some(0)) => info!("{}: sent, ok", name),
+            Ok(Some(code)) => warn!("{}: refused, code {}", name, code),
+            Ok(None) => warn!("{}: unreadable reply", name),
+            Err(()) => {}
+        }
+    }
+
+    /// Checks the PLC heartbeat while a motion runs. `true` if it acted.
+    async fn check_watchdog<S: Socket>(&mut self, link: &mut Link<S>, now: Instant) -> bool {
+        let Some(a) = &self.active else {
+            return false;
+        };
+        if self.config.watchdog_ms == 0 || a.watchdog_fired {
+            return false;
+        }
+        let period = millis(self.config.watchdog_ms);
+        let since = a.since;
+        let source = a.source;
+        let expired = self.ctx.with(|s| {
+            s.regs.set_bits(r::STATUS_WATCHDOG, 1, true);
+            let last = s.last_beat.max(since);
+            now.saturating_duration_since(last) > period
+        });
+        if !expired {
+            return false;
+        }
+        let action = self.config.watchdog_action;
+        warn!(
+            "watchdog: PLC heartbeat unchanged for {} ms during a motion",
+            self.config.watchdog_ms
+        );
+        self.ctx.with(|s| {
+            s.regs.set_bits(r::STATUS_WATCHDOG, 2, true);
+            let n = s.regs.get(r::STATUS_WATCHDOG_TRIPS).wrapping_add(1);
+            s.regs.set(r::STATUS_WATCHDOG_TRIPS, n);
+        });
+        let id = RobotId(i32::from(self.config.robot_id));
+        match action {
+            WatchdogAction::ReportOnly => {
+                if let Some(a) = self.active.as_mut() {
+                    a.watchdog_fired = true;
+                }
+                return false;
+            }
+            WatchdogAction::Stop => {
+                self.active = None;
+                self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
+                self.send_internal(link, &request::GrpStop { rbt_id: id })
+                    .await;
+            }
+            WatchdogAction::Pause => {
+                self.active = None;
+                self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
+                self.send_internal(link, &request::GrpInterrupt { rbt_id: id })
+                    .await;
+            }
+        }
+        true
+    }
+
+    /// The next instant the watchdog could expire.
+    fn watchdog_due(&self) -> Option<Instant> {
+        let a = self.active.as_ref()?;
+        if self.config.watchdog_ms == 0 || a.watchdog_fired {
+            return None;
+        }
+        let last = self.ctx.with(|s| s.last_beat).max(a.since);
+        Some(last + millis(self.config.watchdog_ms) + Duration::from_millis(1))
+    }
+}

@@ -1,0 +1,252 @@
+//! The robot link: one TCP connection to the controller's command port,
+//! opened by the gateway (connect mode) or by the controller (listen mode,
+//! the controller's client mode of chapter 3.1), with one request in flight.
+//!
+//! Replies are framed with the codec's [`Framer`]; anything the controller
+//! sends while no request is in flight is dropped, and so is anything after
+//! the reply (the controller answers one message with one message). In
+//! listen mode a second socket keeps accepting while the link is idle: a new
+//! connection from the controller replaces the old one.
+//!
+//! The engine owns the link and decides about timeouts and backoff.
+
+use core::net::SocketAddrV4;
+
+use embassy_time::{with_deadline, Duration, Instant, TimeoutError};
+use hans_codec::{FrameError, Framer};
+
+use crate::net::{NetError, Socket};
+
+/// Longest reply accepted (longer replies end the command in Error
+/// "bad reply"; the link stays up).
+pub const REPLY_MAX: usize = 1024;
+/// Bound of one connection attempt.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(3);
+
+/// Where the robot is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Target {
+    /// Connect to the controller.
+    Connect(SocketAddrV4),
+    /// Wait for the controller on this port.
+    Listen(u16),
+    /// No robot configured.
+    None,
+}
+
+/// Why a request failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinkError {
+    /// No reply within the timeout.
+    Timeout,
+    /// The connection broke or was closed.
+    Lost(NetError),
+    /// The reply was too long or held invalid bytes (link still usable).
+    BadFrame(FrameError),
+}
+
+/// What happened while the link was idle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum IdleEvent {
+    /// The connection was lost.
+    Lost(NetError),
+    /// The controller connected again; the new connection replaced the old.
+    Replaced,
+}
+
+/// The link.
+pub struct Link<S: Socket> {
+    socks: [S; 2],
+    cur: usize,
+    up: bool,
+    framer: Framer<REPLY_MAX>,
+    rx: [u8; 256],
+    reply: [u8; REPLY_MAX],
+    reply_len: usize,
+}
+
+impl<S: Socket> Link<S> {
+    /// A link over two sockets (the second serves listen-mode reconnects).
+    pub fn new(a: S, b: S) -> Self {
+        Link {
+            socks: [a, b],
+            cur: 0,
+            up: false,
+            framer: Framer::new(),
+            rx: [0; 256],
+            reply: [0; REPLY_MAX],
+            reply_len: 0,
+        }
+    }
+
+    /// `true` while connected.
+    pub fn is_up(&self) -> bool {
+        self.up
+    }
+
+    /// The controller's address while connected.
+    pub fn peer(&self) -> Option<SocketAddrV4> {
+        self.socks.get(self.cur).and_then(|s| s.remote())
+    }
+
+    fn sock(&mut self) -> &mut S {
+        let i = self.cur % 2;
+        &mut self.socks[i]
+    }
+
+    /// One attempt to bring the link up: a connect bounded by
+    /// [`CONNECT_TIMEOUT`], or an accept that waits as long as it is polled.
+    pub async fn establish(&mut self, target: Target) -> Result<(), NetError> {
+        match target {
+            Target::None => core::future::pending().await,
+            Target::Connect(addr) => {
+                match embassy_time::with_timeout(CONNECT_TIMEOUT, self.sock().connect(addr)).await {
+                    Ok(Ok(())) => {}
+                    Ok(Err(e)) => return Err(e),
+                    Err(TimeoutError) => {
+                        self.sock().close().await;
+                        return Err(NetError::ConnectFailed);
+                    }
+                }
+            }
+            Target::Listen(port) => {
+                // Either socket may get the controller's connection (one of
+                // them may still be listening from an earlier idle period).
+                let (a, b) = self.socks.split_at_mut(1);
+                let (Some(a), Some(b)) = (a.first_mut(), b.first_mut()) else {
+                    return Err(NetError::ListenFailed);
+                };
+                match embassy_futures::select::select(a.accept(port), b.accept(port)).await {
+                    embassy_futures::select::Either::First(r) => {
+                        r?;
+                        self.cur = 0;
+                    }
+                    embassy_futures::select::Either::Second(r) => {
+                        r?;
+                        self.cur = 1;
+                    }
+                }
+            }
+        }
+        self.up = true;
+        self.framer.reset();
+        Ok(())
+    }
+
+    /// Closes the connection (the socket can be used again).
+    pub async fn close(&mut self) {
+        self.up = false;
+        self.framer.reset();
+        self.sock().close().await;
+    }
+
+    /// Closes both sockets, also one still listening (the target changed).
+    pub async fn close_all(&mut self) {
+        self.up = false;
+        self.framer.reset();
+        for s in self.socks.iter_mut() {
+            s.close().await;
+        }
+    }
+
+    /// Sends one request and waits for its reply until `deadline`. The
+    /// reply text (with its `;`) is valid until the next call.
+    pub async fn transact(&mut self, request: &[u8], deadline: Instant) -> Result<&str, LinkError> {
+        if !self.up {
+            return Err(LinkError::Lost(NetError::NotConnected));
+        }
+        self.framer.reset();
+        if let Err(e) = self.sock().write_all(request).await {
+            return Err(LinkError::Lost(e));
+        }
+        let len = self.read_reply(deadline).await?;
+        self.reply
+            .get(..len)
+            .and_then(|b| core::str::from_utf8(b).ok())
+            .ok_or(LinkError::BadFrame(FrameError::InvalidByte {
+                byte: 0,
+                offset: 0,
+            }))
+    }
+
+    async fn read_reply(&mut self, deadline: Instant) -> Result<usize, LinkError> {
+        loop {
+            let i = self.cur % 2;
+            let n = match with_deadline(deadline, self.socks[i].read(&mut self.rx)).await {
+                Err(TimeoutError) => return Err(LinkError::Timeout),
+                Ok(Err(e)) => return Err(LinkError::Lost(e)),
+                Ok(Ok(0)) => return Err(LinkError::Lost(NetError::Reset)),
+                Ok(Ok(n)) => n,
+            };
+            let mut input = self.rx.get(..n).unwrap_or(&[]);
+            while !input.is_empty() {
+                let (used, item) = self.framer.push(input);
+                input = input.get(used..).unwrap_or(&[]);
+                match item {
+                    None => {}
+                    Some(Err(e)) => return Err(LinkError::BadFrame(e)),
+                    Some(Ok(msg)) => {
+                        let b = msg.as_bytes();
+                        let dst = self.reply.get_mut(..b.len());
+                        // The framer never yields more than REPLY_MAX bytes.
+                        if let Some(dst) = dst {
+                            dst.copy_from_slice(b);
+                            self.reply_len = b.len();
+                            return Ok(b.len());
+                        }
+                        return Err(LinkError::BadFrame(FrameError::TooLong { len: b.len() }));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Waits while no request is in flight: returns when the connection is
+    /// lost or, with `listen_port`, replaced by a new one. Cancel-safe.
+    pub async fn idle(&mut self, listen_port: Option<u16>) -> IdleEvent {
+        let cur = self.cur % 2;
+        let (a, b) = self.socks.split_at_mut(1);
+        let (current, spare) = match (a.first_mut(), b.first_mut()) {
+            (Some(a), Some(b)) if cur == 0 => (a, b),
+            (Some(a), Some(b)) => (b, a),
+            // Two sockets always exist.
+            _ => return core::future::pending().await,
+        };
+        let rx = &mut self.rx;
+        let watch = async {
+            loop {
+                match current.read(rx).await {
+                    Ok(0) => return IdleEvent::Lost(NetError::Reset),
+                    Err(e) => return IdleEvent::Lost(e),
+                    // Unsolicited bytes: nothing is in flight, drop them.
+                    Ok(_) => {}
+                }
+            }
+        };
+        let accept = async {
+            match listen_port {
+                Some(port) => loop {
+                    if spare.accept(port).await.is_ok() {
+                        return;
+                    }
+                    embassy_time::Timer::after_millis(100).await;
+                },
+                None => core::future::pending().await,
+            }
+        };
+        match embassy_futures::select::select(watch, accept).await {
+            embassy_futures::select::Either::First(ev) => ev,
+            embassy_futures::select::Either::Second(()) => {
+                if let Some(old) = self.socks.get_mut(cur) {
+                    old.close().await;
+                }
+                self.cur = 1 - cur;
+                self.framer.reset();
+                IdleEvent::Replaced
+            }
+        }
+    }
+}

@@ -1,0 +1,337 @@
+//! The Modbus TCP server: sessions, function codes, exceptions.
+//!
+//! PDUs are decoded and responses encoded with `modbus-core`; this module
+//! reads whole ADUs off the stream (the MBAP length says how many bytes),
+//! checks what `modbus-core` leaves to the server (quantities, byte counts,
+//! addresses), and maps the request onto the register map.
+//!
+//! | FC | what | limits (else exception 03) |
+//! |---|---|---|
+//! | 1, 2 | read coils / discrete inputs (bits of registers) | 1-2000 bits |
+//! | 3, 4 | read holding / input registers (one address space) | 1-125 |
+//! | 5 | write single coil | value 0x0000 or 0xFF00 |
+//! | 6 | write single register | |
+//! | 15 | write multiple coils | 1-1968 bits, byte count matches |
+//! | 16 | write multiple registers | 1-123, byte count matches |
+//! | 23 | read/write multiple registers (write first) | read 1-125, write 1-121 |
+//!
+//! Other function codes get exception 01; unmapped addresses, or writes to
+//! read-only ones, exception 02 (nothing is written); a configuration
+//! command that cannot be saved, exception 04. A frame whose MBAP header is
+//! not Modbus (protocol id ≠ 0, length < 2 or > 254) closes that client's
+//! connection only. Unit ids are not checked (the gateway answers all).
+//! A client silent for [`IDLE_TIMEOUT`] is disconnected.
+
+use core::convert::Infallible;
+
+use embassy_time::{with_timeout, Duration, Timer};
+use modbus_core::tcp::{server::encode_response, Header, ResponseAdu};
+use modbus_core::{
+    Coils, Data, Exception, ExceptionResponse, FunctionCode, Request, Response, ResponsePdu,
+};
+
+use crate::gateway::{Ctx, WriteError};
+use crate::net::Socket;
+use crate::registers::{self as r, RegisterFile};
+
+/// Longest ADU: 7-byte MBAP header + 253-byte PDU.
+pub const MAX_ADU: usize = 260;
+/// A client that sends nothing for this long is disconnected.
+pub const IDLE_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Serves Modbus clients on `port`, one after the other, forever.
+pub(crate) async fn session<S: Socket>(ctx: &Ctx<'_>, mut sock: S, port: u16) -> Infallible {
+    loop {
+        if sock.accept(port).await.is_err() {
+            Timer::after_millis(500).await;
+            continue;
+        }
+        let peer = sock.remote();
+        let n = ctx.with(|s| {
+            s.sessions += 1;
+            s.regs.set(r::STATUS_SESSIONS, s.sessions);
+            s.sessions
+        });
+        match peer {
+            Some(p) => info!(
+                "modbus: client {}.{}.{}.{}:{} connected ({} now)",
+                p.ip().octets()[0],
+                p.ip().octets()[1],
+                p.ip().octets()[2],
+                p.ip().octets()[3],
+                p.port(),
+                n
+            ),
+            None => info!("modbus: client connected ({} now)", n),
+        }
+        serve(ctx, &mut sock).await;
+        sock.close().await;
+        let n = ctx.with(|s| {
+            s.sessions = s.sessions.saturating_sub(1);
+            s.regs.set(r::STATUS_SESSIONS, s.sessions);
+            s.sessions
+        });
+        info!("modbus: client disconnected ({} left)", n);
+    }
+}
+
+async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
+    let mut buf = [0u8; MAX_ADU];
+    let mut out = [0u8; MAX_ADU];
+    let mut len = 0usize;
+    loop {
+        // Header first, then as many bytes as its length field says.
+        let need = match buf.get(..7) {
+            Some(h) if len >= 7 => {
+                let proto = u16::from_be_bytes([h[2], h[3]]);
+                let length = usize::from(u16::from_be_bytes([h[4], h[5]]));
+                if proto != 0 || !(2..=254).contains(&length) {
+                    info!(
+                        "modbus: not a Modbus frame (protocol {}, length {}), closing",
+                        proto, length
+                    );
+                    return;
+                }
+                6 + length
+            }
+            _ => 7,
+        };
+        if len < need {
+            let Some(free) = buf.get_mut(len..) else {
+                return;
+            };
+            match with_timeout(IDLE_TIMEOUT, sock.read(free)).await {
+                Ok(Ok(0)) | Ok(Err(_)) => return,
+                Err(_) => {
+                    info!("modbus: client idle, closing");
+                    return;
+                }
+                Ok(Ok(n)) => len += n,
+            }
+            continue;
+        }
+        let Some(adu) = buf.get(..need) else {
+            return;
+        };
+        let reply = handle(ctx, adu, &mut out);
+        if let Some(n) = reply {
+            if sock.write_all(out.get(..n).unwrap_or(&[])).await.is_err() {
+                return;
+            }
+        }
+        buf.copy_within(need..len, 0);
+        len -= need;
+    }
+}
+
+fn exception(e: WriteError) -> Exception {
+    match e {
+        WriteError::Address => Exception::IllegalDataAddress,
+        WriteError::Value => Exception::IllegalDataValue,
+        WriteError::Device => Exception::ServerDeviceFailure,
+    }
+}
+
+/// Answers one complete ADU; `None` if nothing can be answered.
+pub(crate) fn handle(ctx: &Ctx<'_>, adu: &[u8], out: &mut [u8]) -> Option<usize> {
+    let pdu_len = adu.len().checked_sub(7)?;
+    let frame = modbus_core::tcp::extract_frame(adu, pdu_len).ok()??;
+    let hdr = Header {
+        transaction_id: frame.transaction_id,
+        unit_id: frame.unit_id,
+    };
+    let pdu = frame.pdu;
+    let fc = *pdu.first()?;
+    let mut data = [0u8; 252];
+    let result = match Request::try_from(pdu) {
+        Ok(Request::Custom(..)) | Err(modbus_core::Error::FnCode(_)) => {
+            Err(Exception::IllegalFunction)
+        }
+        Err(_) => Err(Exception::IllegalDataValue),
+        Ok(req) => execute(ctx, req, pdu, &mut data),
+    };
+    let pdu = ResponsePdu(result.map_err(|exception| ExceptionResponse {
+        // Function codes of 0x80 and above are malformed requests; answer
+        // as for their low 7 bits (modbus-core adds 0x80).
+        function: FunctionCode::new(fc & 0x7F),
+        exception,
+    }));
+    if let Err(e) = &pdu.0 {
+        debug!("modbus: fc {} -> exception {}", fc, e.exception as u8);
+    }
+    encode_response(ResponseAdu { hdr, pdu }, out).ok()
+}
+
+fn be16(b: &[u8], at: usize) -> u16 {
+    u16::from_be_bytes([
+        b.get(at).copied().unwrap_or(0),
+        b.get(at + 1).copied().unwrap_or(0),
+    ])
+}
+
+fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, bools: &mut [bool]) -> Result<(), Exception> {
+    if !(1..=2000).contains(&qty) {
+        return Err(Exception::IllegalDataValue);
+    }
+    let last = u32::from(addr) + u32::from(qty) - 1;
+    if last > 0xFFFF {
+        return Err(Exception::IllegalDataAddress);
+    }
+    let first_reg = addr / 16;
+    let regs = (last / 16) as u16 - first_reg + 1;
+    let mut words = [0u16; 126];
+    let w = words
+        .get_mut(..usize::from(regs))
+        .ok_or(Exception::IllegalDataAddress)?;
+    ctx.read(first_reg, w)
+        .map_err(|_| Exception::IllegalDataAddress)?;
+    for (i, b) in bools.iter_mut().take(usize::from(qty)).enumerate() {
+        let bit = usize::from(addr) + i;
+        let word = w
+            .get(bit / 16 - usize::from(first_reg))
+            .copied()
+            .unwrap_or(0);
+        *b = word & (1 << (bit % 16)) != 0;
+    }
+    Ok(())
+}
+
+/// Writes `qty` bits from `addr`, taking bit `i` from `bit(i)`.
+fn write_bits(
+    ctx: &Ctx<'_>,
+    addr: u16,
+    qty: u16,
+    bit: impl Fn(usize) -> bool,
+) -> Result<(), Exception> {
+    let last = u32::from(addr) + u32::from(qty) - 1;
+    if last > 0xFFFF {
+        return Err(Exception::IllegalDataAddress);
+    }
+    let first_reg = addr / 16;
+    let regs = (last / 16) as u16 - first_reg + 1;
+    RegisterFile::check(first_reg, regs, true).map_err(|_| Exception::IllegalDataAddress)?;
+    let mut words = [0u16; 124];
+    let w = words
+        .get_mut(..usize::from(regs))
+        .ok_or(Exception::IllegalDataAddress)?;
+    ctx.read(first_reg, w)
+        .map_err(|_| Exception::IllegalDataAddress)?;
+    for i in 0..usize::from(qty) {
+        let b = usize::from(addr) + i;
+        if let Some(word) = w.get_mut(b / 16 - usize::from(first_reg)) {
+            if bit(i) {
+                *word |= 1 << (b % 16);
+            } else {
+                *word &= !(1 << (b % 16));
+            }
+        }
+    }
+    ctx.write(first_reg, w).map_err(exception)
+}
+
+fn execute<'d>(
+    ctx: &Ctx<'_>,
+    req: Request<'_>,
+    pdu: &[u8],
+    data: &'d mut [u8; 252],
+) -> Result<Response<'d>, Exception> {
+    let mut bools = [false; 2000];
+    let mut words = [0u16; 125];
+    match req {
+        Request::ReadCoils(addr, qty) | Request::ReadDiscreteInputs(addr, qty) => {
+            read_bits(ctx, addr, qty, &mut bools)?;
+            let b = bools
+                .get(..usize::from(qty))
+                .ok_or(Exception::IllegalDataValue)?;
+            let coils = Coils::from_bools(b, data).map_err(|_| Exception::ServerDeviceFailure)?;
+            Ok(match req {
+                Request::ReadCoils(..) => Response::ReadCoils(coils),
+                _ => Response::ReadDiscreteInputs(coils),
+            })
+        }
+        Request::ReadHoldingRegisters(addr, qty) | Request::ReadInputRegisters(addr, qty) => {
+            if !(1..=125).contains(&qty) {
+                return Err(Exception::IllegalDataValue);
+            }
+            let w = words
+                .get_mut(..usize::from(qty))
+                .ok_or(Exception::IllegalDataValue)?;
+            ctx.read(addr, w)
+                .map_err(|_| Exception::IllegalDataAddress)?;
+            let d = Data::from_words(w, data).map_err(|_| Exception::ServerDeviceFailure)?;
+            Ok(match req {
+                Request::ReadHoldingRegisters(..) => Response::ReadHoldingRegisters(d),
+                _ => Response::ReadInputRegisters(d),
+            })
+        }
+        Request::WriteSingleCoil(addr, on) => {
+            write_bits(ctx, addr, 1, |_| on)?;
+            // modbus-core 0.2 encodes this response without the value; the
+            // standard answer echoes the request.
+            let echo = pdu.get(1..5).ok_or(Exception::IllegalDataValue)?;
+            let d = data.get_mut(..4).ok_or(Exception::ServerDeviceFailure)?;
+            d.copy_from_slice(echo);
+            Ok(Response::Custom(FunctionCode::WriteSingleCoil, d))
+        }
+        Request::WriteSingleRegister(addr, value) => {
+            ctx.write(addr, &[value]).map_err(exception)?;
+            Ok(Response::WriteSingleRegister(addr, value))
+        }
+        Request::WriteMultipleCoils(addr, coils) => {
+            let qty = be16(pdu, 3);
+            let count = usize::from(*pdu.get(5).ok_or(Exception::IllegalDataValue)?);
+            if !(1..=1968).contains(&qty)
+                || count != usize::from(qty).div_ceil(8)
+                || pdu.len() != 6 + count
+            {
+                return Err(Exception::IllegalDataValue);
+            }
+            write_bits(ctx, addr, qty, |i| coils.get(i).unwrap_or(false))?;
+            Ok(Response::WriteMultipleCoils(addr, qty))
+        }
+        Request::WriteMultipleRegisters(addr, values) => {
+            let qty = be16(pdu, 3);
+            let count = usize::from(*pdu.get(5).ok_or(Exception::IllegalDataValue)?);
+            if !(1..=123).contains(&qty) || count != 2 * usize::from(qty) || pdu.len() != 6 + count
+            {
+                return Err(Exception::IllegalDataValue);
+            }
+            let w = words
+                .get_mut(..usize::from(qty))
+                .ok_or(Exception::IllegalDataValue)?;
+            for (i, slot) in w.iter_mut().enumerate() {
+                *slot = values.get(i).ok_or(Exception::IllegalDataValue)?;
+            }
+            ctx.write(addr, w).map_err(exception)?;
+            Ok(Response::WriteMultipleRegisters(addr, qty))
+        }
+        Request::ReadWriteMultipleRegisters(raddr, rqty, waddr, values) => {
+            let wqty = be16(pdu, 7);
+            let count = usize::from(*pdu.get(9).ok_or(Exception::IllegalDataValue)?);
+            if !(1..=125).contains(&rqty)
+                || !(1..=121).contains(&wqty)
+                || count != 2 * usize::from(wqty)
+                || pdu.len() != 10 + count
+            {
+                return Err(Exception::IllegalDataValue);
+            }
+            RegisterFile::check(raddr, rqty, false).map_err(|_| Exception::IllegalDataAddress)?;
+            let mut wv = [0u16; 121];
+            let wv = wv
+                .get_mut(..usize::from(wqty))
+                .ok_or(Exception::IllegalDataValue)?;
+            for (i, slot) in wv.iter_mut().enumerate() {
+                *slot = values.get(i).ok_or(Exception::IllegalDataValue)?;
+            }
+            ctx.write(waddr, wv).map_err(exception)?;
+            let w = words
+                .get_mut(..usize::from(rqty))
+                .ok_or(Exception::IllegalDataValue)?;
+            ctx.read(raddr, w)
+                .map_err(|_| Exception::IllegalDataAddress)?;
+            let d = Data::from_words(w, data).map_err(|_| Exception::ServerDeviceFailure)?;
+            Ok(Response::ReadWriteMultipleRegisters(d))
+        }
+        Request::Custom(..) => Err(Exception::IllegalFunction),
+    }
+}

@@ -1,0 +1,83 @@
+//! The small socket interface the gateway logic runs on.
+//!
+//! The logic needs only TCP streams it can connect, accept, read, write and
+//! close, and it reuses each socket for many connections in turn (a board
+//! has a fixed number of sockets with fixed buffers). Two adapters exist:
+//!
+//! * [`tokio`](crate::net::tokio) (feature `std`): Linux, the host binary and the host tests.
+//! * [`embassy`](crate::net::embassy) (feature `embassy-net`): boards, and the
+//!   two-stacks host test.
+//!
+//! The futures are not `Send`: the whole gateway runs as one task on a
+//! single-threaded executor (embassy's, or tokio's current-thread runtime).
+
+use core::net::SocketAddrV4;
+
+#[cfg(feature = "embassy-net")]
+pub mod embassy;
+#[cfg(feature = "std")]
+pub mod tokio;
+
+/// Why a socket operation failed. Every failure ends the connection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NetError {
+    /// The peer refused or did not answer the connection attempt.
+    ConnectFailed,
+    /// The local port cannot be listened on.
+    ListenFailed,
+    /// The connection was reset or broke.
+    Reset,
+    /// The operation needs a connected socket.
+    NotConnected,
+}
+
+impl NetError {
+    /// A short text for logs.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            NetError::ConnectFailed => "connect failed",
+            NetError::ListenFailed => "listen failed",
+            NetError::Reset => "connection reset",
+            NetError::NotConnected => "not connected",
+        }
+    }
+}
+
+/// One reusable TCP socket: connect or accept, talk, close, start again.
+// The futures are deliberately not `Send` (single-threaded executors).
+#[allow(async_fn_in_trait)]
+pub trait Socket {
+    /// Connects to `remote`. The socket must be closed.
+    async fn connect(&mut self, remote: SocketAddrV4) -> Result<(), NetError>;
+
+    /// Waits for a peer to connect to local `port`. Cancel-safe: if the
+    /// future is dropped and `accept` is called again, a connection that
+    /// arrived in between is returned.
+    async fn accept(&mut self, port: u16) -> Result<(), NetError>;
+
+    /// Reads what is available (at least one byte); `Ok(0)` when the peer
+    /// closed its side. Cancel-safe.
+    async fn read(&mut self, buf: &mut [u8]) -> Result<usize, NetError>;
+
+    /// Writes all of `buf`.
+    async fn write_all(&mut self, buf: &[u8]) -> Result<(), NetError>;
+
+    /// Ends the connection (if any) so that the socket can be reused.
+    async fn close(&mut self);
+
+    /// The peer's address while connected.
+    fn remote(&self) -> Option<SocketAddrV4>;
+}
+
+/// A network stack that makes sockets.
+pub trait Net {
+    /// The socket type, borrowing the stack and its buffers.
+    type Socket<'a>: Socket
+    where
+        Self: 'a;
+
+    /// A new, closed socket using `rx` and `tx` as its buffers (adapters with
+    /// their own buffering, like tokio's, ignore them).
+    fn socket<'a>(&'a self, rx: &'a mut [u8], tx: &'a mut [u8]) -> Self::Socket<'a>;
+}

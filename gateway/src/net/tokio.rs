@@ -1,0 +1,133 @@
+//! The socket adapter for Linux: tokio streams and listeners.
+//!
+//! Listening ports are bound once and shared by every socket that accepts on
+//! them ([`TokioNet::listen`] binds ahead, which lets a caller use port 0 and
+//! learn the real port; `accept` on a port not yet bound binds it on
+//! [`TokioNet::new`]'s address). Connections beyond the ones being accepted
+//! wait in the kernel's backlog.
+//!
+//! Needs a tokio runtime with I/O enabled (current-thread is enough).
+
+extern crate std;
+
+use core::cell::RefCell;
+use core::net::{SocketAddr, SocketAddrV4};
+use std::io;
+use std::rc::Rc;
+use std::vec::Vec;
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream};
+
+use super::{Net, NetError, Socket};
+
+/// Tokio networking for the gateway.
+pub struct TokioNet {
+    bind_ip: core::net::Ipv4Addr,
+    listeners: RefCell<Vec<(u16, Rc<TcpListener>)>>,
+}
+
+impl TokioNet {
+    /// A stack whose on-demand listeners bind to `bind_ip` (use
+    /// `127.0.0.1` in tests).
+    pub fn new(bind_ip: core::net::Ipv4Addr) -> Self {
+        TokioNet {
+            bind_ip,
+            listeners: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// Binds `addr` now and returns the port bound (useful with port 0).
+    /// Sockets then accept on that port.
+    pub async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
+        let l = TcpListener::bind(addr).await?;
+        let port = l.local_addr()?.port();
+        self.listeners.borrow_mut().push((port, Rc::new(l)));
+        Ok(port)
+    }
+
+    async fn listener(&self, port: u16) -> Result<Rc<TcpListener>, NetError> {
+        if let Some((_, l)) = self.listeners.borrow().iter().find(|(p, _)| *p == port) {
+            return Ok(l.clone());
+        }
+        self.listen(SocketAddrV4::new(self.bind_ip, port))
+            .await
+            .map_err(|_| NetError::ListenFailed)?;
+        self.listeners
+            .borrow()
+            .iter()
+            .find(|(p, _)| *p == port)
+            .map(|(_, l)| l.clone())
+            .ok_or(NetError::ListenFailed)
+    }
+}
+
+/// A tokio TCP stream slot.
+pub struct TokioSocket<'a> {
+    net: &'a TokioNet,
+    stream: Option<TcpStream>,
+}
+
+fn v4(addr: SocketAddr) -> Option<SocketAddrV4> {
+    match addr {
+        SocketAddr::V4(a) => Some(a),
+        SocketAddr::V6(a) => a
+            .ip()
+            .to_ipv4_mapped()
+            .map(|ip| SocketAddrV4::new(ip, a.port())),
+    }
+}
+
+impl Socket for TokioSocket<'_> {
+    async fn connect(&mut self, remote: SocketAddrV4) -> Result<(), NetError> {
+        let s = TcpStream::connect(remote)
+            .await
+            .map_err(|_| NetError::ConnectFailed)?;
+        // Small request/reply messages: send each at once.
+        let _ = s.set_nodelay(true);
+        self.stream = Some(s);
+        Ok(())
+    }
+
+    async fn accept(&mut self, port: u16) -> Result<(), NetError> {
+        let l = self.net.listener(port).await?;
+        let (s, _) = l.accept().await.map_err(|_| NetError::ListenFailed)?;
+        let _ = s.set_nodelay(true);
+        self.stream = Some(s);
+        Ok(())
+    }
+
+    async fn read(&mut self, buf: &mut [u8]) -> Result<usize, NetError> {
+        let s = self.stream.as_mut().ok_or(NetError::NotConnected)?;
+        s.read(buf).await.map_err(|_| NetError::Reset)
+    }
+
+    async fn write_all(&mut self, buf: &[u8]) -> Result<(), NetError> {
+        let s = self.stream.as_mut().ok_or(NetError::NotConnected)?;
+        s.write_all(buf).await.map_err(|_| NetError::Reset)
+    }
+
+    async fn close(&mut self) {
+        if let Some(mut s) = self.stream.take() {
+            let _ = s.shutdown().await;
+        }
+    }
+
+    fn remote(&self) -> Option<SocketAddrV4> {
+        self.stream
+            .as_ref()
+            .and_then(|s| s.peer_addr().ok())
+            .and_then(v4)
+    }
+}
+
+impl Net for TokioNet {
+    type Socket<'a> = TokioSocket<'a>;
+
+    fn socket<'a>(&'a self, _rx: &'a mut [u8], _tx: &'a mut [u8]) -> TokioSocket<'a> {
+        TokioSocket {
+            net: self,
+            stream: None,
+        }
+    }
+}

@@ -1,0 +1,250 @@
+//! The status mirror: robot state copied into the status registers.
+//!
+//! Two sources: polling the command port (a round of read commands every
+//! poll period, one request at a time, between PLC commands) or the
+//! DataSheet port (see [`crate::datasheet`]). Motion completion always
+//! polls `ReadRobotState` on the command port.
+
+use hans_codec::{request, response, Command, Reply, ReplyExpect, Response, RobotId};
+
+use crate::config::WordOrder;
+use crate::registers::{self as r, RegisterFile};
+
+/// Robot link state (register `LINK_STATE`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinkState {
+    /// Down: waiting before the next attempt (backoff) or not configured.
+    Down = 0,
+    /// Connecting to the controller.
+    Connecting = 1,
+    /// Waiting for the controller to connect (listen mode).
+    Listening = 2,
+    /// Connected.
+    Connected = 3,
+}
+
+/// The read commands of one polling round, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PollStep {
+    /// `ReadRobotState`.
+    RobotState,
+    /// `ReadCurFSM`.
+    Fsm,
+    /// `ReadActPos`.
+    ActPos,
+    /// `ReadBoxDI` bits 0-7.
+    BoxDi,
+    /// `ReadBoxDO` bits 0-7.
+    BoxDo,
+    /// `ReadBoxCI` bits 0-7.
+    BoxCi,
+    /// `ReadBoxCO` bits 0-7.
+    BoxCo,
+    /// `ReadEI` bits 0-2.
+    EndDi,
+    /// `ReadEO` bits 0-2.
+    EndDo,
+}
+
+impl PollStep {
+    /// A full round.
+    pub const ROUND: [PollStep; 9] = [
+        PollStep::RobotState,
+        PollStep::Fsm,
+        PollStep::ActPos,
+        PollStep::BoxDi,
+        PollStep::BoxDo,
+        PollStep::BoxCi,
+        PollStep::BoxCo,
+        PollStep::EndDi,
+        PollStep::EndDo,
+    ];
+
+    /// Writes the request into `out`; returns its length and the reply it
+    /// expects.
+    pub fn request(self, robot_id: u8, out: &mut [u8]) -> Option<(usize, ReplyExpect)> {
+        let id = RobotId(i32::from(robot_id));
+        let box8 =
+            || heapless::Vec::<i32, 8>::from_slice(&[0, 1, 2, 3, 4, 5, 6, 7]).unwrap_or_default();
+        let end3 = || heapless::Vec::<i32, 3>::from_slice(&[0, 1, 2]).unwrap_or_default();
+        fn enc<'c, C: Command<'c>>(c: C, out: &mut [u8]) -> Option<(usize, ReplyExpect)> {
+            Some((c.encode(out).ok()?, c.expect()))
+        }
+        match self {
+            PollStep::RobotState => enc(request::ReadRobotState { rbt_id: id }, out),
+            PollStep::Fsm => enc(request::ReadCurFSM { rbt_id: id }, out),
+            PollStep::ActPos => enc(request::ReadActPos { rbt_id: id }, out),
+            PollStep::BoxDi => enc(request::ReadBoxDI { bits: box8() }, out),
+            PollStep::BoxDo => enc(request::ReadBoxDO { bits: box8() }, out),
+            PollStep::BoxCi => enc(request::ReadBoxCI { bits: box8() }, out),
+            PollStep::BoxCo => enc(request::ReadBoxCO { bits: box8() }, out),
+            PollStep::EndDi => enc(
+                request::ReadEI {
+                    rbt_id: id,
+                    bits: end3(),
+                },
+                out,
+            ),
+            PollStep::EndDo => enc(
+                request::ReadEO {
+                    rbt_id: id,
+                    bits: end3(),
+                },
+                out,
+            ),
+        }
+    }
+
+    /// The I/O register and its valid bit for I/O steps.
+    fn io(self) -> Option<(u16, u16)> {
+        match self {
+            PollStep::BoxDi => Some((r::STATUS_BOX_DI, 1 << 0)),
+            PollStep::BoxDo => Some((r::STATUS_BOX_DO, 1 << 1)),
+            PollStep::BoxCi => Some((r::STATUS_BOX_CI, 1 << 2)),
+            PollStep::BoxCo => Some((r::STATUS_BOX_CO, 1 << 3)),
+            PollStep::EndDi => Some((r::STATUS_END_DI, 1 << 4)),
+            PollStep::EndDo => Some((r::STATUS_END_DO, 1 << 5)),
+            _ => None,
+        }
+    }
+
+    /// Copies a reply of this step into the registers. A `Fail` reply (the
+    /// robot lacks that I/O, say) marks the value invalid.
+    pub fn apply(self, reply: &Reply<'_>, regs: &mut RegisterFile, order: WordOrder) {
+        match reply {
+            Reply::Ok(resp) => apply_response(resp, regs, order),
+            _ => {
+                if let Some((_, valid)) = self.io() {
+                    regs.set_bits(r::STATUS_IO_VALID, valid, false);
+                }
+            }
+        }
+    }
+}
+
+fn bits(values: &[i32]) -> u16 {
+    values
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| **v != 0)
+        .fold(0, |acc, (i, _)| acc | (1 << i))
+}
+
+/// Copies any status-bearing response into the registers.
+pub fn apply_response(resp: &Response<'_>, regs: &mut RegisterFile, order: WordOrder) {
+    let io = |regs: &mut RegisterFile, reg: u16, valid: u16, v: &[i32]| {
+        regs.set(reg, bits(v));
+        regs.set_bits(r::STATUS_IO_VALID, valid, true);
+    };
+    match resp {
+        Response::ReadRobotState(s) => apply_robot_state(s, regs, order),
+        Response::ReadCurFSM(f) => {
+            let v = i32::from(f.state);
+            regs.set(r::STATUS_FSM, u16::try_from(v).unwrap_or(u16::MAX));
+        }
+        Response::ReadActPos(p) => {
+            for (i, v) in p.joints.iter().enumerate() {
+                regs.set_f32(r::STATUS_JOINTS + 2 * i as u16, v.to_f32(), order);
+            }
+            for (i, v) in p.pose.iter().enumerate() {
+                regs.set_f32(r::STATUS_POSE + 2 * i as u16, v.to_f32(), order);
+            }
+        }
+        Response::ReadBoxDI(v) => io(regs, r::STATUS_BOX_DI, 1 << 0, &v.values),
+        Response::ReadBoxDO(v) => io(regs, r::STATUS_BOX_DO, 1 << 1, &v.values),
+        Response::ReadBoxCI(v) => io(regs, r::STATUS_BOX_CI, 1 << 2, &v.values),
+        Response::ReadBoxCO(v) => io(regs, r::STATUS_BOX_CO, 1 << 3, &v.values),
+        Response::ReadEI(v) => io(regs, r::STATUS_END_DI, 1 << 4, &v.values),
+        Response::ReadEO(v) => io(regs, r::STATUS_END_DO, 1 << 5, &v.values),
+        _ => {}
+    }
+}
+
+/// The flags of `ReadRobotState` as the `ROBOT_FLAGS` register.
+pub fn flags_of(s: &response::ReadRobotState) -> u16 {
+    let f = |v: i32, bit: u16| if v != 0 { bit } else { 0 };
+    f(s.moving, r::FLAG_MOVING)
+        | f(s.enabled, r::FLAG_ENABLED)
+        | f(s.error, r::FLAG_ERROR)
+        | f(s.paused, r::FLAG_PAUSED)
+        | f(s.emergency_stop, r::FLAG_EMERGENCY_STOP)
+        | f(s.safety_guard, r::FLAG_SAFETY_GUARD)
+        | f(s.powered, r::FLAG_POWERED)
+        | f(s.box_connected, r::FLAG_BOX_CONNECTED)
+        | f(s.blending_done, r::FLAG_BLENDING_DONE)
+        | f(s.in_position, r::FLAG_IN_POSITION)
+        | f(s.brake_released, r::FLAG_BRAKE_RELEASED)
+        | r::FLAG_VALID
+}
+
+/// Copies `ReadRobotState` into the registers.
+pub fn apply_robot_state(s: &response::ReadRobotState, regs: &mut RegisterFile, order: WordOrder) {
+    regs.set(r::STATUS_FLAGS, flags_of(s));
+    regs.set_i32(r::STATUS_ERROR_CODE, s.error_code, order);
+    regs.set(
+        r::STATUS_ERROR_AXIS,
+        u16::try_from(s.error_axis).unwrap_or(u16::MAX),
+    );
+}
+
+/// Marks the robot status invalid (link down), keeping the last values.
+pub fn invalidate(regs: &mut RegisterFile) {
+    regs.set_bits(r::STATUS_FLAGS, r::FLAG_VALID, false);
+    regs.set(r::STATUS_IO_VALID, 0);
+}
+
+/// The actual joints from the status registers (IK reference).
+pub fn joints(regs: &RegisterFile, order: WordOrder) -> [f32; 6] {
+    let mut j = [0.0; 6];
+    for (i, v) in j.iter_mut().enumerate() {
+        let x = regs.get_f32(r::STATUS_JOINTS + 2 * i as u16, order);
+        *v = if x.is_finite() { x } else { 0.0 };
+    }
+    j
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn robot_state_and_io_replies_fill_the_registers() {
+        let mut regs = RegisterFile::new();
+        let mut buf = [0u8; 64];
+        let (n, exp) = PollStep::RobotState.request(0, &mut buf).unwrap();
+        assert_eq!(&buf[..n], b"ReadRobotState,0,;");
+        let rep = Reply::parse("ReadRobotState,OK,1,1,0,0,0,0,0,0,0,1,1,0,0,;", exp).unwrap();
+        PollStep::RobotState.apply(&rep, &mut regs, WordOrder::HighFirst);
+        assert_eq!(
+            regs.get(r::STATUS_FLAGS),
+            r::FLAG_VALID
+                | r::FLAG_MOVING
+                | r::FLAG_ENABLED
+                | r::FLAG_POWERED
+                | r::FLAG_BOX_CONNECTED
+        );
+        let (n, exp) = PollStep::BoxDo.request(0, &mut buf).unwrap();
+        assert_eq!(&buf[..n], b"ReadBoxDO,0,1,2,3,4,5,6,7,;");
+        let rep = Reply::parse("ReadBoxDO,OK,1,0,0,1,0,0,0,1,;", exp).unwrap();
+        PollStep::BoxDo.apply(&rep, &mut regs, WordOrder::HighFirst);
+        assert_eq!(regs.get(r::STATUS_BOX_DO), 0b1000_1001);
+        assert_eq!(regs.get(r::STATUS_IO_VALID), 1 << 1);
+        let rep = Reply::parse("ReadBoxDO,Fail,20009,;", exp).unwrap();
+        PollStep::BoxDo.apply(&rep, &mut regs, WordOrder::HighFirst);
+        assert_eq!(regs.get(r::STATUS_IO_VALID), 0);
+        let (_, exp) = PollStep::ActPos.request(0, &mut buf).unwrap();
+        let rep = Reply::parse(
+            "ReadActPos,OK,1,2,3,4,5,6,420,0,445,180,0,180,0,0,0,0,0,0,0,0,0,0,0,0,;",
+            exp,
+        )
+        .unwrap();
+        PollStep::ActPos.apply(&rep, &mut regs, WordOrder::LowFirst);
+        assert_eq!(
+            joints(&regs, WordOrder::LowFirst),
+            [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+        );
+        assert_eq!(regs.get_f32(r::STATUS_POSE + 4, WordOrder::LowFirst), 445.0);
+    }
+}
