@@ -1,2 +1,845 @@
-//! `hansctl`: decode and send Hans protocol messages.
-fn main() {}
+//! `hansctl`: decode Hans protocol messages and drive a robot (or
+//! `hans-sim`) from the command line.
+//!
+//! Exit status: 0 success, 1 the robot refused (`Fail`) or a move failed,
+//! 2 bad input, 3 connection error or timeout.
+
+mod client;
+mod decode;
+
+use std::io::{BufRead, Read, Write};
+use std::net::TcpStream;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use clap::{Parser, Subcommand};
+use hans_codec::datasheet::{DataSheet, Deframer};
+use hans_codec::{request as rq, response as rs, Command, Decimal, FsmState, RobotId};
+use serde_json::{json, Value};
+
+use client::{check, resolve, response, Client, ClientError};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "hansctl",
+    version,
+    about = "Decode Hans robot protocol messages and drive a robot"
+)]
+struct Cli {
+    /// The robot (or simulator): HOST or HOST:PORT (default port 10003).
+    #[arg(long, global = true, default_value = "127.0.0.1")]
+    robot: String,
+    /// Timeout for connecting and for each reply, in milliseconds.
+    #[arg(long, global = true, default_value_t = 5000)]
+    timeout: u64,
+    /// Machine-readable output: one JSON object per line.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Read messages (requests or replies) one per line on stdin, print one
+    /// JSON object per line.
+    Decode,
+    /// Send one message and print the typed reply.
+    Send {
+        /// The message, e.g. 'ReadCurFSM,0,;' (a missing ',;' is added).
+        message: String,
+        /// Send even if the message does not read as its command.
+        #[arg(long)]
+        force: bool,
+    },
+    /// FSM state, flags, error, positions.
+    State,
+    /// Bring-up: ConnectToBox, Electrify, StartMaster, GrpEnable, each
+    /// waited for, up to StandBy.
+    PowerOn,
+    /// Joint move to J1..J6 (degrees).
+    MoveJoint {
+        /// Six joint angles.
+        #[arg(num_args = 6, allow_negative_numbers = true, required = true)]
+        joints: Vec<f64>,
+        /// Velocity, °/s.
+        #[arg(long, default_value_t = 30.0)]
+        vel: f64,
+        /// Acceleration, °/s².
+        #[arg(long, default_value_t = 100.0)]
+        acc: f64,
+        /// Wait for the end of the move (chapter 6), showing progress.
+        #[arg(long)]
+        wait: bool,
+    },
+    /// Linear move to X Y Z (mm) Rx Ry Rz (°).
+    MoveLine {
+        /// Six pose values.
+        #[arg(num_args = 6, allow_negative_numbers = true, required = true)]
+        pose: Vec<f64>,
+        /// Velocity, mm/s.
+        #[arg(long, default_value_t = 100.0)]
+        vel: f64,
+        /// Acceleration, mm/s².
+        #[arg(long, default_value_t = 500.0)]
+        acc: f64,
+        /// Tool frame name.
+        #[arg(long, default_value = "TCP")]
+        tcp: String,
+        /// User frame name.
+        #[arg(long, default_value = "Base")]
+        ucs: String,
+        /// Wait for the end of the move (chapter 6), showing progress.
+        #[arg(long)]
+        wait: bool,
+    },
+    /// Stop the motion (GrpStop).
+    Stop,
+    /// Clear errors (GrpReset).
+    Reset,
+    /// Read all box and end I/O, or set one output:
+    /// `io set do|co|end-do BIT 0|1`, `io set ao CHANNEL VALUE [--mode 1|2]`.
+    Io {
+        #[command(subcommand)]
+        action: Option<IoCmd>,
+    },
+    /// Live view of the DataSheet stream.
+    Watch {
+        /// DataSheet port (10004 = 20 Hz, 10005 = 10 Hz, 10006 = 5 Hz).
+        #[arg(long, default_value_t = 10004)]
+        port: u16,
+        /// Stop after this many packets (0 = until interrupted).
+        #[arg(long, default_value_t = 0)]
+        count: u64,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+enum IoCmd {
+    /// Set an output.
+    Set {
+        /// do, co, end-do or ao.
+        kind: String,
+        /// Bit or channel.
+        index: i32,
+        /// 0/1, or the analog value.
+        value: f64,
+        /// Analog mode: 1 voltage, 2 current.
+        #[arg(long, default_value_t = 1)]
+        mode: i32,
+    },
+}
+
+/// An error with its exit status.
+struct Exit(u8, String);
+
+impl From<ClientError> for Exit {
+    fn from(e: ClientError) -> Self {
+        let code = match e {
+            ClientError::Fail(..) | ClientError::ErrorCmd(_) => 1,
+            _ => 3,
+        };
+        Exit(code, e.to_string())
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(&cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Exit(code, msg)) => {
+            if cli.json {
+                println!("{}", json!({ "error": msg }));
+            } else {
+                eprintln!("hansctl: {msg}");
+            }
+            ExitCode::from(code)
+        }
+    }
+}
+
+fn run(cli: &Cli) -> Result<(), Exit> {
+    let timeout = Duration::from_millis(cli.timeout.max(1));
+    let connect = || -> Result<Client, Exit> {
+        let addr = resolve(&cli.robot, 10003)?;
+        Ok(Client::connect(addr, timeout)?)
+    };
+    match &cli.cmd {
+        Cmd::Decode => decode_stdin(),
+        Cmd::Send { message, force } => send(cli, connect()?, message, *force),
+        Cmd::State => state(cli, &mut connect()?),
+        Cmd::PowerOn => power_on(cli, &mut connect()?, timeout),
+        Cmd::MoveJoint {
+            joints,
+            vel,
+            acc,
+            wait,
+        } => {
+            let mut c = connect()?;
+            let q = arr6(joints)?;
+            let pose = c
+                .call(&rq::GetForwardKin {
+                    joints: q,
+                    ..Default::default()
+                })
+                .ok()
+                .and_then(|r| {
+                    match response(
+                        &r,
+                        hans_codec::ReplyExpect::of(hans_codec::CommandId::GetForwardKin),
+                    ) {
+                        Some(hans_codec::Response::GetForwardKin(p)) => Some(p.pose),
+                        _ => None,
+                    }
+                })
+                .unwrap_or_default();
+            let cmd = rq::WayPoint {
+                rbt_id: RobotId(0),
+                pose,
+                joints: q,
+                tcp_name: "TCP",
+                ucs_name: "Base",
+                velocity: d(*vel),
+                acc: d(*acc),
+                radius: Decimal::ZERO,
+                move_type: 0,
+                use_joint: 1,
+                cmd_id: "hansctl",
+                ..Default::default()
+            };
+            start_move(cli, &mut c, &cmd, *wait)
+        }
+        Cmd::MoveLine {
+            pose,
+            vel,
+            acc,
+            tcp,
+            ucs,
+            wait,
+        } => {
+            let mut c = connect()?;
+            let reference = read_act_pos(&mut c)?.joints;
+            let cmd = rq::WayPoint {
+                rbt_id: RobotId(0),
+                pose: arr6(pose)?,
+                joints: reference,
+                tcp_name: tcp,
+                ucs_name: ucs,
+                velocity: d(*vel),
+                acc: d(*acc),
+                radius: Decimal::ZERO,
+                move_type: 1,
+                use_joint: 0,
+                cmd_id: "hansctl",
+                ..Default::default()
+            };
+            start_move(cli, &mut c, &cmd, *wait)
+        }
+        Cmd::Stop => simple(cli, &mut connect()?, &rq::GrpStop::default()),
+        Cmd::Reset => simple(cli, &mut connect()?, &rq::GrpReset::default()),
+        Cmd::Io { action: None } => io_read(cli, &mut connect()?),
+        Cmd::Io {
+            action:
+                Some(IoCmd::Set {
+                    kind,
+                    index,
+                    value,
+                    mode,
+                }),
+        } => io_set(cli, &mut connect()?, kind, *index, *value, *mode),
+        Cmd::Watch { port, count } => watch(cli, *port, *count, timeout),
+    }
+}
+
+fn d(v: f64) -> Decimal {
+    Decimal::from_f64(v, 3).unwrap_or(Decimal::ZERO)
+}
+
+fn arr6(v: &[f64]) -> Result<[Decimal; 6], Exit> {
+    let a: [f64; 6] = v
+        .try_into()
+        .map_err(|_| Exit(2, "six values are needed".into()))?;
+    if a.iter().any(|x| !x.is_finite()) {
+        return Err(Exit(2, "values must be finite numbers".into()));
+    }
+    Ok(a.map(d))
+}
+
+fn fmt6(v: &[Decimal; 6]) -> String {
+    v.iter()
+        .map(|x| x.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn decode_stdin() -> Result<(), Exit> {
+    let stdin = std::io::stdin();
+    let mut out = std::io::stdout().lock();
+    for line in stdin.lock().lines() {
+        let line = line.map_err(|e| Exit(2, format!("reading stdin: {e}")))?;
+        let line = line.trim_end_matches(['\r', '\n']);
+        if line.trim().is_empty() {
+            continue;
+        }
+        let v = decode::decode_line(line);
+        writeln!(out, "{v}").map_err(|e| Exit(3, e.to_string()))?;
+    }
+    Ok(())
+}
+
+fn send(cli: &Cli, mut c: Client, message: &str, force: bool) -> Result<(), Exit> {
+    let mut msg = message.trim().to_string();
+    if !msg.ends_with(';') {
+        if !msg.ends_with(',') {
+            msg.push(',');
+        }
+        msg.push(';');
+    }
+    let expect = match client::typed(&msg) {
+        Ok(req) => {
+            if let Err(e) = req.validate() {
+                eprintln!("hansctl: warning: {e} (sent anyway)");
+            }
+            req.expect()
+        }
+        Err(e) if force => {
+            eprintln!("hansctl: warning: {e} (sent anyway)");
+            hans_codec::ReplyExpect::from_name(msg.split(',').next().unwrap_or(""))
+        }
+        Err(e) => return Err(Exit(2, format!("{e} (use --force to send it anyway)"))),
+    };
+    let reply = c.call_raw(&msg)?;
+    let v = decode::decode_line(&reply);
+    if cli.json {
+        println!("{v}");
+    } else {
+        println!("{reply}");
+        print_human(&v);
+    }
+    check(&reply, expect).map_err(Exit::from)
+}
+
+fn print_human(v: &Value) {
+    match v["kind"].as_str() {
+        Some("ok") => {
+            if let Some(f) = v["fields"].as_object() {
+                for (k, val) in f {
+                    println!("  {k} = {val}");
+                }
+            }
+        }
+        Some("fail") => {
+            let name = v["code_name"].as_str().unwrap_or("unknown code");
+            println!("  failed: {} ({name}) {}", v["code"], v["detail"]);
+        }
+        _ => {
+            if let Some(e) = v["error"].as_str() {
+                println!("  unreadable reply: {e}");
+            }
+        }
+    }
+}
+
+fn simple<'a, C: Command<'a>>(cli: &Cli, c: &mut Client, cmd: &C) -> Result<(), Exit> {
+    let r = c.call(cmd)?;
+    if cli.json {
+        println!("{}", decode::decode_line(&r));
+    } else {
+        println!("{r}");
+    }
+    Ok(())
+}
+
+fn read_fsm(c: &mut Client) -> Result<FsmState, Exit> {
+    let cmd = rq::ReadCurFSM::default();
+    let r = c.call(&cmd)?;
+    match response(&r, cmd.expect()) {
+        Some(hans_codec::Response::ReadCurFSM(s)) => Ok(s.state),
+        _ => Err(Exit(3, format!("unexpected reply {r}"))),
+    }
+}
+
+fn read_state(c: &mut Client) -> Result<rs::ReadRobotState, Exit> {
+    let cmd = rq::ReadRobotState::default();
+    let r = c.call(&cmd)?;
+    match response(&r, cmd.expect()) {
+        Some(hans_codec::Response::ReadRobotState(s)) => Ok(s),
+        _ => Err(Exit(3, format!("unexpected reply {r}"))),
+    }
+}
+
+fn read_act_pos(c: &mut Client) -> Result<rs::ReadActPos, Exit> {
+    let cmd = rq::ReadActPos::default();
+    let r = c.call(&cmd)?;
+    match response(&r, cmd.expect()) {
+        Some(hans_codec::Response::ReadActPos(s)) => Ok(s),
+        _ => Err(Exit(3, format!("unexpected reply {r}"))),
+    }
+}
+
+fn fsm_name(s: FsmState) -> String {
+    format!("{} {}", s.code(), s.name().unwrap_or("(unknown)"))
+}
+
+fn state(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
+    let fsm = read_fsm(c)?;
+    let s = read_state(c)?;
+    let p = read_act_pos(c)?;
+    if cli.json {
+        println!(
+            "{}",
+            json!({
+                "fsm": fsm.code(), "fsm_name": fsm.name(),
+                "moving": s.moving, "enabled": s.enabled, "error": s.error,
+                "error_code": s.error_code, "error_axis": s.error_axis,
+                "brake_released": s.brake_released, "paused": s.paused,
+                "emergency_stop": s.emergency_stop, "safety_guard": s.safety_guard,
+                "powered": s.powered, "box_connected": s.box_connected,
+                "blending_done": s.blending_done, "in_position": s.in_position,
+                "joints": p.joints.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
+                "pose": p.pose.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
+            })
+        );
+    } else {
+        println!("FSM      {}", fsm_name(fsm));
+        println!(
+            "flags    moving={} enabled={} paused={} powered={} box={} blending_done={} in_pos={}",
+            s.moving,
+            s.enabled,
+            s.paused,
+            s.powered,
+            s.box_connected,
+            s.blending_done,
+            s.in_position
+        );
+        println!(
+            "safety   emergency_stop={} safety_guard={}",
+            s.emergency_stop, s.safety_guard
+        );
+        if s.error != 0 {
+            let code = hans_codec::ErrorCode::from(s.error_code);
+            println!("error    {code} on axis {}", s.error_axis);
+        } else {
+            println!("error    none");
+        }
+        println!("joints   {}", fmt6(&p.joints));
+        println!("pose     {}", fmt6(&p.pose));
+    }
+    Ok(())
+}
+
+/// Polls `ReadCurFSM` until `done(state)`; fails on a state in `bad`.
+fn wait_fsm(
+    c: &mut Client,
+    limit: Duration,
+    done: impl Fn(FsmState) -> bool,
+) -> Result<FsmState, Exit> {
+    let start = Instant::now();
+    loop {
+        let s = read_fsm(c)?;
+        if done(s) {
+            return Ok(s);
+        }
+        if start.elapsed() > limit {
+            return Err(Exit(
+                3,
+                format!("still in FSM {} after {limit:?}", fsm_name(s)),
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn power_on(cli: &Cli, c: &mut Client, timeout: Duration) -> Result<(), Exit> {
+    use FsmState as F;
+    let limit = timeout.max(Duration::from_secs(10));
+    let report = |step: &str, s: FsmState| {
+        if cli.json {
+            println!(
+                "{}",
+                json!({ "step": step, "fsm": s.code(), "fsm_name": s.name() })
+            );
+        } else {
+            println!("{step:<13} ok   FSM {}", fsm_name(s));
+        }
+    };
+    let s = read_fsm(c)?;
+    if s == F::EmergencyStop {
+        return Err(Exit(1, "emergency stop is pressed".into()));
+    }
+    if matches!(s, F::ElectricBoxDisconnect | F::ElectricBoxConnecting) {
+        c.call(&rq::ConnectToBox {})?;
+        let s = wait_fsm(c, limit, |s| {
+            !matches!(s, F::ElectricBoxDisconnect | F::ElectricBoxConnecting)
+        })?;
+        report("ConnectToBox", s);
+    }
+    let s = read_fsm(c)?;
+    if matches!(s, F::Blackout48V | F::Electrifying48V | F::Blackouting48V) {
+        c.call(&rq::Electrify {})?;
+        let s = wait_fsm(c, limit, |s| {
+            !matches!(s, F::Blackout48V | F::Electrifying48V | F::Blackouting48V)
+        })?;
+        report("Electrify", s);
+    }
+    let s = read_fsm(c)?;
+    if matches!(
+        s,
+        F::ControllerDisconnect | F::ControllerConnecting | F::ControllerChecking
+    ) {
+        c.call(&rq::StartMaster {})?;
+        let s = wait_fsm(c, limit, |s| {
+            !matches!(
+                s,
+                F::ControllerDisconnect | F::ControllerConnecting | F::ControllerChecking
+            )
+        })?;
+        report("StartMaster", s);
+    }
+    let s = read_fsm(c)?;
+    if s == F::Error {
+        c.call(&rq::GrpReset::default())?;
+        let s = wait_fsm(c, limit, |s| !matches!(s, F::Error | F::Reseting))?;
+        report("GrpReset", s);
+    }
+    let s = read_fsm(c)?;
+    if matches!(s, F::Disable | F::Enabling) {
+        c.call(&rq::GrpEnable::default())?;
+        let s = wait_fsm(c, limit, |s| !matches!(s, F::Disable | F::Enabling))?;
+        report("GrpEnable", s);
+    }
+    let s = read_fsm(c)?;
+    if s == F::StandBy {
+        if !cli.json {
+            println!("ready        FSM {}", fsm_name(s));
+        }
+        Ok(())
+    } else {
+        Err(Exit(1, format!("bring-up ended in FSM {}", fsm_name(s))))
+    }
+}
+
+fn start_move<'a, C: Command<'a>>(
+    cli: &Cli,
+    c: &mut Client,
+    cmd: &C,
+    wait: bool,
+) -> Result<(), Exit> {
+    c.call(cmd)?;
+    if !cli.json {
+        println!("move accepted");
+    }
+    if !wait {
+        return Ok(());
+    }
+    // Chapter 6: poll ReadRobotState until the move ends or fails. The
+    // moving flag lags the motion (~50 ms), so the move counts as running
+    // until the way point is done (nBlendingDone) and the flag is clear.
+    let start = Instant::now();
+    let mut last_print = Instant::now() - Duration::from_secs(1);
+    loop {
+        let s = read_state(c)?;
+        if s.error != 0 {
+            let code = hans_codec::ErrorCode::from(s.error_code);
+            return Err(Exit(
+                1,
+                format!(
+                    "move failed: error {code} on axis {} (send GrpReset)",
+                    s.error_axis
+                ),
+            ));
+        }
+        let fsm = read_fsm(c)?;
+        let done = s.moving == 0 && s.blending_done == 1 && fsm != FsmState::Moving;
+        if done || last_print.elapsed() >= Duration::from_millis(500) {
+            let p = read_act_pos(c)?;
+            if cli.json {
+                println!(
+                    "{}",
+                    json!({
+                        "t": start.elapsed().as_secs_f64(), "fsm": fsm.code(),
+                        "moving": s.moving, "done": done,
+                        "joints": p.joints.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
+                        "pose": p.pose.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
+                    })
+                );
+            } else {
+                println!(
+                    "{:6.2}s  FSM {:<16} joints [{}]",
+                    start.elapsed().as_secs_f64(),
+                    fsm_name(fsm),
+                    fmt6(&p.joints)
+                );
+            }
+            last_print = Instant::now();
+        }
+        if done {
+            if fsm == FsmState::StandBy {
+                return Ok(());
+            }
+            return Err(Exit(1, format!("move ended in FSM {}", fsm_name(fsm))));
+        }
+        if start.elapsed() > Duration::from_secs(600) {
+            return Err(Exit(3, "move still running after 600 s".into()));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
+    let all8 = || hv::<8>(&[0, 1, 2, 3, 4, 5, 6, 7]);
+    let mut out = serde_json::Map::new();
+    let mut text = Vec::new();
+    macro_rules! read_list {
+        ($label:literal, $cmd:expr, $Resp:ident) => {{
+            let cmd = $cmd;
+            let r = c.call(&cmd)?;
+            if let Some(hans_codec::Response::$Resp(v)) = response(&r, cmd.expect()) {
+                let vals: Vec<Value> = v.values.iter().map(|x| json!(x)).collect();
+                text.push(format!(
+                    "{:<7}{}",
+                    $label,
+                    v.values
+                        .iter()
+                        .map(|x| x.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                ));
+                out.insert($label.to_string(), Value::Array(vals));
+            }
+        }};
+    }
+    read_list!("CI", rq::ReadBoxCI { bits: all8() }, ReadBoxCI);
+    read_list!("CO", rq::ReadBoxCO { bits: all8() }, ReadBoxCO);
+    read_list!("DI", rq::ReadBoxDI { bits: all8() }, ReadBoxDI);
+    read_list!("DO", rq::ReadBoxDO { bits: all8() }, ReadBoxDO);
+    let two = hv::<2>(&[0, 1]);
+    {
+        let cmd = rq::ReadBoxAI {
+            channels: two.clone(),
+        };
+        let r = c.call(&cmd)?;
+        if let Some(hans_codec::Response::ReadBoxAI(v)) = response(&r, cmd.expect()) {
+            let vals: Vec<Value> = v.values.iter().map(|x| decode::number(*x)).collect();
+            text.push(format!(
+                "AI     {}",
+                v.values
+                    .iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            ));
+            out.insert("AI".into(), Value::Array(vals));
+        }
+        let cmd = rq::ReadBoxAO { channels: two };
+        let r = c.call(&cmd)?;
+        if let Some(hans_codec::Response::ReadBoxAO(v)) = response(&r, cmd.expect()) {
+            let vals: Vec<Value> = v.values.iter().map(|x| decode::number(*x)).collect();
+            text.push(format!(
+                "AO     {}",
+                v.values
+                    .iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            ));
+            out.insert("AO".into(), Value::Array(vals));
+        }
+    }
+    let three = hv::<3>(&[0, 1, 2]);
+    // The tool end needs the arm powered: report, do not fail.
+    match c.call(&rq::ReadEI {
+        rbt_id: RobotId(0),
+        bits: three.clone(),
+    }) {
+        Ok(r) => {
+            if let Some(hans_codec::Response::ReadEI(v)) = response(
+                &r,
+                hans_codec::ReplyExpect::of(hans_codec::CommandId::ReadEI),
+            ) {
+                text.push(format!(
+                    "EndDI  {}",
+                    v.values
+                        .iter()
+                        .map(|x| x.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                ));
+                out.insert("EndDI".into(), json!(v.values.as_slice()));
+            }
+            let cmd = rq::ReadEO {
+                rbt_id: RobotId(0),
+                bits: three,
+            };
+            let r = c.call(&cmd)?;
+            if let Some(hans_codec::Response::ReadEO(v)) = response(&r, cmd.expect()) {
+                text.push(format!(
+                    "EndDO  {}",
+                    v.values
+                        .iter()
+                        .map(|x| x.to_string())
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                ));
+                out.insert("EndDO".into(), json!(v.values.as_slice()));
+            }
+        }
+        Err(e) => text.push(format!("end I/O unavailable: {e}")),
+    }
+    if cli.json {
+        println!("{}", Value::Object(out));
+    } else {
+        for l in text {
+            println!("{l}");
+        }
+    }
+    Ok(())
+}
+
+fn hv<const N: usize>(v: &[i32]) -> heapless::Vec<i32, N> {
+    heapless::Vec::from_slice(v).unwrap_or_default()
+}
+
+fn io_set(
+    cli: &Cli,
+    c: &mut Client,
+    kind: &str,
+    index: i32,
+    value: f64,
+    mode: i32,
+) -> Result<(), Exit> {
+    let bit = if value == 0.0 { 0 } else { 1 };
+    match kind.to_ascii_lowercase().as_str() {
+        "do" => simple(
+            cli,
+            c,
+            &rq::SetBoxDO {
+                bit: index,
+                value: bit,
+            },
+        ),
+        "co" => simple(
+            cli,
+            c,
+            &rq::SetBoxCO {
+                bit: index,
+                value: bit,
+            },
+        ),
+        "end-do" | "enddo" | "eo" => simple(
+            cli,
+            c,
+            &rq::SetEndDO {
+                rbt_id: RobotId(0),
+                bit: index,
+                value: bit,
+            },
+        ),
+        "ao" => simple(
+            cli,
+            c,
+            &rq::SetBoxAO {
+                channel: index,
+                value: d(value),
+                mode,
+            },
+        ),
+        other => Err(Exit(
+            2,
+            format!("unknown output {other:?}: use do, co, end-do or ao"),
+        )),
+    }
+}
+
+fn watch(cli: &Cli, port: u16, count: u64, timeout: Duration) -> Result<(), Exit> {
+    let addr = resolve(&cli.robot, port)?;
+    let host_has_port = cli.robot.contains(':') && !cli.robot.starts_with('[');
+    let addr = if host_has_port {
+        std::net::SocketAddr::new(addr.ip(), port)
+    } else {
+        addr
+    };
+    let mut s = TcpStream::connect_timeout(&addr, timeout)
+        .map_err(|e| Exit(3, format!("cannot connect to {addr}: {e}")))?;
+    s.set_read_timeout(Some(timeout))
+        .map_err(|e| Exit(3, e.to_string()))?;
+    let mut deframer: Box<Deframer<65536>> = Box::default();
+    let mut buf = vec![0u8; 16384];
+    let mut seen = 0u64;
+    loop {
+        let n = match s.read(&mut buf) {
+            Ok(0) => return Err(Exit(3, "the DataSheet stream closed".into())),
+            Ok(n) => n,
+            Err(_) => return Err(Exit(3, format!("no DataSheet packet within {timeout:?}"))),
+        };
+        let mut lines = Vec::new();
+        deframer.feed(buf.get(..n).unwrap_or(&[]), |item| {
+            lines.push(match item {
+                Ok(payload) => match DataSheet::parse(payload) {
+                    Ok(sheet) => Ok(sheet),
+                    Err(e) => Err(format!("bad payload: {e}")),
+                },
+                Err(e) => Err(format!("bad header: {e}")),
+            })
+        });
+        for item in lines {
+            match item {
+                Ok(sheet) => println!("{}", sheet_line(cli.json, &sheet)),
+                Err(e) => eprintln!("hansctl: {e}"),
+            }
+            seen += 1;
+            if count > 0 && seen >= count {
+                return Ok(());
+            }
+        }
+        let _ = std::io::stdout().flush();
+    }
+}
+
+fn sheet_line(as_json: bool, s: &DataSheet) -> String {
+    let fsm = s.state.robot_state;
+    let pos = s.pos_and_vel.position;
+    let bits = |v: &[i32]| {
+        v.iter()
+            .map(|b| if *b != 0 { '1' } else { '0' })
+            .collect::<String>()
+    };
+    if as_json {
+        let nums = |v: Option<[Decimal; 6]>| -> Value {
+            v.map_or(Value::Null, |a| {
+                Value::Array(a.iter().map(|x| decode::number(*x)).collect())
+            })
+        };
+        return json!({
+            "fsm": fsm.map(|f| f.code()), "fsm_name": fsm.and_then(|f| f.name()),
+            "moving": s.state.moving, "enabled": s.state.enabled, "paused": s.state.paused,
+            "blending_done": s.state.blending_done, "in_pos": s.state.in_pos,
+            "error_code": s.state.error_code,
+            "joints": nums(pos.map(|p| p.joints)), "tcp": nums(s.pos_and_vel.pcs_tcp),
+            "box_di": s.box_io.box_di.as_slice(), "box_do": s.box_io.box_do.as_slice(),
+            "end_di": s.end_io.end_di.as_slice(), "end_do": s.end_io.end_do.as_slice(),
+        })
+        .to_string();
+    }
+    let flag = |b: Option<bool>| match b {
+        Some(true) => "1",
+        Some(false) => "0",
+        None => "-",
+    };
+    format!(
+        "FSM {:<18} mov={} en={} pause={} done={} inpos={} err={} | J [{}] | TCP [{}] | DI {} DO {} EI {} EO {}",
+        fsm.map_or("-".to_string(), fsm_name),
+        flag(s.state.moving),
+        flag(s.state.enabled),
+        flag(s.state.paused),
+        flag(s.state.blending_done),
+        flag(s.state.in_pos),
+        s.state.error_code.unwrap_or(0),
+        pos.map_or(String::new(), |p| fmt6(&p.joints)),
+        s.pos_and_vel.pcs_tcp.map_or(String::new(), |p| fmt6(&p)),
+        bits(&s.box_io.box_di),
+        bits(&s.box_io.box_do),
+        bits(&s.end_io.end_di),
+        bits(&s.end_io.end_do),
+    )
+}

@@ -1,0 +1,259 @@
+//! `hansctl` run as a program: `decode` on a fixture, and the client
+//! subcommands against an in-process `hans-sim`.
+
+use std::io::Write;
+use std::process::{Command, Output, Stdio};
+use std::time::Duration;
+
+use hans_sim::{ClockMode, Config, Fault, FsmState, Sim};
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_hansctl");
+
+/// Runs hansctl with `args` (blocking, on a worker thread so the
+/// simulator keeps running). Every call is bounded by `--timeout`.
+async fn hansctl(args: Vec<String>) -> Output {
+    tokio::task::spawn_blocking(move || {
+        Command::new(BIN)
+            .args(&args)
+            .stdin(Stdio::null())
+            .output()
+            .expect("run hansctl")
+    })
+    .await
+    .unwrap()
+}
+
+fn args(robot: &str, rest: &[&str]) -> Vec<String> {
+    let mut v = vec![
+        "--robot".to_string(),
+        robot.to_string(),
+        "--timeout".into(),
+        "3000".into(),
+    ];
+    v.extend(rest.iter().map(|s| s.to_string()));
+    v
+}
+
+fn json_lines(out: &Output) -> Vec<Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{l:?}: {e}")))
+        .collect()
+}
+
+#[test]
+fn decode_reads_a_fixture_and_keeps_going_after_bad_lines() {
+    let fixture = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/decode.txt"
+    ))
+    .unwrap();
+    let mut child = Command::new(BIN)
+        .arg("decode")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(&fixture).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let v = json_lines(&out);
+    assert_eq!(v.len(), 11, "one object per non-empty line");
+    assert_eq!(
+        (v[0]["name"].as_str(), v[0]["kind"].as_str()),
+        (Some("ReadBoxDI"), Some("request"))
+    );
+    assert_eq!(v[0]["fields"]["bits"], serde_json::json!([5, 6]));
+    assert_eq!(v[1]["kind"], "ok");
+    assert_eq!(v[1]["fields"]["values"], serde_json::json!([0, 1]));
+    assert_eq!(v[2]["fields"]["tcp_name"], "TCP");
+    assert_eq!(v[2]["fields"]["pose"][0], serde_json::json!(420));
+    assert_eq!(v[3]["kind"], "fail");
+    assert_eq!(
+        (v[3]["code"].as_i64(), v[3]["code_name"].as_str()),
+        (Some(20018), Some("StateRefused"))
+    );
+    assert_eq!(v[4]["detail"], "the output does not exist");
+    assert_eq!(
+        (v[5]["known"].as_bool(), v[5]["kind"].as_str()),
+        (Some(false), Some("request"))
+    );
+    assert!(
+        v[6]["error"].as_str().unwrap().contains("WayPoint"),
+        "{}",
+        v[6]
+    );
+    assert_eq!(v[7]["kind"], "errorcmd");
+    assert_eq!(
+        (v[8]["name"].as_str(), v[8]["known"].as_bool()),
+        (Some("GrpPowerOn"), Some(true))
+    );
+    assert!(v[9]["error"].is_string(), "{}", v[9]);
+    assert_eq!(v[10]["fields"]["state"], serde_json::json!(33));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn send_prints_typed_replies_with_exit_codes() {
+    let sim = Sim::start(Config::default()).await.unwrap();
+    let robot = sim.command_addr().to_string();
+    let out = hansctl(args(&robot, &["--json", "send", "ReadCurFSM,0,;"])).await;
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(json_lines(&out)[0]["fields"]["state"], serde_json::json!(2));
+    // Refused in this state: exit 1, code and name shown.
+    let out = hansctl(args(&robot, &["send", "GrpEnable,0"])).await;
+    assert_eq!(out.status.code(), Some(1));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("20018") && text.contains("StateRefused"),
+        "{text}"
+    );
+    // Malformed known command: not sent, exit 2.
+    let before = sim.received().len();
+    let out = hansctl(args(&robot, &["send", "WayPoint,0,1,;"])).await;
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(sim.received().len(), before);
+    // Unknown names pass through.
+    let out = hansctl(args(&robot, &["send", "ReadVersion,;"])).await;
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("20005"));
+    sim.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn timeouts_and_connection_errors_are_one_line_and_nonzero() {
+    let sim = Sim::start(Config::default()).await.unwrap();
+    sim.faults().set(Fault::NoReply);
+    let robot = sim.command_addr().to_string();
+    let mut a = args(&robot, &["send", "ReadCurFSM,0,;"]);
+    a[3] = "300".into();
+    let out = hansctl(a).await;
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("no reply"), "{err}");
+    sim.shutdown().await;
+    // Nothing listens there any more.
+    let out = hansctl(args(&robot, &["state"])).await;
+    assert_eq!(out.status.code(), Some(3));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot connect"));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn power_on_move_io_state_and_watch() {
+    let sim = Sim::start(Config {
+        clock: ClockMode::Scaled(20.0),
+        ..Config::default()
+    })
+    .await
+    .unwrap();
+    let robot = sim.command_addr().to_string();
+    let out = hansctl(args(&robot, &["power-on"])).await;
+    assert!(out.status.success(), "{out:?}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    for step in ["ConnectToBox", "Electrify", "StartMaster", "GrpEnable"] {
+        assert!(text.contains(step), "{text}");
+    }
+    assert_eq!(sim.fsm(), FsmState::StandBy);
+
+    let out = hansctl(args(
+        &robot,
+        &[
+            "move-joint",
+            "10",
+            "0",
+            "90",
+            "0",
+            "90",
+            "-20",
+            "--vel",
+            "50",
+            "--wait",
+        ],
+    ))
+    .await;
+    assert!(out.status.success(), "{out:?}");
+    let q = sim.state().act_joints;
+    assert!(
+        (q[0] - 10.0).abs() < 1e-6 && (q[5] + 20.0).abs() < 1e-6,
+        "{q:?}"
+    );
+
+    let out = hansctl(args(
+        &robot,
+        &[
+            "--json",
+            "move-line",
+            "400",
+            "50",
+            "400",
+            "180",
+            "0",
+            "180",
+            "--vel",
+            "200",
+            "--wait",
+        ],
+    ))
+    .await;
+    assert!(out.status.success(), "{out:?}");
+    let last = json_lines(&out).pop().unwrap();
+    assert_eq!(last["done"], serde_json::json!(true));
+    let p = sim.state().act_pose;
+    assert!(
+        (p[0] - 400.0).abs() < 1e-3 && (p[1] - 50.0).abs() < 1e-3 && (p[2] - 400.0).abs() < 1e-3,
+        "{p:?}"
+    );
+
+    let out = hansctl(args(&robot, &["io", "set", "do", "3", "1"])).await;
+    assert!(out.status.success(), "{out:?}");
+    assert!(sim.io().do_[3]);
+    sim.set_io(|io| io.di[6] = true);
+    let out = hansctl(args(&robot, &["--json", "io"])).await;
+    assert!(out.status.success(), "{out:?}");
+    let v = &json_lines(&out)[0];
+    assert_eq!(v["DO"][3], serde_json::json!(1));
+    assert_eq!(v["DI"][6], serde_json::json!(1));
+
+    let out = hansctl(args(&robot, &["--json", "state"])).await;
+    let v = &json_lines(&out)[0];
+    assert_eq!(
+        (v["fsm"].as_i64(), v["enabled"].as_i64()),
+        (Some(33), Some(1))
+    );
+
+    let ds = sim.datasheet_addrs()[0];
+    let out = hansctl(args(
+        &ds.ip().to_string(),
+        &[
+            "--json",
+            "watch",
+            "--port",
+            &ds.port().to_string(),
+            "--count",
+            "3",
+        ],
+    ))
+    .await;
+    assert!(out.status.success(), "{out:?}");
+    let v = json_lines(&out);
+    assert_eq!(v.len(), 3);
+    assert_eq!(v[0]["fsm"], serde_json::json!(33));
+    assert_eq!(v[0]["box_do"][3], serde_json::json!(1));
+
+    // A refused move surfaces as exit 1.
+    sim.set_safety_guard(true);
+    let out = hansctl(args(
+        &robot,
+        &["move-joint", "0", "0", "90", "0", "90", "0"],
+    ))
+    .await;
+    assert_eq!(out.status.code(), Some(1));
+    sim.set_safety_guard(false);
+    let out = hansctl(args(&robot, &["stop"])).await;
+    assert!(out.status.success());
+    let out = hansctl(args(&robot, &["reset"])).await;
+    assert!(out.status.success());
+    tokio::time::sleep(Duration::from_millis(10)).await;
+    sim.shutdown().await;
+}
