@@ -335,3 +335,47 @@ fn execute<'d>(
         Request::Custom(..) => Err(Exception::IllegalFunction),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::RamStorage;
+    use crate::gateway::Options;
+
+    fn answer(ctx: &Ctx<'_>, adu: &[u8]) -> Vec<u8> {
+        let mut out = [0u8; MAX_ADU];
+        let n = handle(ctx, adu, &mut out).expect("an answer");
+        out[..n].to_vec()
+    }
+
+    #[test]
+    fn exceptions_for_bad_requests() {
+        let mut st = RamStorage::new();
+        let ctx = Ctx::new(&mut st, &Options::default());
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 2, 1, 0x2B]),
+            [0, 1, 0, 0, 0, 3, 1, 0xAB, 1]
+        );
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 2, 1, 0x90]),
+            [0, 1, 0, 0, 0, 3, 1, 0x90, 1]
+        );
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 50, 0, 1]),
+            [0, 1, 0, 0, 0, 3, 1, 0x83, 2]
+        );
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]),
+            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 0]
+        );
+        // FC 16 shorter than its header says -> 03, never a panic.
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 5, 1, 0x10, 0, 140, 0]),
+            [0, 1, 0, 0, 0, 3, 1, 0x90, 3]
+        );
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 3, 1, 0x0F, 0]),
+            [0, 1, 0, 0, 0, 3, 1, 0x8F, 3]
+        );
+    }
+}
