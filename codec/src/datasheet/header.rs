@@ -54,6 +54,17 @@ pub const HEADER_LEN: usize = field::PAYLOAD;
 pub const MAX_PAYLOAD: usize = 1 << 20;
 
 /// Why a header (or a buffer meant to hold a packet) is not acceptable.
+///
+/// ```
+/// use hans_codec::datasheet::{HeaderError, Packet};
+///
+/// // Total length 20 with a payload of 2: not 12 + 2.
+/// let bytes = [b'L', b'T', b'B', b'R', 20, 0, 0, 0, 2, 0, 0, 0, b'{', b'}'];
+/// assert_eq!(
+///     Packet::new_checked(&bytes[..]).unwrap_err(),
+///     HeaderError::LengthMismatch { total: 20, payload: 2 }
+/// );
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum HeaderError {

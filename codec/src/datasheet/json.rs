@@ -153,6 +153,23 @@ enum Expect {
 /// where they belong, balanced brackets), so a token sequence it yields
 /// without error is well-formed. After an error every call returns that
 /// error again.
+///
+/// ```
+/// use hans_codec::datasheet::json::{JsonErrorKind, Token, Tokenizer};
+///
+/// let mut t = Tokenizer::new(b"[\"0.000\", 48.00,]");
+/// assert_eq!(t.next_token(), Ok(Some(Token::BeginArray)));
+/// assert_eq!(t.next_token(), Ok(Some(Token::Str(b"0.000"))));
+/// assert_eq!(t.next_token(), Ok(Some(Token::Number(b"48.00"))));
+/// assert_eq!(t.next_token(), Ok(Some(Token::EndArray))); // trailing comma tolerated
+/// assert_eq!(t.next_token(), Ok(None));
+///
+/// let mut bad = Tokenizer::new(b"{\"a\" 1}");
+/// bad.next_token().unwrap();
+/// bad.next_token().unwrap();
+/// let e = bad.next_token().unwrap_err();
+/// assert_eq!((e.offset, e.kind), (5, JsonErrorKind::UnexpectedByte(b'1')));
+/// ```
 #[derive(Clone, Debug)]
 pub struct Tokenizer<'a> {
     input: &'a [u8],
