@@ -1,0 +1,95 @@
+//! REGISTERS.md is the PLC programmer's copy of the register map: its
+//! table must match `registers::TABLE` row by row, and its command-code
+//! table the codes the engine knows.
+
+use hans_gateway::engine::commands::{build, Inputs};
+use hans_gateway::engine::job::Source;
+use hans_gateway::registers::{Access, TABLE};
+
+fn doc() -> String {
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/REGISTERS.md"))
+        .expect("REGISTERS.md")
+}
+
+fn cells(line: &str) -> Vec<String> {
+    line.trim()
+        .trim_matches('|')
+        .split('|')
+        .map(|c| c.trim().to_string())
+        .collect()
+}
+
+/// The rows of the table after `heading`.
+fn table_after(doc: &str, heading: &str) -> Vec<Vec<String>> {
+    let start = doc.find(heading).unwrap_or_else(|| panic!("no {heading}"));
+    doc[start..]
+        .lines()
+        .skip_while(|l| !l.starts_with('|'))
+        .take_while(|l| l.starts_with('|'))
+        .skip(2)
+        .map(cells)
+        .collect()
+}
+
+#[test]
+fn the_documented_map_is_the_map() {
+    let rows = table_after(&doc(), "## The map");
+    assert_eq!(rows.len(), TABLE.len(), "number of rows");
+    for (row, area) in rows.iter().zip(TABLE) {
+        let access = match area.access {
+            Access::Ro => "RO",
+            Access::Rw => "RW",
+        };
+        assert_eq!(
+            (
+                row[0].as_str(),
+                row[1].parse::<u16>().ok(),
+                row[2].parse::<u16>().ok(),
+                row[3].as_str(),
+                row[4].as_str()
+            ),
+            (
+                area.name,
+                Some(area.start),
+                Some(area.len),
+                area.ty.name(),
+                access
+            ),
+            "row {row:?}"
+        );
+        assert!(!row[5].is_empty(), "{} has no description", area.name);
+    }
+}
+
+#[test]
+fn the_documented_command_codes_are_the_engine_codes() {
+    let rows = table_after(&doc(), "| Code | Command |");
+    let codes: Vec<u16> = rows.iter().map(|r| r[0].parse().expect("code")).collect();
+    assert_eq!(codes.len(), 23);
+    let inputs = |code| Inputs {
+        code,
+        // Valid for every command: axis/bit 1, value/distance 1, ratio 0.5.
+        params: [1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 10.0, 10.0, 0.0, 0.0, 0.0, 0.0],
+        text1: "Func_1",
+        text2: "",
+        robot_id: 0,
+        joints: [0.0; 6],
+    };
+    for c in 0..=255u16 {
+        let built = build(Source::Raw, 1, &inputs(c));
+        let documented = codes.contains(&c);
+        if c == 20 {
+            assert!(build(
+                Source::Raw,
+                1,
+                &Inputs {
+                    params: [0.5; 12],
+                    ..inputs(c)
+                }
+            )
+            .is_ok());
+            continue;
+        }
+        assert_eq!(built.is_ok(), documented, "code {c}: {built:?}");
+    }
+}
