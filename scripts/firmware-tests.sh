@@ -15,6 +15,13 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 
 command -v qemu-system-arm >/dev/null || SETUP_FUZZ=0 bash scripts/setup.sh
+# socat relays QEMU's forward to the simulator (scripts/qemu-run.sh).
+if ! command -v socat >/dev/null; then
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq socat >/dev/null
+fi
 
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}

@@ -44,9 +44,11 @@ pub const SIM_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 100);
 /// The port of [`SIM_IP`] that reaches the simulator's command port.
 pub const SIM_PORT: u16 = 10003;
 
-/// Number of sockets the network stack is sized for. Each costs a few
-/// hundred bytes of bookkeeping; their buffers belong to the tasks using them.
-pub const SOCKETS: usize = 8;
+/// Number of sockets the network stack is sized for: the gateway's, plus two
+/// for the board's own services (the diagnostics port; the smoke firmware's
+/// server and client). Each costs a few hundred bytes of bookkeeping; their
+/// buffers belong to the tasks using them.
+pub const SOCKETS: usize = hans_gateway::board::SOCKETS + 2;
 
 /// Why the board could not start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]

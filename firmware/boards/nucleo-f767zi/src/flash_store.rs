@@ -19,6 +19,7 @@
 //! and the defaults apply.
 
 use embassy_stm32::flash::{Blocking, Flash, WRITE_SIZE};
+use hans_gateway::{Storage, StorageError};
 
 /// Offset of the configuration sector from the start of flash.
 pub const SECTOR_OFFSET: u32 = 0x001C_0000;
@@ -90,5 +91,22 @@ impl FlashStore {
         self.flash
             .blocking_write(SECTOR_OFFSET, &record[..len])
             .map_err(|_| StoreError::Flash)
+    }
+}
+
+impl Storage for FlashStore {
+    fn load(&mut self, buf: &mut [u8]) -> Result<usize, StorageError> {
+        FlashStore::load(self, buf).map_err(|e| match e {
+            StoreError::Flash => StorageError::Io,
+            StoreError::TooLarge => StorageError::TooLarge,
+        })
+    }
+
+    fn save(&mut self, image: &[u8]) -> Result<(), StorageError> {
+        defmt::info!("config: saving {=usize} bytes to flash (erases sector 11)", image.len());
+        FlashStore::save(self, image).map_err(|e| match e {
+            StoreError::Flash => StorageError::Io,
+            StoreError::TooLarge => StorageError::TooLarge,
+        })
     }
 }

@@ -57,7 +57,7 @@ include!(concat!(env!("OUT_DIR"), "/net_setting.rs"));
 type Device = Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>;
 
 /// Sockets: the gateway's Modbus sessions and robot link, plus DHCP.
-const SOCKETS: usize = 8;
+const SOCKETS: usize = hans_gateway::board::SOCKETS + 1;
 
 fn clocks() -> embassy_stm32::Config {
     use embassy_stm32::rcc::*;
@@ -157,9 +157,10 @@ async fn net_task(mut runner: embassy_net::Runner<'static, Device>) -> ! {
     runner.run().await
 }
 
-async fn run_gateway(_stack: embassy_net::Stack<'static>, _storage: FlashStore) -> ! {
-    loop {
-        embassy_time::Timer::after_secs(10).await;
-        defmt::info!("stack: {}", fw_support::stack::usage());
-    }
+async fn run_gateway(stack: embassy_net::Stack<'static>, mut storage: FlashStore) -> ! {
+    // The robot address and the other settings come from flash (written by
+    // the PLC through the configuration registers); until then the link
+    // stays down (robot address 0.0.0.0).
+    let options = hans_gateway::Options::default();
+    match hans_gateway::board::run(stack, &mut storage, options).await {}
 }
