@@ -273,7 +273,7 @@ async fn respond(shared: &Arc<Shared>, stream: &mut TcpStream, msg: &str) -> boo
         match Request::parse(msg) {
             Ok(req) => {
                 let now = shared.now();
-                let (text, e) = shared.robot().handle(&req, now);
+                let (text, e) = shared.robot().handle(&req, name, now);
                 effect = e;
                 text
             }

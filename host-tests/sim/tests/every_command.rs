@@ -17,23 +17,23 @@ use support::Client;
 /// Commands whose document example cannot succeed on a robot that has just
 /// been brought up, with the code the simulator answers and why.
 const REFUSED: &[(&str, i32)] = &[
-    ("GrpContinue", 20018),         // nothing paused
-    ("GrpInterrupt", 20018),        // nothing moving
-    ("GrpCloseFreeDriver", 20018),  // free drive not open
-    ("ContinueScript", 20018),      // no script paused
-    ("PauseScript", 20018),         // no script running
-    ("GrpFCInterrupt", 40020),      // force control off
-    ("GrpFCContinue", 40020),       // force control off
-    ("PushMovePathJ", 20006),       // no such path
-    ("PushMovePathL", 20006),       // no such path
-    ("EndPushMovePath", 20006),     // no such path
-    ("MovePath", 20042),            // path not ready
-    ("MovePathL", 20042),           // path not ready
-    ("UpdateMovePathName", 20006),  // no such path
-    ("DelMovePath", 20006),         // no such path
-    ("PushServoJ", 20018),          // StartServo first
-    ("PushServoP", 20018),          // StartServo first
-    ("MoveC", 20006),               // the corpus' points are collinear: no circle
+    ("GrpContinue", 20018),        // nothing paused
+    ("GrpInterrupt", 20018),       // nothing moving
+    ("GrpCloseFreeDriver", 20018), // free drive not open
+    ("ContinueScript", 20018),     // no script paused
+    ("PauseScript", 20018),        // no script running
+    ("GrpFCInterrupt", 40020),     // force control off
+    ("GrpFCContinue", 40020),      // force control off
+    ("PushMovePathJ", 20006),      // no such path
+    ("PushMovePathL", 20006),      // no such path
+    ("EndPushMovePath", 20006),    // no such path
+    ("MovePath", 20042),           // path not ready
+    ("MovePathL", 20042),          // path not ready
+    ("UpdateMovePathName", 20006), // no such path
+    ("DelMovePath", 20006),        // no such path
+    ("PushServoJ", 20018),         // StartServo first
+    ("PushServoP", 20018),         // StartServo first
+    ("MoveC", 20006),              // the corpus' points are collinear: no circle
 ];
 
 fn corpus() -> Vec<(String, Vec<String>)> {
@@ -94,7 +94,10 @@ async fn every_command_of_the_corpus_gets_a_reply_of_its_shape() {
                 Reply::ErrorCmd(_) => panic!("{msg:?} -> {r}"),
             };
             assert_ne!(code, 20005, "{msg} is a known command");
-            outcome.entry(id.name()).or_default().push(format!("{code} <- {msg}"));
+            outcome
+                .entry(id.name())
+                .or_default()
+                .push(format!("{code} <- {msg}"));
             // Let any motion finish before the next line.
             sim.advance(Duration::from_secs(60));
         }

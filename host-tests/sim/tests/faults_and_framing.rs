@@ -23,9 +23,14 @@ async fn sim() -> Sim {
 async fn several_messages_in_one_read_answer_only_the_first() {
     let sim = sim().await;
     let mut c = Client::connect(sim.command_addr()).await;
-    c.send_raw(b"ReadCurFSM,0,;SetBoxDO,1,1,;ReadRobotModel,;").await;
+    c.send_raw(b"ReadCurFSM,0,;SetBoxDO,1,1,;ReadRobotModel,;")
+        .await;
     assert_eq!(c.read().await, "ReadCurFSM,OK,33,;");
-    assert_eq!(c.read_within(Duration::from_millis(400)).await, None, "the rest is discarded");
+    assert_eq!(
+        c.read_within(Duration::from_millis(400)).await,
+        None,
+        "the rest is discarded"
+    );
     assert!(!sim.io().do_[1], "the discarded SetBoxDO did not run");
     // The connection still works.
     assert_eq!(c.call("ReadRobotModel,;").await, "ReadRobotModel,OK,5KG,;");
@@ -44,7 +49,10 @@ async fn a_split_request_is_one_message_and_an_incomplete_one_is_answered() {
     let t = Instant::now();
     c.send_raw(b"ReadCurFSM,0,").await;
     assert_eq!(c.read().await, "errorcmd,20007,;");
-    assert!(t.elapsed() >= Duration::from_millis(200), "after the quiet period");
+    assert!(
+        t.elapsed() >= Duration::from_millis(200),
+        "after the quiet period"
+    );
     assert_eq!(c.call("ReadCurFSM,0,;").await, "ReadCurFSM,OK,33,;");
     sim.shutdown().await;
 }
@@ -54,7 +62,10 @@ async fn bad_input_gets_typed_refusals() {
     let sim = sim().await;
     let mut c = Client::connect(sim.command_addr()).await;
     assert_eq!(c.call("WayPoint,0,1,2,;").await, "WayPoint,Fail,20007,;");
-    assert_eq!(c.call("SetOverride,0,1.5,;").await, "SetOverride,Fail,20006,;");
+    assert_eq!(
+        c.call("SetOverride,0,1.5,;").await,
+        "SetOverride,Fail,20006,;"
+    );
     assert_eq!(c.call("SetBoxDO,9,1,;").await, "SetBoxDO,Fail,20006,;");
     assert_eq!(c.call("ReadVersion,;").await, "ReadVersion,Fail,20005,;");
     assert_eq!(c.call("Pose Trans,0,;").await, "errorcmd,20007,;");
@@ -64,9 +75,15 @@ async fn bad_input_gets_typed_refusals() {
     assert_eq!(c.call("GrpStop,OK,;").await, "GrpStop,Fail,20007,;");
     // Every form the document and NOTES allow.
     assert_eq!(c.call("OSCmd,1;").await, "OSCmd,OK,;");
-    assert_eq!(c.call("ReadBoxInfo,;").await, "ReadBoxInfo,OK,1,0,0.000,0.000,0,0,;"); // 48 V off
+    assert_eq!(
+        c.call("ReadBoxInfo,;").await,
+        "ReadBoxInfo,OK,1,0,0.000,0.000,0,0,;"
+    ); // 48 V off
     assert_eq!(c.call("ConnectToBox,0,;").await, "ConnectToBox,OK,;");
-    assert_eq!(c.call("ReadBoxCO,0,1,2,3,4,5,6,7,;;").await, "ReadBoxCO,OK,0,0,0,0,0,0,0,0,;");
+    assert_eq!(
+        c.call("ReadBoxCO,0,1,2,3,4,5,6,7,;;").await,
+        "ReadBoxCO,OK,0,0,0,0,0,0,0,0,;"
+    );
     assert_eq!(c.call(" SetBoxDO , 5, 1 ,;").await, "SetBoxDO,OK,;");
     assert_eq!(c.call("ReadBoxDO,5,;").await, "ReadBoxDO,OK,1,;");
     sim.shutdown().await;
@@ -81,22 +98,32 @@ async fn delay_split_garbage_fail_and_errorcmd_faults() {
     assert_eq!(c.call("ReadCurFSM,0,;").await, "ReadCurFSM,OK,33,;");
     assert!(t.elapsed() >= Duration::from_millis(300));
 
-    sim.faults().once(Fault::Split { chunk: 4, pause: Duration::from_millis(30) });
+    sim.faults().once(Fault::Split {
+        chunk: 4,
+        pause: Duration::from_millis(30),
+    });
     c.send_raw(b"ReadRobotModel,;").await;
     let mut first = [0u8; 64];
-    let n = tokio::time::timeout(WAIT, c.stream.read(&mut first)).await.unwrap().unwrap();
+    let n = tokio::time::timeout(WAIT, c.stream.read(&mut first))
+        .await
+        .unwrap()
+        .unwrap();
     assert_eq!(&first[..n], b"Read", "the first segment is one chunk");
     let mut rest = Vec::new();
     while rest.len() < "RobotModel,OK,5KG,;".len() {
         let mut b = [0u8; 64];
-        let n = tokio::time::timeout(WAIT, c.stream.read(&mut b)).await.unwrap().unwrap();
+        let n = tokio::time::timeout(WAIT, c.stream.read(&mut b))
+            .await
+            .unwrap()
+            .unwrap();
         assert!(n > 0);
         rest.extend_from_slice(&b[..n]);
     }
     assert_eq!(rest, b"RobotModel,OK,5KG,;");
 
     // Garbage ending in ';' is one bad frame; the reply follows intact.
-    sim.faults().once(Fault::GarbageBefore(b"\xff\x00junk;".to_vec()));
+    sim.faults()
+        .once(Fault::GarbageBefore(b"\xff\x00junk;".to_vec()));
     c.send_raw(b"ReadCurFSM,0,;").await;
     let g = c.read().await;
     assert!(g.starts_with("<frame error"), "{g}");
@@ -108,12 +135,22 @@ async fn delay_split_garbage_fail_and_errorcmd_faults() {
     assert!(!sim.io().do_[2], "garbage instead of a reply: not executed");
 
     sim.faults().add(
-        FaultRule::new(Fault::Fail { code: 20018, detail: "robot busy, try later".into() })
-            .only("SetBoxDO")
-            .times(1),
+        FaultRule::new(Fault::Fail {
+            code: 20018,
+            detail: "robot busy, try later".into(),
+        })
+        .only("SetBoxDO")
+        .times(1),
     );
-    assert_eq!(c.call("ReadCurFSM,0,;").await, "ReadCurFSM,OK,33,;", "other commands unaffected");
-    assert_eq!(c.call("SetBoxDO,2,1,;").await, "SetBoxDO,Fail,20018,robot busy, try later,;");
+    assert_eq!(
+        c.call("ReadCurFSM,0,;").await,
+        "ReadCurFSM,OK,33,;",
+        "other commands unaffected"
+    );
+    assert_eq!(
+        c.call("SetBoxDO,2,1,;").await,
+        "SetBoxDO,Fail,20018,robot busy, try later,;"
+    );
     assert!(!sim.io().do_[2]);
     assert_eq!(c.call("SetBoxDO,2,1,;").await, "SetBoxDO,OK,;");
 
@@ -130,10 +167,19 @@ async fn no_reply_and_dropped_connection_still_execute() {
     c.send_raw(b"SetBoxDO,4,1,;").await;
     assert_eq!(c.read_within(Duration::from_millis(300)).await, None);
     assert!(sim.io().do_[4], "executed, reply lost");
-    sim.faults().add(FaultRule::new(Fault::DropConnection).only("WayPoint").times(1));
-    c.send_raw(b"WayPoint,0,0,0,0,0,0,0,90,0,90,0,90,0,TCP,Base,50,100,0,0,1,0,0,0,1,;").await;
+    sim.faults().add(
+        FaultRule::new(Fault::DropConnection)
+            .only("WayPoint")
+            .times(1),
+    );
+    c.send_raw(b"WayPoint,0,0,0,0,0,0,0,90,0,90,0,90,0,TCP,Base,50,100,0,0,1,0,0,0,1,;")
+        .await;
     assert_eq!(c.read_within(WAIT).await, None, "closed without a reply");
-    assert_eq!(sim.fsm(), FsmState::Moving, "the move runs on without a client");
+    assert_eq!(
+        sim.fsm(),
+        FsmState::Moving,
+        "the move runs on without a client"
+    );
     let mut c = Client::connect(sim.command_addr()).await;
     assert_eq!(c.fsm().await, 25);
     sim.shutdown().await;
@@ -205,18 +251,33 @@ async fn client_mode_connects_out_and_reconnecting_replaces_the_connection() {
     let host = TcpListener::bind("127.0.0.1:0").await.unwrap();
     let sim = sim().await;
     sim.connect_out(host.local_addr().unwrap()).await.unwrap();
-    let (mut first, _) = tokio::time::timeout(WAIT, host.accept()).await.unwrap().unwrap();
+    let (mut first, _) = tokio::time::timeout(WAIT, host.accept())
+        .await
+        .unwrap()
+        .unwrap();
     first.write_all(b"ReadCurFSM,0,;").await.unwrap();
     let mut buf = [0u8; 64];
-    let n = tokio::time::timeout(WAIT, first.read(&mut buf)).await.unwrap().unwrap();
+    let n = tokio::time::timeout(WAIT, first.read(&mut buf))
+        .await
+        .unwrap()
+        .unwrap();
     assert_eq!(&buf[..n], b"ReadCurFSM,OK,33,;");
     // The connect signal again: the old connection closes, a new one opens.
     sim.connect_out(host.local_addr().unwrap()).await.unwrap();
-    let (mut second, _) = tokio::time::timeout(WAIT, host.accept()).await.unwrap().unwrap();
-    let n = tokio::time::timeout(WAIT, first.read(&mut buf)).await.unwrap().unwrap_or(0);
+    let (mut second, _) = tokio::time::timeout(WAIT, host.accept())
+        .await
+        .unwrap()
+        .unwrap();
+    let n = tokio::time::timeout(WAIT, first.read(&mut buf))
+        .await
+        .unwrap()
+        .unwrap_or(0);
     assert_eq!(n, 0, "the old connection is closed");
     second.write_all(b"ReadRobotModel,;").await.unwrap();
-    let n = tokio::time::timeout(WAIT, second.read(&mut buf)).await.unwrap().unwrap();
+    let n = tokio::time::timeout(WAIT, second.read(&mut buf))
+        .await
+        .unwrap()
+        .unwrap();
     assert_eq!(&buf[..n], b"ReadRobotModel,OK,5KG,;");
     sim.shutdown().await;
 }

@@ -90,10 +90,10 @@ fn wrap(d: f64) -> f64 {
 }
 
 impl Robot {
-    /// Executes one request at `now` and returns the reply text.
-    pub fn handle(&mut self, req: &Request<'_>, now: f64) -> (Vec<u8>, Effect) {
+    /// Executes one request at `now` and returns the reply text; `name` is
+    /// the name as received (an alias is answered under the alias).
+    pub fn handle(&mut self, req: &Request<'_>, name: &str, now: f64) -> (Vec<u8>, Effect) {
         self.update(now);
-        let name = req.name();
         let mut effect = Effect::None;
         let answer = match req.command() {
             None => Err(20005),

@@ -154,6 +154,10 @@ pub enum Initial {
     StandBy,
 }
 
+/// Slack when comparing simulated times: sums of durations in `f64` seconds
+/// are not exact (0.2 + 0.1 > 0.3).
+const SLACK: f64 = 1e-9;
+
 /// A power/connection stage of the bring-up chain.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Stage {
@@ -166,8 +170,8 @@ enum Stage {
 impl Stage {
     fn settle(&mut self, now: f64) {
         match *self {
-            Stage::Rising { done } if now >= done => *self = Stage::On,
-            Stage::Falling { done } if now >= done => *self = Stage::Off,
+            Stage::Rising { done } if now + SLACK >= done => *self = Stage::On,
+            Stage::Falling { done } if now + SLACK >= done => *self = Stage::Off,
             _ => {}
         }
     }
@@ -498,15 +502,15 @@ impl Robot {
             s.settle(now);
         }
         self.script = match self.script.take() {
-            Some(Script::Running { until }) if now >= until => None,
-            Some(Script::Stopping { until }) if now >= until => None,
-            Some(Script::Pausing { until, remaining }) if now >= until => {
+            Some(Script::Running { until }) if now + SLACK >= until => None,
+            Some(Script::Stopping { until }) if now + SLACK >= until => None,
+            Some(Script::Pausing { until, remaining }) if now + SLACK >= until => {
                 Some(Script::Held { remaining })
             }
             other => other,
         };
         for t in self.tracks.values_mut() {
-            if t.state == 2 && now >= t.ready_at {
+            if t.state == 2 && now + SLACK >= t.ready_at {
                 t.state = 3;
             }
         }
@@ -536,7 +540,7 @@ impl Robot {
                         continue;
                     }
                 }
-                if end > now {
+                if end > now + SLACK {
                     break;
                 }
                 let q = seg.plan.path.at(seg.profile.final_s());
@@ -791,7 +795,7 @@ impl Robot {
         if self.error.is_some() {
             return F::Error;
         }
-        if now < self.resetting_until {
+        if now + SLACK < self.resetting_until {
             return F::Reseting;
         }
         match self.enable {
@@ -834,10 +838,10 @@ impl Robot {
     pub fn flags(&self, now: f64) -> Flags {
         let lagged = now - Self::secs(self.timing.moving_flag_lag);
         let moving = if self.motion_running() {
-            lagged >= self.busy_since
+            lagged + SLACK >= self.busy_since
         } else {
-            lagged >= self.busy_since && lagged < self.idle_since
-        } || self.ft_on.is_some_and(|since| lagged >= since);
+            lagged + SLACK >= self.busy_since && lagged + SLACK < self.idle_since
+        } || self.ft_on.is_some_and(|since| lagged + SLACK >= since);
         let enabled = self.enable.is_on() && !self.estop;
         let settled =
             !self.motion_running() && now >= self.idle_since + Self::secs(self.timing.actual_lag);
@@ -915,7 +919,7 @@ impl Robot {
             return 3;
         }
         match self.ft_on {
-            Some(since) if now >= since + Self::secs(self.timing.force_search) => 2,
+            Some(since) if now + SLACK >= since + Self::secs(self.timing.force_search) => 2,
             Some(_) => 1,
             None => 0,
         }
