@@ -1,1 +1,142 @@
-fn main() {}
+//! Benchmark (not a test): latency from the PLC's Modbus write of Execute to
+//! the command's bytes arriving at the robot, and the sustained rate of
+//! non-motion commands through the full PLCopen handshake.
+//!
+//! `cargo bench -p hans-e2e --bench gateway_latency` (release build).
+//!
+//! The robot is a minimal peer in this process that timestamps each
+//! message the moment its bytes are read (hans-sim records what it received
+//! but not when) and answers every request at once with a canned reply.
+//! Goals: p99 under 2 ms, 500 commands per second or more.
+
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
+use std::time::{Duration, Instant};
+
+use hans_e2e::{code, Plc};
+use hans_gateway::host::{HostOptions, RunningGateway};
+use hans_gateway::registers as r;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpListener;
+use tokio::sync::mpsc;
+
+const SAMPLES: usize = 2000;
+const WARMUP: usize = 200;
+const RATE_TIME: Duration = Duration::from_secs(3);
+
+fn reply_to(msg: &str) -> String {
+    let name = msg.split(',').next().unwrap_or("").trim();
+    let values = match name {
+        "ReadRobotState" => "0,1,0,0,0,1,0,0,0,1,1,1,1,",
+        "ReadCurFSM" => "33,",
+        "ReadActPos" => "0,0,90,0,90,0,420,0,445,180,0,180,0,0,0,0,0,0,0,0,0,0,0,0,",
+        "ReadBoxDI" | "ReadBoxDO" | "ReadBoxCI" | "ReadBoxCO" => "0,0,0,0,0,0,0,0,",
+        "ReadEI" | "ReadEO" => "0,0,0,",
+        _ => "",
+    };
+    format!("{name},OK,{values};")
+}
+
+/// The robot: answers everything, reports when each `SetBoxDO` arrived.
+async fn robot(listener: TcpListener, arrivals: mpsc::UnboundedSender<Instant>) {
+    while let Ok((mut s, _)) = listener.accept().await {
+        let _ = s.set_nodelay(true);
+        let tx = arrivals.clone();
+        tokio::spawn(async move {
+            let mut buf = vec![0u8; 4096];
+            let mut pending = String::new();
+            loop {
+                let n = match s.read(&mut buf).await {
+                    Ok(0) | Err(_) => return,
+                    Ok(n) => n,
+                };
+                let now = Instant::now();
+                pending.push_str(&String::from_utf8_lossy(&buf[..n]));
+                while let Some(i) = pending.find(';') {
+                    let msg: String = pending.drain(..=i).collect();
+                    if msg.starts_with("SetBoxDO") {
+                        let _ = tx.send(now);
+                    }
+                    if s.write_all(reply_to(&msg).as_bytes()).await.is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+    }
+}
+
+async fn handshake(plc: &mut Plc, arrivals: &mut mpsc::UnboundedReceiver<Instant>) -> Duration {
+    let t0 = Instant::now();
+    plc.write(r::channel_base(0) + r::CH_CONTROL, &[1]).await;
+    let t1 = arrivals.recv().await.expect("robot alive");
+    let end = plc.wait_end(Plc::ch_status(0)).await;
+    assert!(end.done(), "{end:?}");
+    plc.write(r::channel_base(0) + r::CH_CONTROL, &[0]).await;
+    t1.saturating_duration_since(t0)
+}
+
+fn pct(sorted: &[Duration], p: f64) -> Duration {
+    let i = ((sorted.len() as f64 - 1.0) * p).round() as usize;
+    sorted[i.min(sorted.len() - 1)]
+}
+
+fn main() {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .expect("runtime");
+    rt.block_on(async {
+        let listener = TcpListener::bind("127.0.0.1:0").await.expect("bind");
+        let robot_addr = match listener.local_addr().expect("addr") {
+            SocketAddr::V4(a) => a,
+            SocketAddr::V6(_) => unreachable!(),
+        };
+        let (tx, mut arrivals) = mpsc::unbounded_channel();
+        tokio::spawn(robot(listener, tx));
+        let gw = RunningGateway::start(HostOptions::new(
+            SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0),
+            robot_addr,
+        ))
+        .expect("gateway");
+        let mut plc = Plc::connect(gw.modbus_addr()).await;
+        plc.wait_link().await;
+        // Inputs once: SetBoxDO bit 1 = 1; then only Execute is toggled.
+        plc.command(0, code::SET_BOX_DO, &[1.0, 1.0], 1).await;
+        plc.wait_end(Plc::ch_status(0)).await;
+        plc.write(r::channel_base(0) + r::CH_CONTROL, &[0]).await;
+        while arrivals.try_recv().is_ok() {}
+
+        for _ in 0..WARMUP {
+            handshake(&mut plc, &mut arrivals).await;
+        }
+        let mut lat: Vec<Duration> = Vec::with_capacity(SAMPLES);
+        for _ in 0..SAMPLES {
+            lat.push(handshake(&mut plc, &mut arrivals).await);
+        }
+        lat.sort();
+        println!("Execute write -> bytes at the robot, {SAMPLES} samples:");
+        println!(
+            "  p50 {:?}  p90 {:?}  p99 {:?}  max {:?}   (goal: p99 < 2 ms)",
+            pct(&lat, 0.50),
+            pct(&lat, 0.90),
+            pct(&lat, 0.99),
+            lat[lat.len() - 1]
+        );
+
+        let start = Instant::now();
+        let mut n = 0u32;
+        while start.elapsed() < RATE_TIME {
+            handshake(&mut plc, &mut arrivals).await;
+            n += 1;
+        }
+        let rate = f64::from(n) / start.elapsed().as_secs_f64();
+        println!("sustained non-motion commands, full handshake (Execute, Done, Execute low):");
+        println!(
+            "  {rate:.0} commands/s over {:?}   (goal: >= 500/s)",
+            RATE_TIME
+        );
+        drop(plc);
+        gw.stop();
+    });
+}
