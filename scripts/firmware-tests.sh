@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Firmware checks: builds both firmwares in release, prints their size report
 # (and fails if the gateway firmwares exceed 128 KiB flash / 64 KiB static
-# RAM), then runs the QEMU tests (smoke firmware; gateway firmware with the
-# robot simulator and a Modbus client), which print the stack high-water mark.
+# RAM), then runs the QEMU tests (firmware/qemu-tests: smoke firmware; gateway
+# firmware with the robot simulator, run in-process, and a Modbus client),
+# which print the stack high-water mark.
 #
 # Bounded: each QEMU and simulator process runs under timeout(1) and is
 # stopped by the tests on every exit path; the whole test run is under a
@@ -38,16 +39,12 @@ bash scripts/firmware-size.sh --budget \
   gateway-mps2-an386="$BIN_DIR/gateway" \
   gateway-nucleo-f767zi="$BIN_DIR/nucleo-f767zi"
 
-echo "==> build robot simulator"
-CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release --locked -p hans-sim
-
 echo "==> QEMU tests"
 LOG=$(mktemp)
 trap 'rm -f "$LOG"' EXIT
 # One test at a time: each runs a QEMU, and the machine has two cores.
 set +e
-FIRMWARE_BIN_DIR="$BIN_DIR" HANS_SIM_BIN="$HOST_TARGET/release/hans-sim" \
-  CARGO_TARGET_DIR="$HOST_TARGET" \
+FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \
   timeout --kill-after=10 900 \
   cargo test --locked --manifest-path firmware/qemu-tests/Cargo.toml -- --test-threads=1 --nocapture \
   2>&1 | tee "$LOG"
@@ -55,5 +52,6 @@ status=${PIPESTATUS[0]}
 set -e
 
 echo "==> stack high-water marks measured under QEMU (painted stack)"
-grep -E 'stack: [0-9]+ of [0-9]+ bytes used|^stack_used=|stack_used=' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
+# Each QEMU test prints "<test>: stack_used=N stack_size=M ..." at its end.
+grep -oE '[a-z0-9-]+: stack_used=[0-9]+ stack_size=[0-9]+' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
 exit "$status"

@@ -56,6 +56,16 @@ fn smoke_firmware_talks_both_ways_and_exits_zero() {
     let greeting = sim.join().expect("sim thread");
     let log = qemu.log_text();
     println!("--- firmware log ---\n{log}");
+    // "stack: N of M bytes used" (decoded only when defmt-print is installed).
+    if let Some(line) = log.lines().find(|l| l.contains("INFO  stack: ")) {
+        let nums: Vec<&str> = line
+            .split_whitespace()
+            .filter(|w| w.chars().all(|c| c.is_ascii_digit()))
+            .collect();
+        if let [used, size] = nums[..] {
+            println!("smoke: stack_used={used} stack_size={size}");
+        }
+    }
 
     assert_eq!(
         echoed.as_deref(),

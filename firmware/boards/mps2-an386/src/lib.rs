@@ -23,7 +23,7 @@ use defmt_semihosting as _;
 use embassy_executor::Spawner;
 use embassy_net::{Ipv4Address, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
 use lan9118::Lan9118;
-use static_cell::StaticCell;
+use static_cell::ConstStaticCell;
 
 /// System (and SysTick) clock of the AN386 image, in Hz.
 pub const SYSCLK_HZ: u32 = 25_000_000;
@@ -82,7 +82,12 @@ pub fn init(spawner: Spawner) -> Result<Stack<'static>, BoardError> {
 
     // SAFETY: ETH_BASE is the LAN9118's window on this machine and nothing
     // else touches it; the interrupt handler only uses the same window.
-    let eth = unsafe { Lan9118::new(ETH_BASE) }.map_err(BoardError::Ethernet)?;
+    // Const-initialised statics: built in place, never copied through the
+    // stack (StackResources alone is ~12 KiB).
+    static BUFFERS: ConstStaticCell<lan9118::Buffers> =
+        ConstStaticCell::new(lan9118::Buffers::new());
+    let buffers = BUFFERS.take();
+    let eth = unsafe { Lan9118::new(ETH_BASE, buffers) }.map_err(BoardError::Ethernet)?;
     let mac = eth.mac_address();
     defmt::info!("lan9118: up, MAC {=[u8]:02x}", mac);
     // SAFETY: the handler it enables (`irq::ETHERNET`) only touches
@@ -95,18 +100,18 @@ pub fn init(spawner: Spawner) -> Result<Stack<'static>, BoardError> {
         gateway: Some(GATEWAY_IP),
         dns_servers: heapless::Vec::new(),
     });
-    static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
+    static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
+        ConstStaticCell::new(StackResources::new());
     // QEMU has no entropy source; the seed only varies TCP initial sequence
     // numbers and local ports, so derive it from the MAC (unique per -nic).
     let seed = u64::from_le_bytes([mac[0], mac[1], mac[2], mac[3], mac[4], mac[5], 0x48, 0x53]);
-    let (stack, runner) =
-        embassy_net::new(eth, config, RESOURCES.init(StackResources::new()), seed);
+    let (stack, runner) = embassy_net::new(eth, config, RESOURCES.take(), seed);
     spawner.spawn(net_task(runner).map_err(|_| BoardError::Spawn)?);
     Ok(stack)
 }
 
 #[embassy_executor::task]
-async fn net_task(mut runner: embassy_net::Runner<'static, Lan9118>) -> ! {
+async fn net_task(mut runner: embassy_net::Runner<'static, Lan9118<'static>>) -> ! {
     runner.run().await
 }
 

@@ -103,7 +103,10 @@ impl Storage for FlashStore {
     }
 
     fn save(&mut self, image: &[u8]) -> Result<(), StorageError> {
-        defmt::info!("config: saving {=usize} bytes to flash (erases sector 11)", image.len());
+        defmt::info!(
+            "config: saving {=usize} bytes to flash (erases sector 11)",
+            image.len()
+        );
         FlashStore::save(self, image).map_err(|e| match e {
             StoreError::Flash => StorageError::Io,
             StoreError::TooLarge => StorageError::TooLarge,

@@ -30,7 +30,7 @@ use embassy_stm32::rng::Rng;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{bind_interrupts, eth, rng};
 use panic_probe as _;
-use static_cell::StaticCell;
+use static_cell::ConstStaticCell;
 
 use flash_store::FlashStore;
 
@@ -102,9 +102,11 @@ async fn main(spawner: Spawner) {
         uid[4] ^ uid[10] ^ uid[5] ^ uid[11],
     ];
 
-    static PACKETS: StaticCell<PacketQueue<4, 4>> = StaticCell::new();
+    // Const-initialised statics: built in place, never copied through the
+    // stack (the packet queue is 12 KiB, StackResources about as much).
+    static PACKETS: ConstStaticCell<PacketQueue<4, 4>> = ConstStaticCell::new(PacketQueue::new());
     let device: Device = Ethernet::new(
-        PACKETS.init(PacketQueue::new()),
+        PACKETS.take(),
         p.ETH,
         Irqs,
         p.PA1,
@@ -132,13 +134,9 @@ async fn main(spawner: Spawner) {
             dns_servers: heapless::Vec::new(),
         }),
     };
-    static RESOURCES: StaticCell<StackResources<SOCKETS>> = StaticCell::new();
-    let (stack, runner) = embassy_net::new(
-        device,
-        net_config,
-        RESOURCES.init(StackResources::new()),
-        seed,
-    );
+    static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
+        ConstStaticCell::new(StackResources::new());
+    let (stack, runner) = embassy_net::new(device, net_config, RESOURCES.take(), seed);
     match net_task(runner) {
         Ok(token) => spawner.spawn(token),
         Err(_) => defmt::panic!("net task already spawned"),

@@ -25,7 +25,8 @@
 //!
 //! ```ignore
 //! // Board code (interrupt 13 on the MPS2 AN385/AN386):
-//! let eth = unsafe { lan9118::Lan9118::new(0x4020_0000) }?;
+//! static BUFFERS: StaticCell<lan9118::Buffers> = StaticCell::new();
+//! let eth = unsafe { lan9118::Lan9118::new(0x4020_0000, BUFFERS.init(lan9118::Buffers::new())) }?;
 //! #[interrupt] fn ETHERNET() { unsafe { lan9118::on_interrupt(0x4020_0000) } }
 //! ```
 //!
@@ -207,16 +208,40 @@ fn is_lan911x_family(chip: u32) -> bool {
     matches!(chip, 0x0115..=0x0118 | 0x9115..=0x9118 | 0x9215..=0x9218 | 0x9220 | 0x9221)
 }
 
+/// The driver's frame buffers (3 KiB). Kept outside [`Lan9118`] so the board
+/// can place them in a `static` and the driver stays small enough to move
+/// around by value without costing stack.
+pub struct Buffers {
+    rx: [u8; BUF_LEN],
+    tx: [u8; BUF_LEN],
+}
+
+impl Buffers {
+    /// Zeroed buffers (fit for a `static`).
+    pub const fn new() -> Self {
+        Buffers {
+            rx: [0; BUF_LEN],
+            tx: [0; BUF_LEN],
+        }
+    }
+}
+
+impl Default for Buffers {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 /// A LAN9118 driving one Ethernet port, to hand to `embassy_net::new`.
-pub struct Lan9118 {
+pub struct Lan9118<'d> {
     regs: Regs,
     mac: [u8; 6],
     link_up: bool,
-    rx_buf: [u8; BUF_LEN],
-    tx_buf: [u8; BUF_LEN],
+    rx_buf: &'d mut [u8; BUF_LEN],
+    tx_buf: &'d mut [u8; BUF_LEN],
 }
 
-impl Lan9118 {
+impl<'d> Lan9118<'d> {
     /// Resets and configures the controller at `base`, keeping the MAC address
     /// it loaded (from its EEPROM, or QEMU's `-nic` option).
     ///
@@ -228,7 +253,7 @@ impl Lan9118 {
     /// `base` must be the address of a LAN9118 register window, and nothing
     /// else may access it while the returned driver exists (besides
     /// [`on_interrupt`]).
-    pub unsafe fn new(base: usize) -> Result<Self, InitError> {
+    pub unsafe fn new(base: usize, buffers: &'d mut Buffers) -> Result<Self, InitError> {
         let regs = Regs { base };
         let byte_test = regs.read(csr::BYTE_TEST);
         if byte_test != BYTE_TEST_PATTERN {
@@ -278,8 +303,8 @@ impl Lan9118 {
             regs,
             mac,
             link_up,
-            rx_buf: [0; BUF_LEN],
-            tx_buf: [0; BUF_LEN],
+            rx_buf: &mut buffers.rx,
+            tx_buf: &mut buffers.tx,
         })
     }
 
@@ -428,7 +453,7 @@ impl embassy_net_driver::TxToken for TxToken<'_> {
     }
 }
 
-impl embassy_net_driver::Driver for Lan9118 {
+impl embassy_net_driver::Driver for Lan9118<'_> {
     type RxToken<'a>
         = RxToken<'a>
     where
@@ -453,12 +478,14 @@ impl embassy_net_driver::Driver for Lan9118 {
         match self.pop_frame() {
             Some(len) => {
                 let regs = self.regs;
-                let (rx, tx) = (&mut self.rx_buf, &mut self.tx_buf);
                 Some((
                     RxToken {
-                        buf: &mut rx[..len],
+                        buf: &mut self.rx_buf[..len],
                     },
-                    TxToken { regs, buf: tx },
+                    TxToken {
+                        regs,
+                        buf: self.tx_buf,
+                    },
                 ))
             }
             None => {
@@ -472,7 +499,7 @@ impl embassy_net_driver::Driver for Lan9118 {
         if self.tx_space() {
             Some(TxToken {
                 regs: self.regs,
-                buf: &mut self.tx_buf,
+                buf: self.tx_buf,
             })
         } else {
             TX_WAKER.register(cx.waker());

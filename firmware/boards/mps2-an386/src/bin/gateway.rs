@@ -10,7 +10,7 @@
 use board_mps2_an386 as board;
 use embassy_executor::Spawner;
 use hans_gateway::{Config, Options, RamStorage};
-use static_cell::StaticCell;
+use static_cell::ConstStaticCell;
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
@@ -34,8 +34,8 @@ async fn main(spawner: Spawner) {
 
 #[embassy_executor::task]
 async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
-    static STORAGE: StaticCell<RamStorage> = StaticCell::new();
-    let storage = STORAGE.init(RamStorage::new());
+    static STORAGE: ConstStaticCell<RamStorage> = ConstStaticCell::new(RamStorage::new());
+    let storage = STORAGE.take();
     let options = Options {
         modbus_port: 502,
         defaults: Config {
