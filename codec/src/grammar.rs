@@ -13,11 +13,10 @@
 //! | `Name` or `Name,p1` (no `;`, as a framer body) | same as with `;` |
 //!
 //! Fields are split on `,` only; the protocol has no quoting, so a text field
-//! can never contain `,` or `;` (the writer refuses such text). Splitting uses
-//! nom on the borrowed input: nothing is copied.
-
-use nom::bytes::complete::take_till;
-use nom::{IResult, Parser};
+//! can never contain `,` or `;` (the writer refuses such text). Splitting
+//! borrows the input: nothing is copied. It is a byte loop rather than parser
+//! combinators: this is the codec's hottest path and the grammar is one
+//! separator (see `host-tests/benches`).
 
 use crate::catalogue::CommandId;
 use crate::error::{Expected, Got, ParseError};
@@ -27,23 +26,29 @@ pub(crate) fn is_space(b: u8) -> bool {
     matches!(b, b' ' | b'\t' | b'\r' | b'\n')
 }
 
+/// `s` without the whitespace [`is_space`] at its ends.
 pub(crate) fn trim(s: &str) -> &str {
-    s.trim_matches(|c: char| c.is_ascii() && is_space(c as u8))
-}
-
-fn field(i: &str) -> IResult<&str, &str> {
-    take_till(|c| c == ',').parse(i)
+    let b = s.as_bytes();
+    let start = b.iter().position(|&c| !is_space(c)).unwrap_or(b.len());
+    let end = b
+        .iter()
+        .rposition(|&c| !is_space(c))
+        .map_or(start, |e| e + 1);
+    // Both ends sit next to ASCII bytes, so they are character boundaries.
+    s.get(start..end).unwrap_or("")
 }
 
 /// Splits off the first field of `rest`; `None` when nothing is left.
+/// (A plain byte loop: fields are a few bytes long, where `memchr`'s set-up
+/// costs more than it saves.)
 fn split_field(rest: &str) -> (&str, Option<&str>) {
-    match field(rest) {
-        Ok((after, f)) => match after.strip_prefix(',') {
-            Some(tail) => (f, Some(tail)),
-            None => (f, None),
-        },
-        // `take_till` on a complete input cannot fail; treat as "all of it".
-        Err(_) => (rest, None),
+    match rest.bytes().position(|b| b == b',') {
+        // `,` is ASCII: both sides of it are character boundaries.
+        Some(i) => (
+            rest.get(..i).unwrap_or(""),
+            Some(rest.get(i + 1..).unwrap_or("")),
+        ),
+        None => (rest, None),
     }
 }
 

@@ -347,14 +347,41 @@ macro_rules! catalogue {
 
             /// The command with this wire name or alias (exact letter case).
             pub fn from_name(name: &str) -> Option<CommandId> {
-                // A scan of the name table: smaller than a generated match.
-                CommandId::ALL
-                    .iter()
-                    .copied()
-                    .find(|id| id.name() == name)
+                // A binary search of the names sorted at compile time: eight
+                // comparisons, where a scan made up to 139 (every message
+                // read looks its name up; see `host-tests/benches`).
+                BY_NAME
+                    .binary_search_by(|id| id.name().cmp(name))
+                    .ok()
+                    .and_then(|i| BY_NAME.get(i).copied())
                     .or_else(|| ALIASES.iter().find(|(a, _)| *a == name).map(|(_, id)| *id))
             }
         }
+
+        /// Every command, sorted by wire name at compile time (for
+        /// [`CommandId::from_name`]). The indexing runs only in the compiler.
+        #[allow(clippy::indexing_slicing)]
+        const BY_NAME: [CommandId; CommandId::ALL.len()] = {
+            let mut a = [CommandId::ALL[0]; CommandId::ALL.len()];
+            let mut i = 0;
+            while i < a.len() {
+                a[i] = CommandId::ALL[i];
+                i += 1;
+            }
+            // Insertion sort, in the byte order of `str::cmp`.
+            let mut i = 1;
+            while i < a.len() {
+                let mut j = i;
+                while j > 0 && super::name_less(a[j].name(), a[j - 1].name()) {
+                    let t = a[j];
+                    a[j] = a[j - 1];
+                    a[j - 1] = t;
+                    j -= 1;
+                }
+                i += 1;
+            }
+            a
+        };
 
         /// Every alias with its command (a short list: most commands have none).
         const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
@@ -616,6 +643,20 @@ macro_rules! catalogue {
 }
 use catalogue;
 
+/// `a < b` in the byte order of `str::cmp`, at compile time.
+#[allow(clippy::indexing_slicing)]
+const fn name_less(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    let mut i = 0;
+    while i < a.len() && i < b.len() {
+        if a[i] != b[i] {
+            return a[i] < b[i];
+        }
+        i += 1;
+    }
+    a.len() < b.len()
+}
+
 /// Visits the fields of an unknown message as texts named `0`, `1`, ...
 fn visit_raw(raw: &RawMessage<'_>, v: &mut dyn Visitor) {
     let mut name = itoa::Buffer::new();
@@ -647,5 +688,23 @@ impl CommandId {
                 | C::MovePath
                 | C::MovePathL
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_and_alias_is_found() {
+        for &id in CommandId::ALL {
+            assert_eq!(CommandId::from_name(id.name()), Some(id));
+            for alias in id.aliases() {
+                assert_eq!(CommandId::from_name(alias), Some(id));
+            }
+        }
+        for unknown in ["", "grpenable", "GrpEnable ", "ReadVersion", "Z", "A"] {
+            assert_eq!(CommandId::from_name(unknown), None, "{unknown:?}");
+        }
     }
 }
