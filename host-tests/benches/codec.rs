@@ -1,0 +1,356 @@
+//! The codec against a naive `std` implementation of the same job, in the
+//! same run: parse the 24-value `ReadActPos` reply, parse and format a
+//! `WayPoint` request, deframe and decode a DataSheet packet.
+//!
+//! The naive side is what a first implementation on a PC would do: `String`s,
+//! `split(',')`, `str::parse::<f64>()`, `Vec`, `format!`. Criterion measures
+//! each; after each pair the ratio naive / codec is printed, measured again
+//! with a simple median-of-rounds timer so that it appears in the same run.
+//!
+//! Goals (issue "Codec ... Host tests", item 4): parsing at least 5x faster
+//! than the naive baseline, formatting at least 3x.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use hans_codec::datasheet::{DataSheet, Deframer};
+use hans_codec::{request, Command, CommandId, Decimal, Reply, ReplyExpect, Request, RobotId};
+
+const ACT_POS: &str = "ReadActPos,OK,10.759,0.000,37.828,0.000,37.828,0.000,400.581,76.115,\
+970.143,0.000,75.655,10.759,0.000,0.000,100.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,\
+-0.000,;";
+
+const WAY_POINT: &str =
+    "WayPoint,0,420.000,0.000,445.000,180.000,0.000,180.000,0.000,0.000,90.000,0.000,90.000,0.000,\
+TCP,Base,50.000,360.000,0.000,0,0,0,0,0,P17,;";
+
+/// A DataSheet payload written for this project (tests/datasheet.rs reads it too).
+const SHEET_JSON: &[u8] = include_bytes!("../vectors/datasheet/standby.json");
+
+// ---------------------------------------------------------------- naive std baselines
+
+/// The reply split into owned strings, checked and converted with `f64`.
+fn naive_read_act_pos(text: &str) -> Option<Vec<f64>> {
+    let fields: Vec<String> = text
+        .trim()
+        .trim_end_matches(';')
+        .trim_end_matches(',')
+        .split(',')
+        .map(|f| f.trim().to_string())
+        .collect();
+    if fields.len() != 26 || fields[0] != "ReadActPos" || fields[1] != "OK" {
+        return None;
+    }
+    fields[2..].iter().map(|f| f.parse::<f64>().ok()).collect()
+}
+
+#[derive(Debug, Default)]
+#[allow(dead_code)] // the fields are the point: they are filled, then dropped
+struct NaiveWayPoint {
+    rbt_id: i32,
+    pose: Vec<f64>,
+    joints: Vec<f64>,
+    tcp_name: String,
+    ucs_name: String,
+    velocity: f64,
+    acc: f64,
+    radius: f64,
+    ints: Vec<i32>,
+    cmd_id: String,
+}
+
+fn naive_parse_way_point(text: &str) -> Option<NaiveWayPoint> {
+    let fields: Vec<String> = text
+        .trim()
+        .trim_end_matches(';')
+        .trim_end_matches(',')
+        .split(',')
+        .map(|f| f.trim().to_string())
+        .collect();
+    if fields.len() != 25 || fields[0] != "WayPoint" {
+        return None;
+    }
+    let num = |i: usize| fields[i].parse::<f64>().ok();
+    Some(NaiveWayPoint {
+        rbt_id: fields[1].parse().ok()?,
+        pose: (2..8).map(num).collect::<Option<Vec<_>>>()?,
+        joints: (8..14).map(num).collect::<Option<Vec<_>>>()?,
+        tcp_name: fields[14].clone(),
+        ucs_name: fields[15].clone(),
+        velocity: num(16)?,
+        acc: num(17)?,
+        radius: num(18)?,
+        ints: (19..24)
+            .map(|i| fields[i].parse::<i32>().ok())
+            .collect::<Option<Vec<_>>>()?,
+        cmd_id: fields[24].clone(),
+    })
+}
+
+fn naive_format_way_point(w: &NaiveWayPoint) -> String {
+    let nums = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:.3}"))
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    format!(
+        "WayPoint,{},{},{},{},{},{:.3},{:.3},{:.3},{},{},;",
+        w.rbt_id,
+        nums(&w.pose),
+        nums(&w.joints),
+        w.tcp_name,
+        w.ucs_name,
+        w.velocity,
+        w.acc,
+        w.radius,
+        w.ints
+            .iter()
+            .map(|i| i.to_string())
+            .collect::<Vec<_>>()
+            .join(","),
+        w.cmd_id
+    )
+}
+
+/// Deframes with a growing `Vec`, then reads every `"key": value(s)` pair
+/// into owned keys and `f64` values by splitting on the JSON punctuation.
+fn naive_datasheet(stream: &[&[u8]]) -> Vec<(String, Vec<f64>)> {
+    let mut buf: Vec<u8> = Vec::new();
+    let mut out = Vec::new();
+    for chunk in stream {
+        buf.extend_from_slice(chunk);
+        while buf.len() >= 12 {
+            if &buf[..4] != b"LTBR" {
+                buf.remove(0);
+                continue;
+            }
+            let total = u32::from_le_bytes(buf[4..8].try_into().unwrap()) as usize;
+            if buf.len() < total {
+                break;
+            }
+            let payload: Vec<u8> = buf.drain(..total).skip(12).collect();
+            let text = String::from_utf8(payload).unwrap_or_default();
+            let flat = text.replace(['{', '}', '[', ']', '\n', '\t', ' '], ",");
+            let mut key = String::new();
+            let mut values = Vec::new();
+            for token in flat.split(',').filter(|t| !t.is_empty()) {
+                let value = match token.split_once(':') {
+                    Some((k, v)) => {
+                        if !key.is_empty() {
+                            out.push((std::mem::take(&mut key), std::mem::take(&mut values)));
+                        }
+                        key = k.trim_matches('"').to_string();
+                        v
+                    }
+                    None => token,
+                };
+                if let Ok(x) = value.trim_matches('"').parse::<f64>() {
+                    values.push(x);
+                }
+            }
+            if !key.is_empty() {
+                out.push((key, values));
+            }
+        }
+    }
+    out
+}
+
+// ---------------------------------------------------------------- the codec
+
+fn codec_read_act_pos(text: &str) -> Option<[Decimal; 24]> {
+    match Reply::parse(text, ReplyExpect::of(CommandId::ReadActPos)) {
+        Ok(Reply::Ok(hans_codec::Response::ReadActPos(r))) => {
+            let mut all = [Decimal::ZERO; 24];
+            for (slot, v) in all
+                .iter_mut()
+                .zip(r.joints.iter().chain(&r.pose).chain(&r.tcp).chain(&r.ucs))
+            {
+                *slot = *v;
+            }
+            Some(all)
+        }
+        _ => None,
+    }
+}
+
+fn codec_parse_way_point(text: &str) -> Option<Request<'_>> {
+    Request::parse(text).ok()
+}
+
+fn codec_datasheet(stream: &[&[u8]], deframer: &mut Deframer<8192>) -> usize {
+    let mut n = 0;
+    for chunk in stream {
+        deframer.feed(chunk, |item| {
+            if let Ok(payload) = item {
+                if let Ok(sheet) = DataSheet::parse(payload) {
+                    black_box(&sheet);
+                    n += 1;
+                }
+            }
+        });
+    }
+    n
+}
+
+// ---------------------------------------------------------------- ratio
+
+/// Median time per call of `f` over a few rounds of ~30 ms.
+fn time_per_call(mut f: impl FnMut()) -> Duration {
+    let mut calls = 1u32;
+    loop {
+        let t = Instant::now();
+        for _ in 0..calls {
+            f();
+        }
+        if t.elapsed() > Duration::from_millis(30) {
+            break;
+        }
+        calls = calls.saturating_mul(2);
+    }
+    let mut rounds: Vec<Duration> = (0..7)
+        .map(|_| {
+            let t = Instant::now();
+            for _ in 0..calls {
+                f();
+            }
+            t.elapsed() / calls
+        })
+        .collect();
+    rounds.sort();
+    rounds[3]
+}
+
+fn print_ratio(what: &str, goal: f64, naive: impl FnMut(), codec: impl FnMut()) {
+    let n = time_per_call(naive);
+    let c = time_per_call(codec);
+    let ratio = n.as_secs_f64() / c.as_secs_f64();
+    println!(
+        "RATIO {what}: naive {n:?}, codec {c:?}: codec is {ratio:.1}x faster (goal {goal}x: {})",
+        if ratio >= goal { "met" } else { "MISSED" }
+    );
+}
+
+// ---------------------------------------------------------------- benches
+
+fn read_act_pos(c: &mut Criterion) {
+    assert_eq!(naive_read_act_pos(ACT_POS).map(|v| v.len()), Some(24));
+    assert_eq!(
+        codec_read_act_pos(ACT_POS).map(|v| v[8].to_f64()),
+        Some(970.143)
+    );
+    let mut g = c.benchmark_group("parse ReadActPos reply (24 values)");
+    g.bench_function("naive std", |b| {
+        b.iter(|| naive_read_act_pos(black_box(ACT_POS)))
+    });
+    g.bench_function("codec", |b| {
+        b.iter(|| codec_read_act_pos(black_box(ACT_POS)))
+    });
+    g.finish();
+    print_ratio(
+        "parse ReadActPos",
+        5.0,
+        || {
+            black_box(naive_read_act_pos(black_box(ACT_POS)));
+        },
+        || {
+            black_box(codec_read_act_pos(black_box(ACT_POS)));
+        },
+    );
+}
+
+fn way_point(c: &mut Criterion) {
+    let naive = naive_parse_way_point(WAY_POINT).expect("naive parses");
+    assert_eq!(naive_format_way_point(&naive), WAY_POINT);
+    let Some(Request::WayPoint(wp)) = codec_parse_way_point(WAY_POINT) else {
+        panic!("codec parses")
+    };
+    let mut buf = [0u8; 512];
+    let n = wp.encode(&mut buf).expect("encodes");
+    assert_eq!(&buf[..n], WAY_POINT.as_bytes());
+
+    let mut g = c.benchmark_group("parse WayPoint request");
+    g.bench_function("naive std", |b| {
+        b.iter(|| naive_parse_way_point(black_box(WAY_POINT)))
+    });
+    g.bench_function("codec", |b| {
+        b.iter(|| codec_parse_way_point(black_box(WAY_POINT)))
+    });
+    g.finish();
+    print_ratio(
+        "parse WayPoint",
+        5.0,
+        || {
+            black_box(naive_parse_way_point(black_box(WAY_POINT)));
+        },
+        || {
+            black_box(codec_parse_way_point(black_box(WAY_POINT)));
+        },
+    );
+
+    // Formatting from typed values: f64s with format! against Decimals.
+    let typed = request::WayPoint {
+        rbt_id: RobotId(0),
+        ..wp.clone()
+    };
+    let mut g = c.benchmark_group("format WayPoint request");
+    g.bench_function("naive std", |b| {
+        b.iter(|| naive_format_way_point(black_box(&naive)))
+    });
+    g.bench_function("codec", |b| b.iter(|| black_box(&typed).encode(&mut buf)));
+    g.finish();
+    print_ratio(
+        "format WayPoint",
+        3.0,
+        || {
+            black_box(naive_format_way_point(black_box(&naive)));
+        },
+        || {
+            let mut out = [0u8; 512];
+            let _ = black_box(black_box(&typed).encode(&mut out));
+        },
+    );
+}
+
+fn datasheet(c: &mut Criterion) {
+    let payload: Vec<u8> = SHEET_JSON.to_vec();
+    let mut packet = b"LTBR".to_vec();
+    packet.extend_from_slice(&(12 + payload.len() as u32).to_le_bytes());
+    packet.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    packet.extend_from_slice(&payload);
+    // As a socket delivers it: reads of 1460 bytes.
+    let stream: Vec<&[u8]> = packet.chunks(1460).collect();
+    assert!(!naive_datasheet(&stream).is_empty());
+    let mut deframer = Deframer::<8192>::new();
+    assert_eq!(codec_datasheet(&stream, &mut deframer), 1);
+
+    let mut g = c.benchmark_group("deframe and decode a DataSheet packet");
+    g.bench_function("naive std", |b| {
+        b.iter(|| naive_datasheet(black_box(&stream)))
+    });
+    g.bench_function("codec", |b| {
+        b.iter(|| codec_datasheet(black_box(&stream), &mut deframer))
+    });
+    g.finish();
+    print_ratio(
+        "DataSheet",
+        5.0,
+        || {
+            black_box(naive_datasheet(black_box(&stream)));
+        },
+        || {
+            black_box(codec_datasheet(black_box(&stream), &mut deframer));
+        },
+    );
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    targets = read_act_pos, way_point, datasheet
+}
+criterion_main!(benches);
