@@ -4,7 +4,7 @@
 //! stack's runner), pick a [`Storage`] (flash, or [`RamStorage`] where there
 //! is none), and run [`run`] from one task:
 //!
-//! ```ignore
+//! ```text
 //! #[embassy_executor::task]
 //! async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
 //!     static STORAGE: static_cell::StaticCell<hans_gateway::RamStorage> = static_cell::StaticCell::new();
@@ -36,9 +36,9 @@ use crate::net::embassy::EmbassyNet;
 #[allow(unused_imports)]
 use crate::config::RamStorage;
 
-/// TCP sockets the gateway uses: the Modbus sessions and two for the robot
-/// link.
-pub const SOCKETS: usize = MAX_SESSIONS + 2;
+/// TCP sockets the gateway uses: the Modbus sessions, two for the robot
+/// link and one for the DataSheet.
+pub const SOCKETS: usize = MAX_SESSIONS + 3;
 
 /// Runs the gateway on the board's network stack until the future is
 /// dropped (it never returns).

@@ -72,6 +72,8 @@ pub(crate) struct Shared {
     /// When the PLC heartbeat last changed.
     pub last_beat: Instant,
     pub sessions: u16,
+    /// The controller's address on the current link (listen mode).
+    pub robot_peer: Option<Ipv4Addr>,
 }
 
 impl Shared {
@@ -221,6 +223,7 @@ impl<'a> Ctx<'a> {
                 status_time: None,
                 last_beat: Instant::now(),
                 sessions: 0,
+                robot_peer: None,
             })),
             wake: Signal::new(),
             storage: RefCell::new(storage),
@@ -258,7 +261,7 @@ impl<'a> Ctx<'a> {
             })
             .flatten();
         if let Some(cmd) = config_cmd {
-            if !(cmd <= 3) {
+            if cmd > 3 {
                 return Err(WriteError::Value);
             }
         }
@@ -492,7 +495,8 @@ fn text_job(source: Source, seq: u16, text: Option<&[u8]>) -> Result<Job, Gatewa
 
 /// Runs the gateway on `net` until the future is dropped: the engine (robot
 /// link, command queue, status mirror, watchdog) and [`MAX_SESSIONS`]
-/// Modbus sessions on `opts.modbus_port`.
+/// Modbus sessions on `opts.modbus_port`, and the DataSheet reader when it
+/// is the configured status source.
 ///
 /// Everything lives in this one future (sockets and buffers included), so
 /// a board runs it from one task and the host from one thread.
@@ -507,7 +511,14 @@ pub async fn run<N: Net>(net: &N, storage: &mut dyn Storage, opts: Options) -> I
         let [rx, tx] = b.each_mut();
         crate::modbus::session(&ctx, net.socket(rx, tx), opts.modbus_port)
     });
-    let _ = embassy_futures::join::join(engine, embassy_futures::join::join_array(sessions)).await;
+    let (mut ds_rx, mut ds_tx) = ([0u8; LINK_BUF], [0u8; 64]);
+    let datasheet = crate::datasheet::run(&ctx, net.socket(&mut ds_rx, &mut ds_tx));
+    let _ = embassy_futures::join::join3(
+        engine,
+        embassy_futures::join::join_array(sessions),
+        datasheet,
+    )
+    .await;
     // Both halves loop forever.
     core::future::pending().await
 }

@@ -20,6 +20,7 @@
 //! | [`registers`] | the register map: addresses, types, access |
 //! | [`engine`] | command channels, PLCopen handshake, FIFO queue, motion completion, watchdog |
 //! | [`status`] | status mirror: polling the command port |
+//! | [`datasheet`] | status mirror: the DataSheet port |
 //! | [`config`] | configuration, its registers, [`Storage`] |
 //! | [`net`] | the socket interface and its adapters |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
@@ -52,6 +53,7 @@ mod fmt;
 #[cfg(feature = "embassy-net")]
 pub mod board;
 pub mod config;
+pub mod datasheet;
 pub mod engine;
 mod gateway;
 #[cfg(feature = "std")]

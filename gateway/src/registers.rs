@@ -332,6 +332,9 @@ pub const fn trigger_text(i: usize) -> u16 {
 pub const MAP_LEN: usize =
     (TRIG_TEXT_BASE + TRIG_TEXT_STRIDE * (TRIGGERS as u16 - 1) + TRIG_TEXT_REGS) as usize;
 
+// Every register's bits are reachable as coils (16 × address < 65536).
+const _: () = assert!(MAP_LEN * 16 <= 65536);
+
 macro_rules! area {
     ($name:expr, $start:expr, $len:expr, $acc:ident, $ty:ident) => {
         Area {
@@ -741,8 +744,6 @@ mod tests {
         }
         let last = TABLE.last().unwrap();
         assert_eq!(usize::from(last.start + last.len), MAP_LEN);
-        // Every register's bits are reachable as coils (16 × address < 65536).
-        assert!(MAP_LEN * 16 <= 65536);
     }
 
     #[test]

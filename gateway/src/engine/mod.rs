@@ -259,8 +259,10 @@ impl<'c, 'a> Engine<'c, 'a> {
         } else {
             info!("robot link: up");
         }
+        let peer = link.peer().map(|p| *p.ip());
         self.ctx.with(|s| {
             s.link_up = true;
+            s.robot_peer = peer;
             s.regs
                 .set(r::STATUS_LINK_STATE, LinkState::Connected as u16);
             let n = s.regs.get(r::STATUS_LINK_CONNECTS).wrapping_add(1);

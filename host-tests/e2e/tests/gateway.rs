@@ -614,3 +614,43 @@ async fn configuration_and_triggers_persist_and_a_failed_save_is_exception_04() 
     gw.stop();
     sim.shutdown().await;
 }
+
+#[tokio::test]
+async fn the_datasheet_port_can_replace_status_polling() {
+    let mut rig = Rig::start(Config::ready()).await;
+    let port = rig.sim.datasheet_addrs()[0].port();
+    rig.plc
+        .configure(&[
+            (r::CONFIG_STATUS_SOURCE, 1),
+            (r::CONFIG_DATASHEET_PORT, port),
+        ])
+        .await;
+    assert_eq!(rig.plc.read1(r::STATUS_SOURCE).await, 1);
+    // Give a polling round in flight time to end, then watch the command port.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    rig.sim.clear_received();
+    let start = Instant::now();
+    while start.elapsed() < Duration::from_millis(500) {
+        let age = rig.plc.read1(r::STATUS_AGE_MS).await;
+        assert!(age < 500, "DataSheet status is stale: {age} ms");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    assert_eq!(rig.plc.read1(r::STATUS_FSM).await, 33);
+    assert!(
+        rig.received("ReadCurFSM").is_empty(),
+        "still polling: {:?}",
+        rig.sim.received()
+    );
+    // A move still completes (its end is polled on the command port).
+    start_move(&mut rig.plc, 3.0, 30.0, 4).await;
+    let e = rig.plc.wait_end(Plc::ch_status(0)).await;
+    assert!(e.done(), "{e:?}");
+    let j = joints(&mut rig.plc).await;
+    let s = rig.sim.state();
+    assert!(
+        (f64::from(j[0]) - s.act_joints[0]).abs() < 0.5,
+        "{j:?} vs {:?}",
+        s.act_joints
+    );
+    rig.stop().await;
+}
