@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Flash and RAM cost of the codec on a Cortex-M4F (thumbv7em-none-eabihf,
+# opt-level "z", LTO, panic = abort): builds host-tests/footprint and prints
+# text/data/bss of each profile and what it adds over the baseline (the same
+# runtime and harness without the codec).
+#
+#   bash host-tests/scripts/footprint.sh [--check]
+#
+# Profiles: client (writes any request, frames and reads any reply), server
+# (frames, reads and validates any request, writes any reply), full (both),
+# datasheet (DataSheet deframer and JSON decoder). Flash = text + data.
+# With --check, exits 1 when the full command-port codec exceeds 32 KiB.
+set -euo pipefail
+cd "$(dirname "$0")/../footprint"
+
+check=0
+[ "${1:-}" = "--check" ] && check=1
+
+if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
+  echo "footprint: rustup target add thumbv7em-none-eabihf (scripts/setup.sh does it)" >&2
+  exit 1
+fi
+cargo build --release --quiet
+
+dir="${CARGO_TARGET_DIR:-target}/thumbv7em-none-eabihf/release"
+size_tool=$(command -v llvm-size || command -v size)
+
+read_size() { # prints "text data bss" of an ELF
+  "$size_tool" -B "$1" | awk 'NR == 2 { print $1, $2, $3 }'
+}
+
+read -r bt bd bb < <(read_size "$dir/baseline")
+base=$((bt + bd))
+printf '%-10s %8s %6s %6s %12s\n' profile text data bss "codec flash"
+printf '%-10s %8d %6d %6d %12s\n' baseline "$bt" "$bd" "$bb" "-"
+full_codec=0
+for p in client server full datasheet; do
+  read -r t d b < <(read_size "$dir/$p")
+  codec=$((t + d - base))
+  kib=$(awk -v n="$codec" 'BEGIN { printf "%.1f", n / 1024 }')
+  printf '%-10s %8d %6d %6d %7d B = %5s KiB\n' "$p" "$t" "$d" "$b" "$codec" "$kib"
+  [ "$p" = full ] && full_codec=$codec
+done
+goal=$((32 * 1024))
+if [ "$full_codec" -le "$goal" ]; then
+  echo "full command-port codec: $full_codec B, within the 32 KiB goal"
+else
+  echo "full command-port codec: $full_codec B, OVER the 32 KiB goal by $((full_codec - goal)) B"
+  [ "$check" = 1 ] && exit 1
+fi
+exit 0
