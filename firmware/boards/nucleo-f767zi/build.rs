@@ -4,7 +4,7 @@
 //! * the network setting from `HANS_GW_NET`, checked here so a typo fails
 //!   the build instead of the board:
 //!     - unset: static `192.168.1.50/24`, gateway `192.168.1.1` (the default)
-//!     - `dhcp`: DHCPv4
+//!     - `dhcp`: DHCPv4 (needs the crate's `dhcp` feature)
 //!     - `A.B.C.D/P` or `A.B.C.D/P,G.H.I.J`: static address, optional gateway
 use std::{env, fs, net::Ipv4Addr, path::PathBuf};
 
@@ -33,6 +33,9 @@ fn ip_expr(ip: Ipv4Addr) -> String {
 
 fn parse(net: &str) -> Result<String, String> {
     if net.eq_ignore_ascii_case("dhcp") {
+        if env::var_os("CARGO_FEATURE_DHCP").is_none() {
+            return Err("DHCP needs the `dhcp` feature: add `--features dhcp`".into());
+        }
         return Ok(
             "/// From `HANS_GW_NET` at build time.\nconst NET: NetSetting = NetSetting::Dhcp;\n"
                 .into(),

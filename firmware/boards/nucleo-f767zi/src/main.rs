@@ -11,7 +11,8 @@
 //!   TXD1 PB13; PHY address found automatically.
 //! * MAC address: locally administered, derived from the chip's unique ID.
 //! * IP: static 192.168.1.50/24 via 192.168.1.1 unless built with
-//!   `HANS_GW_NET` (see build.rs), e.g. `HANS_GW_NET=dhcp`.
+//!   `HANS_GW_NET` (see build.rs), e.g. `HANS_GW_NET=10.20.30.2/24,10.20.30.1`
+//!   or `HANS_GW_NET=dhcp` with `--features dhcp`.
 //! * The gateway configuration (robot address, ...) is set by the PLC
 //!   through the configuration registers and kept in the last flash sector
 //!   (see `flash_store`).
@@ -123,7 +124,10 @@ async fn main(spawner: Spawner) {
     );
 
     let net_config = match NET {
+        #[cfg(feature = "dhcp")]
         NetSetting::Dhcp => embassy_net::Config::dhcpv4(Default::default()),
+        #[cfg(not(feature = "dhcp"))]
+        NetSetting::Dhcp => defmt::unreachable!("build.rs requires the dhcp feature for DHCP"),
         NetSetting::Static {
             address,
             prefix,
