@@ -178,13 +178,13 @@ impl<'a> RawMessage<'a> {
 
     /// This message without its first field (used to step past `OK`/`Fail`).
     pub(crate) fn skip_first(&self) -> RawMessage<'a> {
-        match self.body.split_once(',') {
-            Some((_, rest)) => RawMessage {
+        match split_field(self.body) {
+            (_, Some(rest)) => RawMessage {
                 name: self.name,
                 body: rest,
                 count: self.count.saturating_sub(1),
             },
-            None => RawMessage {
+            (_, None) => RawMessage {
                 name: self.name,
                 body: "",
                 count: 0,
@@ -197,6 +197,13 @@ impl<'a> RawMessage<'a> {
 #[derive(Clone, Debug)]
 pub struct Fields<'a> {
     rest: Option<&'a str>,
+}
+
+impl<'a> Fields<'a> {
+    /// The fields of `text` (a part of a message body: `a,b,c`).
+    pub(crate) fn of(text: &'a str) -> Self {
+        Fields { rest: Some(text) }
+    }
 }
 
 impl<'a> Iterator for Fields<'a> {

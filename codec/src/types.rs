@@ -19,7 +19,7 @@
 use core::fmt;
 
 use crate::error::{EncodeError, Expected, Got};
-use crate::grammar::{trim, Cursor};
+use crate::grammar::{Cursor, Fields};
 use crate::number::Decimal;
 use crate::writer::{is_carriable, Writer};
 
@@ -460,9 +460,7 @@ impl<'a> TextList<'a> {
     /// The texts, trimmed as the reader trims fields.
     pub fn iter(&self) -> impl Iterator<Item = &'a str> + 'a {
         let (wire, slice) = match self.0 {
-            ListRepr::Wire { text, count } => {
-                ((count > 0).then(|| text.split(',').map(trim)), None)
-            }
+            ListRepr::Wire { text, count } => ((count > 0).then(|| Fields::of(text)), None),
             ListRepr::Slice(s) => (None, Some(s.iter().copied())),
         };
         wire.into_iter()
@@ -561,7 +559,7 @@ impl<'a> PointList<'a> {
     pub fn iter(&self) -> impl Iterator<Item = [Decimal; 6]> + 'a {
         let (wire, slice) = match self.0 {
             ListRepr::Wire { text, count } => {
-                let mut values = text.split(',').map(|f| match trim(f) {
+                let mut values = Fields::of(text).map(|f| match f {
                     "" => Decimal::ZERO,
                     t => Decimal::parse(t).unwrap_or(Decimal::ZERO),
                 });
