@@ -49,7 +49,7 @@ cleanup() {
 }
 trap cleanup INT TERM EXIT
 
-"$HOST_TARGET/release/hans-sim" --bind "127.0.0.1:$SIM_PORT" &
+"$HOST_TARGET/release/hans-sim" --host 127.0.0.1 --command-port "$SIM_PORT" --datasheet-ports "" &
 pids+=($!)
 bash scripts/qemu-run.sh "$ELF" &
 pids+=($!)
@@ -60,7 +60,7 @@ cat <<MSG
 
   Modbus TCP server:  127.0.0.1:$MODBUS_PORT   (unit id: any)
   Try:                mbpoll -m tcp -p $MODBUS_PORT -0 -r 0 -c 8 -1 127.0.0.1
-  Diagnostics:        echo report | nc 127.0.0.1 $ADMIN_PORT
+  Diagnostics:        echo report | socat - TCP:127.0.0.1:$ADMIN_PORT
 
   Ctrl-C stops everything.
 

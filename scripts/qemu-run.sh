@@ -44,9 +44,10 @@ qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor non
 if [ -n "${DEFMT_OUT:-}" ]; then
   exec "${qemu[@]}" >"$DEFMT_OUT"
 elif command -v defmt-print >/dev/null; then
-  # Decode the log; QEMU's status is the pipeline's first element.
-  "${qemu[@]}" | defmt-print -e "$elf"
-  exit "${PIPESTATUS[0]}"
+  # Decode the log. QEMU stays this script's process (exec), so whoever
+  # stops this script stops QEMU, and its status is the script's; the
+  # decoder ends when QEMU's output closes.
+  exec "${qemu[@]}" > >(defmt-print -e "$elf")
 else
   exec "${qemu[@]}"
 fi

@@ -11,11 +11,14 @@
 //! * logs: `defmt` over semihosting (QEMU writes the frames to its stdout;
 //!   decode with `defmt-print -e <elf>`);
 //! * exit codes: [`exit`] and the panic handler end QEMU through semihosting,
-//!   so a test sees 0 for pass and 1 for fail.
+//!   so a test sees 0 for pass and 1 for fail;
+//! * an executor loop that sleeps with WFI ([`executor`]), so QEMU idles
+//!   instead of spinning.
 #![no_std]
 #![deny(missing_docs)]
 
 pub mod diag;
+pub mod executor;
 pub mod irq;
 
 use cortex_m::peripheral::NVIC;

@@ -12,8 +12,16 @@ use embassy_executor::Spawner;
 use hans_gateway::{Config, Options, RamStorage};
 use static_cell::ConstStaticCell;
 
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    board::executor::run(|spawner| match start(spawner) {
+        Ok(task) => spawner.spawn(task),
+        Err(_) => board::fail(board::BoardError::Spawn),
+    })
+}
+
+#[embassy_executor::task]
+async fn start(spawner: Spawner) {
     let stack = match board::init(spawner) {
         Ok(stack) => stack,
         Err(e) => board::fail(e),

@@ -23,8 +23,16 @@ static CLIENT_DONE: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
 const TIMEOUT: Duration = Duration::from_secs(60);
 
-#[embassy_executor::main]
-async fn main(spawner: Spawner) {
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    board::executor::run(|spawner| match start(spawner) {
+        Ok(task) => spawner.spawn(task),
+        Err(_) => board::fail(board::BoardError::Spawn),
+    })
+}
+
+#[embassy_executor::task]
+async fn start(spawner: Spawner) {
     let stack = match board::init(spawner) {
         Ok(stack) => stack,
         Err(e) => board::fail(e),
