@@ -290,8 +290,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
     pub fn next_field(&mut self) -> Option<&'a str> {
         let f = match &mut self.src {
             Source::Text(rest) => {
-                let r = (*rest)?;
-                let (f, tail) = split_field(r);
+                let (f, tail) = split_field((*rest)?);
                 *rest = tail;
                 trim(f)
             }

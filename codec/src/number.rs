@@ -387,7 +387,11 @@ impl Decimal {
     /// The value if it is a whole number that fits an `i64` (`5`, `5.000`,
     /// `-0`).
     pub fn to_i64(&self) -> Option<i64> {
-        let (whole, frac) = div_pow10(self.coeff(), self.scale());
+        // Integers as written (`5`, `-0`) need no division.
+        let (whole, frac) = match self.scale() {
+            0 => (self.coeff(), 0),
+            s => div_pow10(self.coeff(), s),
+        };
         if frac != 0 {
             return None;
         }
