@@ -38,7 +38,10 @@ CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release -p hans-sim
 
 pids=()
 cleanup() {
-  trap - INT TERM EXIT
+  # Ignore further Ctrl-C while stopping (bash would otherwise end itself
+  # when a child it waits for dies of SIGINT, before the rest is stopped).
+  trap '' INT TERM
+  trap - EXIT
   for pid in "${pids[@]}"; do
     kill "$pid" 2>/dev/null || true
   done

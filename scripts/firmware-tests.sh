@@ -28,10 +28,14 @@ FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"
 
+# No --locked: firmware/ and firmware/qemu-tests/ have their own Cargo.lock
+# but depend by path on the gateway, the codec and the simulator; a
+# dependency those crates add must not break this step until someone
+# refreshes these lock files. Cargo adds what is missing and keeps the rest.
 echo "==> build firmware (release): mps2-an386 (QEMU)"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release --locked -p board-mps2-an386 --bins)
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --bins)
 echo "==> build firmware (release): nucleo-f767zi"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release --locked -p board-nucleo-f767zi)
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-nucleo-f767zi)
 
 echo "==> firmware size"
 bash scripts/firmware-size.sh smoke="$BIN_DIR/smoke"
@@ -46,7 +50,7 @@ trap 'rm -f "$LOG"' EXIT
 set +e
 FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \
   timeout --kill-after=10 900 \
-  cargo test --locked --manifest-path firmware/qemu-tests/Cargo.toml -- --test-threads=1 --nocapture \
+  cargo test --manifest-path firmware/qemu-tests/Cargo.toml -- --test-threads=1 --nocapture \
   2>&1 | tee "$LOG"
 status=${PIPESTATUS[0]}
 set -e
