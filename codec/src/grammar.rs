@@ -20,6 +20,7 @@
 
 use crate::catalogue::CommandId;
 use crate::error::{Expected, Got, ParseError};
+use crate::number::Decimal;
 
 /// Whitespace the reader trims around fields and messages.
 pub(crate) fn is_space(b: u8) -> bool {
@@ -302,6 +303,68 @@ impl<'s, 'a> Cursor<'s, 'a> {
         };
         self.pos = self.pos.saturating_add(1);
         Some(f)
+    }
+
+    /// The typed readers' fast path: the next field if it is a plain number
+    /// (`[-]digits[.digits]`, at most 19 digits, no spaces), read in the same
+    /// pass that finds its end, and the text after it. Anything else
+    /// (spaces, exponents, an empty field, an error) is `None`: the general
+    /// path (`next_field`, `Decimal::parse`) then decides.
+    fn peek_plain_number(&self) -> Option<(Decimal, Option<&'a str>)> {
+        let Source::Text(Some(rest)) = self.src else {
+            return None;
+        };
+        let b = rest.as_bytes();
+        let (negative, mut i) = match b.first() {
+            Some(b'-') => (true, 1),
+            _ => (false, 0),
+        };
+        let (mut coeff, mut digits, mut scale, mut point) = (0u64, 0u8, 0u8, false);
+        while let Some(&c) = b.get(i) {
+            match c {
+                // 19 digits stay below 10^19 < u64::MAX.
+                b'0'..=b'9' if digits < 19 => {
+                    coeff = coeff * 10 + u64::from(c - b'0');
+                    digits += 1;
+                    scale += u8::from(point);
+                }
+                b'.' if !point => point = true,
+                b',' => break,
+                _ => return None,
+            }
+            i += 1;
+        }
+        if digits == 0 {
+            return None;
+        }
+        // `,` is ASCII: the tail starts on a character boundary.
+        let tail = match b.get(i) {
+            Some(_) => Some(rest.get(i + 1..)?),
+            None => None,
+        };
+        Some((Decimal::from_parts(negative, coeff, scale)?, tail))
+    }
+
+    fn advance(&mut self, tail: Option<&'a str>) {
+        self.src = Source::Text(tail);
+        self.pos = self.pos.saturating_add(1);
+    }
+
+    /// The next field if it is a plain number (see `peek_plain_number`);
+    /// nothing is consumed otherwise.
+    pub(crate) fn next_plain_number(&mut self) -> Option<Decimal> {
+        let (d, tail) = self.peek_plain_number()?;
+        self.advance(tail);
+        Some(d)
+    }
+
+    /// The next field if it is a plain whole number that fits an `i32`;
+    /// nothing is consumed otherwise.
+    pub(crate) fn next_plain_int(&mut self) -> Option<i32> {
+        let (d, tail) = self.peek_plain_number()?;
+        let v = i32::try_from(d.to_i64()?).ok()?;
+        self.advance(tail);
+        Some(v)
     }
 
     /// All remaining fields as one borrowed text (for variable lists), and

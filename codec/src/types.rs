@@ -139,6 +139,9 @@ pub(crate) trait Field<'a>: Sized {
 
 #[inline(never)]
 fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
+    if let Some(d) = c.next_plain_number() {
+        return d;
+    }
     match c.next_field() {
         None => c.fail(param, Expected::Number, Got::End),
         Some("") => {}
@@ -152,6 +155,9 @@ fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
 
 #[inline(never)]
 fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
+    if let Some(v) = c.next_plain_int() {
+        return v;
+    }
     match c.next_field() {
         None => c.fail(param, Expected::Integer, Got::End),
         Some("") => {}
