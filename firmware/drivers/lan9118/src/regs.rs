@@ -33,8 +33,6 @@ pub mod csr {
     pub const TX_CFG: usize = 0x70;
     /// Hardware configuration (soft reset, FIFO sizes).
     pub const HW_CFG: usize = 0x74;
-    /// RX data path control (fast-forward past a frame).
-    pub const RX_DP_CTRL: usize = 0x78;
     /// RX FIFO information: status entries used (23:16), data bytes used (15:0).
     pub const RX_FIFO_INF: usize = 0x7c;
     /// TX FIFO information: free data space in bytes (15:0).
@@ -98,12 +96,6 @@ pub mod tx_cfg {
 pub mod hw_cfg {
     /// Soft reset; self-clearing.
     pub const SRST: u32 = 1 << 0;
-}
-
-/// `RX_DP_CTRL` bits.
-pub mod rx_dp_ctrl {
-    /// Skip the rest of the current frame; self-clearing.
-    pub const RX_FFWD: u32 = 1 << 31;
 }
 
 /// `PMT_CTRL` bits.
