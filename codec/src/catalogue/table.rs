@@ -195,17 +195,17 @@ catalogue! {
         connected: i32,
         /// `n48V_ON`: 48 V present (> 36 V), 0/1.
         power_48v: i32,
-        /// `db48OUT_Voltag`: 48 V output voltage [V], 0-53.
+        /// `db48OUT_Voltag`: 48 V output voltage \[V\], 0-53.
         out_voltage: Decimal,
-        /// `db48OUT_Current`: 48 V output current [A].
+        /// `db48OUT_Current`: 48 V output current \[A\].
         out_current: Decimal,
         /// `nRemoteBTN`: remote shutdown button signal, 0/1.
         remote_button: i32,
         /// `nThreeStageBTN`: three-position enabling button signal, 0/1.
         three_stage_button: i32,
-        /// 12 V voltage [V]; newer firmware only (8-value reply).
+        /// 12 V voltage \[V\]; newer firmware only (8-value reply).
         voltage_12v: Option<Decimal>,
-        /// 12 V current [A]; newer firmware only (8-value reply).
+        /// 12 V current \[A\]; newer firmware only (8-value reply).
         current_12v: Option<Decimal>,
     }
 
@@ -379,9 +379,9 @@ catalogue! {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `dMass`: mass [kg], 0 to the model's maximum payload.
+        /// `dMass`: mass \[kg\], 0 to the model's maximum payload.
         mass: Decimal = at_least("0"),
-        /// `dX, dY, dZ`: centre-of-mass offset [mm], each >= 0.
+        /// `dX, dY, dZ`: centre-of-mass offset \[mm\], each >= 0.
         center: [Decimal; 3] = at_least("0"),
     } => {}
 
@@ -646,7 +646,7 @@ catalogue! {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {
-        /// `dJ1..dJ6`: [A].
+        /// `dJ1..dJ6`: \[A\].
         joints: Joints,
     }
 
@@ -656,7 +656,7 @@ catalogue! {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {
-        /// `dJ1..dJ6`: [A].
+        /// `dJ1..dJ6`: \[A\].
         joints: Joints,
     }
 
@@ -827,7 +827,7 @@ catalogue! {
         /// `dPose2_X..dPose2_Rz`: [mm, °].
         pose2: Pose,
     } => {
-        /// `dDistance`: [mm].
+        /// `dDistance`: \[mm\].
         distance: Decimal,
         /// `dAngle`: [°].
         angle: Decimal,
@@ -855,17 +855,17 @@ catalogue! {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `dPose1_X..Z`: [mm].
+        /// `dPose1_X..Z`: \[mm\].
         p1: [Decimal; 3],
-        /// `dPose2_X..Z`: [mm].
+        /// `dPose2_X..Z`: \[mm\].
         p2: [Decimal; 3],
-        /// `dPose3_X..Z`: [mm].
+        /// `dPose3_X..Z`: \[mm\].
         p3: [Decimal; 3],
-        /// `dPose4_X..Z`: [mm].
+        /// `dPose4_X..Z`: \[mm\].
         p4: [Decimal; 3],
-        /// `dPose5_X..Z`: [mm].
+        /// `dPose5_X..Z`: \[mm\].
         p5: [Decimal; 3],
-        /// `dPose6_X..Z`: [mm].
+        /// `dPose6_X..Z`: \[mm\].
         p6: [Decimal; 3],
     } => {
         /// `dUcs_X..dUcs_Rz`: [mm, °].
@@ -1104,7 +1104,7 @@ catalogue! {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `dAllowDistance`: maximum deformation [mm].
+        /// `dAllowDistance`: maximum deformation \[mm\].
         allow_distance: Decimal,
         /// `dStrengthLevel`: exponent of the resistance, 2 or 3.
         strength_level: Decimal = either("2", "3"),
@@ -1186,7 +1186,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [°/s² joint, mm/s² linear].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `nIsUseJoint`: 1 = target given as joints.
         use_joint: i32 = FLAG,
@@ -1217,7 +1217,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [°/s² joint, mm/s² linear].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `nMoveType`: 0 = joint, 1 = linear.
         move_type: i32 = FLAG,
@@ -1250,7 +1250,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [°/s² joint, mm/s² linear].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `nMoveType`: 0 = joint, 1 = linear.
         move_type: i32 = FLAG,
@@ -1283,7 +1283,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [°/s² joint, mm/s² linear].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `nMoveType`: 0 = joint, 1 = linear, 2 = arc through `aux_pose`.
         move_type: i32 = int(0, 2),
@@ -1318,7 +1318,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [°/s²].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `nIsUseJoint`: 1 = move to `joints`.
         use_joint: i32 = FLAG,
@@ -1349,7 +1349,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [mm/s²].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `nIsSeek`: 1 = stop when box DI `io_bit` equals `io_state`.
         seek: i32 = FLAG,
@@ -1382,7 +1382,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [mm/s²].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `sTcpName`: tool frame name.
         tcp_name: &'a str,
@@ -1417,11 +1417,11 @@ catalogue! {
         enable_plane: i32 = FLAG,
         /// `nEnableWaiTime`: 1 = wait at turning points.
         enable_wait_time: i32 = FLAG,
-        /// `nPosiTime`: wait at positive turns [ms].
+        /// `nPosiTime`: wait at positive turns \[ms\].
         positive_time: i32,
-        /// `nNegaTime`: wait at negative turns [ms].
+        /// `nNegaTime`: wait at negative turns \[ms\].
         negative_time: i32,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `sTcpName`: tool frame name.
         tcp_name: &'a str,
@@ -1456,7 +1456,7 @@ catalogue! {
         velocity: Decimal,
         /// `dAcc`: [mm/s²].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `sTcpName`: tool frame name.
         tcp_name: &'a str,
@@ -1473,15 +1473,15 @@ catalogue! {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `dSpiralIncrement`: radius increase per turn [mm], > 0.
+        /// `dSpiralIncrement`: radius increase per turn \[mm\], > 0.
         increment: Decimal = above("0"),
-        /// `dSpiralDiameter`: end radius [mm], > 1.
+        /// `dSpiralDiameter`: end radius \[mm\], > 1.
         diameter: Decimal = above("1"),
         /// `dVelocity`: [°/s].
         velocity: Decimal,
         /// `dAcc`: [°/s²].
         acc: Decimal,
-        /// `dRadius`: blend radius [mm].
+        /// `dRadius`: blend radius \[mm\].
         radius: Decimal,
         /// `sTcpName`: tool frame name.
         tcp_name: &'a str,
@@ -1501,7 +1501,7 @@ catalogue! {
         track: &'a str,
         /// `dSpeedRatio`: 0-1.
         speed_ratio: Decimal = num("0", "1"),
-        /// `dRadius`: blend radius [mm], > 0.
+        /// `dRadius`: blend radius \[mm\], > 0.
         radius: Decimal = above("0"),
     } => {}
 
@@ -1646,9 +1646,9 @@ catalogue! {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `dServoTime`: update period [s], > 0.
+        /// `dServoTime`: update period \[s\], > 0.
         servo_time: Decimal = above("0"),
-        /// `dLookaheadTime`: look-ahead [s], > 0.
+        /// `dLookaheadTime`: look-ahead \[s\], > 0.
         lookahead_time: Decimal = above("0"),
     } => {}
 
