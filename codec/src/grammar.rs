@@ -315,33 +315,38 @@ impl<'s, 'a> Cursor<'s, 'a> {
             return None;
         };
         let b = rest.as_bytes();
-        let (negative, mut i) = match b.first() {
+        let (negative, start) = match b.first() {
             Some(b'-') => (true, 1),
             _ => (false, 0),
         };
-        let (mut coeff, mut digits, mut scale, mut point) = (0u64, 0u8, 0u8, false);
-        while let Some(&c) = b.get(i) {
-            match c {
-                // 19 digits stay below 10^19 < u64::MAX.
-                b'0'..=b'9' if digits < 19 => {
-                    coeff = coeff * 10 + u64::from(c - b'0');
-                    digits += 1;
-                    scale += u8::from(point);
-                }
-                b'.' if !point => point = true,
-                b',' => break,
-                _ => return None,
+        // Digits before and after the point, one tight loop each. The
+        // arithmetic wraps; a number of more than 19 digits (which could
+        // wrap) is left to the general path below.
+        let mut coeff = 0u64;
+        let mut digits = |mut i: usize| {
+            while let Some(d) = b.get(i).map(|c| c.wrapping_sub(b'0')).filter(|&d| d <= 9) {
+                coeff = coeff.wrapping_mul(10).wrapping_add(u64::from(d));
+                i += 1;
             }
-            i += 1;
-        }
-        if digits == 0 {
+            i
+        };
+        let int_end = digits(start);
+        let end = match b.get(int_end) {
+            Some(b'.') => digits(int_end + 1),
+            _ => int_end,
+        };
+        let scale = end.saturating_sub(int_end + 1);
+        let count = int_end - start + scale;
+        if count == 0 || count > 19 {
             return None;
         }
         // `,` is ASCII: the tail starts on a character boundary.
-        let tail = match b.get(i) {
-            Some(_) => Some(rest.get(i + 1..)?),
+        let tail = match b.get(end) {
             None => None,
+            Some(b',') => Some(rest.get(end + 1..)?),
+            Some(_) => return None,
         };
+        let scale = u8::try_from(scale).ok()?;
         Some((Decimal::from_parts(negative, coeff, scale)?, tail))
     }
 
@@ -481,6 +486,35 @@ mod tests {
         assert_eq!(k("GrpEnable,OK,;"), Kind::Ok);
         assert_eq!(k("GrpEnable,Fail,20018,;"), Kind::Fail);
         assert_eq!(k("errorcmd,;"), Kind::ErrorCmd);
+    }
+
+    #[test]
+    fn plain_number_fast_path_agrees_and_consumes_nothing_on_fallback() {
+        let text = "M,10.759,-0.000,5.,.5,007,1e5, 3,,-,1.2.3,12345678901234567890,x";
+        let msg = RawMessage::parse(text).unwrap();
+        let mut c = Cursor::new(&msg, CommandId::ReadActPos);
+        let mut fast = 0;
+        while c.remaining() > 0 {
+            let pos = c.position();
+            match c.next_plain_number() {
+                Some(d) => {
+                    fast += 1;
+                    assert_eq!(c.position(), pos + 1);
+                    let mut again = Cursor::new(&msg, CommandId::ReadActPos);
+                    for _ in 0..pos {
+                        again.next_field();
+                    }
+                    let f = again.next_field().unwrap();
+                    assert!(d.is_identical(&Decimal::parse(f).unwrap()), "{f}");
+                }
+                None => {
+                    assert_eq!(c.position(), pos);
+                    c.next_field();
+                }
+            }
+        }
+        // 10.759, -0.000, 5., .5, 007 take the fast path; the rest does not.
+        assert_eq!(fast, 5);
     }
 
     #[test]
