@@ -267,7 +267,12 @@ fn plc_powers_on_moves_and_reads_status_through_the_firmware() {
             .iter()
             .zip(target.iter())
             .all(|(a, b)| (a - b).abs() < 0.01);
-        (arrived && s[usize::from(STATUS_FLAGS)] & FLAG_MOVING == 0).then_some(s)
+        // The fields come from different poll commands (ReadRobotState,
+        // ReadCurFSM, ReadActPos), so they settle within one poll round of
+        // each other: wait for all of them.
+        let settled = s[usize::from(STATUS_FLAGS)] & FLAG_MOVING == 0
+            && s[usize::from(STATUS_FSM)] == FSM_STANDBY;
+        (arrived && settled).then_some(s)
     });
     let flags = block[usize::from(STATUS_FLAGS)];
     assert_eq!(block[usize::from(STATUS_LINK_STATE)], LINK_CONNECTED);
@@ -458,4 +463,27 @@ fn a_client_that_vanishes_mid_request_frees_its_session() {
     drop(clients);
     drop(newcomer);
     rig.finish();
+}
+
+#[test]
+fn a_panic_in_the_firmware_ends_qemu_with_status_1() {
+    let mut rig = Rig::start("gateway-panic");
+    let _ = rig.modbus(); // up and serving
+                          // The firmware panics instead of answering.
+    let mut admin = connect_retry(rig.qemu.ports.admin, STEP).expect("diagnostics port");
+    std::io::Write::write_all(&mut admin, b"panic\n").expect("send the command");
+    let status = rig.qemu.process().wait(Duration::from_secs(30));
+    let log = rig.qemu.log_text();
+    println!("--- gateway-panic firmware log ---\n{log}");
+    assert_eq!(
+        status.and_then(|s| s.code()),
+        Some(1),
+        "a panic must end QEMU with the failure status"
+    );
+    if !log.starts_with("(raw defmt") {
+        assert!(log.contains("panic at"), "panic message in the log");
+    }
+    if let Some(sim) = rig.sim.take() {
+        rig.rt.block_on(sim.shutdown());
+    }
 }

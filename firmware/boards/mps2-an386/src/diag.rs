@@ -7,7 +7,9 @@
 //! * `report` — stack high-water mark and Ethernet counters;
 //! * `exit` — the same report, then the firmware exits with status 0, which
 //!   ends QEMU: a test shuts the firmware down cleanly and learns that it was
-//!   healthy to the end.
+//!   healthy to the end;
+//! * `panic` — panics, to prove that a failure reaches the host: the panic
+//!   handler logs it and QEMU exits with status 1.
 //!
 //! ```text
 //! stack_used=9384 stack_size=4182712 rx_frames=120 tx_frames=118 rx_dropped=0 irqs=121
@@ -93,6 +95,9 @@ pub async fn task(stack: Stack<'static>) -> ! {
             }
         }
         let cmd = &cmd[..len];
+        if cmd.starts_with(b"panic") {
+            panic!("diagnostics port asked for a panic");
+        }
         let exit = cmd.starts_with(b"exit");
         if exit || cmd.starts_with(b"report") {
             let mut line = report_line();
