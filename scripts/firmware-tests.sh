@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Firmware checks: builds both firmwares in release, prints their size report
+# Firmware checks: rustfmt and clippy of the firmware workspace and its host
+# tests, then builds both firmwares in release, prints their size report
 # (and fails if the gateway firmwares exceed 128 KiB flash / 64 KiB static
 # RAM), then runs the QEMU tests (firmware/qemu-tests: smoke firmware; gateway
 # firmware with the robot simulator, run in-process, and a Modbus client),
@@ -32,6 +33,14 @@ BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"
 # but depend by path on the gateway, the codec and the simulator; a
 # dependency those crates add must not break this step until someone
 # refreshes these lock files. Cargo adds what is missing and keeps the rest.
+echo "==> firmware: rustfmt and clippy"
+(cd firmware && cargo fmt --all -- --check)
+(cd firmware/qemu-tests && cargo fmt -- --check)
+for board in board-mps2-an386 board-nucleo-f767zi; do
+  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p "$board" --all-targets -- -D warnings)
+done
+(cd firmware/qemu-tests && CARGO_TARGET_DIR="$HOST_TARGET" cargo clippy --all-targets -- -D warnings)
+
 echo "==> build firmware (release): mps2-an386 (QEMU)"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --bins)
 echo "==> build firmware (release): nucleo-f767zi"
