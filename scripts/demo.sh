@@ -19,14 +19,8 @@ SIM_PORT=${SIM_PORT:-10003}
 ADMIN_PORT=${ADMIN_PORT:-5021}
 export MODBUS_PORT SIM_PORT ADMIN_PORT
 
+# qemu-system-arm, socat (QEMU's forward to the simulator), mbpoll, the target.
 SETUP_FUZZ=0 bash scripts/setup.sh
-# socat relays QEMU's forward to the simulator (scripts/qemu-run.sh).
-if ! command -v socat >/dev/null; then
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq socat >/dev/null
-fi
 
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}

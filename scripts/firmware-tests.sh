@@ -16,14 +16,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 
-command -v qemu-system-arm >/dev/null || SETUP_FUZZ=0 bash scripts/setup.sh
-# socat relays QEMU's forward to the simulator (scripts/qemu-run.sh).
-if ! command -v socat >/dev/null; then
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq socat >/dev/null
-fi
+# qemu-system-arm, socat (QEMU's forward to the simulator) and the target.
+SETUP_FUZZ=0 bash scripts/setup.sh
 
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}

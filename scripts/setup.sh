@@ -6,6 +6,8 @@ set -euo pipefail
 need_apt=()
 command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 command -v mbpoll >/dev/null || need_apt+=(mbpoll)
+# socat relays QEMU's guest forward to the simulator, one relay per connection.
+command -v socat >/dev/null || need_apt+=(socat)
 if ((${#need_apt[@]})); then
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
