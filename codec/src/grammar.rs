@@ -315,38 +315,33 @@ impl<'s, 'a> Cursor<'s, 'a> {
             return None;
         };
         let b = rest.as_bytes();
-        let (negative, start) = match b.first() {
+        let (negative, mut i) = match b.first() {
             Some(b'-') => (true, 1),
             _ => (false, 0),
         };
-        // Digits before and after the point, one tight loop each. The
-        // arithmetic wraps; a number of more than 19 digits (which could
-        // wrap) is left to the general path below.
-        let mut coeff = 0u64;
-        let mut digits = |mut i: usize| {
-            while let Some(d) = b.get(i).map(|c| c.wrapping_sub(b'0')).filter(|&d| d <= 9) {
-                coeff = coeff.wrapping_mul(10).wrapping_add(u64::from(d));
-                i += 1;
+        let (mut coeff, mut digits, mut scale, mut point) = (0u64, 0u8, 0u8, false);
+        while let Some(&c) = b.get(i) {
+            match c {
+                // 19 digits stay below 10^19 < u64::MAX.
+                b'0'..=b'9' if digits < 19 => {
+                    coeff = coeff * 10 + u64::from(c - b'0');
+                    digits += 1;
+                    scale += u8::from(point);
+                }
+                b'.' if !point => point = true,
+                b',' => break,
+                _ => return None,
             }
-            i
-        };
-        let int_end = digits(start);
-        let end = match b.get(int_end) {
-            Some(b'.') => digits(int_end + 1),
-            _ => int_end,
-        };
-        let scale = end.saturating_sub(int_end + 1);
-        let count = int_end - start + scale;
-        if count == 0 || count > 19 {
+            i += 1;
+        }
+        if digits == 0 {
             return None;
         }
         // `,` is ASCII: the tail starts on a character boundary.
-        let tail = match b.get(end) {
+        let tail = match b.get(i) {
+            Some(_) => Some(rest.get(i + 1..)?),
             None => None,
-            Some(b',') => Some(rest.get(end + 1..)?),
-            Some(_) => return None,
         };
-        let scale = u8::try_from(scale).ok()?;
         Some((Decimal::from_parts(negative, coeff, scale)?, tail))
     }
 
