@@ -8,6 +8,8 @@ command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 command -v mbpoll >/dev/null || need_apt+=(mbpoll)
 # socat relays QEMU's guest forward to the simulator, one relay per connection.
 command -v socat >/dev/null || need_apt+=(socat)
+# llvm-size and llvm-objdump read the Cortex-M binaries for the size reports.
+command -v llvm-size >/dev/null || need_apt+=(llvm)
 if ((${#need_apt[@]})); then
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"

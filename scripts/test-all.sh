@@ -43,12 +43,35 @@ step() {
   fi
 }
 
+# --- lints and docs
 step "rustfmt" cargo fmt --all -- --check
 step "clippy (host workspace)" cargo clippy --workspace --all-targets --locked -- -D warnings
 step "clippy (codec with defmt)" cargo clippy -p hans-codec --all-targets --features defmt --locked -- -D warnings
+step "rustdoc (codec, gateway) without warnings" \
+  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec -p hans-gateway --no-deps --locked
+
+# --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
+# gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,
+# and the embassy-net path on two in-process stacks)
+step "vectors are the document's example lines" \
+  python3 host-tests/scripts/chapter4.py check host-tests/vectors/chapter4.txt
 step "host tests" cargo test --workspace --locked
+
+# --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
+step "gateway library builds for thumbv7em-none-eabihf" \
+  cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net --locked
+step "clippy (gateway, embassy-net + defmt, thumbv7em)" \
+  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt --locked -- -D warnings
+
+# --- reports (they fail only if their build fails) and bounded fuzzing
+step "codec footprint on Cortex-M4F (report)" bash host-tests/scripts/footprint.sh
+step "benchmarks build" cargo bench --workspace --no-run --locked
+step "fuzz: framer, request, reply, DataSheet (20 s each)" bash host-tests/fuzz/run.sh 20
+
+# --- firmware: lint, release builds of both boards, size budget, QEMU tests
+step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
 
 echo
 echo "Summary:"

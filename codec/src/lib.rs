@@ -97,6 +97,7 @@ pub mod writer;
 pub use catalogue::{
     request, response, Command, CommandId, Failure, Reply, ReplyExpect, Request, Response,
 };
+pub use datasheet::{DataSheet, Deframer};
 pub use error::{EncodeError, ErrorCode, Expected, Got, ParseError, RangeError};
 pub use framer::{FrameError, Framer};
 pub use fsm::FsmState;

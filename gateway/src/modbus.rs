@@ -53,15 +53,18 @@ pub(crate) async fn session<S: Socket>(ctx: &Ctx<'_>, mut sock: S, port: u16) ->
             s.sessions
         });
         match peer {
-            Some(p) => info!(
-                "modbus: client {}.{}.{}.{}:{} connected ({} now)",
-                p.ip().octets()[0],
-                p.ip().octets()[1],
-                p.ip().octets()[2],
-                p.ip().octets()[3],
-                p.port(),
-                n
-            ),
+            Some(p) => {
+                let [a, b, c, d] = p.ip().octets();
+                info!(
+                    "modbus: client {}.{}.{}.{}:{} connected ({} now)",
+                    a,
+                    b,
+                    c,
+                    d,
+                    p.port(),
+                    n
+                )
+            }
             None => info!("modbus: client connected ({} now)", n),
         }
         serve(ctx, &mut sock).await;

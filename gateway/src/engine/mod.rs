@@ -255,7 +255,8 @@ impl<'c, 'a> Engine<'c, 'a> {
     fn on_connected<S: Socket>(&mut self, link: &Link<S>) {
         self.backoff = MIN_BACKOFF;
         if let Some(p) = link.peer() {
-            info!("robot link: up, peer {}:{}", p.ip().octets()[3], p.port());
+            let [a, b, c, d] = p.ip().octets();
+            info!("robot link: up, peer {}.{}.{}.{}:{}", a, b, c, d, p.port());
         } else {
             info!("robot link: up");
         }
