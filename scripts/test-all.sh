@@ -48,7 +48,8 @@ step "rustfmt" cargo fmt --all -- --check
 step "clippy (host workspace)" cargo clippy --workspace --all-targets --locked -- -D warnings
 step "clippy (codec with defmt)" cargo clippy -p hans-codec --all-targets --features defmt --locked -- -D warnings
 step "rustdoc (codec, gateway) without warnings" \
-  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec -p hans-gateway --no-deps --locked
+  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec -p hans-gateway --no-deps \
+  --features hans-gateway/embassy-net,hans-codec/defmt --locked
 
 # --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
 # gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,

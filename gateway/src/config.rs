@@ -74,13 +74,13 @@ pub struct Config {
     pub link_mode: LinkMode,
     /// Port listened on in listen mode, default 10003.
     pub listen_port: u16,
-    /// Status poll period [ms], 10-100, default 100.
+    /// Status poll period \[ms\], 10-100, default 100.
     pub poll_ms: u16,
-    /// Reply timeout [ms], 50-60000, default 1000.
+    /// Reply timeout \[ms\], 50-60000, default 1000.
     pub reply_timeout_ms: u16,
     /// Word order of 32-bit values.
     pub word_order: WordOrder,
-    /// Watchdog period [ms], 0 = off (default), else 50-60000.
+    /// Watchdog period \[ms\], 0 = off (default), else 50-60000.
     pub watchdog_ms: u16,
     /// Watchdog action.
     pub watchdog_action: WatchdogAction,
@@ -88,7 +88,7 @@ pub struct Config {
     pub wait_blending_done: bool,
     /// Also wait for in position before a motion is Done.
     pub wait_in_position: bool,
-    /// [ms] a motion may report "not moving" after being accepted before that
+    /// \[ms\] a motion may report "not moving" after being accepted before that
     /// counts as finished (the moving flag lags ~50 ms), 0-5000, default 200.
     pub start_grace_ms: u16,
     /// Send `GrpReset` after a motion ends in a robot error (default off).

@@ -102,9 +102,9 @@ pub const STATUS_ERROR_AXIS: u16 = 10;
 pub const STATUS_SOURCE: u16 = 11;
 /// Speed override ratio 0.01-1, f32 (NaN = unknown).
 pub const STATUS_OVERRIDE: u16 = 12;
-/// Actual joints J1-J6 [°], 6 × f32.
+/// Actual joints J1-J6 \[°\], 6 × f32.
 pub const STATUS_JOINTS: u16 = 14;
-/// Actual TCP pose X, Y, Z [mm], Rx, Ry, Rz [°], 6 × f32.
+/// Actual TCP pose X, Y, Z \[mm\], Rx, Ry, Rz \[°\], 6 × f32.
 pub const STATUS_POSE: u16 = 26;
 /// Electric box general digital inputs, bits 0-7.
 pub const STATUS_BOX_DI: u16 = 38;
@@ -170,13 +170,13 @@ pub const CONFIG_ROBOT_PORT: u16 = 102;
 pub const CONFIG_LINK_MODE: u16 = 103;
 /// Port the gateway listens on in listen mode.
 pub const CONFIG_LISTEN_PORT: u16 = 104;
-/// Status poll period [ms], 10-100.
+/// Status poll period \[ms\], 10-100.
 pub const CONFIG_POLL_MS: u16 = 105;
-/// Reply timeout [ms], 50-60000.
+/// Reply timeout \[ms\], 50-60000.
 pub const CONFIG_REPLY_TIMEOUT_MS: u16 = 106;
 /// Word order of `f32`/`i32`: 0 = high word first, 1 = low word first.
 pub const CONFIG_FLOAT_WORD_ORDER: u16 = 107;
-/// Watchdog period [ms]: 0 = off, else 50-60000.
+/// Watchdog period \[ms\]: 0 = off, else 50-60000.
 pub const CONFIG_WATCHDOG_MS: u16 = 108;
 /// Watchdog action: 0 = report only, 1 = `GrpStop`, 2 = `GrpInterrupt`.
 pub const CONFIG_WATCHDOG_ACTION: u16 = 109;
@@ -184,7 +184,7 @@ pub const CONFIG_WATCHDOG_ACTION: u16 = 109;
 /// wait for in position.
 pub const CONFIG_MOTION_POLICY: u16 = 110;
 /// Time a motion may report "not moving" after it was accepted before that
-/// counts as finished [ms], 0-5000.
+/// counts as finished \[ms\], 0-5000.
 pub const CONFIG_START_GRACE_MS: u16 = 111;
 /// 1 = send `GrpReset` after a motion ends in a robot error.
 pub const CONFIG_AUTO_RESET: u16 = 112;

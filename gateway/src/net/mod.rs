@@ -4,8 +4,8 @@
 //! close, and it reuses each socket for many connections in turn (a board
 //! has a fixed number of sockets with fixed buffers). Two adapters exist:
 //!
-//! * [`tokio`](crate::net::tokio) (feature `std`): Linux, the host binary and the host tests.
-//! * [`embassy`](crate::net::embassy) (feature `embassy-net`): boards, and the
+//! * [`tokio`] (feature `std`): Linux, the host binary and the host tests.
+//! * [`embassy`] (feature `embassy-net`): boards, and the
 //!   two-stacks host test.
 //!
 //! The futures are not `Send`: the whole gateway runs as one task on a
