@@ -42,6 +42,7 @@
 pub mod deframer;
 pub mod header;
 pub mod json;
+mod names;
 pub mod sheet;
 
 pub use deframer::Deframer;

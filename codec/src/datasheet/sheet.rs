@@ -73,6 +73,7 @@ use heapless::Vec;
 
 use super::header::{emit_header, HEADER_LEN, MAX_PAYLOAD};
 use super::json::{significant, JsonError, JsonErrorKind, Token, Tokenizer, Writer};
+use super::names::Names;
 use crate::error::EncodeError;
 use crate::fsm::FsmState;
 use crate::number::Decimal;
@@ -398,20 +399,6 @@ enum Form {
     Plain,
 }
 
-/// A field name as sent, against a name of the table: ASCII case ignored,
-/// space equal to `_`, ignored bytes skipped.
-#[inline(never)]
-fn key_is(raw: &[u8], name: &str) -> bool {
-    let norm = |b: u8| {
-        if b == b' ' {
-            b'_'
-        } else {
-            b.to_ascii_lowercase()
-        }
-    };
-    significant(raw).map(norm).eq(name.bytes().map(norm))
-}
-
 /// The number in a number or string token. `Ok(None)` for `null` and `""`;
 /// `Err(())` for anything else that is not a number.
 fn decimal_of(token: &Token<'_>) -> Result<Option<Decimal>, ()> {
@@ -731,11 +718,8 @@ impl Emit for Option<Position> {
     }
 }
 
-/// A field of the decoder's table.
-struct ReadField {
-    name: &'static str,
-    get: fn(&mut DataSheet) -> &mut dyn Member,
-}
+/// How the decoder reaches a field of a sheet.
+type ReadField = fn(&mut DataSheet) -> &mut dyn Member;
 
 /// A field of the encoder's table.
 struct WriteField {
@@ -751,10 +735,10 @@ struct Group<F: 'static> {
 }
 
 /// The field table: every group and field, declared once and expanded into
-/// two tables of data. The decoder searches one by name and the encoder
-/// walks the other in order, so the code is one loop each whatever the
-/// number of fields, and a program that only decodes does not link the
-/// encoder. (On thumbv7em, opt-level z: deframer + `parse` ~14 KiB of flash
+/// tables of data. The decoder looks keys up in a hash table built from the
+/// names at compile time ([`Names`]) and the encoder walks its table in
+/// order, so the code is one loop each whatever the number of fields, and a
+/// program that only decodes does not link the encoder. (On thumbv7em, opt-level z: deframer + `parse` ~14 KiB of flash
 /// including ~4 KiB of compiler builtins; `write_json` ~5 KiB more.)
 macro_rules! layout {
     ($(
@@ -762,15 +746,13 @@ macro_rules! layout {
             $( $name:literal => ($form:ident, $($f:tt)+), )*
         }
     )*) => {
-        /// The decoder's table (names are matched with [`key_is`]).
-        const READ: &[Group<ReadField>] = &[$(
-            Group {
-                name: $group,
-                fields: &[$(
-                    ReadField { name: $name, get: |ds| &mut ds.$g.$($f)+ },
-                )*],
-            },
-        )*];
+        /// The decoder's field names, every group's together (a field is
+        /// read in whichever group it comes)...
+        const READ_NAMES: &[&str] = &[$($($name,)*)*];
+        /// ...and how to reach each one, in the same order.
+        const READ: &[ReadField] = &[$($(|ds| &mut ds.$g.$($f)+,)*)*];
+        /// The group names: an object under one of these is read as a group.
+        const GROUP_NAMES: &[&str] = &[$($group,)*];
 
         /// The encoder's table, in the order it writes.
         const WRITE: &[Group<WriteField>] = &[$(
@@ -857,6 +839,11 @@ layout! {
     }
 }
 
+/// The decoder's look-up table of [`READ_NAMES`] and [`GROUP_NAMES`].
+static NAMES: Names = Names::new(READ_NAMES, GROUP_NAMES);
+
+const _: () = assert!(READ.len() == READ_NAMES.len());
+
 /// Reads the members of an object whose `{` was just taken, up to its `}`.
 /// Recurses only into known groups, so at most [`MAX_DEPTH`] deep.
 ///
@@ -874,14 +861,14 @@ fn read_object(t: &mut Tokenizer<'_>, ds: &mut DataSheet) -> Result<(), DataShee
                 kind: JsonErrorKind::UnexpectedEnd,
             }));
         };
-        if value == Token::BeginObject && READ.iter().any(|g| key_is(key, g.name)) {
+        let found = NAMES.find(key);
+        let field = found
+            .field
+            .and_then(|i| Some((*READ.get(i)?, *READ_NAMES.get(i)?)));
+        if value == Token::BeginObject && found.group {
             read_object(t, ds)?;
-        } else if let Some(f) = READ
-            .iter()
-            .flat_map(|g| g.fields)
-            .find(|f| key_is(key, f.name))
-        {
-            (f.get)(ds).read(value, t, f.name)?;
+        } else if let Some((get, name)) = field {
+            get(ds).read(value, t, name)?;
         } else if matches!(value, Token::BeginObject | Token::BeginArray) {
             t.skip_container()?;
         }
@@ -1008,6 +995,20 @@ mod tests {
         assert_eq!(ds.ft.control_state, Some(0));
         assert_eq!(ds.end_io, EndIo::default());
         assert_eq!(round_trip(&ds), ds);
+    }
+
+    #[test]
+    fn every_table_name_is_found() {
+        for (i, name) in READ_NAMES.iter().enumerate() {
+            assert_eq!(NAMES.find(name.as_bytes()).field, Some(i), "{name}");
+        }
+        for name in GROUP_NAMES {
+            assert!(NAMES.find(name.as_bytes()).group, "{name}");
+        }
+        // The one name that is both.
+        let ft = NAMES.find(b"ftdata");
+        assert!(ft.group && ft.field.is_some());
+        super::super::names::tests::agrees_on_mutations(&NAMES);
     }
 
     #[test]
