@@ -10,17 +10,26 @@
 //! escapes matches nothing.
 //!
 //! # How
-//! [`Names::new`] runs at compile time: it normalises every field and group
-//! name, hashes it (FNV-1a, 32 bits) and places it in an open-addressing
-//! table of [`SLOTS`] one-byte-index slots with linear probing; a name that
-//! appears twice among the fields (or among the groups) after normalising
-//! stops the build. [`Names::find`] normalises and hashes the key in one
-//! pass over its bytes, then probes from the hash's slot: an empty slot
-//! ends the search, an occupied one is confirmed by comparing the names.
+//! [`Names::new`] runs at compile time: it hashes every field and group
+//! name and places it in an open-addressing table of [`SLOTS`]
+//! one-byte-index slots with linear probing; a name that appears twice among
+//! the fields (or among the groups) after normalising stops the build, and
+//! so does a name with a byte other than an ASCII letter, digit or `_`.
+//!
+//! The hash is FNV-1a over only four normalised values: the length, the
+//! first, the middle and the last byte. That is enough to spread the names
+//! of the table (a few share a hash and sit in neighbouring slots) and costs
+//! the same for every key, however long. [`Names::find`] probes from the
+//! key's slot: an empty slot ends the search, an occupied one is confirmed
+//! by comparing the whole name (a plain slice comparison first, as keys
+//! usually come in the table's spelling, then byte by byte by the rule).
 //! The table is never more than three-quarters full, so the probe always
-//! reaches an empty slot; the loop is bounded by [`SLOTS`] anyway. A key
-//! longer than [`KEY_CAP`] significant bytes cannot be a name and is
-//! rejected while it is read.
+//! reaches an empty slot; the loop is bounded by [`SLOTS`] anyway.
+//!
+//! A key holding stripped bytes fails that look-up (its length is wrong);
+//! only then, and only if it does hold one, it is copied without them into
+//! a buffer of [`KEY_CAP`] bytes and looked up again. A longer key cannot
+//! be a name.
 //!
 //! Why not `phf` or a `match`: `phf` needs a build script or proc macros
 //! for a table of some seventy names, and a `match` on byte strings would
@@ -103,15 +112,33 @@ pub(crate) struct Names {
     slots: [Slot; SLOTS],
 }
 
-/// Hash of a table name, normalised.
-const fn hash_name(name: &str) -> u32 {
-    let mut rest = name.as_bytes();
+/// The hash of a key with no stripped byte: FNV-1a over its length and its
+/// first, middle and last bytes, normalised. `0` for an empty key (no name
+/// is empty).
+const fn hash_key(key: &[u8]) -> u32 {
+    let len = key.len();
+    let (first, mid, last) = match (key.first(), key.last()) {
+        (Some(&first), Some(&last)) => {
+            // `len / 2 < len`: the index is in range.
+            let (_, right) = key.split_at(len / 2);
+            match right.first() {
+                Some(&mid) => (first, mid, last),
+                None => return 0,
+            }
+        }
+        _ => return 0,
+    };
     let mut h = FNV_OFFSET;
-    while let [b, tail @ ..] = rest {
-        h = hash_step(h, normalise(*b));
-        rest = tail;
-    }
-    h
+    h = hash_step(h, (len & 0xFF) as u8);
+    h = hash_step(h, normalise(first));
+    h = hash_step(h, normalise(mid));
+    hash_step(h, normalise(last))
+}
+
+/// A byte of a key against a byte of a table name (an ASCII letter, digit
+/// or `_`: [`Names::new`] checks): the same after normalising.
+fn same(k: u8, n: u8) -> bool {
+    k == n || (k.is_ascii_alphabetic() && k ^ 0x20 == n) || (k == b' ' && n == b'_')
 }
 
 /// Two table names equal after normalising.
@@ -134,9 +161,9 @@ impl Names {
     /// where every check below is a build error rather than a panic.
     ///
     /// Panics (fails the build) when a name is empty, longer than
-    /// [`KEY_CAP`] or holds a space or a stripped byte, when two fields or
-    /// two groups have the same normalised name, or when the lists are too
-    /// long for the table.
+    /// [`KEY_CAP`] or holds a byte other than an ASCII letter, digit or `_`,
+    /// when two fields or two groups have the same normalised name, or when
+    /// the lists are too long for the table.
     pub(crate) const fn new(
         fields: &'static [&'static str],
         groups: &'static [&'static str],
@@ -181,12 +208,12 @@ impl Names {
         assert!(!b.is_empty() && b.len() <= KEY_CAP, "name length");
         while let [first, tail @ ..] = b {
             assert!(
-                !is_stripped(*first) && *first != b' ',
-                "a name holds a space or a stripped byte"
+                first.is_ascii_alphanumeric() || *first == b'_',
+                "a name holds a byte other than a letter, a digit or '_'"
             );
             b = tail;
         }
-        let mut s = home(hash_name(name));
+        let mut s = home(hash_key(name.as_bytes()));
         loop {
             let slot = &mut self.slots[s];
             if slot.is_empty() {
@@ -216,46 +243,47 @@ impl Names {
     /// What a raw key (as the tokenizer returns it: undecoded, possibly
     /// holding stripped bytes) names, if anything.
     pub(crate) fn find(&self, raw: &[u8]) -> Found {
+        if let Some(found) = self.find_clean(raw) {
+            return found;
+        }
+        // Not a name as it is; it may be one once its stripped bytes are
+        // gone (rare: the deframer has removed them already).
+        if !raw.iter().any(|&b| is_stripped(b)) {
+            return Found::NOTHING;
+        }
         let mut key = [0u8; KEY_CAP];
         let mut len = 0;
-        let mut h = FNV_OFFSET;
-        for &b in raw {
-            if is_stripped(b) {
-                continue;
-            }
-            let n = normalise(b);
+        for &b in raw.iter().filter(|&&b| !is_stripped(b)) {
             let Some(slot) = key.get_mut(len) else {
                 return Found::NOTHING;
             };
-            *slot = n;
+            *slot = b;
             len += 1;
-            h = hash_step(h, n);
         }
-        let key = key.get(..len).unwrap_or(&[]);
-        let start = home(h);
+        self.find_clean(key.get(..len).unwrap_or(&[]))
+            .unwrap_or(Found::NOTHING)
+    }
+
+    /// The look-up proper, for a key taken as it is (one holding a stripped
+    /// byte matches nothing here).
+    fn find_clean(&self, key: &[u8]) -> Option<Found> {
+        let start = home(hash_key(key));
         for i in 0..SLOTS {
-            let Some(&slot) = self.slots.get((start + i) % SLOTS) else {
-                break;
-            };
+            let slot = *self.slots.get((start + i) % SLOTS)?;
             if slot.is_empty() {
-                break;
+                return None;
             }
-            // Names hold no space or stripped byte (`insert` checks), so
-            // normalising one is only lowering its case.
             let name = self.name_of_checked(slot).as_bytes();
             if name.len() == key.len()
-                && name
-                    .iter()
-                    .zip(key)
-                    .all(|(n, &k)| n.to_ascii_lowercase() == k)
+                && (name == key || name.iter().zip(key).all(|(&n, &k)| same(k, n)))
             {
-                return Found {
+                return Some(Found {
                     field: (slot.field != NONE).then_some(usize::from(slot.field)),
                     group: slot.group != NONE,
-                };
+                });
             }
         }
-        Found::NOTHING
+        None
     }
 
     /// [`Names::name_of`] without indexing (the table only holds valid
@@ -400,7 +428,7 @@ pub(crate) mod tests {
         // the probing is exercised.
         let homes = MANY
             .iter()
-            .map(|n| home(hash_name(n)))
+            .map(|n| home(hash_key(n.as_bytes())))
             .collect::<Vec<usize, 64>>();
         let shared = homes
             .iter()
