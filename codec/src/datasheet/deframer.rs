@@ -39,6 +39,7 @@
 //! No allocation; no input makes it panic.
 
 use super::header::{check_fields, HeaderError, HEADER_LEN, MAGIC, MAX_PAYLOAD};
+use super::scan;
 
 /// `true` for the bytes official readers remove from a payload.
 pub(crate) const fn is_stripped(b: u8) -> bool {
@@ -171,16 +172,7 @@ impl<const N: usize> Deframer<N> {
                 }
                 State::Payload => {
                     let take = rest.len().min(self.remaining);
-                    for &b in rest.get(..take).unwrap_or(&[]) {
-                        if is_stripped(b) {
-                            continue;
-                        }
-                        // `len <= payload_len <= N`: the slot always exists.
-                        if let Some(slot) = self.buf.get_mut(self.len) {
-                            *slot = b;
-                            self.len += 1;
-                        }
-                    }
+                    self.keep(rest.get(..take).unwrap_or(&[]));
                     used += take;
                     self.remaining -= take;
                     if self.remaining == 0 {
@@ -208,6 +200,25 @@ impl<const N: usize> Deframer<N> {
                 on_item(item);
             }
             input = input.get(used..).unwrap_or(&[]);
+        }
+    }
+
+    /// Appends the bytes of `payload` that are not stripped to `buf`, a run
+    /// between stripped bytes at a time.
+    fn keep(&mut self, mut payload: &[u8]) {
+        while !payload.is_empty() {
+            let run = scan::stripped(payload).unwrap_or(payload.len());
+            let end = self.len + run;
+            // `len` + what is left of the payload <= `payload_len` <= `N`:
+            // the room is always there.
+            if let (Some(dst), Some(src)) = (self.buf.get_mut(self.len..end), payload.get(..run)) {
+                dst.copy_from_slice(src);
+                self.len = end;
+            }
+            // Then past the stripped bytes (indentation comes in groups).
+            let rest = payload.get(run..).unwrap_or(&[]);
+            let skip = rest.iter().position(|&b| !is_stripped(b));
+            payload = rest.get(skip.unwrap_or(rest.len())..).unwrap_or(&[]);
         }
     }
 

@@ -44,6 +44,7 @@
 use core::fmt;
 
 use super::deframer::is_stripped;
+use super::scan;
 use crate::error::EncodeError;
 use crate::number::Decimal;
 
@@ -208,6 +209,7 @@ impl<'a> Tokenizer<'a> {
         self.last
     }
 
+    #[cold]
     fn fail(&mut self, offset: usize, kind: JsonErrorKind) -> JsonError {
         let e = JsonError { offset, kind };
         self.error = Some(e);
@@ -273,48 +275,60 @@ impl<'a> Tokenizer<'a> {
         if let Some(e) = self.error {
             return Err(e);
         }
-        loop {
-            while matches!(self.byte(self.pos), Some(b' ' | b'\r' | b'\n' | b'\t' | 0)) {
-                self.pos += 1;
-            }
-            let at = self.pos;
-            self.last = at;
-            let Some(b) = self.byte(at) else {
-                return match self.expect {
-                    Expect::Done => Ok(None),
-                    _ => Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
-                };
+        // Whitespace and separators in one loop with one dispatch per byte,
+        // the position and state in locals until a token starts.
+        let mut at = self.pos;
+        let mut expect = self.expect;
+        let b = loop {
+            let Some(&b) = self.input.get(at) else {
+                (self.pos, self.last, self.expect) = (at, at, expect);
+                return self.end(at);
             };
-            let unexpected = JsonErrorKind::UnexpectedByte(b);
-            match (self.expect, b) {
-                (Expect::Colon, b':') => {
-                    self.pos += 1;
-                    self.expect = Expect::Value;
+            match b {
+                b' ' | b'\r' | b'\n' | b'\t' | 0 => at += 1,
+                b':' if expect == Expect::Colon => {
+                    at += 1;
+                    expect = Expect::Value;
                 }
-                (Expect::CommaOrEnd, b',') => {
-                    self.pos += 1;
-                    self.expect = if self.in_array() {
+                b',' if expect == Expect::CommaOrEnd => {
+                    at += 1;
+                    expect = if self.in_array() {
                         Expect::ValueOrEnd
                     } else {
                         Expect::KeyOrEnd
                     };
                 }
-                (Expect::CommaOrEnd | Expect::KeyOrEnd, b'}') if !self.in_array() => {
-                    self.close();
-                    return Ok(Some(Token::EndObject));
-                }
-                (Expect::CommaOrEnd | Expect::ValueOrEnd, b']') if self.in_array() => {
-                    self.close();
-                    return Ok(Some(Token::EndArray));
-                }
-                (Expect::KeyOrEnd, b'"') => {
-                    let s = self.string()?;
-                    self.expect = Expect::Colon;
-                    return Ok(Some(Token::Key(s)));
-                }
-                (Expect::Value | Expect::ValueOrEnd, _) => return self.value(b).map(Some),
-                _ => return Err(self.fail(at, unexpected)),
+                _ => break b,
             }
+        };
+        (self.pos, self.last, self.expect) = (at, at, expect);
+        match b {
+            b'"' if expect == Expect::KeyOrEnd => {
+                let s = self.string()?;
+                self.expect = Expect::Colon;
+                Ok(Some(Token::Key(s)))
+            }
+            b'}' if matches!(expect, Expect::CommaOrEnd | Expect::KeyOrEnd) && !self.in_array() => {
+                self.close();
+                Ok(Some(Token::EndObject))
+            }
+            b']' if matches!(expect, Expect::CommaOrEnd | Expect::ValueOrEnd)
+                && self.in_array() =>
+            {
+                self.close();
+                Ok(Some(Token::EndArray))
+            }
+            _ if matches!(expect, Expect::Value | Expect::ValueOrEnd) => self.value(b).map(Some),
+            _ => Err(self.fail(at, JsonErrorKind::UnexpectedByte(b))),
+        }
+    }
+
+    /// The input ended where a token was expected.
+    #[cold]
+    fn end(&mut self, at: usize) -> Result<Option<Token<'a>>, JsonError> {
+        match self.expect {
+            Expect::Done => Ok(None),
+            _ => Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
         }
     }
 
@@ -344,48 +358,86 @@ impl<'a> Tokenizer<'a> {
         let start = self.pos + 1;
         let mut i = start;
         loop {
-            match self.byte(i) {
-                None => return Err(self.fail(i, JsonErrorKind::UnexpectedEnd)),
-                Some(b'"') => break,
-                Some(b'\\') => {
-                    let (at, e) = self.significant_at(i + 1);
-                    i = at + 1;
-                    match e {
-                        None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
-                        Some(b'"' | b'\\' | b'/' | b'b' | b'f' | b'n' | b'r' | b't') => {}
-                        Some(b'u') => {
-                            for _ in 0..4 {
-                                let (at, h) = self.significant_at(i);
-                                match h {
-                                    Some(h) if h.is_ascii_hexdigit() => i = at + 1,
-                                    None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
-                                    Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
-                                }
-                            }
-                        }
-                        Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
-                    }
-                }
-                Some(_) => i += 1,
+            // Straight to the next quote or backslash: everything else in a
+            // string is taken as it is.
+            let rest = self.input.get(i..).unwrap_or(&[]);
+            let Some(k) = scan::quote_or_backslash(rest) else {
+                return Err(self.fail(self.input.len(), JsonErrorKind::UnexpectedEnd));
+            };
+            i += k;
+            if self.byte(i) == Some(b'"') {
+                break;
             }
+            i = self.escape(i)?;
         }
         let s = self.input.get(start..i).unwrap_or(&[]);
         self.pos = i + 1;
         Ok(s)
     }
 
+    /// Checks the escape whose `\` is at `at`; returns where the string
+    /// goes on after it. Kept out of line: escapes are rare, and inlined
+    /// they slow the scan loop of [`Tokenizer::string`].
+    #[inline(never)]
+    fn escape(&mut self, at: usize) -> Result<usize, JsonError> {
+        let (at, e) = self.significant_at(at + 1);
+        let mut i = at + 1;
+        match e {
+            None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
+            Some(b'"' | b'\\' | b'/' | b'b' | b'f' | b'n' | b'r' | b't') => {}
+            Some(b'u') => {
+                for _ in 0..4 {
+                    let (at, h) = self.significant_at(i);
+                    match h {
+                        Some(h) if h.is_ascii_hexdigit() => i = at + 1,
+                        None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
+                        Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
+                    }
+                }
+            }
+            Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
+        }
+        Ok(i)
+    }
+
     /// A number starting under `pos`: `-? digits (. digits)? ([eE] [+-]? digits)?`
     /// with ignored bytes anywhere in it.
     fn number(&mut self) -> Result<&'a [u8], JsonError> {
         let start = self.pos;
+        let rest = self.input.get(start..).unwrap_or(&[]);
+        // The usual forms, `-?digits(.digits)?` with no ignored byte, in one
+        // pass. When the next byte cannot continue a number, the general
+        // path below would take the same bytes and accept them.
+        let digits = |from: usize| {
+            let tail = rest.get(from..).unwrap_or(&[]);
+            from + tail
+                .iter()
+                .position(|b| !b.is_ascii_digit())
+                .unwrap_or(tail.len())
+        };
+        let sign = usize::from(rest.first() == Some(&b'-'));
+        let mut end = digits(sign);
+        let mut plain = end > sign;
+        if plain && rest.get(end) == Some(&b'.') {
+            let frac = end + 1;
+            end = digits(frac);
+            plain = end > frac;
+        }
+        if plain && !rest.get(end).is_some_and(|&b| is_number_byte(b)) {
+            self.pos = start + end;
+            return Ok(rest.get(..end).unwrap_or(&[]));
+        }
+        self.number_general()
+    }
+
+    /// [`Tokenizer::number`] for any form: takes every byte that can be
+    /// part of a number, then checks the grammar.
+    #[inline(never)]
+    fn number_general(&mut self) -> Result<&'a [u8], JsonError> {
+        let start = self.pos;
         let mut end = start;
-        while let Some(b) = self.byte(end) {
-            if b.is_ascii_digit() || matches!(b, b'-' | b'+' | b'.' | b'e' | b'E') || is_stripped(b)
-            {
-                end += 1;
-            } else {
-                break;
-            }
+        while self.byte(end).is_some_and(is_number_byte) {
+            end += 1;
         }
         let raw = self.input.get(start..end).unwrap_or(&[]);
         if !is_json_number(significant(raw)) {
@@ -425,6 +477,11 @@ impl<'a> Tokenizer<'a> {
             }
         }
     }
+}
+
+/// A byte that can be part of a number (ignored ones included).
+fn is_number_byte(b: u8) -> bool {
+    b.is_ascii_digit() || matches!(b, b'-' | b'+' | b'.' | b'e' | b'E') || is_stripped(b)
 }
 
 /// `-? digits (. digits)? ([eE] [+-]? digits)?`, leading zeros allowed.
