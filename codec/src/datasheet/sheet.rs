@@ -71,6 +71,7 @@ use core::fmt;
 
 use heapless::Vec;
 
+use super::deframer::is_stripped;
 use super::header::{emit_header, HEADER_LEN, MAX_PAYLOAD};
 use super::json::{significant, JsonError, JsonErrorKind, Token, Tokenizer, Writer};
 use super::names::Names;
@@ -408,16 +409,26 @@ fn decimal_of(token: &Token<'_>) -> Result<Option<Decimal>, ()> {
         Token::Null => return Ok(None),
         _ => return Err(()),
     };
-    // Copy the significant bytes (the longest number worth reading is far
-    // shorter than this); spaces around a number in a string are trimmed.
-    let mut buf = [0u8; 64];
-    let mut n = 0;
-    for b in significant(raw) {
-        let slot = buf.get_mut(n).ok_or(())?;
-        *slot = b;
-        n += 1;
-    }
-    let text = buf.get(..n).unwrap_or(&[]).trim_ascii();
+    // The longest number worth reading is far shorter than this; longer
+    // text is not a number we take.
+    const CAP: usize = 64;
+    let mut buf = [0u8; CAP];
+    let text = if raw.iter().any(|&b| is_stripped(b)) {
+        // Copy the significant bytes.
+        let mut n = 0;
+        for b in significant(raw) {
+            let slot = buf.get_mut(n).ok_or(())?;
+            *slot = b;
+            n += 1;
+        }
+        buf.get(..n).unwrap_or(&[])
+    } else if raw.len() <= CAP {
+        raw
+    } else {
+        return Err(());
+    };
+    // Spaces around a number in a string are trimmed.
+    let text = text.trim_ascii();
     if text.is_empty() {
         return Ok(None);
     }
@@ -449,7 +460,42 @@ impl Scalar for Decimal {
     }
 }
 
+/// An integer written as plain digits (`0`, `-12`, `"33"`), the form nearly
+/// every integer field comes in, read without going through [`Decimal`].
+/// `None` for any other form, which [`integer_of`] reads as a decimal (with
+/// the same result for the forms taken here: the test
+/// `plain_integers_read_as_decimals_do` checks).
+fn plain_integer(token: &Token<'_>) -> Option<i64> {
+    let (Token::Number(raw) | Token::Str(raw)) = *token else {
+        return None;
+    };
+    let (negative, digits) = match raw.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        _ => (false, raw),
+    };
+    // At most 18 digits: below 10^18, no overflow.
+    if digits.is_empty() || digits.len() > 18 {
+        return None;
+    }
+    let mut v: i64 = 0;
+    for &b in digits {
+        if !b.is_ascii_digit() {
+            return None;
+        }
+        v = v * 10 + i64::from(b - b'0');
+    }
+    Some(if negative { -v } else { v })
+}
+
 fn integer_of(token: &Token<'_>) -> Result<Option<i64>, FieldExpected> {
+    match plain_integer(token) {
+        Some(v) => Ok(Some(v)),
+        None => integer_of_decimal(token),
+    }
+}
+
+/// [`integer_of`] for every form: the number as a [`Decimal`], then whole.
+fn integer_of_decimal(token: &Token<'_>) -> Result<Option<i64>, FieldExpected> {
     match decimal_of(token) {
         Ok(Some(d)) => d.to_i64().map(Some).ok_or(FieldExpected::Integer),
         Ok(None) => Ok(None),
@@ -475,6 +521,9 @@ impl Scalar for u64 {
     const ZERO: Self = 0;
     const EXPECTED: FieldExpected = FieldExpected::Integer;
     fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        if let Some(v) = plain_integer(token).and_then(|v| u64::try_from(v).ok()) {
+            return Ok(Some(v));
+        }
         let d = match decimal_of(token) {
             Ok(Some(d)) => d,
             Ok(None) => return Ok(None),
@@ -995,6 +1044,58 @@ mod tests {
         assert_eq!(ds.ft.control_state, Some(0));
         assert_eq!(ds.end_io, EndIo::default());
         assert_eq!(round_trip(&ds), ds);
+    }
+
+    #[test]
+    fn plain_integers_read_as_decimals_do() {
+        let mut forms = heapless::Vec::<heapless::String<24>, 512>::new();
+        for body in [
+            "0",
+            "7",
+            "007",
+            "33",
+            "1000",
+            "48211972",
+            "2147483647",
+            "2147483648",
+            "999999999999999999",
+            "1000000000000000000",
+            "12345678901234567890",
+            "",
+            "1.0",
+            "1.5",
+            "1e3",
+            "1E+2",
+            " 5",
+            "5 ",
+            "+5",
+            "--1",
+            "0x10",
+            "1_0",
+        ] {
+            for sign in ["", "-"] {
+                let mut f = heapless::String::new();
+                f.push_str(sign).unwrap();
+                f.push_str(body).unwrap();
+                forms.push(f).unwrap();
+            }
+        }
+        for f in &forms {
+            for token in [Token::Number(f.as_bytes()), Token::Str(f.as_bytes())] {
+                if let Some(v) = plain_integer(&token) {
+                    assert_eq!(integer_of_decimal(&token), Ok(Some(v)), "{f:?}");
+                    let as_u64 = u64::from_token(&token);
+                    match u64::try_from(v) {
+                        Ok(u) => assert_eq!(as_u64, Ok(Some(u)), "{f:?}"),
+                        Err(_) => assert!(as_u64.is_err(), "{f:?}"),
+                    }
+                }
+            }
+        }
+        // The fast path does take the usual forms.
+        for f in ["0", "-12", "33", "999999999999999999"] {
+            assert!(plain_integer(&Token::Number(f.as_bytes())).is_some(), "{f}");
+        }
     }
 
     #[test]
