@@ -12,19 +12,137 @@
 //! | `ReadCIConfig,,;` (empty field) | `ReadCIConfig` + `[""]` |
 //! | `Name` or `Name,p1` (no `;`, as a framer body) | same as with `;` |
 //!
-//! Fields are split on `,` only; the protocol has no quoting, so a text field
-//! can never contain `,` or `;` (the writer refuses such text). Splitting
-//! borrows the input: nothing is copied. It is a byte loop rather than parser
-//! combinators: this is the codec's hottest path and the grammar is one
-//! separator (see `host-tests/benches`).
+//! ## The grammar
+//!
+//! ```text
+//! message    = ws name ws ( terminator | "," fields terminator )
+//! name       = [A-Za-z0-9_]+
+//! fields     = field ( "," field )*
+//! field      = [^,]*                  read trimmed of ws
+//! terminator = ","? filler* end       the longest such suffix
+//! filler     = ws | ";"
+//! ws         = " " | "\t" | "\r" | "\n"
+//! ```
+//!
+//! So a `,` followed by nothing but fillers is the trailing comma of
+//! `Name,p1,;`, and the last field without a comma ends where only fillers
+//! are left (`OSCmd,1;`). Fields are split on `,` only; the protocol has no
+//! quoting, so a text field can never contain `,` or `;` (the writer refuses
+//! such text).
+//!
+//! The rules are written with nom's byte-level combinators in `syntax`
+//! below (on `&[u8]`, with `()` as the error type, so a failed alternative
+//! costs a branch and nothing else; nom's types stay inside this crate).
+//! Fields are read one at a time, forward, straight from the message text:
+//! nothing is counted, split or copied up front, so a typed reader makes one
+//! pass over its message. The numbers inside fields have their own grammar
+//! in [`number`](crate::number).
+//!
+//! The typed readers take plain numbers (`-12.345`, the form controllers
+//! reply with) through a fast path in the same pass that finds the field's
+//! end; see [`number`](crate::number) for why that pays and how it is tested
+//! against the grammar.
 
 use crate::catalogue::CommandId;
 use crate::error::{Expected, Got, ParseError};
-use crate::number::Decimal;
+use crate::number::{self, Decimal};
 
-/// Whitespace the reader trims around fields and messages.
-pub(crate) fn is_space(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\r' | b'\n')
+/// The grammar above, in nom combinators over bytes.
+pub(crate) mod syntax {
+    use nom::bytes::complete::{take_till, take_while};
+    use nom::character::complete::char;
+    use nom::combinator::{eof, opt};
+    use nom::{IResult, Parser};
+
+    /// Input of the grammar's parsers.
+    pub(crate) type In<'a> = &'a [u8];
+    /// A parser's result: no error details, a failed branch is all we need.
+    pub(crate) type Res<'a, O> = IResult<In<'a>, O, ()>;
+
+    /// `ws`: whitespace the reader trims around fields and messages.
+    pub(crate) fn is_space(b: u8) -> bool {
+        matches!(b, b' ' | b'\t' | b'\r' | b'\n')
+    }
+
+    /// `filler`: what may follow the last field.
+    pub(crate) fn is_filler(b: u8) -> bool {
+        is_space(b) || b == b';'
+    }
+
+    /// `A-Z a-z 0-9 _`, one bit per ASCII byte.
+    const NAME_BYTES: u128 = {
+        let mut m = 0u128;
+        let mut b = 0;
+        while b < 128 {
+            if (b as u8).is_ascii_alphanumeric() || b == b'_' as u32 {
+                m |= 1 << b;
+            }
+            b += 1;
+        }
+        m
+    };
+
+    fn is_name_byte(b: u8) -> bool {
+        b < 128 && NAME_BYTES >> b & 1 == 1
+    }
+
+    /// `ws`.
+    pub(crate) fn ws(i: In<'_>) -> Res<'_, In<'_>> {
+        take_while(is_space).parse(i)
+    }
+
+    /// `name`, possibly empty (the caller tells an empty message from a bad
+    /// name).
+    pub(crate) fn name(i: In<'_>) -> Res<'_, In<'_>> {
+        take_while(is_name_byte).parse(i)
+    }
+
+    /// `field`: the raw text up to the next `,` (or the end).
+    pub(crate) fn field(i: In<'_>) -> Res<'_, In<'_>> {
+        take_till(|b| b == b',').parse(i)
+    }
+
+    /// `filler* end`.
+    pub(crate) fn fillers_to_end(i: In<'_>) -> Res<'_, ()> {
+        (take_while(is_filler), eof).map(|_| ()).parse(i)
+    }
+
+    /// `terminator`.
+    pub(crate) fn terminator(i: In<'_>) -> Res<'_, ()> {
+        (opt(char(',')), fillers_to_end).map(|_| ()).parse(i)
+    }
+
+    /// The `,` between the name and the first field.
+    pub(crate) fn separator(i: In<'_>) -> Res<'_, char> {
+        char(',').parse(i)
+    }
+}
+
+use syntax::{is_filler, In};
+
+pub(crate) use syntax::is_space;
+
+/// The rest of `text` after the parser left `rest` of it.
+fn after<'a>(text: &'a str, rest: In<'_>) -> &'a str {
+    // Every parser above stops next to an ASCII byte: a char boundary.
+    text.get(text.len().saturating_sub(rest.len())..)
+        .unwrap_or("")
+}
+
+/// `true` when `text` is nothing but fillers (`filler* end`). The first
+/// byte decides in nearly every call, so that test is inline.
+#[inline]
+fn only_fillers(text: &str) -> bool {
+    only_fillers_bytes(text.as_bytes())
+}
+
+#[inline]
+fn only_fillers_bytes(b: &[u8]) -> bool {
+    match b.first() {
+        None => true,
+        Some(&c) if !is_filler(c) => false,
+        Some(_) => syntax::fillers_to_end(b).is_ok(),
+    }
 }
 
 /// `s` without the whitespace [`is_space`] at its ends.
@@ -39,17 +157,88 @@ pub(crate) fn trim(s: &str) -> &str {
     s.get(start..end).unwrap_or("")
 }
 
-/// Splits off the first field of `rest`; `None` when nothing is left.
-/// (A plain byte loop: fields are a few bytes long, where `memchr`'s set-up
-/// costs more than it saves.)
-fn split_field(rest: &str) -> (&str, Option<&str>) {
-    match rest.bytes().position(|b| b == b',') {
-        // `,` is ASCII: both sides of it are character boundaries.
-        Some(i) => (
-            rest.get(..i).unwrap_or(""),
-            Some(rest.get(i + 1..).unwrap_or("")),
-        ),
-        None => (rest, None),
+/// `s` without the fillers at its end: the last field without its
+/// terminator.
+fn strip_terminator(s: &str) -> &str {
+    let end = s
+        .as_bytes()
+        .iter()
+        .rposition(|&c| !is_filler(c))
+        .map_or(0, |e| e + 1);
+    s.get(..end).unwrap_or("")
+}
+
+/// Splits a field off a bounded body (no terminator in it): the raw field,
+/// and the text after its `,` (`None` when it was the last).
+fn split_plain(body: &str) -> (&str, Option<&str>) {
+    let (rest, f) = syntax::field(body.as_bytes()).unwrap_or((&[], body.as_bytes()));
+    let field = body.get(..f.len()).unwrap_or("");
+    match rest.is_empty() {
+        true => (field, None),
+        false => (field, Some(after(body, rest.get(1..).unwrap_or(&[])))),
+    }
+}
+
+/// Splits the next field off `rest`, the message text from a field's start
+/// to its very end (terminator included): the raw field (for the last one,
+/// without the terminator) and the text of the fields after it, `None` when
+/// it was the last.
+fn split_raw(rest: &str) -> (&str, Option<&str>) {
+    match split_plain(rest) {
+        (last, None) => (strip_terminator(last), None),
+        (field, Some(next)) if only_fillers(next) => (field, None),
+        (field, next) => (field, next),
+    }
+}
+
+/// The next field of `rest` (as in [`split_raw`]), trimmed.
+pub(crate) fn next_field(rest: &str) -> (&str, Option<&str>) {
+    let (f, next) = split_raw(rest);
+    (trim(f), next)
+}
+
+/// The fields' text of `rest` (as in [`split_raw`]) without the terminator,
+/// and how many fields there are.
+fn bound(rest: &str) -> Result<(&str, u16), GrammarError> {
+    let mut count: u16 = 0;
+    let mut r = rest;
+    loop {
+        let (f, next) = split_raw(r);
+        count = count.checked_add(1).ok_or(GrammarError::TooManyFields)?;
+        match next {
+            Some(n) => r = n,
+            None => {
+                let end = rest.len() - r.len() + f.len();
+                return Ok((rest.get(..end).unwrap_or(""), count));
+            }
+        }
+    }
+}
+
+/// Reads `ws name ws` and what follows: the name, and the text of the
+/// fields (terminator included) if there are any.
+pub(crate) fn head(text: &str) -> Result<(&str, Option<&str>), GrammarError> {
+    let b = text.as_bytes();
+    let start = syntax::ws(b).map_or(b, |(r, _)| r);
+    let (rest, name) = syntax::name(start).unwrap_or((start, &[]));
+    if name.is_empty() {
+        return Err(match syntax::terminator(start) {
+            Ok(_) => GrammarError::Empty,
+            Err(_) => GrammarError::BadName,
+        });
+    }
+    let name = after(text, start).get(..name.len()).unwrap_or("");
+    let rest = syntax::ws(rest).map_or(rest, |(r, _)| r);
+    // `,` then more than fillers: the fields start after it. Anything else
+    // must be the terminator.
+    if let Ok((fields, _)) = syntax::separator(rest) {
+        if !only_fillers_bytes(fields) {
+            return Ok((name, Some(after(text, fields))));
+        }
+    }
+    match syntax::terminator(rest) {
+        Ok(_) => Ok((name, None)),
+        Err(_) => Err(GrammarError::BadName),
     }
 }
 
@@ -67,10 +256,22 @@ pub enum Kind {
     ErrorCmd,
 }
 
+/// The kind of a message from its name and the first of its fields.
+pub(crate) fn kind_of(name: &str, first: Option<&str>) -> Kind {
+    if name.len() == 8 && name.eq_ignore_ascii_case("errorcmd") {
+        return Kind::ErrorCmd;
+    }
+    match first {
+        Some(f) if f.eq_ignore_ascii_case("OK") => Kind::Ok,
+        Some(f) if f.eq_ignore_ascii_case("Fail") => Kind::Fail,
+        _ => Kind::Request,
+    }
+}
+
 /// A message split into its name and fields, borrowed from the input.
 ///
 /// This is the generic view used for unknown command names (newer firmware
-/// keeps working) and underneath every typed parse.
+/// keeps working), `errorcmd` replies and failure details.
 ///
 /// Two messages are equal when they have the same name and the same fields
 /// as read (trimmed): `A, 1 ,;` equals `A,1,;`, as its canonical encoding
@@ -109,27 +310,17 @@ impl<'a> RawMessage<'a> {
     /// Splits one message. `text` may carry the terminator (`...,;`) or not
     /// (a body as the framer delivers it), and surrounding whitespace.
     pub fn parse(text: &'a str) -> Result<Self, GrammarError> {
-        let mut t = trim(text);
-        while let Some(s) = t.strip_suffix(';') {
-            t = trim(s);
-        }
-        if let Some(s) = t.strip_suffix(',') {
-            t = s;
-        }
-        if t.is_empty() {
-            return Err(GrammarError::Empty);
-        }
-        let (name, rest) = split_field(t);
-        let name = trim(name);
-        if name.is_empty() || !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_') {
-            return Err(GrammarError::BadName);
-        }
-        let body = rest.unwrap_or("");
-        let count = match rest {
-            None => 0,
-            Some(b) => b.bytes().filter(|&c| c == b',').count() + 1,
+        let (name, rest) = head(text)?;
+        Self::from_parts(name, rest)
+    }
+
+    /// The message named `name` whose fields' text (terminator included) is
+    /// `rest`, as [`head`] and [`next_field`] leave it.
+    pub(crate) fn from_parts(name: &'a str, rest: Option<&'a str>) -> Result<Self, GrammarError> {
+        let (body, count) = match rest {
+            None => ("", 0),
+            Some(r) => bound(r)?,
         };
-        let count = u16::try_from(count).map_err(|_| GrammarError::TooManyFields)?;
         Ok(RawMessage { name, body, count })
     }
 
@@ -167,30 +358,7 @@ impl<'a> RawMessage<'a> {
     /// The kind of message, from its shape: `errorcmd` as name, `OK` or
     /// `Fail` (any letter case) as first field, else a request.
     pub fn kind(&self) -> Kind {
-        if self.name.eq_ignore_ascii_case("errorcmd") {
-            return Kind::ErrorCmd;
-        }
-        match self.fields().next() {
-            Some(f) if f.eq_ignore_ascii_case("OK") => Kind::Ok,
-            Some(f) if f.eq_ignore_ascii_case("Fail") => Kind::Fail,
-            _ => Kind::Request,
-        }
-    }
-
-    /// This message without its first field (used to step past `OK`/`Fail`).
-    pub(crate) fn skip_first(&self) -> RawMessage<'a> {
-        match split_field(self.body) {
-            (_, Some(rest)) => RawMessage {
-                name: self.name,
-                body: rest,
-                count: self.count.saturating_sub(1),
-            },
-            (_, None) => RawMessage {
-                name: self.name,
-                body: "",
-                count: 0,
-            },
-        }
+        kind_of(self.name, self.fields().next())
     }
 }
 
@@ -210,8 +378,7 @@ impl<'a> Fields<'a> {
 impl<'a> Iterator for Fields<'a> {
     type Item = &'a str;
     fn next(&mut self) -> Option<&'a str> {
-        let r = self.rest?;
-        let (f, rest) = split_field(r);
+        let (f, rest) = split_plain(self.rest?);
         self.rest = rest;
         Some(trim(f))
     }
@@ -220,7 +387,8 @@ impl<'a> Iterator for Fields<'a> {
 /// Where a [`Cursor`] reads its fields from.
 #[derive(Clone, Copy, Debug)]
 enum Source<'s, 'a> {
-    /// The message text, split lazily.
+    /// The message text from the next field to the end, terminator
+    /// included; `None` when no field is left.
     Text(Option<&'a str>),
     /// Fields already split and reordered by a quirk handler.
     Slice(&'s [&'a str]),
@@ -231,7 +399,6 @@ enum Source<'s, 'a> {
 pub struct Cursor<'s, 'a> {
     src: Source<'s, 'a>,
     pos: u16,
-    total: u16,
     command: CommandId,
     /// In a reply: how many values a list must have, from the request.
     list_len: Option<u16>,
@@ -240,11 +407,12 @@ pub struct Cursor<'s, 'a> {
 }
 
 impl<'s, 'a> Cursor<'s, 'a> {
-    pub(crate) fn new(msg: &RawMessage<'a>, command: CommandId) -> Self {
+    /// A cursor on the fields' text `rest` (terminator included), as
+    /// [`head`] and [`next_field`] leave it.
+    pub(crate) fn new(rest: Option<&'a str>, command: CommandId) -> Self {
         Cursor {
-            src: Source::Text(if msg.count == 0 { None } else { Some(msg.body) }),
+            src: Source::Text(rest),
             pos: 0,
-            total: msg.count,
             command,
             list_len: None,
             err: None,
@@ -255,7 +423,6 @@ impl<'s, 'a> Cursor<'s, 'a> {
         Cursor {
             src: Source::Slice(fields),
             pos: 0,
-            total: u16::try_from(fields.len()).unwrap_or(u16::MAX),
             command,
             list_len: None,
             err: None,
@@ -277,9 +444,21 @@ impl<'s, 'a> Cursor<'s, 'a> {
         self.command
     }
 
-    /// Fields not yet read.
+    /// Fields not yet read (counted on each call: it walks them).
     pub fn remaining(&self) -> u16 {
-        self.total.saturating_sub(self.pos)
+        match self.src {
+            Source::Text(None) => 0,
+            Source::Text(Some(r)) => bound(r).map_or(u16::MAX, |(_, n)| n),
+            Source::Slice(s) => u16::try_from(s.len()).unwrap_or(u16::MAX),
+        }
+    }
+
+    /// `true` when every field has been read.
+    pub fn at_end(&self) -> bool {
+        match self.src {
+            Source::Text(r) => r.is_none(),
+            Source::Slice(s) => s.is_empty(),
+        }
     }
 
     /// Index of the next field (0 = first after the name).
@@ -291,9 +470,9 @@ impl<'s, 'a> Cursor<'s, 'a> {
     pub fn next_field(&mut self) -> Option<&'a str> {
         let f = match &mut self.src {
             Source::Text(rest) => {
-                let (f, tail) = split_field((*rest)?);
+                let (f, tail) = next_field((*rest)?);
                 *rest = tail;
-                trim(f)
+                f
             }
             Source::Slice(s) => {
                 let (first, tail) = s.split_first()?;
@@ -306,43 +485,66 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// The typed readers' fast path: the next field if it is a plain number
-    /// (`[-]digits[.digits]`, at most 19 digits, no spaces), read in the same
-    /// pass that finds its end, and the text after it. Anything else
-    /// (spaces, exponents, an empty field, an error) is `None`: the general
-    /// path (`next_field`, `Decimal::parse`) then decides.
+    /// (see [`number`](crate::number)) directly followed by its `,` or the
+    /// end of the text, read in the same pass that finds the field's end,
+    /// and the text after it. Anything else (spaces, exponents, `;` right
+    /// after the value, an empty field, an error) is `None`: the grammar
+    /// (`next_field`, `Decimal::parse`) then decides.
+    #[inline(always)]
     fn peek_plain_number(&self) -> Option<(Decimal, Option<&'a str>)> {
         let Source::Text(Some(rest)) = self.src else {
             return None;
         };
-        let b = rest.as_bytes();
-        let (negative, mut i) = match b.first() {
-            Some(b'-') => (true, 1),
-            _ => (false, 0),
+        let (d, next) = number::plain_prefix(rest.as_bytes())?;
+        let tail = match next {
+            [] => None,
+            [b',', next @ ..] => (!only_fillers_bytes(next)).then(|| after(rest, next)),
+            _ => return None,
         };
-        let (mut coeff, mut digits, mut scale, mut point) = (0u64, 0u8, 0u8, false);
-        while let Some(&c) = b.get(i) {
-            match c {
-                // 19 digits stay below 10^19 < u64::MAX.
-                b'0'..=b'9' if digits < 19 => {
-                    coeff = coeff * 10 + u64::from(c - b'0');
-                    digits += 1;
-                    scale += u8::from(point);
+        Some((d, tail))
+    }
+
+    /// Reads plain numbers (as `peek_plain_number` does) into `out`, in
+    /// order, while the fields are plain; returns how many were read. The
+    /// position in the text stays in registers for the whole run: poses and
+    /// joint lists, most of a reply's values, are read here.
+    pub(crate) fn plain_numbers(&mut self, out: &mut [Decimal]) -> usize {
+        let Source::Text(Some(text)) = self.src else {
+            return 0;
+        };
+        let mut rest = text.as_bytes();
+        let mut n = 0;
+        let mut done = false;
+        for slot in out.iter_mut() {
+            let Some((d, next)) = number::plain_prefix(rest) else {
+                break;
+            };
+            match next {
+                [b',', tail @ ..] => {
+                    *slot = d;
+                    n += 1;
+                    rest = tail;
+                    if only_fillers_bytes(tail) {
+                        done = true;
+                        break;
+                    }
                 }
-                b'.' if !point => point = true,
-                b',' => break,
-                _ => return None,
+                [] => {
+                    *slot = d;
+                    n += 1;
+                    done = true;
+                    break;
+                }
+                _ => break,
             }
-            i += 1;
         }
-        if digits == 0 {
-            return None;
-        }
-        // `,` is ASCII: the tail starts on a character boundary.
-        let tail = match b.get(i) {
-            Some(_) => Some(rest.get(i + 1..)?),
-            None => None,
-        };
-        Some((Decimal::from_parts(negative, coeff, scale)?, tail))
+        // `rest` starts just after a `,` (or is the whole text): a character
+        // boundary.
+        self.src = Source::Text(if done { None } else { after(text, rest).into() });
+        self.pos = self
+            .pos
+            .saturating_add(u16::try_from(n).unwrap_or(u16::MAX));
+        n
     }
 
     fn advance(&mut self, tail: Option<&'a str>) {
@@ -352,6 +554,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
 
     /// The next field if it is a plain number (see `peek_plain_number`);
     /// nothing is consumed otherwise.
+    #[inline]
     pub(crate) fn next_plain_number(&mut self) -> Option<Decimal> {
         let (d, tail) = self.peek_plain_number()?;
         self.advance(tail);
@@ -360,9 +563,15 @@ impl<'s, 'a> Cursor<'s, 'a> {
 
     /// The next field if it is a plain whole number that fits an `i32`;
     /// nothing is consumed otherwise.
+    #[inline]
     pub(crate) fn next_plain_int(&mut self) -> Option<i32> {
         let (d, tail) = self.peek_plain_number()?;
-        let v = i32::try_from(d.to_i64()?).ok()?;
+        // Integers as written (`5`, `-0`); `5.000` takes the general path.
+        if d.scale() != 0 {
+            return None;
+        }
+        let v = i64::try_from(d.coefficient()).ok()?;
+        let v = i32::try_from(if d.is_sign_negative() { -v } else { v }).ok()?;
         self.advance(tail);
         Some(v)
     }
@@ -373,10 +582,12 @@ impl<'s, 'a> Cursor<'s, 'a> {
     pub(crate) fn take_rest(&mut self) -> Option<(&'a str, u16)> {
         match &mut self.src {
             Source::Text(rest) => {
-                let n = self.total.saturating_sub(self.pos);
-                let r = rest.take().unwrap_or("");
-                self.pos = self.total;
-                Some((r, n))
+                let (text, n) = match rest.take() {
+                    None => ("", 0),
+                    Some(r) => bound(r).unwrap_or((r, u16::MAX)),
+                };
+                self.pos = self.pos.saturating_add(n);
+                Some((text, n))
             }
             Source::Slice(_) => None,
         }
@@ -390,6 +601,8 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// Records a field error at the current position (the first one wins).
+    #[cold]
+    #[inline(never)]
     pub(crate) fn fail(&mut self, param: &'static str, expected: Expected, got: Got<'a>) {
         let e = self.error(param, expected, got);
         self.record(e);
@@ -419,10 +632,10 @@ impl<'s, 'a> Cursor<'s, 'a> {
     /// field (`ConnectToBox,0,;` in the document, `ReadRobotModel,0,;` and
     /// `StopScript,0,;` from SDKs).
     pub(crate) fn skip_stray_robot_id(&mut self) {
-        if self.pos == 0 && self.total == 1 {
+        if self.pos == 0 {
             let mut probe = self.clone();
             if let Some(f) = probe.next_field() {
-                if f.is_empty() || f.bytes().all(|b| b.is_ascii_digit()) {
+                if probe.at_end() && (f.is_empty() || f.bytes().all(|b| b.is_ascii_digit())) {
                     *self = probe;
                 }
             }
@@ -430,17 +643,33 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// The first error recorded, else an error if fields are left over.
-    pub(crate) fn finish(mut self) -> Result<(), ParseError<'a>> {
+    pub(crate) fn finish(self) -> Result<(), ParseError<'a>> {
         if let Some(e) = self.err {
             return Err(e);
         }
+        if self.at_end() {
+            return Ok(());
+        }
+        self.too_many()
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn too_many(mut self) -> Result<(), ParseError<'a>> {
         let expected = self.pos;
+        let left = match self.src {
+            Source::Text(Some(r)) => bound(r)?.1,
+            _ => self.remaining(),
+        };
+        let got = expected
+            .checked_add(left)
+            .ok_or(GrammarError::TooManyFields)?;
         match self.next_field() {
             None => Ok(()),
             Some(extra) => Err(ParseError::TooManyFields {
                 command: self.command,
                 expected,
-                got: self.total,
+                got,
                 first_extra: extra,
             }),
         }
@@ -485,17 +714,17 @@ mod tests {
 
     #[test]
     fn plain_number_fast_path_agrees_and_consumes_nothing_on_fallback() {
-        let text = "M,10.759,-0.000,5.,.5,007,1e5, 3,,-,1.2.3,12345678901234567890,x";
-        let msg = RawMessage::parse(text).unwrap();
-        let mut c = Cursor::new(&msg, CommandId::ReadActPos);
+        let text = "M,10.759,-0.000,5.,.5,007,1e5, 3,,-,1.2.3,12345678901234567890,x,4;";
+        let (_, rest) = head(text).unwrap();
+        let mut c = Cursor::new(rest, CommandId::ReadActPos);
         let mut fast = 0;
-        while c.remaining() > 0 {
+        while !c.at_end() {
             let pos = c.position();
             match c.next_plain_number() {
                 Some(d) => {
                     fast += 1;
                     assert_eq!(c.position(), pos + 1);
-                    let mut again = Cursor::new(&msg, CommandId::ReadActPos);
+                    let mut again = Cursor::new(rest, CommandId::ReadActPos);
                     for _ in 0..pos {
                         again.next_field();
                     }
@@ -508,8 +737,10 @@ mod tests {
                 }
             }
         }
-        // 10.759, -0.000, 5., .5, 007 take the fast path; the rest does not.
-        assert_eq!(fast, 5);
+        // 10.759, -0.000, 5., 007 take the fast path; the rest (`4;` too:
+        // a `;` right after the value) does not.
+        assert_eq!(fast, 4);
+        assert_eq!(c.position(), 13);
     }
 
     #[test]
@@ -521,5 +752,91 @@ mod tests {
             RawMessage::parse("Pose Trans, 0,1,;"),
             Err(GrammarError::BadName)
         );
+    }
+
+    /// The reader of the previous release, kept as the reference of what the
+    /// grammar accepts: it strips the terminator from the end and splits the
+    /// rest, where the grammar above reads forward.
+    mod reference {
+        use super::super::{is_space, trim, GrammarError};
+
+        pub fn parse(text: &str) -> Result<(&str, &str, usize), GrammarError> {
+            let mut t = trim(text);
+            while let Some(s) = t.strip_suffix(';') {
+                t = trim(s);
+            }
+            if let Some(s) = t.strip_suffix(',') {
+                t = s;
+            }
+            if t.is_empty() {
+                return Err(GrammarError::Empty);
+            }
+            let (name, rest) = match t.find(',') {
+                Some(i) => (&t[..i], Some(&t[i + 1..])),
+                None => (t, None),
+            };
+            let name = trim(name);
+            if name.is_empty() || !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_') {
+                return Err(GrammarError::BadName);
+            }
+            let count = rest.map_or(0, |b| b.bytes().filter(|&c| c == b',').count() + 1);
+            let _ = is_space;
+            Ok((name, rest.unwrap_or(""), count))
+        }
+    }
+
+    /// Compares the grammar with the reference on `text`: the same error, or
+    /// the same name, body and fields, read both through [`RawMessage`] and
+    /// through a [`Cursor`].
+    fn check_against_reference(text: &str) {
+        let got = RawMessage::parse(text);
+        match reference::parse(text) {
+            Err(e) => assert_eq!(got, Err(e), "{text:?}"),
+            Ok((name, body, count)) => {
+                let m = got.unwrap_or_else(|e| panic!("{text:?}: {e:?}"));
+                assert_eq!(
+                    (m.name(), m.body(), m.len()),
+                    (name, body, count),
+                    "{text:?}"
+                );
+                let (_, rest) = head(text).unwrap();
+                let mut c = Cursor::new(rest, CommandId::ReadActPos);
+                assert_eq!(c.remaining(), m.len() as u16, "{text:?}");
+                let mut expected = m.fields();
+                while let Some(f) = c.next_field() {
+                    assert_eq!(Some(f), expected.next(), "{text:?}");
+                }
+                assert_eq!(expected.next(), None, "{text:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn grammar_reads_as_the_reference_does() {
+        // Every string of up to 7 bytes over an alphabet that has each kind
+        // of byte the grammar tells apart.
+        const ALPHABET: &[u8] = b"A1, ;x\t";
+        let mut buf = [0u8; 7];
+        for len in 0..=buf.len() {
+            let total = ALPHABET.len().pow(len as u32);
+            for mut k in 0..total {
+                for slot in buf[..len].iter_mut() {
+                    *slot = ALPHABET[k % ALPHABET.len()];
+                    k /= ALPHABET.len();
+                }
+                check_against_reference(core::str::from_utf8(&buf[..len]).unwrap());
+            }
+        }
+        for t in [
+            "ReadActPos,OK,10.759,-0.000,;",
+            " SetJointMaxAcc ,0,360, 360 ,;\r\n",
+            "A,x;y,;",
+            "A,a, ,;",
+            "A,1 ; 2 ;",
+            "é,1,;",
+            "A,é ,;",
+        ] {
+            check_against_reference(t);
+        }
     }
 }

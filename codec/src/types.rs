@@ -131,17 +131,30 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
 /// kilobytes of flash.
 pub(crate) trait Field<'a>: Sized {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self;
+    /// Reads `out.len()` values in a row (the elements of an array).
+    fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
+        for slot in out.iter_mut() {
+            *slot = Self::read(c, param);
+        }
+    }
     fn write(&self, w: &mut Writer<'_>, param: &'static str);
     fn visit(&self, name: &str, v: &mut dyn Visitor);
     /// Index of the first element outside `range`, if any.
     fn check(&self, range: &Range) -> Option<u16>;
 }
 
-#[inline(never)]
+/// Reads a decimal: the fast path for plain numbers inline, the rest (and
+/// every error) out of line.
+#[inline]
 fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
-    if let Some(d) = c.next_plain_number() {
-        return d;
+    match c.next_plain_number() {
+        Some(d) => d,
+        None => read_num_general(c, param),
     }
+}
+
+#[inline(never)]
+fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
     match c.next_field() {
         None => c.fail(param, Expected::Number, Got::End),
         Some("") => {}
@@ -153,11 +166,17 @@ fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
     Decimal::ZERO
 }
 
-#[inline(never)]
+/// Reads an integer, as [`read_num`] does a decimal.
+#[inline]
 fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
-    if let Some(v) = c.next_plain_int() {
-        return v;
+    match c.next_plain_int() {
+        Some(v) => v,
+        None => read_int_general(c, param),
     }
+}
+
+#[inline(never)]
+fn read_int_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
     match c.next_field() {
         None => c.fail(param, Expected::Integer, Got::End),
         Some("") => {}
@@ -215,6 +234,12 @@ impl<'a> Field<'a> for Decimal {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_num(c, param)
     }
+    fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
+        let plain = c.plain_numbers(out);
+        for slot in out.iter_mut().skip(plain) {
+            *slot = read_num_general(c, param);
+        }
+    }
     fn write(&self, w: &mut Writer<'_>, _: &'static str) {
         w.num(self)
     }
@@ -259,7 +284,7 @@ pub struct RobotId(pub i32);
 impl<'a> Field<'a> for RobotId {
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
-        if c.remaining() == 0 {
+        if c.at_end() {
             return RobotId(0);
         }
         RobotId(read_int(c, param))
@@ -279,9 +304,7 @@ impl<'a, T: Field<'a> + Copy + Default, const N: usize> Field<'a> for [T; N] {
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = [T::default(); N];
-        for slot in out.iter_mut() {
-            *slot = T::read(c, param);
-        }
+        T::read_slice(c, param, &mut out);
         out
     }
     #[inline(never)]
@@ -310,7 +333,7 @@ fn check_all<'a, 'e, T: Field<'a> + 'e>(
 
 impl<'a, T: Field<'a>> Field<'a> for Option<T> {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
-        (c.remaining() > 0).then(|| T::read(c, param))
+        (!c.at_end()).then(|| T::read(c, param))
     }
     fn write(&self, w: &mut Writer<'_>, param: &'static str) {
         if let Some(t) = self {
@@ -356,7 +379,7 @@ impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
         let mut out = heapless::Vec::new();
         let n = c.remaining();
         if list_len_ok(c, param, n, u16::try_from(N).unwrap_or(u16::MAX)) {
-            while c.remaining() > 0 {
+            while !c.at_end() {
                 // The length was checked against N above.
                 let _ = out.push(T::read(c, param));
             }
@@ -629,7 +652,7 @@ impl<'a> Field<'a> for PointList<'a> {
         }
         // Check every value now, so that iterating later cannot meet garbage.
         let mut probe = c.clone();
-        while probe.remaining() > 0 {
+        while !probe.at_end() {
             read_num(&mut probe, param);
         }
         if let Err(e) = probe.finish() {

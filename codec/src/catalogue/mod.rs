@@ -20,7 +20,7 @@
 //! canonical form.
 
 use crate::error::{EncodeError, ParseError, RangeError};
-use crate::grammar::{Cursor, Kind, RawMessage};
+use crate::grammar::{self, Cursor, Kind, RawMessage};
 use crate::types::{Field, Range, Visitor};
 use crate::writer::Writer;
 use crate::ErrorCode;
@@ -62,19 +62,41 @@ pub(crate) trait Message<'a>: Sized {
 /// Most fields any command with a field-order quirk has.
 const QUIRK_FIELDS: usize = 48;
 
-/// Reads the fields of known command `id` from `raw`, reordering them first
-/// if `quirks` recognises an alternative layout.
+/// Reads the fields of known command `id` from `rest`, the message text
+/// after the name (or after `OK`), terminator included.
+#[inline]
 pub(crate) fn read_known<'a, T>(
     id: CommandId,
-    raw: &RawMessage<'a>,
+    name: &'a str,
+    rest: Option<&'a str>,
     list_len: Option<u16>,
     read: impl FnOnce(&mut Cursor<'_, 'a>) -> T,
 ) -> Result<T, ParseError<'a>> {
+    if quirks::applies(id) {
+        return read_reordered(id, name, rest, list_len, read);
+    }
+    let mut c = Cursor::new(rest, id).with_list_len(list_len);
+    let v = read(&mut c);
+    c.finish()?;
+    Ok(v)
+}
+
+/// [`read_known`] for the few commands with a field-order quirk: their
+/// fields are reordered first if `quirks` recognises an alternative layout.
+#[inline(never)]
+fn read_reordered<'a, T>(
+    id: CommandId,
+    name: &'a str,
+    rest: Option<&'a str>,
+    list_len: Option<u16>,
+    read: impl FnOnce(&mut Cursor<'_, 'a>) -> T,
+) -> Result<T, ParseError<'a>> {
+    let raw = RawMessage::from_parts(name, rest)?;
     let mut scratch = heapless::Vec::<&'a str, QUIRK_FIELDS>::new();
-    let mut c = if quirks::reorder(id, raw, &mut scratch) {
+    let mut c = if quirks::reorder(id, &raw, &mut scratch) {
         Cursor::from_slice(&scratch, id)
     } else {
-        Cursor::new(raw, id)
+        Cursor::new(rest, id)
     }
     .with_list_len(list_len);
     let v = read(&mut c);
@@ -82,18 +104,32 @@ pub(crate) fn read_known<'a, T>(
     Ok(v)
 }
 
-fn parse_request_as<'a, M: Message<'a>>(id: CommandId, text: &'a str) -> Result<M, ParseError<'a>> {
-    let raw = RawMessage::parse(text)?;
-    if raw.kind() != Kind::Request {
-        return Err(ParseError::NotARequest);
+/// The name and fields' text of a request, or why it is not one.
+#[inline]
+fn request_head(text: &str) -> Result<(&str, Option<&str>), ParseError<'_>> {
+    let (name, rest) = grammar::head(text)?;
+    let first = rest.map(|r| grammar::next_field(r).0);
+    match grammar::kind_of(name, first) {
+        Kind::Request => Ok((name, rest)),
+        _ => Err(ParseError::NotARequest),
     }
-    if CommandId::from_name(raw.name()) != Some(id) {
+}
+
+/// `true` when `name` is the wire name of `id` or one of its aliases.
+#[inline]
+fn names(id: CommandId, name: &str) -> bool {
+    id.name() == name || CommandId::from_name(name) == Some(id)
+}
+
+fn parse_request_as<'a, M: Message<'a>>(id: CommandId, text: &'a str) -> Result<M, ParseError<'a>> {
+    let (name, rest) = request_head(text)?;
+    if !names(id, name) {
         return Err(ParseError::NameMismatch {
             expected: id,
-            got: raw.name(),
+            got: name,
         });
     }
-    read_known(id, &raw, None, M::read_fields)
+    read_known(id, name, rest, None, M::read_fields)
 }
 
 fn encode_with(
@@ -252,44 +288,54 @@ impl<'a> Reply<'a> {
     /// Reads a reply to the request described by `expect`. A success reply
     /// must carry the request's name (or one of its aliases).
     pub fn parse(text: &'a str, expect: ReplyExpect) -> Result<Self, ParseError<'a>> {
-        let raw = RawMessage::parse(text)?;
-        match raw.kind() {
-            Kind::ErrorCmd => Ok(Reply::ErrorCmd(raw)),
-            Kind::Request => Err(ParseError::NotAReply),
-            Kind::Fail => {
-                let rest = raw.skip_first();
-                let mut fields = rest.fields();
-                let code = match fields.next() {
-                    None => return Err(ParseError::BadErrorCode(crate::error::Got::End)),
-                    Some(f) => f
-                        .parse::<i32>()
-                        .map_err(|_| ParseError::BadErrorCode(crate::error::Got::Field(f)))?,
-                };
-                let detail = rest.skip_first();
-                Ok(Reply::Fail(Failure {
-                    name: raw.name(),
-                    code: ErrorCode::from(code),
-                    detail: if detail.is_empty() {
-                        ""
-                    } else {
-                        crate::grammar::trim(detail.body())
-                    },
-                }))
+        let (name, rest) = grammar::head(text)?;
+        let (first, after) = match rest {
+            Some(r) => {
+                let (f, after) = grammar::next_field(r);
+                (Some(f), after)
             }
+            None => (None, None),
+        };
+        match grammar::kind_of(name, first) {
             Kind::Ok => {
-                let body = raw.skip_first();
                 let Some(id) = expect.command else {
-                    return Ok(Reply::Ok(Response::Unknown(body)));
+                    return Ok(Reply::Ok(Response::Unknown(RawMessage::from_parts(
+                        name, after,
+                    )?)));
                 };
-                if CommandId::from_name(raw.name()) != Some(id) {
+                if !names(id, name) {
                     return Err(ParseError::NameMismatch {
                         expected: id,
-                        got: raw.name(),
+                        got: name,
                     });
                 }
-                read_known(id, &body, expect.count, |c| Response::read(id, c)).map(Reply::Ok)
+                read_known(id, name, after, expect.count, |c| {
+                    Reply::Ok(Response::read(id, c))
+                })
             }
+            Kind::ErrorCmd => Ok(Reply::ErrorCmd(RawMessage::from_parts(name, rest)?)),
+            Kind::Request => Err(ParseError::NotAReply),
+            Kind::Fail => Self::failure(name, after),
         }
+    }
+
+    /// `Name,Fail,code,...`: `rest` is the text after `Fail`.
+    #[inline(never)]
+    fn failure(name: &'a str, rest: Option<&'a str>) -> Result<Self, ParseError<'a>> {
+        use crate::error::Got;
+        let Some(rest) = rest else {
+            return Err(ParseError::BadErrorCode(Got::End));
+        };
+        let (f, detail) = grammar::next_field(rest);
+        let code = f
+            .parse::<i32>()
+            .map_err(|_| ParseError::BadErrorCode(Got::Field(f)))?;
+        let detail = RawMessage::from_parts(name, detail)?;
+        Ok(Reply::Fail(Failure {
+            name,
+            code: ErrorCode::from(code),
+            detail: grammar::trim(detail.body()),
+        }))
     }
 
     /// Writes the reply canonically.
@@ -337,7 +383,12 @@ macro_rules! catalogue {
 
             /// Other names accepted on input for this command.
             pub fn aliases(self) -> impl Iterator<Item = &'static str> {
-                ALIASES.iter().filter(move |(_, id)| *id == self).map(|(a, _)| *a)
+                NAMES
+                    .get(CommandId::ALL.len()..)
+                    .unwrap_or(&[])
+                    .iter()
+                    .filter(move |(_, id)| *id == self)
+                    .map(|(a, _)| *a)
             }
 
             /// The section of the protocol document (`"4.10.5"`).
@@ -347,44 +398,47 @@ macro_rules! catalogue {
 
             /// The command with this wire name or alias (exact letter case).
             pub fn from_name(name: &str) -> Option<CommandId> {
-                // A binary search of the names sorted at compile time: eight
-                // comparisons, where a scan made up to 139 (every message
-                // read looks its name up; see `host-tests/benches`).
-                BY_NAME
-                    .binary_search_by(|id| id.name().cmp(name))
-                    .ok()
-                    .and_then(|i| BY_NAME.get(i).copied())
-                    .or_else(|| ALIASES.iter().find(|(a, _)| *a == name).map(|(_, id)| *id))
+                // A hash table built at compile time: one or two probes,
+                // where a binary search made eight comparisons (every
+                // message read looks its name up; see `host-tests/benches`).
+                let mut slot = super::name_hash(name.as_bytes());
+                for _ in 0..BY_HASH.len() {
+                    let key = *BY_HASH.get(slot)?;
+                    let (k, id) = NAMES.get(usize::from(key))?;
+                    if *k == name {
+                        return Some(*id);
+                    }
+                    slot = (slot + 1) % BY_HASH.len();
+                }
+                None
             }
         }
 
-        /// Every command, sorted by wire name at compile time (for
-        /// [`CommandId::from_name`]). The indexing runs only in the compiler.
-        #[allow(clippy::indexing_slicing)]
-        const BY_NAME: [CommandId; CommandId::ALL.len()] = {
-            let mut a = [CommandId::ALL[0]; CommandId::ALL.len()];
-            let mut i = 0;
-            while i < a.len() {
-                a[i] = CommandId::ALL[i];
-                i += 1;
-            }
-            // Insertion sort, in the byte order of `str::cmp`.
-            let mut i = 1;
-            while i < a.len() {
-                let mut j = i;
-                while j > 0 && super::name_less(a[j].name(), a[j - 1].name()) {
-                    let t = a[j];
-                    a[j] = a[j - 1];
-                    a[j - 1] = t;
-                    j -= 1;
-                }
-                i += 1;
-            }
-            a
-        };
+        /// Every wire name and alias with its command: wire names in
+        /// [`CommandId::ALL`] order, then the aliases.
+        const NAMES: &[(&str, CommandId)] = &[
+            $( ($wire, CommandId::$Cmd), )*
+            $( $( ($alias, CommandId::$Cmd), )* )*
+        ];
 
-        /// Every alias with its command (a short list: most commands have none).
-        const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
+        /// Open addressing over [`NAMES`] (linear probing), indexed by
+        /// `name_hash`; `u8::MAX` marks a free slot. The indexing runs only
+        /// in the compiler.
+        #[allow(clippy::indexing_slicing)]
+        const BY_HASH: [u8; super::HASH_SLOTS] = {
+            assert!(NAMES.len() < u8::MAX as usize && NAMES.len() * 3 < super::HASH_SLOTS * 2);
+            let mut table = [u8::MAX; super::HASH_SLOTS];
+            let mut k = 0;
+            while k < NAMES.len() {
+                let mut slot = super::name_hash(NAMES[k].0.as_bytes());
+                while table[slot] != u8::MAX {
+                    slot = (slot + 1) % super::HASH_SLOTS;
+                }
+                table[slot] = k as u8;
+                k += 1;
+            }
+            table
+        };
 
         impl core::fmt::Display for CommandId {
             fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -420,7 +474,7 @@ macro_rules! catalogue {
 
         $(
             impl<'a> Message<'a> for request::$Cmd $(<$lt>)? {
-                #[inline(never)]
+                #[inline]
                 #[allow(unused_variables)]
                 fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
                     let names: &[&str] = &[$(stringify!($field)),*];
@@ -484,7 +538,7 @@ macro_rules! catalogue {
             }
 
             impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
-                #[inline(never)]
+                #[inline]
                 #[allow(unused_variables)]
                 fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
                     response::$Cmd { $( $rfield: Field::read(c, stringify!($rfield)), )* }
@@ -516,13 +570,10 @@ macro_rules! catalogue {
             /// Reads a request. Names this crate does not know come back as
             /// [`Request::Unknown`], not as an error.
             pub fn parse(text: &'a str) -> Result<Self, ParseError<'a>> {
-                let raw = RawMessage::parse(text)?;
-                if raw.kind() != Kind::Request {
-                    return Err(ParseError::NotARequest);
-                }
-                match CommandId::from_name(raw.name()) {
-                    None => Ok(Request::Unknown(raw)),
-                    Some(id) => read_known(id, &raw, None, |c| match id {
+                let (name, rest) = request_head(text)?;
+                match CommandId::from_name(name) {
+                    None => Ok(Request::Unknown(RawMessage::from_parts(name, rest)?)),
+                    Some(id) => read_known(id, name, rest, None, |c| match id {
                         $( CommandId::$Cmd => Request::$Cmd(Message::read_fields(c)), )*
                     }),
                 }
@@ -643,18 +694,20 @@ macro_rules! catalogue {
 }
 use catalogue;
 
-/// `a < b` in the byte order of `str::cmp`, at compile time.
+/// Slots of the name table: a power of two, under two thirds full.
+const HASH_SLOTS: usize = 256;
+
+/// FNV-1a of a name, folded to a slot of the name table (also run by the
+/// compiler to build the table).
 #[allow(clippy::indexing_slicing)]
-const fn name_less(a: &str, b: &str) -> bool {
-    let (a, b) = (a.as_bytes(), b.as_bytes());
+const fn name_hash(name: &[u8]) -> usize {
+    let mut h: u32 = 0x811c_9dc5;
     let mut i = 0;
-    while i < a.len() && i < b.len() {
-        if a[i] != b[i] {
-            return a[i] < b[i];
-        }
+    while i < name.len() {
+        h = (h ^ name[i] as u32).wrapping_mul(0x0100_0193);
         i += 1;
     }
-    a.len() < b.len()
+    ((h ^ (h >> 16)) as usize) % HASH_SLOTS
 }
 
 /// Visits the fields of an unknown message as texts named `0`, `1`, ...

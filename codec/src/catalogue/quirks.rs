@@ -25,6 +25,14 @@ use crate::number::Decimal;
 
 type Scratch<'a> = heapless::Vec<&'a str, QUIRK_FIELDS>;
 
+/// `true` for the commands that have an alternative layout.
+pub(crate) fn applies(id: CommandId) -> bool {
+    matches!(
+        id,
+        CommandId::MoveS | CommandId::WayPoint2 | CommandId::MoveJ
+    )
+}
+
 /// If `raw` is an alternative layout of `id`, writes its fields in canonical
 /// order into `out` and returns `true`.
 pub(crate) fn reorder<'a>(id: CommandId, raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {

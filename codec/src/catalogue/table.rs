@@ -30,10 +30,10 @@
 //! replies with 6 or 8 values.
 
 use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect, Validator};
-use super::{range_error, read_known, visit_raw, Violation};
+use super::{range_error, read_known, request_head, visit_raw, Violation};
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::fsm::FsmState;
-use crate::grammar::{Cursor, Kind, RawMessage};
+use crate::grammar::{Cursor, RawMessage};
 use crate::number::Decimal;
 use crate::types::{
     above, at_least, either, int, num, CountedList, Field, Joints, PointList, Pose, Range, RobotId,
