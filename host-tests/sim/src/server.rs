@@ -13,9 +13,12 @@
 //!   split across TCP segments that arrive closer together than that is
 //!   read as one message.
 //! * **Unparseable**: a message with non-printable bytes, longer than
-//!   [`MAX_MESSAGE`] bytes, or without a valid name is answered
-//!   `errorcmd,20007,;`. A valid name with malformed fields gets
-//!   `Name,Fail,20007,;`; an unknown name `Name,Fail,20005,;`.
+//!   [`MAX_MESSAGE`] bytes, without a valid name, or empty (a `;` with
+//!   nothing but whitespace before it, e.g. a lone `;`) is answered
+//!   `errorcmd,20007,;`. Whitespace alone (a line end sent after a
+//!   message) is not a message and gets no answer. A valid name with
+//!   malformed fields gets `Name,Fail,20007,;`; an unknown name
+//!   `Name,Fail,20005,;`.
 //! * Each connection is served on its own task; the robot is shared, so
 //!   commands from several connections interleave one at a time.
 
@@ -244,7 +247,17 @@ pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream) {
                 Ok(Ok(n)) => n,
             },
         };
-        let (_, item) = framer.push(buf.get(..n).unwrap_or(&[]));
+        let data = buf.get(..n).unwrap_or(&[]);
+        if framer.pending() == 0 && starts_with_empty_message(data) {
+            // The framer skips empty messages; the controller answers one
+            // like any message it cannot read (and, as the first message of
+            // this read, discards the rest).
+            if stream.write_all(ERRORCMD).await.is_err() {
+                return;
+            }
+            continue;
+        }
+        let (_, item) = framer.push(data);
         let msg = match item {
             None => continue,
             Some(Ok(m)) => Some(m.to_string()),
@@ -260,6 +273,15 @@ pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream) {
             return;
         }
     }
+}
+
+/// `true` when the first message of `data` (read between messages) is
+/// empty: a `;` with only whitespace (space, tab, CR, LF) before it.
+/// Whitespace alone is not a message (line ends a terminal sends after `;`).
+fn starts_with_empty_message(data: &[u8]) -> bool {
+    data.iter()
+        .find(|b| !matches!(b, b' ' | b'\t' | b'\r' | b'\n'))
+        .is_some_and(|&b| b == b';')
 }
 
 /// Answers one message; `false` when the connection must close.

@@ -58,6 +58,45 @@ async fn a_split_request_is_one_message_and_an_incomplete_one_is_answered() {
 }
 
 #[tokio::test]
+async fn an_empty_message_gets_the_invalid_command_answer() {
+    let sim = sim().await;
+    let mut c = Client::connect(sim.command_addr()).await;
+    // A lone `;` is a message with nothing in it: answered at once, like
+    // any message that cannot be read, instead of leaving the client to
+    // its timeout.
+    c.send_raw(b";").await;
+    assert_eq!(c.read().await, "errorcmd,20007,;");
+    // Whitespace before it does not make it a message.
+    c.send_raw(b" \r\n;").await;
+    assert_eq!(c.read().await, "errorcmd,20007,;");
+    // It is the first message of its read: what follows is discarded.
+    c.send_raw(b";ReadCurFSM,0,;").await;
+    assert_eq!(c.read().await, "errorcmd,20007,;");
+    assert_eq!(
+        c.read_within(Duration::from_millis(400)).await,
+        None,
+        "one answer per read"
+    );
+    // Whitespace alone (a line end sent after the message) is no message.
+    assert_eq!(c.call("ReadCurFSM,0,;").await, "ReadCurFSM,OK,33,;");
+    c.send_raw(b"\r\n").await;
+    assert_eq!(c.read_within(Duration::from_millis(400)).await, None);
+    // A `;` ending a message split across reads is that message's end.
+    c.send_raw(b"ReadCurFSM,0,").await;
+    tokio::time::sleep(Duration::from_millis(20)).await;
+    c.send_raw(b";").await;
+    assert_eq!(c.read().await, "ReadCurFSM,OK,33,;");
+    // A doubled `;` after a message in the same read stays discarded.
+    assert_eq!(c.call("ReadCurFSM,0,;;").await, "ReadCurFSM,OK,33,;");
+    assert_eq!(c.read_within(Duration::from_millis(400)).await, None);
+    assert!(
+        sim.received().iter().all(|m| !m.trim().is_empty()),
+        "empty messages are not recorded as received"
+    );
+    sim.shutdown().await;
+}
+
+#[tokio::test]
 async fn bad_input_gets_typed_refusals() {
     let sim = sim().await;
     let mut c = Client::connect(sim.command_addr()).await;
