@@ -16,9 +16,9 @@
 //! the fields (or among the groups) after normalising stops the build, and
 //! so does a name with a byte other than an ASCII letter, digit or `_`.
 //!
-//! The hash is FNV-1a over only four normalised values: the length, the
-//! first, the middle and the last byte. That is enough to spread the names
-//! of the table (a few share a hash and sit in neighbouring slots) and costs
+//! The hash mixes only four values: the length and the first, middle and
+//! last bytes, case folded (`| 0x20`). That is enough to spread the names of
+//! the table (a few share a hash and sit in neighbouring slots) and costs
 //! the same for every key, however long. [`Names::find`] probes from the
 //! key's slot: an empty slot ends the search, an occupied one is confirmed
 //! by comparing the whole name (a plain slice comparison first, as keys
@@ -26,10 +26,11 @@
 //! The table is never more than three-quarters full, so the probe always
 //! reaches an empty slot; the loop is bounded by [`SLOTS`] anyway.
 //!
-//! A key holding stripped bytes fails that look-up (its length is wrong);
-//! only then, and only if it does hold one, it is copied without them into
-//! a buffer of [`KEY_CAP`] bytes and looked up again. A longer key cannot
-//! be a name.
+//! A key holding a space or a stripped byte can miss that look-up (case
+//! folding does not make a space `_`, and a stripped byte changes the
+//! length); only then, and only if it does hold one, it is copied
+//! normalised (stripped bytes dropped, spaces made `_`) into a buffer of
+//! [`KEY_CAP`] bytes and looked up again. A longer key cannot be a name.
 //!
 //! Why not `phf` or a `match`: `phf` needs a build script or proc macros
 //! for a table of some seventy names, and a `match` on byte strings would
@@ -48,8 +49,9 @@ pub(crate) const KEY_CAP: usize = 32;
 /// Slot content meaning "none".
 const NONE: u8 = u8::MAX;
 
-const FNV_OFFSET: u32 = 0x811c_9dc5;
-const FNV_PRIME: u32 = 0x0100_0193;
+/// Knuth's multiplicative-hash constant (2^32 / golden ratio): the top bits
+/// of the product depend on every bit of the word.
+const GOLDEN: u32 = 0x9E37_79B1;
 
 /// A byte as the matching rule sees it.
 const fn normalise(b: u8) -> u8 {
@@ -60,12 +62,8 @@ const fn normalise(b: u8) -> u8 {
     }
 }
 
-const fn hash_step(h: u32, normalised: u8) -> u32 {
-    (h ^ normalised as u32).wrapping_mul(FNV_PRIME)
-}
-
-/// The slot a hash starts probing at: its top bits (FNV-1a mixes them
-/// best).
+/// The slot a hash starts probing at: its top bits (the multiplication
+/// mixes them best).
 const fn home(h: u32) -> usize {
     (h >> (32 - SLOTS.trailing_zeros())) as usize
 }
@@ -112,9 +110,10 @@ pub(crate) struct Names {
     slots: [Slot; SLOTS],
 }
 
-/// The hash of a key with no stripped byte: FNV-1a over its length and its
-/// first, middle and last bytes, normalised. `0` for an empty key (no name
-/// is empty).
+/// The hash of a key: its length and its first, middle and last bytes,
+/// case folded, multiplied into 32 bits. Equal for two spellings of a name
+/// that differ only in case; a space and `_` hash differently (see the
+/// module documentation). `0` for an empty key (no name is empty).
 const fn hash_key(key: &[u8]) -> u32 {
     let len = key.len();
     let (first, mid, last) = match (key.first(), key.last()) {
@@ -128,11 +127,8 @@ const fn hash_key(key: &[u8]) -> u32 {
         }
         _ => return 0,
     };
-    let mut h = FNV_OFFSET;
-    h = hash_step(h, (len & 0xFF) as u8);
-    h = hash_step(h, normalise(first));
-    h = hash_step(h, normalise(mid));
-    hash_step(h, normalise(last))
+    let word = u32::from_le_bytes([(len & 0xFF) as u8, first, mid, last]) | 0x2020_2000;
+    word.wrapping_mul(GOLDEN)
 }
 
 /// A byte of a key against a byte of a table name (an ASCII letter, digit
@@ -246,9 +242,9 @@ impl Names {
         if let Some(found) = self.find_clean(raw) {
             return found;
         }
-        // Not a name as it is; it may be one once its stripped bytes are
-        // gone (rare: the deframer has removed them already).
-        if !raw.iter().any(|&b| is_stripped(b)) {
+        // Not a name as it is; it may be one once normalised (rare: the
+        // deframer has removed stripped bytes, and names come with `_`).
+        if !raw.iter().any(|&b| b == b' ' || is_stripped(b)) {
             return Found::NOTHING;
         }
         let mut key = [0u8; KEY_CAP];
@@ -257,7 +253,7 @@ impl Names {
             let Some(slot) = key.get_mut(len) else {
                 return Found::NOTHING;
             };
-            *slot = b;
+            *slot = normalise(b);
             len += 1;
         }
         self.find_clean(key.get(..len).unwrap_or(&[]))
