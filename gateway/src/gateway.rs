@@ -13,7 +13,7 @@ use embassy_time::{Duration, Instant};
 
 use crate::config::{self, Config, Storage, IMAGE_LEN};
 use crate::engine::commands::{self, Inputs};
-use crate::engine::job::{GatewayError, Job, Outcome, Source, QUEUE_DEPTH};
+use crate::engine::job::{GatewayError, Job, JobQueue, Outcome, Source};
 use crate::net::Net;
 use crate::registers::{self as r, AccessError, RegisterFile};
 use crate::status;
@@ -65,7 +65,7 @@ pub(crate) struct Shared {
     pub config: Config,
     /// Bumped when the configuration is applied.
     pub config_gen: u32,
-    pub queue: heapless::Vec<Job, QUEUE_DEPTH>,
+    pub queue: JobQueue,
     pub link_up: bool,
     /// When the robot status was last refreshed.
     pub status_time: Option<Instant>,
@@ -115,9 +115,17 @@ impl Shared {
 
     /// Fails every queued job (link lost or down).
     pub fn fail_queue(&mut self, e: GatewayError) {
-        while !self.queue.is_empty() {
-            let job = self.queue.remove(0);
-            self.finish(job.source, Outcome::gateway(e));
+        while let Some(source) = self.queue.pop_source() {
+            self.finish(source, Outcome::gateway(e));
+        }
+        self.update_queue_reg();
+    }
+
+    /// A stop ended the motions: every motion job still waiting in the
+    /// queue ends in CommandAborted and is never sent.
+    pub fn abort_queued_motions(&mut self) {
+        while let Some(source) = self.queue.take_motion() {
+            self.finish(source, Outcome::Aborted);
         }
         self.update_queue_reg();
     }
@@ -218,7 +226,7 @@ impl<'a> Ctx<'a> {
                 regs,
                 config,
                 config_gen: 0,
-                queue: heapless::Vec::new(),
+                queue: JobQueue::new(),
                 link_up: false,
                 status_time: None,
                 last_beat: Instant::now(),
@@ -425,8 +433,8 @@ fn edge(s: &mut Shared, source: Source, old: u16, new: u16) -> bool {
         source.index(),
         job.text.as_str()
     );
-    if let Err(job) = s.queue.push(job) {
-        s.finish(job.source, Outcome::gateway(GatewayError::QueueFull));
+    if let Err(source) = s.queue.push(job) {
+        s.finish(source, Outcome::gateway(GatewayError::QueueFull));
         return false;
     }
     s.update_queue_reg();

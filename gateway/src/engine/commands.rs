@@ -27,7 +27,7 @@
 
 use hans_codec::{request, Command, CommandId, Decimal, RobotId, TextList};
 
-use super::job::{is_interrupting, GatewayError, Job, Results, Source, MSG_MAX};
+use super::job::{is_urgent, GatewayError, Job, Results, Source, MSG_MAX};
 use crate::registers::CH_PARAM_COUNT;
 
 /// Command codes (register `CHn_COMMAND`).
@@ -324,7 +324,7 @@ pub fn build(source: Source, seq: u16, inp: &Inputs<'_>) -> Result<Job, GatewayE
         seq,
         text,
         motion: command.is_motion(),
-        interrupting: is_interrupting(command),
+        urgent: is_urgent(command),
         results,
     })
 }
@@ -383,7 +383,7 @@ mod tests {
             j.text.as_str(),
             "WayPoint,0,420.000,0.000,445.000,180.000,0.000,180.000,0.000,0.000,90.000,0.000,90.000,0.000,TCP,Base,50.000,360.000,0.000,1,0,0,0,0,42,;"
         );
-        assert!(j.motion && !j.interrupting);
+        assert!(j.motion && !j.urgent);
         let j = build(
             Source::Channel(0),
             1,
@@ -400,7 +400,7 @@ mod tests {
         assert_eq!(j.text.as_str(), "ConnectToBox,;Electrify,;StartMaster,;");
         let j = build(Source::Channel(1), 0, &inputs(code::STOP, &[])).unwrap();
         assert_eq!(j.text.as_str(), "GrpStop,0,;");
-        assert!(j.interrupting);
+        assert!(j.urgent);
     }
 
     #[test]

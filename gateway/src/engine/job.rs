@@ -1,4 +1,5 @@
-//! Jobs: what a rising edge puts in the queue, where its outcome goes.
+//! Jobs: what a rising edge puts in the queue, where its outcome goes, and
+//! the queue itself ([`JobQueue`]).
 
 use hans_codec::{CommandId, Request};
 
@@ -8,9 +9,17 @@ use crate::registers::{self as r, RegisterFile};
 /// Longest protocol text of one job (RAW requests are at most 256
 /// characters; typed commands stay well below).
 pub const MSG_MAX: usize = 300;
-/// Jobs the queue holds; a command fired when it is full ends in Error
-/// [`GatewayError::QueueFull`] at once.
+/// Ordinary jobs the queue holds; an ordinary command fired when it is full
+/// ends in Error [`GatewayError::QueueFull`] at once. Urgent commands
+/// (see [`is_urgent`]) have their own room and are never refused.
 pub const QUEUE_DEPTH: usize = 8;
+/// Longest text of a job in the urgent lane (the document's form of every
+/// urgent command is at most 25 characters).
+pub const URGENT_MSG_MAX: usize = 32;
+/// Room of the urgent lane: one job per source (two channels, RAW, sixteen
+/// trigger entries). A source has at most one job at a time (a rising edge
+/// while Busy is ignored), so this lane cannot fill up.
+pub const URGENT_DEPTH: usize = r::CHANNELS + 1 + r::TRIGGERS;
 
 /// Where a command came from, and so where its outputs go.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -55,6 +64,10 @@ pub enum GatewayError {
     BadReply = 39502,
     /// 39503: no reply within the reply timeout (the link is reset).
     ReplyTimeout = 39503,
+    /// 39504: connecting to the robot failed (refused, unreachable, no
+    /// answer within the connect timeout) or its port could not be listened
+    /// on. Shown in `LINK_LAST_ERROR` only.
+    ConnectFailed = 39504,
     /// 39505: the reply names another command (the link is reset).
     ReplyMismatch = 39505,
     /// 39600: the command queue is full.
@@ -71,6 +84,11 @@ pub enum GatewayError {
     EmergencyStop = 39605,
     /// 39606: the robot reported the safety guard during the motion.
     SafetyGuard = 39606,
+    /// 39607: after a bring-up step (`ConnectToBox`, `Electrify`,
+    /// `StartMaster`, `GrpEnable`) the robot did not reach the state the
+    /// step leads to within [`super::fsm::STATE_TIMEOUT`], or went to a
+    /// fault state instead (`FSM_STATE` shows where it is).
+    StateNotReached = 39607,
 }
 
 impl GatewayError {
@@ -86,6 +104,7 @@ impl GatewayError {
             GatewayError::BadParameter => "bad parameter",
             GatewayError::BadReply => "bad reply",
             GatewayError::ReplyTimeout => "reply timeout",
+            GatewayError::ConnectFailed => "connect failed",
             GatewayError::ReplyMismatch => "reply names another command",
             GatewayError::QueueFull => "queue full",
             GatewayError::LinkLost => "robot link lost",
@@ -94,6 +113,7 @@ impl GatewayError {
             GatewayError::RobotErrorNoCode => "robot error without code",
             GatewayError::EmergencyStop => "emergency stop",
             GatewayError::SafetyGuard => "safety guard",
+            GatewayError::StateNotReached => "state not reached",
         }
     }
 }
@@ -127,31 +147,38 @@ pub enum Results {
     ActPos,
 }
 
-/// A command waiting in the queue.
+/// A command waiting in the queue. `N` is the room for its text: jobs in
+/// the urgent lane are short.
 #[derive(Clone, Debug)]
-pub struct Job {
+pub struct Job<const N: usize = MSG_MAX> {
     /// Where it came from.
     pub source: Source,
     /// Its sequence number.
     pub seq: u16,
     /// One or more protocol messages, each ending in `;`, sent in turn.
-    pub text: heapless::String<MSG_MAX>,
+    pub text: heapless::String<N>,
     /// It starts a motion (Done when the motion ends).
     pub motion: bool,
-    /// It acts on a running motion (stop, pause, continue): it may pass
-    /// motions waiting in the queue.
-    pub interrupting: bool,
+    /// An urgent command ([`is_urgent`]): it passes every ordinary command
+    /// waiting in the queue.
+    pub urgent: bool,
     /// Result registers to fill.
     pub results: Results,
 }
 
-/// `true` for commands that act on a running motion.
-pub fn is_interrupting(id: CommandId) -> bool {
+/// `true` for the commands that must always get through at once: stop,
+/// pause and continue (of motions and scripts), reset and disable. They
+/// never wait for room in the queue and pass every ordinary command
+/// waiting there (the one being sent still finishes: one request is in
+/// flight at a time).
+pub fn is_urgent(id: CommandId) -> bool {
     matches!(
         id,
         CommandId::GrpStop
             | CommandId::GrpInterrupt
             | CommandId::GrpContinue
+            | CommandId::GrpReset
+            | CommandId::GrpDisable
             | CommandId::StopScript
             | CommandId::PauseScript
             | CommandId::ContinueScript
@@ -186,9 +213,138 @@ impl Job {
             seq,
             text: out,
             motion: id.is_some_and(CommandId::is_motion),
-            interrupting: id.is_some_and(is_interrupting),
+            urgent: id.is_some_and(is_urgent),
             results: Results::None,
         })
+    }
+
+    /// The job in the urgent lane's form: its text as written if it fits,
+    /// else the document's form of the message.
+    fn to_urgent(&self) -> Option<Job<URGENT_MSG_MAX>> {
+        let mut text = heapless::String::new();
+        if text.push_str(&self.text).is_err() {
+            let req = Request::parse(&self.text).ok()?;
+            let mut buf = [0u8; URGENT_MSG_MAX];
+            let n = req.encode(&mut buf).ok()?;
+            let s = core::str::from_utf8(buf.get(..n)?).ok()?;
+            text.push_str(s).ok()?;
+        }
+        Some(Job {
+            source: self.source,
+            seq: self.seq,
+            text,
+            motion: self.motion,
+            urgent: true,
+            results: self.results,
+        })
+    }
+}
+
+impl Job<URGENT_MSG_MAX> {
+    fn widen(&self) -> Job {
+        let mut text = heapless::String::new();
+        // MSG_MAX > URGENT_MSG_MAX: always fits.
+        let _ = text.push_str(&self.text);
+        Job {
+            source: self.source,
+            seq: self.seq,
+            text,
+            motion: self.motion,
+            urgent: true,
+            results: self.results,
+        }
+    }
+}
+
+/// The command queue: ordinary commands in FIFO order ([`QUEUE_DEPTH`]),
+/// and an urgent lane ([`URGENT_DEPTH`]) for the commands of [`is_urgent`],
+/// which go first.
+#[derive(Default)]
+pub struct JobQueue {
+    ordinary: heapless::Vec<Job, QUEUE_DEPTH>,
+    urgent: heapless::Vec<Job<URGENT_MSG_MAX>, URGENT_DEPTH>,
+}
+
+/// What may leave the queue now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Gate {
+    /// Anything (nothing runs on the robot).
+    Open,
+    /// A motion runs: ordinary commands go on, but a motion at the head of
+    /// the ordinary queue waits (and so does everything behind it).
+    MotionRunning,
+    /// Only urgent commands (a bring-up step waits for its state).
+    UrgentOnly,
+}
+
+impl JobQueue {
+    /// An empty queue.
+    pub const fn new() -> Self {
+        JobQueue {
+            ordinary: heapless::Vec::new(),
+            urgent: heapless::Vec::new(),
+        }
+    }
+
+    /// Queues a job; gives its source back when there is no room.
+    pub fn push(&mut self, job: Job) -> Result<(), Source> {
+        if job.urgent {
+            if let Some(u) = job.to_urgent() {
+                if self.urgent.push(u).is_ok() {
+                    return Ok(());
+                }
+            }
+        }
+        let source = job.source;
+        self.ordinary.push(job).map_err(|_| source)
+    }
+
+    /// Takes the next job allowed through `gate`: urgent jobs first.
+    pub fn take(&mut self, gate: Gate) -> Option<Job> {
+        if !self.urgent.is_empty() {
+            return Some(self.urgent.remove(0).widen());
+        }
+        let head = self.ordinary.first()?;
+        let go = match gate {
+            Gate::Open => true,
+            Gate::MotionRunning => !head.motion,
+            Gate::UrgentOnly => false,
+        };
+        go.then(|| self.ordinary.remove(0))
+    }
+
+    /// `true` if an urgent job waits.
+    pub fn has_urgent(&self) -> bool {
+        !self.urgent.is_empty()
+    }
+
+    /// Jobs waiting.
+    pub fn len(&self) -> usize {
+        self.ordinary.len() + self.urgent.len()
+    }
+
+    /// `true` when nothing waits.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Removes the oldest waiting motion job and returns its source (a stop
+    /// ends them all).
+    pub fn take_motion(&mut self) -> Option<Source> {
+        let i = self.ordinary.iter().position(|j| j.motion)?;
+        Some(self.ordinary.remove(i).source)
+    }
+
+    /// Removes the oldest job (urgent lane first) and returns its source.
+    pub fn pop_source(&mut self) -> Option<Source> {
+        if !self.urgent.is_empty() {
+            return Some(self.urgent.remove(0).source);
+        }
+        if self.ordinary.is_empty() {
+            return None;
+        }
+        Some(self.ordinary.remove(0).source)
     }
 }
 
@@ -344,7 +500,7 @@ mod tests {
     fn raw_text_is_checked_and_terminated() {
         let j = Job::from_text(Source::Raw, 1, "GrpStop,0").unwrap();
         assert_eq!(j.text.as_str(), "GrpStop,0,;");
-        assert!(j.interrupting && !j.motion);
+        assert!(j.urgent && !j.motion);
         let j = Job::from_text(Source::Raw, 1, "MoveRelJ,0,1,1,5,;\0\0").unwrap();
         assert!(j.motion);
         assert_eq!(j.text.as_str(), "MoveRelJ,0,1,1,5,;");
@@ -355,6 +511,53 @@ mod tests {
         assert!(Job::from_text(Source::Raw, 1, "  ").is_err());
         // Unknown names pass through (newer firmware).
         assert!(Job::from_text(Source::Raw, 1, "ReadVersion,;").is_ok());
+    }
+
+    fn job(source: Source, text: &str) -> Job {
+        Job::from_text(source, 0, text).unwrap()
+    }
+
+    #[test]
+    fn urgent_commands_pass_a_full_queue_and_stop_finds_the_motions() {
+        let mut q = JobQueue::new();
+        q.push(job(Source::Trigger(0), "MoveRelJ,0,1,1,5,;"))
+            .unwrap();
+        for i in 1..QUEUE_DEPTH as u8 {
+            q.push(job(Source::Trigger(i), "SetBoxDO,1,1,;")).unwrap();
+        }
+        let refused = q.push(job(Source::Raw, "SetBoxDO,2,1,;")).unwrap_err();
+        assert_eq!(refused, Source::Raw);
+        // Every source may queue an urgent command at once, all accepted.
+        let urgent = ["GrpStop,0,;", "GrpInterrupt,0,;", "GrpContinue,0,;"];
+        for (i, t) in urgent.iter().enumerate() {
+            q.push(job(Source::Trigger(10 + i as u8), t)).unwrap();
+        }
+        // Long but valid: kept in the document's form.
+        q.push(job(Source::Raw, "GrpReset,                     0      ,;"))
+            .unwrap();
+        assert_eq!(q.len(), QUEUE_DEPTH + 4);
+        // Urgent first, in order, even while a motion blocks the queue.
+        for t in urgent {
+            let j = q.take(Gate::UrgentOnly).unwrap();
+            assert_eq!(j.text.as_str(), t);
+        }
+        assert_eq!(
+            q.take(Gate::MotionRunning).unwrap().text.as_str(),
+            "GrpReset,0,;"
+        );
+        assert!(!q.has_urgent());
+        // The motion at the head waits, and everything behind it.
+        assert!(q.take(Gate::MotionRunning).is_none());
+        assert!(q.take(Gate::UrgentOnly).is_none());
+        // A stop takes the waiting motions out; the rest goes on.
+        assert_eq!(q.take_motion(), Some(Source::Trigger(0)));
+        assert_eq!(q.take_motion(), None);
+        assert_eq!(
+            q.take(Gate::MotionRunning).unwrap().source,
+            Source::Trigger(1)
+        );
+        assert_eq!(q.pop_source(), Some(Source::Trigger(2)));
+        assert_eq!(q.len(), QUEUE_DEPTH - 3);
     }
 
     #[test]

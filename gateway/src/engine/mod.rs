@@ -5,11 +5,13 @@
 //!   `ReadRobotState` is polled every [`MOTION_POLL`] until moving ends
 //!   (plus blending done / in position if configured); Error when the robot
 //!   refuses it or reports an error, emergency stop or safety guard.
+//! * Urgent commands (stop, pause, continue, reset, disable: see
+//!   [`job::is_urgent`]) go out before every ordinary command waiting.
 //! * While a motion runs, other commands still go out in queue order, but a
 //!   motion at the head of the queue waits for the running one to finish
-//!   (the robot takes one motion at a time); stop, pause and continue
-//!   commands pass such a waiting motion. A successful `GrpStop` ends the
-//!   running motion's command in CommandAborted.
+//!   (the robot takes one motion at a time). A successful `GrpStop` (or the
+//!   watchdog's stop or pause) ends the running motion's command and every
+//!   motion still waiting in the queue in CommandAborted (MC_Stop).
 //! * Between commands the engine polls the status (see [`crate::status`]).
 //! * The PLC watchdog: while a motion runs, the heartbeat register must
 //!   change at least every configured period, else the configured action
@@ -38,7 +40,7 @@ use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
 use crate::registers as r;
 use crate::status::{self, LinkState, PollStep};
-use job::{Job, Results};
+use job::{Gate, Job, Results};
 
 /// Poll period of `ReadRobotState` while a motion runs.
 pub const MOTION_POLL: Duration = Duration::from_millis(10);
@@ -295,17 +297,13 @@ impl<'c, 'a> Engine<'c, 'a> {
 
     /// Takes the next job that may go now.
     fn take_job(&mut self) -> Option<Job> {
-        let motion_running = self.active.is_some();
+        let gate = if self.active.is_some() {
+            Gate::MotionRunning
+        } else {
+            Gate::Open
+        };
         self.ctx.with(|s| {
-            let i = match s.queue.first() {
-                None => return None,
-                Some(j) if !motion_running || !j.motion => 0,
-                Some(_) => s.queue.iter().position(|j| j.interrupting)?,
-            };
-            if i >= s.queue.len() {
-                return None;
-            }
-            let job = s.queue.remove(i);
+            let job = s.queue.take(gate)?;
             job.source.set_dequeued(&mut s.regs);
             s.update_queue_reg();
             Some(job)
@@ -420,9 +418,12 @@ impl<'c, 'a> Engine<'c, 'a> {
             return;
         }
         if last == Some(CommandId::GrpStop) {
+            // MC_Stop: the running motion and every motion still waiting
+            // end in CommandAborted; waiting non-motion commands go on.
             if let Some(a) = self.active.take() {
                 self.end_motion(a.source, Outcome::Aborted);
             }
+            self.ctx.with(|s| s.abort_queued_motions());
         }
         self.end(job.source, Outcome::Done);
     }
@@ -621,12 +622,16 @@ impl<'c, 'a> Engine<'c, 'a> {
             WatchdogAction::Stop => {
                 self.active = None;
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
+                // As a Stop: the motions waiting behind it are not sent.
+                self.ctx.with(|s| s.abort_queued_motions());
                 self.send_internal(link, &request::GrpStop { rbt_id: id })
                     .await;
             }
             WatchdogAction::Pause => {
                 self.active = None;
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
+                // The robot holds the motion: nothing may start behind it.
+                self.ctx.with(|s| s.abort_queued_motions());
                 self.send_internal(link, &request::GrpInterrupt { rbt_id: id })
                     .await;
             }

@@ -226,6 +226,65 @@ impl Plc {
         (e, words_text(&reply))
     }
 
+    /// The actual joints J1-J6 of the status mirror.
+    pub async fn joints(&mut self) -> [f32; 6] {
+        let w = self.read(r::STATUS_JOINTS, 12).await;
+        let mut j = [0.0; 6];
+        for (i, v) in j.iter_mut().enumerate() {
+            *v = f32_of(&w[2 * i..]);
+        }
+        j
+    }
+
+    /// The actual TCP pose of the status mirror.
+    pub async fn pose(&mut self) -> [f32; 6] {
+        let w = self.read(r::STATUS_POSE, 12).await;
+        let mut p = [0.0; 6];
+        for (i, v) in p.iter_mut().enumerate() {
+            *v = f32_of(&w[2 * i..]);
+        }
+        p
+    }
+
+    /// Waits for a valid, fresh status (the actual joints are known).
+    pub async fn wait_status(&mut self) {
+        self.wait_reg(r::STATUS_FLAGS, "valid status", |v| v & r::FLAG_VALID != 0)
+            .await;
+        self.wait_reg(r::STATUS_AGE_MS, "status refreshed", |v| v < 1000)
+            .await;
+    }
+
+    /// Starts a joint move of `delta` degrees on J1 at `vel` °/s and
+    /// `acc` °/s² on channel `ch` (code 10, from the actual joints); returns
+    /// the target.
+    pub async fn start_move(
+        &mut self,
+        ch: usize,
+        delta: f32,
+        vel: f32,
+        acc: f32,
+        seq: u16,
+    ) -> [f32; 6] {
+        self.wait_status().await;
+        let mut t = self.joints().await;
+        t[0] += delta;
+        let p = [t[0], t[1], t[2], t[3], t[4], t[5], vel, acc, 0.0];
+        self.command(ch, code::MOVE_J_JOINTS, &p, seq).await;
+        t
+    }
+
+    /// Fires trigger entries: writes their texts, then raises their bits
+    /// (one write); returns the bits.
+    pub async fn fire_triggers(&mut self, entries: &[(usize, &str)]) -> u16 {
+        let mut bits = 0;
+        for (i, text) in entries {
+            self.write(r::trigger_text(*i), &text_words(text, 48)).await;
+            bits |= 1 << i;
+        }
+        self.write(r::TRIG_BITS, &[bits]).await;
+        bits
+    }
+
     /// Sets configuration registers and applies them (command 1); panics
     /// if refused.
     pub async fn configure(&mut self, settings: &[(u16, u16)]) {
@@ -267,6 +326,16 @@ impl Rig {
         let mut plc = Plc::connect(gw.modbus_addr()).await;
         plc.wait_link().await;
         Rig { sim, gw, plc }
+    }
+
+    /// Messages the simulator received other than the gateway's status
+    /// reads (`Read...`), in order.
+    pub fn commands_received(&self) -> Vec<String> {
+        self.sim
+            .received()
+            .into_iter()
+            .filter(|m| !m.starts_with("Read"))
+            .collect()
     }
 
     /// Messages the simulator received whose name is `name`.

@@ -1,0 +1,138 @@
+//! Motion commands end to end (PLC -> gateway -> hans-sim on 127.0.0.1):
+//! when Done may rise, what a stop ends, and that stop, pause and continue
+//! always get through.
+
+use std::time::Duration;
+
+use hans_e2e::{code, Plc, Rig};
+use hans_gateway::registers as r;
+use hans_sim::{Config, Fault, FaultRule};
+
+const QUEUE_FULL: i32 = 39600;
+const WATCHDOG: i32 = 39602;
+const SRC_GATEWAY: u16 = 3;
+const ENDED: u16 = r::ST_DONE | r::ST_ERROR | r::ST_ABORTED;
+
+/// Finding H2: a Stop must end the running motion and every motion waiting
+/// in the gateway's queue in CommandAborted, and none of them may be sent;
+/// a waiting non-motion command still goes out.
+#[tokio::test]
+async fn stop_aborts_the_waiting_motions_and_none_is_sent() {
+    let mut rig = Rig::start(Config::ready()).await;
+    rig.plc.start_move(0, 90.0, 10.0, 100.0, 1).await;
+    let st = Plc::ch_status(0);
+    rig.plc
+        .wait_reg(st, "active", |v| v & r::ST_ACTIVE != 0)
+        .await;
+    // Entry 0 (a motion) waits behind the running one; entry 1 behind it.
+    let bits = rig
+        .plc
+        .fire_triggers(&[(0, "MoveRelJ,0,1,1,5,;"), (1, "SetBoxDO,5,1,;")])
+        .await;
+    assert_eq!(rig.plc.read1(r::TRIG_BUSY).await, bits, "both waiting");
+    let e = rig.plc.run(1, code::STOP, &[], 2).await;
+    assert!(e.done(), "stop: {e:?}");
+    let e = rig.plc.wait_end(st).await;
+    assert_eq!(e.status & ENDED, r::ST_ABORTED, "running move: {e:?}");
+    rig.plc
+        .wait_reg(r::TRIG_BUSY, "triggers ended", |v| v == 0)
+        .await;
+    assert_eq!(
+        rig.plc.read1(r::TRIG_ABORTED).await,
+        1 << 0,
+        "waiting motion"
+    );
+    assert_eq!(
+        rig.plc.read1(r::TRIG_DONE).await,
+        1 << 1,
+        "waiting SetBoxDO"
+    );
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(
+        rig.received("MoveRelJ").is_empty(),
+        "an aborted motion was sent: {:?}",
+        rig.commands_received()
+    );
+    assert_eq!(rig.received("WayPoint").len(), 1);
+    assert!(rig.sim.io().do_[5], "the SetBoxDO went out");
+    rig.stop().await;
+}
+
+/// Finding H2, the watchdog's stop: the motions waiting behind the stopped
+/// one end in CommandAborted and are not sent.
+#[tokio::test]
+async fn the_watchdog_stop_aborts_the_waiting_motions() {
+    let mut rig = Rig::start(Config::ready()).await;
+    rig.plc.configure(&[(r::CONFIG_WATCHDOG_MS, 1000)]).await;
+    rig.plc.start_move(0, 90.0, 10.0, 100.0, 1).await;
+    let st = Plc::ch_status(0);
+    rig.plc
+        .wait_reg(st, "active", |v| v & r::ST_ACTIVE != 0)
+        .await;
+    rig.plc.fire_triggers(&[(3, "MoveRelJ,0,1,1,5,;")]).await;
+    let e = rig.plc.wait_end(st).await;
+    assert_eq!(
+        (e.error_id, e.error_source),
+        (WATCHDOG, SRC_GATEWAY),
+        "{e:?}"
+    );
+    rig.plc
+        .wait_reg(r::TRIG_BUSY, "trigger ended", |v| v == 0)
+        .await;
+    assert_eq!(rig.plc.read1(r::TRIG_ABORTED).await, 1 << 3);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert!(
+        rig.received("MoveRelJ").is_empty(),
+        "{:?}",
+        rig.commands_received()
+    );
+    assert_eq!(rig.received("GrpStop").len(), 1);
+    rig.stop().await;
+}
+
+/// Finding H3: with the queue full, Stop and Pause were refused (39600);
+/// and a Stop waited behind every queued command. They must always get
+/// through, ahead of the waiting commands.
+#[tokio::test]
+async fn stop_and_pause_get_through_a_full_queue_first() {
+    let mut rig = Rig::start(Config::ready()).await;
+    rig.sim.faults().add(
+        FaultRule::new(Fault::Delay(Duration::from_millis(200)))
+            .only("SetBoxDO")
+            .times(16),
+    );
+    let text = |i: usize| format!("SetBoxDO,{},1,;", i % 8);
+    let entries: Vec<(usize, String)> = (0..8).map(|i| (i, text(i))).collect();
+    let refs: Vec<(usize, &str)> = entries.iter().map(|(i, t)| (*i, t.as_str())).collect();
+    rig.plc.fire_triggers(&refs).await;
+    // One is with the robot, seven wait; one more fills the queue.
+    rig.plc
+        .wait_reg(r::STATUS_QUEUE_USED, "seven waiting", |v| v == 7)
+        .await;
+    rig.plc
+        .write(r::trigger_text(8), &hans_e2e::text_words(&text(8), 48))
+        .await;
+    rig.plc.write(r::TRIG_BITS, &[0x1FF]).await;
+    assert_eq!(rig.plc.read1(r::STATUS_QUEUE_USED).await, 8, "queue full");
+    assert_eq!(rig.plc.read1(r::TRIG_ERROR).await, 0);
+    // Stop on channel 1 and Pause on channel 0, both while it is full.
+    rig.plc.command(1, code::STOP, &[], 1).await;
+    rig.plc.command(0, code::PAUSE, &[], 2).await;
+    let stop = rig.plc.wait_end(Plc::ch_status(1)).await;
+    assert!(stop.done(), "stop: {stop:?}");
+    let pause = rig.plc.wait_end(Plc::ch_status(0)).await;
+    assert_ne!(pause.error_id, QUEUE_FULL, "pause refused: {pause:?}");
+    // Nothing moves, so the robot refuses the pause itself (its own code).
+    assert_eq!(pause.error_source, 1, "{pause:?}");
+    let sent = rig.commands_received();
+    let at = |name: &str| sent.iter().position(|m| m.starts_with(name));
+    assert!(
+        at("GrpStop").is_some_and(|i| i <= 2) && at("GrpInterrupt").is_some_and(|i| i <= 3),
+        "stop and pause did not pass the queue: {sent:?}"
+    );
+    rig.plc
+        .wait_reg(r::TRIG_BUSY, "queue drained", |v| v == 0)
+        .await;
+    assert_eq!(rig.plc.read1(r::TRIG_DONE).await, 0x1FF);
+    rig.stop().await;
+}
