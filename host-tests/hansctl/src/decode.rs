@@ -1,162 +1,308 @@
-//! `hansctl decode`: protocol messages (one per line) to JSON objects.
+//! `hansctl decode`: protocol messages, one per line as they appear on the
+//! wire, to JSON objects (one per non-blank line).
+//!
+//! What each object holds is documented on the `decode` subcommand (see
+//! `hansctl decode --help`) and in the crate's README. In short: `name`,
+//! `kind` (`request`, `ok`, `fail`, `errorcmd`, `invalid`), `known`, then
+//! `fields` (typed values by parameter name, numbers exactly as the codec
+//! holds them) or, for `Fail`, `code`/`code_name`/`detail`; `error` when
+//! the line is not a valid message; `range_error` and `warnings` when
+//! they apply.
 
 use hans_codec::{CommandId, Decimal, Kind, RawMessage, Reply, ReplyExpect, Request, Visitor};
-use serde_json::{json, Map, Value};
+
+use crate::json::{Json, Obj};
 
 /// Collects a message's typed values as JSON (the codec's [`Visitor`]).
-/// Numbers keep their exact decimal text as JSON numbers.
+/// Numbers are [`Json::Num`]: the codec's exact decimal, digit for digit.
 #[derive(Default)]
-pub struct JsonFields {
-    root: Map<String, Value>,
+struct JsonFields {
+    root: Obj,
     /// Open lists: (name, elements).
-    stack: Vec<(String, Vec<Value>)>,
+    stack: Vec<(String, Vec<Json>)>,
+    /// Number fields whose text holds more than the codec keeps.
+    lossy: Vec<Lossy>,
+    /// One line per lossy number met.
+    warnings: Vec<String>,
+}
+
+/// A number field the codec could not hold exactly.
+struct Lossy {
+    /// Index of the field (0-based, after the name, and after `OK` for
+    /// replies: the codec's own numbering).
+    index: usize,
+    text: String,
+    read: Decimal,
 }
 
 impl JsonFields {
-    fn put(&mut self, name: &str, v: Value) {
-        match self.stack.last_mut() {
-            Some((_, items)) => items.push(v),
-            None => {
-                self.root.insert(name.to_string(), v);
-            }
+    /// A collector that warns when one of `fields` (the values as
+    /// written, in order) is a number the codec could not hold exactly.
+    fn with_fields<'a>(fields: impl Iterator<Item = &'a str>) -> JsonFields {
+        let lossy = fields
+            .enumerate()
+            .filter_map(|(index, text)| {
+                let read = Decimal::parse(text).ok()?;
+                let (a, b) = (exact(text)?, exact(&read.to_string())?);
+                (a != b).then(|| Lossy {
+                    index,
+                    text: text.to_string(),
+                    read,
+                })
+            })
+            .collect();
+        JsonFields {
+            lossy,
+            ..JsonFields::default()
         }
     }
 
-    /// The collected fields.
-    pub fn finish(mut self) -> Value {
+    fn put(&mut self, name: &str, v: Json) {
+        match self.stack.last_mut() {
+            Some((_, items)) => items.push(v),
+            None => self.root.insert(name, v),
+        }
+    }
+
+    /// The collected fields and the warnings about them.
+    fn finish(mut self) -> (Json, Vec<String>) {
         while !self.stack.is_empty() {
             self.end_list();
         }
-        Value::Object(self.root)
+        (Json::Obj(self.root), self.warnings)
     }
-}
-
-/// A decimal as a JSON number with its exact digits (`-0.000` stays as
-/// written; values JSON cannot hold fall back to text).
-pub fn number(d: Decimal) -> Value {
-    let text = d.to_string();
-    serde_json::from_str::<serde_json::Number>(&text)
-        .map(Value::Number)
-        .unwrap_or(Value::String(text))
 }
 
 impl Visitor for JsonFields {
     fn int(&mut self, name: &str, v: i32) {
-        self.put(name, json!(v));
+        self.put(name, v.into());
     }
     fn num(&mut self, name: &str, v: Decimal) {
-        self.put(name, number(v));
+        if let Some(pos) = self.lossy.iter().position(|l| l.read.is_identical(&v)) {
+            let l = self.lossy.remove(pos);
+            let param = self.stack.last().map_or(name, |(list, _)| list.as_str());
+            self.warnings.push(format!(
+                "{param} (field {}): {:?} has more digits than the codec keeps; read as {}",
+                l.index, l.text, l.read
+            ));
+        }
+        self.put(name, v.into());
     }
     fn text(&mut self, name: &str, v: &str) {
-        self.put(name, json!(v));
+        self.put(name, v.into());
     }
     fn begin_list(&mut self, name: &str) {
         self.stack.push((name.to_string(), Vec::new()));
     }
     fn end_list(&mut self) {
         if let Some((name, items)) = self.stack.pop() {
-            self.put(&name, Value::Array(items));
+            self.put(&name, Json::Arr(items));
         }
     }
 }
 
-/// Decodes one message (a request or a reply, as on the wire) into a JSON
-/// object: `name`, `kind` (`request`, `ok`, `fail`, `errorcmd`), `known`,
-/// then `fields` (typed values by parameter name; failures: `code`,
-/// `code_name`, `detail`) or `error` (why it is not a valid message).
-pub fn decode_line(line: &str) -> Value {
-    let raw = match RawMessage::parse(line) {
+/// The exact value a number's text stands for, as (negative, significant
+/// digits, power of ten): `-0.0120` → `(true, "12", -3)`, `1.2e3` →
+/// `(false, "12", 2)`; zero has no digits. `None` if it is not a number.
+fn exact(text: &str) -> Option<(bool, String, i64)> {
+    let (negative, rest) = match text.as_bytes().first() {
+        Some(b'-') => (true, text.get(1..)?),
+        Some(b'+') => (false, text.get(1..)?),
+        _ => (false, text),
+    };
+    let (mantissa, exp) = match rest.find(['e', 'E']) {
+        Some(i) => (rest.get(..i)?, rest.get(i + 1..)?.parse::<i64>().ok()?),
+        None => (rest, 0),
+    };
+    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+    let all_digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
+    if !all_digits(int) || !all_digits(frac) || int.len() + frac.len() == 0 {
+        return None;
+    }
+    let digits = format!("{int}{frac}");
+    let mut exp = exp.checked_sub(i64::try_from(frac.len()).ok()?)?;
+    let digits = digits.trim_start_matches('0');
+    let significant = digits.trim_end_matches('0');
+    exp = exp.checked_add(i64::try_from(digits.len() - significant.len()).ok()?)?;
+    if significant.is_empty() {
+        exp = 0;
+    }
+    Some((negative, significant.to_string(), exp))
+}
+
+/// Decodes one message (a request or a reply, as on the wire) into a
+/// JSON object.
+pub fn decode_line(line: &str) -> Json {
+    Json::Obj(message(line))
+}
+
+/// Decodes one message.
+fn message(text: &str) -> Obj {
+    let mut out = Obj::new();
+    let raw = match RawMessage::parse(text) {
         Ok(r) => r,
         Err(e) => {
-            return json!({ "name": "", "kind": "invalid", "known": false, "error": e.to_string() })
+            out.insert("name", "");
+            out.insert("kind", "invalid");
+            out.insert("known", false);
+            out.insert("error", e.to_string());
+            return out;
         }
     };
     let name = raw.name();
-    let known = CommandId::from_name(name).is_some();
-    let mut out = Map::new();
-    out.insert("name".into(), json!(name));
-    match raw.kind() {
-        Kind::Request => {
-            out.insert("kind".into(), json!("request"));
-            out.insert("known".into(), json!(known));
-            match Request::parse(line) {
-                Ok(req) => {
-                    let mut f = JsonFields::default();
-                    req.visit(&mut f);
-                    out.insert("fields".into(), f.finish());
-                    if let Err(e) = req.validate() {
-                        out.insert("range_error".into(), json!(e.to_string()));
-                    }
-                }
-                Err(e) => {
-                    out.insert("error".into(), json!(e.to_string()));
+    let command = CommandId::from_name(name);
+    out.insert("name", name);
+    let kind = raw.kind();
+    out.insert(
+        "kind",
+        match kind {
+            Kind::Request => "request",
+            Kind::Ok => "ok",
+            Kind::Fail => "fail",
+            _ => "errorcmd",
+        },
+    );
+    out.insert("known", command.is_some());
+    match kind {
+        Kind::Request => match Request::parse(text) {
+            Ok(req) => {
+                let mut f = JsonFields::with_fields(raw.fields());
+                req.visit(&mut f);
+                put_fields(&mut out, f);
+                if let Err(e) = req.validate() {
+                    out.insert("range_error", e.to_string());
                 }
             }
-        }
-        kind => {
-            let k = match kind {
-                Kind::Ok => "ok",
-                Kind::Fail => "fail",
-                _ => "errorcmd",
-            };
-            out.insert("kind".into(), json!(k));
-            out.insert("known".into(), json!(known));
-            match Reply::parse(line, ReplyExpect::from_name(name)) {
+            Err(e) => out.insert("error", e.to_string()),
+        },
+        _ => {
+            match Reply::parse(text, ReplyExpect::from_name(name)) {
                 Ok(Reply::Ok(resp)) => {
-                    let mut f = JsonFields::default();
+                    // The values after `OK`, numbered as the codec does.
+                    let mut f = JsonFields::with_fields(raw.fields().skip(1));
                     resp.visit(&mut f);
-                    out.insert("fields".into(), f.finish());
+                    put_fields(&mut out, f);
                 }
                 Ok(Reply::Fail(fail)) => {
-                    out.insert("code".into(), json!(fail.code.code()));
+                    out.insert("code", fail.code.code());
                     if let Some(n) = fail.code.name() {
-                        out.insert("code_name".into(), json!(n));
+                        out.insert("code_name", n);
                     }
-                    out.insert("detail".into(), json!(fail.detail));
+                    out.insert("detail", fail.detail);
                 }
                 Ok(Reply::ErrorCmd(raw)) => {
-                    let fields: Vec<&str> = raw.fields().collect();
-                    out.insert("fields".into(), json!(fields));
+                    out.insert("fields", raw.fields().collect::<Vec<_>>());
                 }
-                Err(e) => {
-                    out.insert("error".into(), json!(e.to_string()));
-                }
+                Err(e) => out.insert("error", e.to_string()),
             }
         }
     }
-    Value::Object(out)
+    out
+}
+
+fn put_fields(out: &mut Obj, f: JsonFields) {
+    let (fields, warnings) = f.finish();
+    out.insert("fields", fields);
+    if !warnings.is_empty() {
+        out.insert("warnings", warnings);
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use serde_json::{json, Value};
+
+    fn one(line: &str) -> (Value, String) {
+        let text = decode_line(line).to_string();
+        (serde_json::from_str(&text).unwrap(), text)
+    }
 
     #[test]
     fn requests_replies_and_errors() {
-        let v = decode_line("ReadBoxDI,5,6,;");
+        let (v, _) = one("ReadBoxDI,5,6,;");
         assert_eq!(v["kind"], "request");
         assert_eq!(v["fields"]["bits"], json!([5, 6]));
-        let v = decode_line("ReadActPos,OK,10.759,0.000,37.828,0.000,37.828,0.000,400.581,76.115,970.143,0.000,75.655,10.759,0,0,0,0,0,0,0,0,0,0,0,0,;");
+        let (v, _) = one("ReadActPos,OK,10.759,0.000,37.828,0.000,37.828,0.000,400.581,76.115,970.143,0.000,75.655,10.759,0,0,0,0,0,0,0,0,0,0,0,0,;");
         assert_eq!(v["kind"], "ok");
         assert_eq!(v["fields"]["joints"][0], json!(10.759));
-        let v = decode_line("GrpEnable,Fail,20018,robot busy,;");
+        let (v, _) = one("GrpEnable,Fail,20018,robot busy,;");
         assert_eq!(
             (v["code"].clone(), v["code_name"].clone()),
             (json!(20018), json!("StateRefused"))
         );
         assert_eq!(v["detail"], "robot busy");
-        let v = decode_line("WayPoint,0,1,;");
+        let (v, _) = one("WayPoint,0,1,;");
         assert!(v["error"].as_str().unwrap().contains("WayPoint"), "{v}");
-        let v = decode_line("ReadVersion,0,;");
+        let (v, _) = one("ReadVersion,0,;");
         assert_eq!(
             (v["known"].clone(), v["fields"]["0"].clone()),
             (json!(false), json!("0"))
         );
-        let v = decode_line("GrpPowerOn,0,;");
+        let (v, _) = one("GrpPowerOn,0,;");
         assert_eq!(v["known"], json!(true));
-        let v = decode_line("errorcmd,20007,;");
+        let (v, _) = one("errorcmd,20007,;");
         assert_eq!(v["kind"], "errorcmd");
-        let v = decode_line("SetOverride,0,5,;");
+        let (v, _) = one("SetOverride,0,5,;");
         assert!(v["range_error"].is_string());
+    }
+
+    #[test]
+    fn numbers_are_written_exactly_as_the_codec_holds_them() {
+        let (v, text) = one("ReadActPos,OK,10.759,-0.000,37.828,0.000,37.828,0.000,400.581,76.115,970.143,0.000,75.655,10.759,0,0,0,0,0,0,0,0,0,0,0,0,;");
+        assert!(
+            text.contains(r#""joints":[10.759,-0.000,37.828,0.000,37.828,0.000]"#),
+            "{text}"
+        );
+        assert!(text.contains(r#""tcp":[0,0,0,0,0,0]"#), "{text}");
+        assert!(v.get("warnings").is_none(), "{text}");
+        let (v, text) = one("SetOverride,0,0.123456789012345678,;");
+        assert!(text.contains(r#""ratio":0.123456789012345678"#), "{text}");
+        assert!(v.get("warnings").is_none(), "{text}");
+        let (_, text) = one("ReadCurFSM,OK,33,;");
+        assert!(text.contains(r#""state":33"#), "{text}");
+        // Exponent forms are the same number as a plain decimal.
+        let (v, text) = one("SetOverride,0,1.0E-1,;");
+        assert!(text.contains(r#""ratio":0.10"#), "{text}");
+        assert!(v.get("warnings").is_none(), "{text}");
+        // Wider than the codec: the value it reads, and a warning saying so.
+        let long = "0.1234567890123456789012345678901234567890";
+        let (v, text) = one(&format!("SetOverride,0,{long},;"));
+        assert!(text.contains(r#""ratio":0.12345678901234"#), "{text}");
+        assert!(!text.contains(&format!("\"ratio\":{long}")), "{text}");
+        let w = v["warnings"][0].as_str().unwrap();
+        assert!(
+            w.starts_with("ratio (field 1)") && w.contains(&format!("{long:?}")),
+            "{w}"
+        );
+        let (v, _) = one(
+            "ReadActPos,OK,1,2,3,4,5,6.000000000000000000000000000001,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,;",
+        );
+        let w = v["warnings"][0].as_str().unwrap();
+        assert!(w.starts_with("joints (field 5)"), "{w}");
+    }
+
+    #[test]
+    fn exact_values_of_number_text() {
+        let e = |s| exact(s).unwrap();
+        assert_eq!(e("-0.0120"), (true, "12".into(), -3));
+        assert_eq!(e("+1.2e3"), (false, "12".into(), 2));
+        assert_eq!(e("1200"), (false, "12".into(), 2));
+        assert_eq!(e(".5"), e("5e-1"));
+        assert_eq!(e("5."), e("5"));
+        assert_eq!(e("0.000"), (false, String::new(), 0));
+        assert_ne!(e("-0"), e("0"));
+        for bad in [
+            "",
+            "-",
+            ".",
+            "1e",
+            "abc",
+            "1.2.3",
+            "0x10",
+            "1e99999999999999999999",
+        ] {
+            assert_eq!(exact(bad), None, "{bad}");
+        }
     }
 }

@@ -6,6 +6,7 @@
 
 mod client;
 mod decode;
+mod json;
 
 use std::io::{BufRead, Read, Write};
 use std::net::TcpStream;
@@ -15,9 +16,9 @@ use std::time::{Duration, Instant};
 use clap::{Parser, Subcommand};
 use hans_codec::datasheet::{DataSheet, Deframer};
 use hans_codec::{request as rq, response as rs, Command, Decimal, FsmState, RobotId};
-use serde_json::{json, Value};
 
 use client::{check, resolve, response, Client, ClientError};
+use json::{Json, Obj};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -41,8 +42,22 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Cmd {
-    /// Read messages (requests or replies) one per line on stdin, print one
-    /// JSON object per line.
+    /// Read messages (requests or replies), one per line on stdin, and
+    /// print one JSON object per line.
+    ///
+    /// Numbers are written exactly as the codec holds them (hans-codec's
+    /// Decimal), never through a 64-bit float: -0.000 stays -0.000, 1.500000
+    /// stays 1.500000, 0.123456789012345678 keeps every digit. Exponent
+    /// forms are written as the same value in plain decimals (1e-05 ->
+    /// 0.00001). The codec keeps 19 significant digits and 18 decimals
+    /// (hans-codec's Decimal); digits beyond that are dropped, and a
+    /// warning quotes the text as written.
+    /// Parse the output with a JSON reader that keeps decimals (Python:
+    /// json.loads(line, parse_float=decimal.Decimal)) to keep them exact.
+    #[command(
+        verbatim_doc_comment,
+        about = "Read messages (requests or replies), one per line on stdin, print one JSON object per line"
+    )]
     Decode,
     /// Send one message and print the typed reply.
     Send {
@@ -149,7 +164,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(Exit(code, msg)) => {
             if cli.json {
-                println!("{}", json!({ "error": msg }));
+                println!("{}", obj! { "error" => msg });
             } else {
                 eprintln!("hansctl: {msg}");
             }
@@ -314,29 +329,37 @@ fn send(cli: &Cli, mut c: Client, message: &str, force: bool) -> Result<(), Exit
         println!("{v}");
     } else {
         println!("{reply}");
-        print_human(&v);
+        if let Json::Obj(o) = &v {
+            print_human(o);
+        }
     }
     check(&reply, expect).map_err(Exit::from)
 }
 
-fn print_human(v: &Value) {
-    match v["kind"].as_str() {
+fn print_human(v: &Obj) {
+    let text = |key| match v.get(key) {
+        Some(Json::Str(s)) => Some(s.as_str()),
+        _ => None,
+    };
+    if let Some(e) = text("error") {
+        println!("  unreadable reply: {e}");
+        return;
+    }
+    match text("kind") {
         Some("ok") => {
-            if let Some(f) = v["fields"].as_object() {
-                for (k, val) in f {
+            if let Some(Json::Obj(f)) = v.get("fields") {
+                for (k, val) in f.iter() {
                     println!("  {k} = {val}");
                 }
             }
         }
         Some("fail") => {
-            let name = v["code_name"].as_str().unwrap_or("unknown code");
-            println!("  failed: {} ({name}) {}", v["code"], v["detail"]);
+            let name = text("code_name").unwrap_or("unknown code");
+            let code = v.get("code").unwrap_or(&Json::Null);
+            let detail = v.get("detail").unwrap_or(&Json::Null);
+            println!("  failed: {code} ({name}) {detail}");
         }
-        _ => {
-            if let Some(e) = v["error"].as_str() {
-                println!("  unreadable reply: {e}");
-            }
-        }
+        _ => {}
     }
 }
 
@@ -388,17 +411,16 @@ fn state(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
     if cli.json {
         println!(
             "{}",
-            json!({
-                "fsm": fsm.code(), "fsm_name": fsm.name(),
-                "moving": s.moving, "enabled": s.enabled, "error": s.error,
-                "error_code": s.error_code, "error_axis": s.error_axis,
-                "brake_released": s.brake_released, "paused": s.paused,
-                "emergency_stop": s.emergency_stop, "safety_guard": s.safety_guard,
-                "powered": s.powered, "box_connected": s.box_connected,
-                "blending_done": s.blending_done, "in_position": s.in_position,
-                "joints": p.joints.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
-                "pose": p.pose.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
-            })
+            obj! {
+                "fsm" => fsm.code(), "fsm_name" => fsm.name(),
+                "moving" => s.moving, "enabled" => s.enabled, "error" => s.error,
+                "error_code" => s.error_code, "error_axis" => s.error_axis,
+                "brake_released" => s.brake_released, "paused" => s.paused,
+                "emergency_stop" => s.emergency_stop, "safety_guard" => s.safety_guard,
+                "powered" => s.powered, "box_connected" => s.box_connected,
+                "blending_done" => s.blending_done, "in_position" => s.in_position,
+                "joints" => &p.joints, "pose" => &p.pose,
+            }
         );
     } else {
         println!("FSM      {}", fsm_name(fsm));
@@ -457,7 +479,7 @@ fn power_on(cli: &Cli, c: &mut Client, timeout: Duration) -> Result<(), Exit> {
         if cli.json {
             println!(
                 "{}",
-                json!({ "step": step, "fsm": s.code(), "fsm_name": s.name() })
+                obj! { "step" => step, "fsm" => s.code(), "fsm_name" => s.name() }
             );
         } else {
             println!("{step:<13} ok   FSM {}", fsm_name(s));
@@ -556,12 +578,11 @@ fn start_move<'a, C: Command<'a>>(
             if cli.json {
                 println!(
                     "{}",
-                    json!({
-                        "t": start.elapsed().as_secs_f64(), "fsm": fsm.code(),
-                        "moving": s.moving, "done": done,
-                        "joints": p.joints.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
-                        "pose": p.pose.iter().map(|x| decode::number(*x)).collect::<Vec<_>>(),
-                    })
+                    obj! {
+                        "t" => Decimal::from_f64(start.elapsed().as_secs_f64(), 3),
+                        "fsm" => fsm.code(), "moving" => s.moving, "done" => done,
+                        "joints" => &p.joints, "pose" => &p.pose,
+                    }
                 );
             } else {
                 println!(
@@ -588,14 +609,14 @@ fn start_move<'a, C: Command<'a>>(
 
 fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
     let all8 = || hv::<8>(&[0, 1, 2, 3, 4, 5, 6, 7]);
-    let mut out = serde_json::Map::new();
+    let mut out = Obj::new();
     let mut text = Vec::new();
     macro_rules! read_list {
         ($label:literal, $cmd:expr, $Resp:ident) => {{
             let cmd = $cmd;
             let r = c.call(&cmd)?;
             if let Some(hans_codec::Response::$Resp(v)) = response(&r, cmd.expect()) {
-                let vals: Vec<Value> = v.values.iter().map(|x| json!(x)).collect();
+                let vals = Json::from(v.values.as_slice());
                 text.push(format!(
                     "{:<7}{}",
                     $label,
@@ -605,7 +626,7 @@ fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
                         .collect::<Vec<_>>()
                         .join(" ")
                 ));
-                out.insert($label.to_string(), Value::Array(vals));
+                out.insert($label, vals);
             }
         }};
     }
@@ -620,7 +641,7 @@ fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
         };
         let r = c.call(&cmd)?;
         if let Some(hans_codec::Response::ReadBoxAI(v)) = response(&r, cmd.expect()) {
-            let vals: Vec<Value> = v.values.iter().map(|x| decode::number(*x)).collect();
+            let vals = Json::from(v.values.as_slice());
             text.push(format!(
                 "AI     {}",
                 v.values
@@ -629,12 +650,12 @@ fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
                     .collect::<Vec<_>>()
                     .join(" ")
             ));
-            out.insert("AI".into(), Value::Array(vals));
+            out.insert("AI", vals);
         }
         let cmd = rq::ReadBoxAO { channels: two };
         let r = c.call(&cmd)?;
         if let Some(hans_codec::Response::ReadBoxAO(v)) = response(&r, cmd.expect()) {
-            let vals: Vec<Value> = v.values.iter().map(|x| decode::number(*x)).collect();
+            let vals = Json::from(v.values.as_slice());
             text.push(format!(
                 "AO     {}",
                 v.values
@@ -643,7 +664,7 @@ fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
                     .collect::<Vec<_>>()
                     .join(" ")
             ));
-            out.insert("AO".into(), Value::Array(vals));
+            out.insert("AO", vals);
         }
     }
     let three = hv::<3>(&[0, 1, 2]);
@@ -665,7 +686,7 @@ fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
                         .collect::<Vec<_>>()
                         .join(" ")
                 ));
-                out.insert("EndDI".into(), json!(v.values.as_slice()));
+                out.insert("EndDI", v.values.as_slice());
             }
             let cmd = rq::ReadEO {
                 rbt_id: RobotId(0),
@@ -681,13 +702,13 @@ fn io_read(cli: &Cli, c: &mut Client) -> Result<(), Exit> {
                         .collect::<Vec<_>>()
                         .join(" ")
                 ));
-                out.insert("EndDO".into(), json!(v.values.as_slice()));
+                out.insert("EndDO", v.values.as_slice());
             }
         }
         Err(e) => text.push(format!("end I/O unavailable: {e}")),
     }
     if cli.json {
-        println!("{}", Value::Object(out));
+        println!("{}", Json::Obj(out));
     } else {
         for l in text {
             println!("{l}");
@@ -805,20 +826,16 @@ fn sheet_line(as_json: bool, s: &DataSheet) -> String {
             .collect::<String>()
     };
     if as_json {
-        let nums = |v: Option<[Decimal; 6]>| -> Value {
-            v.map_or(Value::Null, |a| {
-                Value::Array(a.iter().map(|x| decode::number(*x)).collect())
-            })
-        };
-        return json!({
-            "fsm": fsm.map(|f| f.code()), "fsm_name": fsm.and_then(|f| f.name()),
-            "moving": s.state.moving, "enabled": s.state.enabled, "paused": s.state.paused,
-            "blending_done": s.state.blending_done, "in_pos": s.state.in_pos,
-            "error_code": s.state.error_code,
-            "joints": nums(pos.map(|p| p.joints)), "tcp": nums(s.pos_and_vel.pcs_tcp),
-            "box_di": s.box_io.box_di.as_slice(), "box_do": s.box_io.box_do.as_slice(),
-            "end_di": s.end_io.end_di.as_slice(), "end_do": s.end_io.end_do.as_slice(),
-        })
+        let nums = |v: Option<[Decimal; 6]>| Json::from(v.map(|a| Json::from(&a)));
+        return obj! {
+            "fsm" => fsm.map(|f| f.code()), "fsm_name" => fsm.and_then(|f| f.name()),
+            "moving" => s.state.moving, "enabled" => s.state.enabled, "paused" => s.state.paused,
+            "blending_done" => s.state.blending_done, "in_pos" => s.state.in_pos,
+            "error_code" => s.state.error_code,
+            "joints" => nums(pos.map(|p| p.joints)), "tcp" => nums(s.pos_and_vel.pcs_tcp),
+            "box_di" => s.box_io.box_di.as_slice(), "box_do" => s.box_io.box_do.as_slice(),
+            "end_di" => s.end_io.end_di.as_slice(), "end_do" => s.end_io.end_do.as_slice(),
+        }
         .to_string();
     }
     let flag = |b: Option<bool>| match b {

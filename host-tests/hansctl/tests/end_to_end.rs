@@ -93,6 +93,72 @@ fn decode_reads_a_fixture_and_keeps_going_after_bad_lines() {
     assert_eq!(v[10]["fields"]["state"], serde_json::json!(33));
 }
 
+/// Runs `hansctl decode` on `input`; returns the exit status, the output
+/// lines as text and parsed.
+fn decode(input: &[u8]) -> (Option<i32>, Vec<String>, Vec<Value>) {
+    let mut child = Command::new(BIN)
+        .arg("decode")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let input = input.to_vec();
+    // Written from another thread: the output pipe must be drained while
+    // a large input is still being written.
+    let writer = std::thread::spawn(move || stdin.write_all(&input));
+    let out = child.wait_with_output().unwrap();
+    writer.join().unwrap().unwrap();
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text: Vec<String> = String::from_utf8(out.stdout.clone())
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect();
+    (out.status.code(), text, json_lines(&out))
+}
+
+#[test]
+fn decode_writes_numbers_exactly_as_read() {
+    let (code, text, v) = decode(
+        b"ReadActPos,OK,10.759,-0.000,37.828,0.000,37.828,0.000,400.581,76.115,970.143,0.000,\
+          75.655,10.759,0,0,0,0,0,0,0,0,0,0,0,1.500000,;\n\
+          SetOverride,0,0.123456789012345678,;\n\
+          SetOverride,0,0.1234567890123456789,;\n",
+    );
+    assert_eq!(code, Some(0));
+    assert!(
+        text[0].contains(r#""joints":[10.759,-0.000,37.828,0.000,37.828,0.000]"#),
+        "{}",
+        text[0]
+    );
+    assert!(text[0].contains(r#",1.500000]"#), "{}", text[0]);
+    assert!(
+        text[1].contains(r#""ratio":0.123456789012345678}"#),
+        "{}",
+        text[1]
+    );
+    // The brief's example: written exactly, or (beyond the codec's
+    // precision) with a warning that quotes the text.
+    let exact = text[2].contains(r#""ratio":0.1234567890123456789}"#);
+    let warned = v[2]["warnings"][0]
+        .as_str()
+        .is_some_and(|w| w.contains(r#""0.1234567890123456789""#));
+    assert!(exact != warned, "{}", text[2]);
+    assert!(!text[2].contains("0.12345678901234568"), "{}", text[2]);
+    let help = Command::new(BIN)
+        .args(["decode", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains("-0.000"), "{help}");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn send_prints_typed_replies_with_exit_codes() {
     let sim = Sim::start(Config::default()).await.unwrap();
