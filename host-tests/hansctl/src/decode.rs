@@ -13,6 +13,12 @@ use hans_codec::{CommandId, Decimal, Kind, RawMessage, Reply, ReplyExpect, Reque
 
 use crate::json::{Json, Obj};
 
+/// The longest input line `decode` reads (bytes, line end excluded). A
+/// longer line is skipped to its end and reported as an `error` object;
+/// the lines after it are decoded as usual. 1 MiB is sixteen times the
+/// simulator's (and gateway's) 64 KiB message buffer.
+pub const MAX_LINE: usize = 1 << 20;
+
 /// Collects a message's typed values as JSON (the codec's [`Visitor`]).
 /// Numbers are [`Json::Num`]: the codec's exact decimal, digit for digit.
 #[derive(Default)]
@@ -130,6 +136,52 @@ fn exact(text: &str) -> Option<(bool, String, i64)> {
     Some((negative, significant.to_string(), exp))
 }
 
+/// Decodes a stream of lines (see [`Decoder::line`]).
+#[derive(Default)]
+pub struct Decoder {}
+
+impl Decoder {
+    /// A decoder at the start of its input.
+    pub fn new() -> Decoder {
+        Decoder::default()
+    }
+
+    /// Decodes one input line (bytes as read; a trailing `\n` and `\r` are
+    /// ignored). `None` for a blank line, which is skipped. Bytes that are
+    /// not UTF-8 give an `invalid` object whose `error` names the first
+    /// bad byte and its offset in the line.
+    pub fn line(&mut self, bytes: &[u8]) -> Option<Json> {
+        let bytes = bytes.strip_suffix(b"\n").unwrap_or(bytes);
+        let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
+        if bytes.iter().all(u8::is_ascii_whitespace) {
+            return None;
+        }
+        let text = match std::str::from_utf8(bytes) {
+            Ok(t) => t,
+            Err(e) => {
+                let at = e.valid_up_to();
+                let byte = bytes.get(at).copied().unwrap_or(0);
+                return Some(invalid(format!(
+                    "not UTF-8: byte 0x{byte:02x} at offset {at} of the line"
+                )));
+            }
+        };
+        Some(decode_line(text))
+    }
+
+    /// The object for a line longer than [`MAX_LINE`] (`len` bytes), which
+    /// was skipped.
+    pub fn too_long(&mut self, len: usize) -> Json {
+        invalid(format!(
+            "line of {len} bytes is longer than {MAX_LINE} bytes: skipped"
+        ))
+    }
+}
+
+fn invalid(error: String) -> Json {
+    crate::obj! { "name" => "", "kind" => "invalid", "known" => false, "error" => error }
+}
+
 /// Decodes one message (a request or a reply, as on the wire) into a
 /// JSON object.
 pub fn decode_line(line: &str) -> Json {
@@ -213,9 +265,22 @@ mod tests {
     use super::*;
     use serde_json::{json, Value};
 
+    /// Decodes lines in order; each output parsed back as JSON, with its
+    /// text.
+    fn decode(lines: &[&[u8]]) -> Vec<(Value, String)> {
+        let mut d = Decoder::new();
+        lines
+            .iter()
+            .filter_map(|l| d.line(l))
+            .map(|j| {
+                let text = j.to_string();
+                (serde_json::from_str(&text).unwrap(), text)
+            })
+            .collect()
+    }
+
     fn one(line: &str) -> (Value, String) {
-        let text = decode_line(line).to_string();
-        (serde_json::from_str(&text).unwrap(), text)
+        decode(&[line.as_bytes()]).remove(0)
     }
 
     #[test]
@@ -245,6 +310,36 @@ mod tests {
         assert_eq!(v["kind"], "errorcmd");
         let (v, _) = one("SetOverride,0,5,;");
         assert!(v["range_error"].is_string());
+    }
+
+    #[test]
+    fn invalid_utf8_names_the_byte_and_its_offset_and_decoding_goes_on() {
+        let v = decode(&[
+            b"ReadCurFSM,0,;\n",
+            b"\xff\xfe\x00\x01;\n",
+            b"ReadCurFSM,OK,33,;\n",
+            b"ReadCurFSM,0\xc3(,;\r\n",
+            b"ReadCurFSM,0,\xe2\x82",
+        ]);
+        assert_eq!(v.len(), 5);
+        assert_eq!(v[0].0["fields"]["rbt_id"], 0);
+        assert_eq!(
+            (v[1].0["kind"].as_str(), v[1].0["error"].as_str()),
+            (
+                Some("invalid"),
+                Some("not UTF-8: byte 0xff at offset 0 of the line")
+            )
+        );
+        assert_eq!(v[2].0["fields"]["state"], 33);
+        assert_eq!(
+            v[3].0["error"],
+            "not UTF-8: byte 0xc3 at offset 12 of the line"
+        );
+        // A sequence cut off at the end of the line.
+        assert_eq!(
+            v[4].0["error"],
+            "not UTF-8: byte 0xe2 at offset 13 of the line"
+        );
     }
 
     #[test]
@@ -304,5 +399,14 @@ mod tests {
         ] {
             assert_eq!(exact(bad), None, "{bad}");
         }
+    }
+
+    #[test]
+    fn too_long_lines_are_reported_and_blank_lines_skipped() {
+        let mut d = Decoder::new();
+        let v: Value = serde_json::from_str(&d.too_long(MAX_LINE + 5).to_string()).unwrap();
+        assert_eq!(v["kind"], "invalid");
+        assert!(v["error"].as_str().unwrap().contains("longer than"));
+        assert_eq!(d.line(b" \t\r\n"), None);
     }
 }

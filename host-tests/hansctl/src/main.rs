@@ -45,6 +45,10 @@ enum Cmd {
     /// Read messages (requests or replies), one per line on stdin, and
     /// print one JSON object per line.
     ///
+    /// Each line is one message as it appears on the wire. Blank lines are
+    /// skipped; every other line gives one object, and decoding goes on to
+    /// the end of the input (exit status 0 unless stdin or stdout fail).
+    ///
     /// Numbers are written exactly as the codec holds them (hans-codec's
     /// Decimal), never through a 64-bit float: -0.000 stays -0.000, 1.500000
     /// stays 1.500000, 0.123456789012345678 keeps every digit. Exponent
@@ -54,6 +58,10 @@ enum Cmd {
     /// warning quotes the text as written.
     /// Parse the output with a JSON reader that keeps decimals (Python:
     /// json.loads(line, parse_float=decimal.Decimal)) to keep them exact.
+    ///
+    /// Lines are bytes: a line that is not UTF-8 gets an error naming the
+    /// first bad byte and its offset. Lines longer than 1 MiB are skipped
+    /// with an error.
     #[command(
         verbatim_doc_comment,
         about = "Read messages (requests or replies), one per line on stdin, print one JSON object per line"
@@ -288,18 +296,58 @@ fn fmt6(v: &[Decimal; 6]) -> String {
 }
 
 fn decode_stdin() -> Result<(), Exit> {
-    let stdin = std::io::stdin();
+    let mut input = std::io::stdin().lock();
     let mut out = std::io::stdout().lock();
-    for line in stdin.lock().lines() {
-        let line = line.map_err(|e| Exit(2, format!("reading stdin: {e}")))?;
-        let line = line.trim_end_matches(['\r', '\n']);
-        if line.trim().is_empty() {
-            continue;
+    let mut decoder = decode::Decoder::new();
+    let mut line = Vec::new();
+    loop {
+        let len = read_line(&mut input, &mut line, decode::MAX_LINE)
+            .map_err(|e| Exit(2, format!("reading stdin: {e}")))?;
+        let v = match len {
+            None => return Ok(()),
+            Some(len) if line.len() < len => Some(decoder.too_long(len)),
+            Some(_) => decoder.line(&line),
+        };
+        if let Some(v) = v {
+            writeln!(out, "{v}").map_err(|e| Exit(3, e.to_string()))?;
         }
-        let v = decode::decode_line(line);
-        writeln!(out, "{v}").map_err(|e| Exit(3, e.to_string()))?;
     }
-    Ok(())
+}
+
+/// Reads one line (through its `\n`, if any) into `line`, keeping at most
+/// `max` bytes of it (line end excluded) and skipping the rest. Returns the
+/// line's full length without its `\n` (more than `line.len()` when bytes
+/// were skipped), or `None` at the end of the input.
+fn read_line(
+    input: &mut impl BufRead,
+    line: &mut Vec<u8>,
+    max: usize,
+) -> std::io::Result<Option<usize>> {
+    line.clear();
+    let mut len = 0usize;
+    let mut any = false;
+    loop {
+        let chunk = match input.fill_buf() {
+            Ok(c) => c,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if chunk.is_empty() {
+            return Ok(any.then_some(len));
+        }
+        any = true;
+        let (body, used, done) = match chunk.iter().position(|&b| b == b'\n') {
+            Some(i) => (chunk.get(..i).unwrap_or(&[]), i + 1, true),
+            None => (chunk, chunk.len(), false),
+        };
+        let room = max.saturating_sub(line.len());
+        line.extend_from_slice(body.get(..room.min(body.len())).unwrap_or(&[]));
+        len = len.saturating_add(body.len());
+        input.consume(used);
+        if done {
+            return Ok(Some(len));
+        }
+    }
 }
 
 fn send(cli: &Cli, mut c: Client, message: &str, force: bool) -> Result<(), Exit> {

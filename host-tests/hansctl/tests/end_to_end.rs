@@ -124,6 +124,20 @@ fn decode(input: &[u8]) -> (Option<i32>, Vec<String>, Vec<Value>) {
 }
 
 #[test]
+fn decode_keeps_going_after_bytes_that_are_not_utf8() {
+    let (code, _, v) = decode(b"ReadCurFSM,0,;\n\xff\xfe\x00\x01;\nReadCurFSM,OK,33,;\n");
+    assert_eq!(code, Some(0));
+    assert_eq!(v.len(), 3, "{v:?}");
+    assert_eq!(v[0]["fields"]["rbt_id"], 0);
+    assert_eq!(v[1]["kind"], "invalid");
+    assert_eq!(
+        v[1]["error"],
+        "not UTF-8: byte 0xff at offset 0 of the line"
+    );
+    assert_eq!(v[2]["fields"]["state"], 33);
+}
+
+#[test]
 fn decode_writes_numbers_exactly_as_read() {
     let (code, text, v) = decode(
         b"ReadActPos,OK,10.759,-0.000,37.828,0.000,37.828,0.000,400.581,76.115,970.143,0.000,\
@@ -157,6 +171,23 @@ fn decode_writes_numbers_exactly_as_read() {
         .unwrap();
     let help = String::from_utf8_lossy(&help.stdout);
     assert!(help.contains("-0.000"), "{help}");
+}
+
+#[test]
+fn decode_skips_a_line_over_the_bound_and_goes_on() {
+    let mut input = b"ReadCurFSM,0,".to_vec();
+    input.resize(1024 * 1024 + 100, b'0');
+    input.extend_from_slice(b",;\nReadCurFSM,OK,33,;\n");
+    let (code, _, v) = decode(&input);
+    assert_eq!(code, Some(0));
+    assert_eq!(v.len(), 2, "{v:?}");
+    assert_eq!(v[0]["kind"], "invalid");
+    assert!(
+        v[0]["error"].as_str().unwrap().contains("1048678 bytes"),
+        "{}",
+        v[0]
+    );
+    assert_eq!(v[1]["fields"]["state"], 33);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
