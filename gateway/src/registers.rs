@@ -183,8 +183,8 @@ pub const CONFIG_WATCHDOG_ACTION: u16 = 109;
 /// Motion-completion policy bits: 0 = also wait for blending done, 1 = also
 /// wait for in position.
 pub const CONFIG_MOTION_POLICY: u16 = 110;
-/// Time a motion may report "not moving" after it was accepted before that
-/// counts as finished \[ms\], 0-5000.
+/// Time a motion may report "not moving" after it was accepted (or after a
+/// `GrpContinue`) before that counts as finished \[ms\], 0-5000.
 pub const CONFIG_START_GRACE_MS: u16 = 111;
 /// 1 = send `GrpReset` after a motion ends in a robot error.
 pub const CONFIG_AUTO_RESET: u16 = 112;

@@ -3,8 +3,10 @@
 //! * Jobs leave the FIFO queue one at a time; one request is in flight.
 //! * A motion command is Done when the robot has finished it (chapter 6):
 //!   `ReadRobotState` is polled every [`MOTION_POLL`] until moving ends
-//!   (plus blending done / in position if configured); Error when the robot
-//!   refuses it or reports an error, emergency stop or safety guard.
+//!   (plus blending done / in position if configured), then the FSM must
+//!   agree ([`fsm::motion_under_way`]) and `ReadActPos` refreshes the
+//!   position registers, so that they are final at Done; Error when the
+//!   robot refuses it or reports an error, emergency stop or safety guard.
 //! * Urgent commands (stop, pause, continue, reset, disable: see
 //!   [`job::is_urgent`]) go out before every ordinary command waiting.
 //! * While a motion runs, other commands still go out in queue order, but a
@@ -22,6 +24,7 @@
 //!   [`MIN_BACKOFF`] to [`MAX_BACKOFF`].
 
 pub mod commands;
+pub mod fsm;
 pub mod job;
 
 use core::convert::Infallible;
@@ -29,7 +32,8 @@ use core::convert::Infallible;
 use embassy_futures::select::{select3, Either3};
 use embassy_time::{Duration, Instant, Timer};
 use hans_codec::{
-    request, Command, CommandId, ParseError, Reply, ReplyExpect, Request, Response, RobotId,
+    request, Command, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request, Response,
+    RobotId,
 };
 
 pub use job::{ErrorSource, GatewayError, Outcome, Source};
@@ -52,6 +56,8 @@ pub const MAX_BACKOFF: Duration = Duration::from_secs(5);
 struct Active {
     source: Source,
     since: Instant,
+    /// Start of the grace period: acceptance, or the last `GrpContinue`.
+    grace_from: Instant,
     seen_moving: bool,
     /// The watchdog already acted on this motion.
     watchdog_fired: bool,
@@ -411,11 +417,20 @@ impl<'c, 'a> Engine<'c, 'a> {
             self.active = Some(Active {
                 source: job.source,
                 since: now,
+                grace_from: now,
                 seen_moving: false,
                 watchdog_fired: false,
             });
             self.next_motion_poll = now + MOTION_POLL;
             return;
+        }
+        if last == Some(CommandId::GrpContinue) {
+            // The motion starts again: its moving flag lags as at the
+            // start, so the grace period starts again too.
+            if let Some(a) = self.active.as_mut() {
+                a.grace_from = now;
+                a.seen_moving = false;
+            }
         }
         if last == Some(CommandId::GrpStop) {
             // MC_Stop: the running motion and every motion still waiting
@@ -538,7 +553,7 @@ impl<'c, 'a> Engine<'c, 'a> {
         } else if rs.paused != 0 {
             None
         } else if a.seen_moving
-            || now.saturating_duration_since(a.since) >= millis(self.config.start_grace_ms)
+            || now.saturating_duration_since(a.grace_from) >= millis(self.config.start_grace_ms)
         {
             let blend_ok = !self.config.wait_blending_done || rs.blending_done != 0;
             let pos_ok = !self.config.wait_in_position || rs.in_position != 0;
@@ -549,9 +564,16 @@ impl<'c, 'a> Engine<'c, 'a> {
         let Some(outcome) = outcome else {
             return;
         };
-        let source = a.source;
-        self.active = None;
-        self.end_motion(source, outcome);
+        if outcome == Outcome::Done {
+            match self.confirm_done(link).await {
+                Ok(true) => {}
+                Ok(false) | Err(()) => return,
+            }
+        }
+        let Some(a) = self.active.take() else {
+            return;
+        };
+        self.end_motion(a.source, outcome);
         if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
             info!("auto-reset: GrpReset after the motion error");
             let cmd = request::GrpReset {
@@ -559,6 +581,58 @@ impl<'c, 'a> Engine<'c, 'a> {
             };
             self.send_internal(link, &cmd).await;
         }
+    }
+
+    /// The flags say the motion has ended. Done only if the FSM agrees (it
+    /// changes at once, the moving flag ~50 ms late, e.g. after
+    /// `GrpContinue`), and once the position registers show where the
+    /// robot stopped (`ReadActPos`), so that Done means they are final.
+    /// `Ok(false)`: not yet (polled again), also when an urgent command
+    /// waits (it goes first); `Err(())`: the link was lost.
+    async fn confirm_done<S: Socket>(&mut self, link: &mut Link<S>) -> Result<bool, ()> {
+        if self.ctx.with(|s| s.queue.has_urgent()) {
+            return Ok(false);
+        }
+        if let Some(state) = self.read_fsm(link).await? {
+            if fsm::motion_under_way(state) {
+                if let Some(a) = self.active.as_mut() {
+                    a.seen_moving = true;
+                }
+                return Ok(false);
+            }
+        }
+        if self.ctx.with(|s| s.queue.has_urgent()) {
+            return Ok(false);
+        }
+        let Some((len, expect)) = PollStep::ActPos.request(self.config.robot_id, &mut self.buf)
+        else {
+            return Ok(true);
+        };
+        // A refused or unreadable reply leaves the registers as they are;
+        // the motion is Done all the same (the robot said so twice).
+        self.poll(link, len, expect, "position", |reply, s, order| {
+            PollStep::ActPos.apply(reply, &mut s.regs, order)
+        })
+        .await?;
+        Ok(true)
+    }
+
+    /// `ReadCurFSM` (also copied into `FSM_STATE`); `Ok(None)` when the
+    /// robot refused it or the reply could not be read.
+    async fn read_fsm<S: Socket>(&mut self, link: &mut Link<S>) -> Result<Option<FsmState>, ()> {
+        let Some((len, expect)) = PollStep::Fsm.request(self.config.robot_id, &mut self.buf) else {
+            return Ok(None);
+        };
+        let r = self
+            .poll(link, len, expect, "fsm", |reply, s, order| match reply {
+                Reply::Ok(resp @ Response::ReadCurFSM(f)) => {
+                    status::apply_response(resp, &mut s.regs, order);
+                    Some(f.state)
+                }
+                _ => None,
+            })
+            .await?;
+        Ok(r.flatten())
     }
 
     /// Sends a command of the gateway's own (watchdog action, auto reset).

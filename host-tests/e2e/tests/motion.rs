@@ -2,16 +2,112 @@
 //! when Done may rise, what a stop ends, and that stop, pause and continue
 //! always get through.
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use hans_e2e::{code, Plc, Rig};
+use hans_e2e::{code, Plc, Rig, WAIT};
 use hans_gateway::registers as r;
-use hans_sim::{Config, Fault, FaultRule};
+use hans_sim::{Config, Fault, FaultRule, FsmState};
 
 const QUEUE_FULL: i32 = 39600;
 const WATCHDOG: i32 = 39602;
 const SRC_GATEWAY: u16 = 3;
 const ENDED: u16 = r::ST_DONE | r::ST_ERROR | r::ST_ABORTED;
+
+/// Waits until the simulator's FSM is `want`.
+async fn wait_fsm(rig: &Rig, want: FsmState) {
+    let start = Instant::now();
+    while rig.sim.fsm() != want {
+        assert!(
+            start.elapsed() < WAIT,
+            "simulator never reached {want:?} (now {:?})",
+            rig.sim.fsm()
+        );
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+}
+
+/// Finding H1: after Pause and Continue the moving flag lags the motion by
+/// ~50 ms (the FSM does not); Done rose 2 ms after Continue while the robot
+/// still moved. Done must mean the robot has finished.
+#[tokio::test]
+async fn after_pause_and_continue_done_waits_for_the_end_of_the_motion() {
+    let mut rig = Rig::start(Config::ready()).await;
+    let target = rig.plc.start_move(0, 60.0, 30.0, 360.0, 1).await;
+    let st = Plc::ch_status(0);
+    rig.plc
+        .wait_reg(st, "active", |v| v & r::ST_ACTIVE != 0)
+        .await;
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    let e = rig.plc.run(1, code::PAUSE, &[], 2).await;
+    assert!(e.done(), "pause: {e:?}");
+    wait_fsm(&rig, FsmState::RobotHolding).await;
+    tokio::time::sleep(Duration::from_millis(200)).await;
+    assert_eq!(
+        rig.plc.read1(st).await & (r::ST_BUSY | ENDED),
+        r::ST_BUSY,
+        "paused: still Busy"
+    );
+    let e = rig.plc.run(1, code::CONTINUE, &[], 3).await;
+    assert!(e.done(), "continue: {e:?}");
+    let start = Instant::now();
+    let status = loop {
+        let v = rig.plc.read1(st).await;
+        if v & ENDED != 0 {
+            break v;
+        }
+        assert!(start.elapsed() < WAIT, "the move never ended");
+        tokio::time::sleep(Duration::from_millis(2)).await;
+    };
+    let s = rig.sim.state();
+    assert_eq!(status & ENDED, r::ST_DONE, "{status:#x}");
+    assert_eq!(
+        s.fsm,
+        FsmState::StandBy,
+        "Done while the robot is in {:?}",
+        s.fsm
+    );
+    assert!(
+        (s.act_joints[0] - f64::from(target[0])).abs() < 0.01,
+        "Done at J1 = {} (target {})",
+        s.act_joints[0],
+        target[0]
+    );
+    rig.stop().await;
+}
+
+/// Finding M1: the position registers were up to one poll period old when
+/// Done rose. At Done they must show where the robot stopped.
+#[tokio::test]
+async fn at_done_the_position_registers_are_final() {
+    let mut rig = Rig::start(Config::ready()).await;
+    let st = Plc::ch_status(0);
+    for (seq, delta) in [(1u16, 25.0f32), (2, -25.0), (3, 25.0)] {
+        rig.plc.start_move(0, delta, 60.0, 360.0, seq).await;
+        let e = rig.plc.wait_end(st).await;
+        assert!(e.done(), "{e:?}");
+        // Read at once: no polling round may have run since Done.
+        let joints = rig.plc.joints().await;
+        let pose = rig.plc.pose().await;
+        let s = rig.sim.state();
+        for i in 0..6 {
+            assert!(
+                (f64::from(joints[i]) - s.act_joints[i]).abs() < 0.01,
+                "move {seq}: J{} = {} at Done, robot at {}",
+                i + 1,
+                joints[i],
+                s.act_joints[i]
+            );
+            assert!(
+                (f64::from(pose[i]) - s.act_pose[i]).abs() < 0.01,
+                "move {seq}: pose[{i}] = {} at Done, robot at {}",
+                pose[i],
+                s.act_pose[i]
+            );
+        }
+        rig.plc.write(r::channel_base(0), &[0]).await;
+    }
+    rig.stop().await;
+}
 
 /// Finding H2: a Stop must end the running motion and every motion waiting
 /// in the gateway's queue in CommandAborted, and none of them may be sent;
