@@ -19,6 +19,11 @@ use crate::json::{Json, Obj};
 /// simulator's (and gateway's) 64 KiB message buffer.
 pub const MAX_LINE: usize = 1 << 20;
 
+/// The `error` of a line that does not end with `;`.
+const NO_TERMINATOR: &str =
+    "no ';' at the end: on the wire this is an incomplete message (a controller answers \
+     errorcmd after a pause); fields show how the codec reads the body";
+
 /// Collects a message's typed values as JSON (the codec's [`Visitor`]).
 /// Numbers are [`Json::Num`]: the codec's exact decimal, digit for digit.
 #[derive(Default)]
@@ -147,9 +152,13 @@ impl Decoder {
     }
 
     /// Decodes one input line (bytes as read; a trailing `\n` and `\r` are
-    /// ignored). `None` for a blank line, which is skipped. Bytes that are
-    /// not UTF-8 give an `invalid` object whose `error` names the first
-    /// bad byte and its offset in the line.
+    /// ignored). `None` for a blank line, which is skipped.
+    ///
+    /// * Bytes that are not UTF-8: an `invalid` object whose `error` names
+    ///   the first bad byte and its offset in the line.
+    /// * A line not ending in `;` (spaces and tabs after it are ignored):
+    ///   `error` (an incomplete message on the wire), with the body still
+    ///   decoded.
     pub fn line(&mut self, bytes: &[u8]) -> Option<Json> {
         let bytes = bytes.strip_suffix(b"\n").unwrap_or(bytes);
         let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
@@ -166,7 +175,16 @@ impl Decoder {
                 )));
             }
         };
-        Some(decode_line(text))
+        let terminated = text.trim_end_matches([' ', '\t']).ends_with(';');
+        let mut out = message(text);
+        if !terminated {
+            let why = match out.get("error") {
+                Some(Json::Str(e)) => format!("{NO_TERMINATOR}; and: {e}"),
+                _ => NO_TERMINATOR.to_string(),
+            };
+            out.insert("error", why);
+        }
+        Some(Json::Obj(out))
     }
 
     /// The object for a line longer than [`MAX_LINE`] (`len` bytes), which
@@ -399,6 +417,26 @@ mod tests {
         ] {
             assert_eq!(exact(bad), None, "{bad}");
         }
+    }
+
+    #[test]
+    fn a_line_without_terminator_is_an_error_with_its_body_decoded() {
+        let (v, _) = one("garbage");
+        assert_eq!(v["kind"], "request");
+        assert!(v["error"].as_str().unwrap().starts_with("no ';'"), "{v}");
+        let (v, _) = one("ReadCurFSM,0,");
+        assert!(v["error"].as_str().unwrap().starts_with("no ';'"), "{v}");
+        assert_eq!(v["fields"]["rbt_id"], 0);
+        let (v, _) = one("WayPoint,0,1");
+        let e = v["error"].as_str().unwrap();
+        assert!(e.starts_with("no ';'") && e.contains("WayPoint:"), "{e}");
+        // Spaces after the `;` are not part of the message.
+        let (v, _) = one("ReadCurFSM,0,; \t");
+        assert!(v.get("error").is_none(), "{v}");
+        // The codec's own error for a body that is no message stays.
+        let (v, _) = one(",;");
+        assert_eq!(v["kind"], "invalid");
+        assert!(v["error"].is_string());
     }
 
     #[test]

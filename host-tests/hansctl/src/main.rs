@@ -60,8 +60,10 @@ enum Cmd {
     /// json.loads(line, parse_float=decimal.Decimal)) to keep them exact.
     ///
     /// Lines are bytes: a line that is not UTF-8 gets an error naming the
-    /// first bad byte and its offset. Lines longer than 1 MiB are skipped
-    /// with an error.
+    /// first bad byte and its offset. A line not ending in ';' (spaces or
+    /// tabs after it are ignored) is an incomplete message on the wire: it
+    /// gets an error, and its body is still decoded into fields. Lines
+    /// longer than 1 MiB are skipped with an error.
     #[command(
         verbatim_doc_comment,
         about = "Read messages (requests or replies), one per line on stdin, print one JSON object per line"

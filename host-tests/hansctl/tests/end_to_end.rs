@@ -174,6 +174,24 @@ fn decode_writes_numbers_exactly_as_read() {
 }
 
 #[test]
+fn decode_reports_a_line_without_terminator() {
+    let (code, _, v) = decode(b"garbage\nReadCurFSM,0,\nReadCurFSM,0,;\n");
+    assert_eq!(code, Some(0));
+    assert!(
+        v[0]["error"].as_str().unwrap().starts_with("no ';'"),
+        "{}",
+        v[0]
+    );
+    assert!(
+        v[1]["error"].as_str().unwrap().starts_with("no ';'"),
+        "{}",
+        v[1]
+    );
+    assert_eq!(v[1]["fields"]["rbt_id"], 0, "the body is still decoded");
+    assert!(v[2].get("error").is_none(), "{}", v[2]);
+}
+
+#[test]
 fn decode_skips_a_line_over_the_bound_and_goes_on() {
     let mut input = b"ReadCurFSM,0,".to_vec();
     input.resize(1024 * 1024 + 100, b'0');
