@@ -6,8 +6,8 @@
 //! `kind` (`request`, `ok`, `fail`, `errorcmd`, `invalid`), `known`, then
 //! `fields` (typed values by parameter name, numbers exactly as the codec
 //! holds them) or, for `Fail`, `code`/`code_name`/`detail`; `error` when
-//! the line is not a valid message; `range_error` and `warnings` when
-//! they apply.
+//! the line is not a valid message; `range_error`, `warnings` and
+//! `against_request` when they apply.
 
 use hans_codec::{CommandId, Decimal, Kind, RawMessage, Reply, ReplyExpect, Request, Visitor};
 
@@ -141,30 +141,42 @@ fn exact(text: &str) -> Option<(bool, String, i64)> {
     Some((negative, significant.to_string(), exp))
 }
 
-/// Decodes a stream of lines (see [`Decoder::line`]).
+/// Decodes a stream of lines, reading a reply against the request on the
+/// line before it when the names match (see [`Decoder::line`]).
 #[derive(Default)]
-pub struct Decoder {}
+pub struct Decoder {
+    /// What the reply to the previous line must look like, if that line
+    /// was a valid request of a known command.
+    previous: Option<ReplyExpect>,
+}
 
 impl Decoder {
-    /// A decoder at the start of its input.
+    /// A decoder with no previous line.
     pub fn new() -> Decoder {
         Decoder::default()
     }
 
     /// Decodes one input line (bytes as read; a trailing `\n` and `\r` are
-    /// ignored). `None` for a blank line, which is skipped.
+    /// ignored). `None` for a blank line, which is skipped and does not
+    /// separate a request from its reply.
     ///
     /// * Bytes that are not UTF-8: an `invalid` object whose `error` names
     ///   the first bad byte and its offset in the line.
     /// * A line not ending in `;` (spaces and tabs after it are ignored):
     ///   `error` (an incomplete message on the wire), with the body still
     ///   decoded.
+    /// * A reply (`OK` or `Fail`) right after a valid request of the same
+    ///   command is read against that request (`Request::expect()`: e.g. a
+    ///   `ReadBoxDI` reply must have as many values as bits were asked
+    ///   for), and gets `"against_request": true`. Any other reply is read
+    ///   by its name alone.
     pub fn line(&mut self, bytes: &[u8]) -> Option<Json> {
         let bytes = bytes.strip_suffix(b"\n").unwrap_or(bytes);
         let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);
         if bytes.iter().all(u8::is_ascii_whitespace) {
             return None;
         }
+        let previous = self.previous.take();
         let text = match std::str::from_utf8(bytes) {
             Ok(t) => t,
             Err(e) => {
@@ -176,8 +188,10 @@ impl Decoder {
             }
         };
         let terminated = text.trim_end_matches([' ', '\t']).ends_with(';');
-        let mut out = message(text);
-        if !terminated {
+        let (mut out, expect) = message(text, previous);
+        if terminated {
+            self.previous = expect;
+        } else {
             let why = match out.get("error") {
                 Some(Json::Str(e)) => format!("{NO_TERMINATOR}; and: {e}"),
                 _ => NO_TERMINATOR.to_string(),
@@ -190,6 +204,7 @@ impl Decoder {
     /// The object for a line longer than [`MAX_LINE`] (`len` bytes), which
     /// was skipped.
     pub fn too_long(&mut self, len: usize) -> Json {
+        self.previous = None;
         invalid(format!(
             "line of {len} bytes is longer than {MAX_LINE} bytes: skipped"
         ))
@@ -200,14 +215,25 @@ fn invalid(error: String) -> Json {
     crate::obj! { "name" => "", "kind" => "invalid", "known" => false, "error" => error }
 }
 
-/// Decodes one message (a request or a reply, as on the wire) into a
-/// JSON object.
-pub fn decode_line(line: &str) -> Json {
-    Json::Obj(message(line))
+/// Decodes a reply read against its request (`expect`), as `send --json`
+/// and the other client subcommands print it.
+pub fn reply(text: &str, expect: ReplyExpect) -> Json {
+    let (mut out, _) = message(text, Some(expect));
+    if out.get("against_request").is_none() && out.get("error").is_none() {
+        // Not a reply of that command: say so, not only what it reads as
+        // by its own name.
+        if let Err(e) = Reply::parse(text, expect) {
+            out.insert("error", e.to_string());
+        }
+    }
+    Json::Obj(out)
 }
 
-/// Decodes one message.
-fn message(text: &str) -> Obj {
+/// Decodes one message. `previous`: what the reply to the line before must
+/// look like, applied if this is a reply of that command. Returns the
+/// object and, for a valid request of a known command, what its reply must
+/// look like.
+fn message(text: &str, previous: Option<ReplyExpect>) -> (Obj, Option<ReplyExpect>) {
     let mut out = Obj::new();
     let raw = match RawMessage::parse(text) {
         Ok(r) => r,
@@ -216,7 +242,7 @@ fn message(text: &str) -> Obj {
             out.insert("kind", "invalid");
             out.insert("known", false);
             out.insert("error", e.to_string());
-            return out;
+            return (out, None);
         }
     };
     let name = raw.name();
@@ -233,6 +259,7 @@ fn message(text: &str) -> Obj {
         },
     );
     out.insert("known", command.is_some());
+    let mut next = None;
     match kind {
         Kind::Request => match Request::parse(text) {
             Ok(req) => {
@@ -242,11 +269,16 @@ fn message(text: &str) -> Obj {
                 if let Err(e) = req.validate() {
                     out.insert("range_error", e.to_string());
                 }
+                next = command.map(|_| req.expect());
             }
             Err(e) => out.insert("error", e.to_string()),
         },
         _ => {
-            match Reply::parse(text, ReplyExpect::from_name(name)) {
+            let against = previous.filter(|p| {
+                matches!(kind, Kind::Ok | Kind::Fail) && command.is_some() && p.command == command
+            });
+            let expect = against.unwrap_or_else(|| ReplyExpect::from_name(name));
+            match Reply::parse(text, expect) {
                 Ok(Reply::Ok(resp)) => {
                     // The values after `OK`, numbered as the codec does.
                     let mut f = JsonFields::with_fields(raw.fields().skip(1));
@@ -265,9 +297,12 @@ fn message(text: &str) -> Obj {
                 }
                 Err(e) => out.insert("error", e.to_string()),
             }
+            if against.is_some() {
+                out.insert("against_request", true);
+            }
         }
     }
-    out
+    (out, next)
 }
 
 fn put_fields(out: &mut Obj, f: JsonFields) {
@@ -440,11 +475,61 @@ mod tests {
     }
 
     #[test]
-    fn too_long_lines_are_reported_and_blank_lines_skipped() {
+    fn a_reply_is_read_against_the_request_on_the_line_before() {
+        let v = decode(&[
+            b"ReadBoxDI,5,6,;",
+            b"ReadBoxDI,OK,0,1,1,1,1,1,1,1,;",
+            b"ReadBoxDI,5,6,;",
+            b"",
+            b"ReadBoxDI,OK,0,1,;",
+            // Read by name: no request before it.
+            b"ReadBoxDI,OK,0,1,1,1,1,1,1,1,;",
+            // Another command's request in between.
+            b"ReadBoxDI,5,6,;",
+            b"ReadCurFSM,0,;",
+            b"ReadBoxDI,OK,0,1,1,1,1,1,1,1,;",
+            // A request line without `;` does not pair.
+            b"ReadBoxDI,5,6,",
+            b"ReadBoxDI,OK,0,1,1,1,1,1,1,1,;",
+            // A Fail reply pairs too; an alias answers under its name.
+            b"GrpPowerOn,0,;",
+            b"GrpPowerOn,Fail,20018,;",
+        ]);
+        assert!(v[1].0["error"].is_string(), "{}", v[1].1);
+        assert_eq!(v[1].0["against_request"], true);
+        assert_eq!(v[3].0["fields"]["values"], json!([0, 1]));
+        assert_eq!(v[3].0["against_request"], true);
+        assert!(v[4].0.get("error").is_none(), "{}", v[4].1);
+        assert!(v[4].0.get("against_request").is_none());
+        assert!(v[7].0.get("error").is_none(), "{}", v[7].1);
+        assert!(v[9].0.get("error").is_none(), "{}", v[9].1);
+        assert_eq!(v[11].0["against_request"], true);
+        assert_eq!(v[11].0["code"], 20018);
+    }
+
+    #[test]
+    fn reply_reads_against_the_request_sent() {
+        let expect = Request::parse("ReadBoxDI,5,6,;").unwrap().expect();
+        let v: Value =
+            serde_json::from_str(&reply("ReadBoxDI,OK,0,1,;", expect).to_string()).unwrap();
+        assert_eq!(v["fields"]["values"], json!([0, 1]));
+        let v: Value =
+            serde_json::from_str(&reply("ReadCurFSM,OK,33,;", expect).to_string()).unwrap();
+        assert!(v["error"].is_string(), "{v}");
+        let v: Value =
+            serde_json::from_str(&reply("errorcmd,20007,;", expect).to_string()).unwrap();
+        assert_eq!(v["kind"], "errorcmd");
+        assert!(v.get("error").is_none(), "{v}");
+    }
+
+    #[test]
+    fn too_long_lines_are_reported_and_break_a_pair() {
         let mut d = Decoder::new();
+        d.line(b"ReadBoxDI,5,6,;");
         let v: Value = serde_json::from_str(&d.too_long(MAX_LINE + 5).to_string()).unwrap();
         assert_eq!(v["kind"], "invalid");
         assert!(v["error"].as_str().unwrap().contains("longer than"));
-        assert_eq!(d.line(b" \t\r\n"), None);
+        let v = d.line(b"ReadBoxDI,OK,0,1,1,1,1,1,1,1,;").unwrap();
+        assert!(!v.to_string().contains("error"), "{v}");
     }
 }

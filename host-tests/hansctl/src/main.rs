@@ -49,6 +49,15 @@ enum Cmd {
     /// skipped; every other line gives one object, and decoding goes on to
     /// the end of the input (exit status 0 unless stdin or stdout fail).
     ///
+    /// Keys: name, kind (request, ok, fail, errorcmd, invalid), known (the
+    /// name is in the command table), then
+    ///   fields          typed values by parameter name, in wire order
+    ///   code, code_name, detail   for a Fail reply
+    ///   error           why the line is not a valid message
+    ///   range_error     a request outside the document's ranges
+    ///   warnings        numbers with more digits than the codec keeps
+    ///   against_request the reply was read against the request before it
+    ///
     /// Numbers are written exactly as the codec holds them (hans-codec's
     /// Decimal), never through a 64-bit float: -0.000 stays -0.000, 1.500000
     /// stays 1.500000, 0.123456789012345678 keeps every digit. Exponent
@@ -64,6 +73,12 @@ enum Cmd {
     /// tabs after it are ignored) is an incomplete message on the wire: it
     /// gets an error, and its body is still decoded into fields. Lines
     /// longer than 1 MiB are skipped with an error.
+    ///
+    /// A reply (OK or Fail) on the line right after a valid request of the
+    /// same command is read against that request, e.g. a ReadBoxDI reply
+    /// must have one value per bit asked for; it gets
+    /// "against_request": true. Any other reply is read by its name alone
+    /// (a list of any valid length).
     #[command(
         verbatim_doc_comment,
         about = "Read messages (requests or replies), one per line on stdin, print one JSON object per line"
@@ -374,7 +389,7 @@ fn send(cli: &Cli, mut c: Client, message: &str, force: bool) -> Result<(), Exit
         Err(e) => return Err(Exit(2, format!("{e} (use --force to send it anyway)"))),
     };
     let reply = c.call_raw(&msg)?;
-    let v = decode::decode_line(&reply);
+    let v = decode::reply(&reply, expect);
     if cli.json {
         println!("{v}");
     } else {
@@ -416,7 +431,7 @@ fn print_human(v: &Obj) {
 fn simple<'a, C: Command<'a>>(cli: &Cli, c: &mut Client, cmd: &C) -> Result<(), Exit> {
     let r = c.call(cmd)?;
     if cli.json {
-        println!("{}", decode::decode_line(&r));
+        println!("{}", decode::reply(&r, cmd.expect()));
     } else {
         println!("{r}");
     }

@@ -192,6 +192,22 @@ fn decode_reports_a_line_without_terminator() {
 }
 
 #[test]
+fn decode_reads_a_reply_against_the_request_before_it() {
+    let (code, _, v) = decode(
+        b"ReadBoxDI,5,6,;\nReadBoxDI,OK,0,1,1,1,1,1,1,1,;\n\
+          ReadBoxDI,5,6,;\nReadBoxDI,OK,0,1,;\n\
+          ReadBoxDI,OK,0,1,1,1,1,1,1,1,;\n",
+    );
+    assert_eq!(code, Some(0));
+    assert!(v[1]["error"].is_string(), "8 values for 2 bits: {}", v[1]);
+    assert_eq!(v[1]["against_request"], true);
+    assert_eq!(v[3]["fields"]["values"], serde_json::json!([0, 1]));
+    // Not after its request: read by name, any valid length.
+    assert!(v[4].get("error").is_none(), "{}", v[4]);
+    assert!(v[4].get("against_request").is_none(), "{}", v[4]);
+}
+
+#[test]
 fn decode_skips_a_line_over_the_bound_and_goes_on() {
     let mut input = b"ReadCurFSM,0,".to_vec();
     input.resize(1024 * 1024 + 100, b'0');
