@@ -307,6 +307,13 @@ pub enum GrammarError {
 }
 
 impl<'a> RawMessage<'a> {
+    /// A message without name or fields (a placeholder).
+    pub(crate) const EMPTY: RawMessage<'static> = RawMessage {
+        name: "",
+        body: "",
+        count: 0,
+    };
+
     /// Splits one message. `text` may carry the terminator (`...,;`) or not
     /// (a body as the framer delivers it), and surrounding whitespace.
     pub fn parse(text: &'a str) -> Result<Self, GrammarError> {
@@ -486,25 +493,28 @@ impl<'s, 'a> Cursor<'s, 'a> {
 
     /// The typed readers' fast path: the next field if it is a plain number
     /// (see [`number`](crate::number)) directly followed by its `,` or the
-    /// end of the text, read in the same pass that finds the field's end,
-    /// and the text after it. Anything else (spaces, exponents, `;` right
-    /// after the value, an empty field, an error) is `None`: the grammar
-    /// (`next_field`, `Decimal::parse`) then decides.
-    #[inline(always)]
-    fn peek_plain_number(&self) -> Option<(Decimal, Option<&'a str>)> {
+    /// end of the text, read in the same pass that finds the field's end;
+    /// its value and text. Anything else (spaces, exponents, `;` right after
+    /// the value, an empty field) is left unread for the grammar
+    /// (`next_field`, `Decimal::parse`) to decide.
+    #[inline(never)]
+    pub(crate) fn take_plain(&mut self) -> Option<(Decimal, &'a str)> {
         let Source::Text(Some(rest)) = self.src else {
             return None;
         };
         let (d, next) = number::plain_prefix(rest.as_bytes())?;
+        let text = rest.get(..rest.len() - next.len())?;
         let tail = match next {
             [] => None,
             [b',', next @ ..] => (!only_fillers_bytes(next)).then(|| after(rest, next)),
             _ => return None,
         };
-        Some((d, tail))
+        self.src = Source::Text(tail);
+        self.pos = self.pos.saturating_add(1);
+        Some((d, text))
     }
 
-    /// Reads plain numbers (as `peek_plain_number` does) into `out`, in
+    /// Reads plain numbers (as `take_plain` does) into `out`, in
     /// order, while the fields are plain; returns how many were read. The
     /// position in the text stays in registers for the whole run: poses and
     /// joint lists, most of a reply's values, are read here.
@@ -545,35 +555,6 @@ impl<'s, 'a> Cursor<'s, 'a> {
             .pos
             .saturating_add(u16::try_from(n).unwrap_or(u16::MAX));
         n
-    }
-
-    fn advance(&mut self, tail: Option<&'a str>) {
-        self.src = Source::Text(tail);
-        self.pos = self.pos.saturating_add(1);
-    }
-
-    /// The next field if it is a plain number (see `peek_plain_number`);
-    /// nothing is consumed otherwise.
-    #[inline]
-    pub(crate) fn next_plain_number(&mut self) -> Option<Decimal> {
-        let (d, tail) = self.peek_plain_number()?;
-        self.advance(tail);
-        Some(d)
-    }
-
-    /// The next field if it is a plain whole number that fits an `i32`;
-    /// nothing is consumed otherwise.
-    #[inline]
-    pub(crate) fn next_plain_int(&mut self) -> Option<i32> {
-        let (d, tail) = self.peek_plain_number()?;
-        // Integers as written (`5`, `-0`); `5.000` takes the general path.
-        if d.scale() != 0 {
-            return None;
-        }
-        let v = i64::try_from(d.coefficient()).ok()?;
-        let v = i32::try_from(if d.is_sign_negative() { -v } else { v }).ok()?;
-        self.advance(tail);
-        Some(v)
     }
 
     /// All remaining fields as one borrowed text (for variable lists), and
@@ -720,8 +701,8 @@ mod tests {
         let mut fast = 0;
         while !c.at_end() {
             let pos = c.position();
-            match c.next_plain_number() {
-                Some(d) => {
+            match c.take_plain() {
+                Some((d, _)) => {
                     fast += 1;
                     assert_eq!(c.position(), pos + 1);
                     let mut again = Cursor::new(rest, CommandId::ReadActPos);

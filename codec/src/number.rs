@@ -218,7 +218,7 @@ pub(crate) mod syntax {
 /// identical value: `fast_path_agrees_with_the_grammar` below checks every
 /// string of up to 6 bytes over the number alphabet (alone and followed by
 /// more bytes) and a million random longer ones.
-#[inline(always)]
+#[inline]
 pub(crate) fn plain_prefix(b: &[u8]) -> Option<(Decimal, &[u8])> {
     let (negative, b) = match b {
         [b'-', rest @ ..] => (true, rest),
@@ -237,8 +237,9 @@ pub(crate) fn plain_prefix(b: &[u8]) -> Option<(Decimal, &[u8])> {
         _ => (int, rest, 0),
     };
     // Checked before the value is used: with at most 19 digits the
-    // wrapping arithmetic of `digit_run` never wrapped.
-    if int_len + scale > 19 || scale > usize::from(MAX_SCALE) {
+    // wrapping arithmetic of `digit_run` never wrapped, and as there is at
+    // least one integer digit, at most 18 of them are decimals (MAX_SCALE).
+    if int_len + scale > 19 {
         return None;
     }
     Some((Decimal::make(negative, coeff, scale as u8), rest))
@@ -250,7 +251,7 @@ pub(crate) fn plain_prefix(b: &[u8]) -> Option<(Decimal, &[u8])> {
 /// on the next field before this one is done; classifying eight bytes at
 /// once (SWAR) measured slower, as each step then waits for the previous
 /// run's length.
-#[inline(always)]
+#[inline]
 fn digit_run(mut value: u64, mut b: &[u8]) -> (u64, &[u8]) {
     while let [c, rest @ ..] = b {
         let d = c.wrapping_sub(b'0');
@@ -282,6 +283,10 @@ impl Decimal {
 
     /// Zero, written `0`.
     pub const ZERO: Decimal = Decimal::make(false, 0, 0);
+
+    /// `0.1`: not a whole number (stands in for text that is no number at
+    /// all where only "is it an integer" matters).
+    pub(crate) const ONE_TENTH: Decimal = Decimal::make(false, 1, 1);
 
     /// Builds a decimal from its parts: `(-1)^negative × coeff × 10^-scale`.
     ///

@@ -131,6 +131,8 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
 /// kilobytes of flash.
 pub(crate) trait Field<'a>: Sized {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self;
+    /// The value of a field not read yet (zero, empty).
+    fn blank() -> Self;
     /// Reads `out.len()` values in a row (the elements of an array).
     fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
         for slot in out.iter_mut() {
@@ -143,12 +145,12 @@ pub(crate) trait Field<'a>: Sized {
     fn check(&self, range: &Range) -> Option<u16>;
 }
 
-/// Reads a decimal: the fast path for plain numbers inline, the rest (and
-/// every error) out of line.
-#[inline]
+/// Reads a decimal: plain numbers through the cursor's fast path, the
+/// rest (and every error) through the grammar.
+#[inline(never)]
 fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
-    match c.next_plain_number() {
-        Some(d) => d,
+    match c.take_plain() {
+        Some((d, _)) => d,
         None => read_num_general(c, param),
     }
 }
@@ -166,30 +168,28 @@ fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal 
     Decimal::ZERO
 }
 
-/// Reads an integer, as [`read_num`] does a decimal.
-#[inline]
-fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
-    match c.next_plain_int() {
-        Some(v) => v,
-        None => read_int_general(c, param),
-    }
-}
-
+/// Reads an integer: a whole number that fits an `i32`, also written with
+/// decimals (`5.000`) or as `-0`.
 #[inline(never)]
-fn read_int_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
-    match c.next_field() {
-        None => c.fail(param, Expected::Integer, Got::End),
-        Some("") => {}
-        Some(f) => match Decimal::parse(f)
-            .ok()
-            .and_then(|d| d.to_i64())
-            .and_then(|v| i32::try_from(v).ok())
-        {
-            Some(v) => return v,
-            None => c.fail(param, Expected::Integer, Got::Field(f)),
+fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
+    let (d, f) = match c.take_plain() {
+        Some(plain) => plain,
+        None => match c.next_field() {
+            None => {
+                c.fail(param, Expected::Integer, Got::End);
+                return 0;
+            }
+            Some("") => return 0,
+            Some(f) => (Decimal::parse(f).unwrap_or(Decimal::ONE_TENTH), f),
         },
+    };
+    match d.to_i64().and_then(|v| i32::try_from(v).ok()) {
+        Some(v) => v,
+        None => {
+            c.fail(param, Expected::Integer, Got::Field(f));
+            0
+        }
     }
-    0
 }
 
 /// Reads a count field (`nRegCount`, `nPointsSize`): an integer in
@@ -216,6 +216,9 @@ fn check_num(v: Decimal, range: &Range) -> Option<u16> {
 }
 
 impl<'a> Field<'a> for i32 {
+    fn blank() -> Self {
+        0
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_int(c, param)
     }
@@ -231,13 +234,21 @@ impl<'a> Field<'a> for i32 {
 }
 
 impl<'a> Field<'a> for Decimal {
+    fn blank() -> Self {
+        Decimal::ZERO
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_num(c, param)
     }
     fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
-        let plain = c.plain_numbers(out);
-        for slot in out.iter_mut().skip(plain) {
+        let mut rest = out;
+        loop {
+            let plain = c.plain_numbers(rest);
+            let Some((slot, tail)) = rest.get_mut(plain..).and_then(|r| r.split_first_mut()) else {
+                break;
+            };
             *slot = read_num_general(c, param);
+            rest = tail;
         }
     }
     fn write(&self, w: &mut Writer<'_>, _: &'static str) {
@@ -252,6 +263,9 @@ impl<'a> Field<'a> for Decimal {
 }
 
 impl<'a> Field<'a> for &'a str {
+    fn blank() -> Self {
+        ""
+    }
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         match c.next_field() {
@@ -282,6 +296,9 @@ impl<'a> Field<'a> for &'a str {
 pub struct RobotId(pub i32);
 
 impl<'a> Field<'a> for RobotId {
+    fn blank() -> Self {
+        RobotId(0)
+    }
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         if c.at_end() {
@@ -300,10 +317,13 @@ impl<'a> Field<'a> for RobotId {
     }
 }
 
-impl<'a, T: Field<'a> + Copy + Default, const N: usize> Field<'a> for [T; N] {
+impl<'a, T: Field<'a> + Copy, const N: usize> Field<'a> for [T; N] {
+    fn blank() -> Self {
+        [T::blank(); N]
+    }
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
-        let mut out = [T::default(); N];
+        let mut out = [T::blank(); N];
         T::read_slice(c, param, &mut out);
         out
     }
@@ -332,6 +352,9 @@ fn check_all<'a, 'e, T: Field<'a> + 'e>(
 }
 
 impl<'a, T: Field<'a>> Field<'a> for Option<T> {
+    fn blank() -> Self {
+        None
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         (!c.at_end()).then(|| T::read(c, param))
     }
@@ -374,6 +397,9 @@ fn list_len_ok(c: &mut Cursor<'_, '_>, param: &'static str, n: u16, cap: u16) ->
 /// request that says how many values come back (`ReadBoxDI,5,6,;` expects
 /// two), exactly that many are required.
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
+    fn blank() -> Self {
+        heapless::Vec::new()
+    }
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
@@ -422,6 +448,9 @@ impl<T: Clone, const N: usize> CountedList<T, N> {
 }
 
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
+    fn blank() -> Self {
+        CountedList(heapless::Vec::new())
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
         let cap = u16::try_from(N).unwrap_or(u16::MAX);
@@ -541,6 +570,9 @@ fn rest_text<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> (&'a str, u16) 
 }
 
 impl<'a> Field<'a> for TextList<'a> {
+    fn blank() -> Self {
+        TextList::default()
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let (text, count) = rest_text(c, param);
         TextList(ListRepr::Wire { text, count })
@@ -636,6 +668,9 @@ impl defmt::Format for PointList<'_> {
 }
 
 impl<'a> Field<'a> for PointList<'a> {
+    fn blank() -> Self {
+        PointList::default()
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let Some(count) = read_count(c, param, 0, u16::MAX) else {
             return PointList::default();
@@ -681,6 +716,9 @@ impl<'a> Field<'a> for PointList<'a> {
 
 /// The FSM state as a parameter (`ReadCurFSM` reply).
 impl<'a> Field<'a> for crate::fsm::FsmState {
+    fn blank() -> Self {
+        crate::fsm::FsmState::UnInitialize
+    }
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         Self::from(read_int(c, param))
     }

@@ -63,45 +63,38 @@ pub(crate) trait Message<'a>: Sized {
 const QUIRK_FIELDS: usize = 48;
 
 /// Reads the fields of known command `id` from `rest`, the message text
-/// after the name (or after `OK`), terminator included.
-#[inline]
-pub(crate) fn read_known<'a, T>(
+/// after the name (or after `OK`), terminator included, with `read`; then
+/// checks that nothing is left over. One function for every command (the
+/// reader is called through a reference), so it is in flash once.
+pub(crate) fn read_known<'a>(
     id: CommandId,
     name: &'a str,
     rest: Option<&'a str>,
     list_len: Option<u16>,
-    read: impl FnOnce(&mut Cursor<'_, 'a>) -> T,
-) -> Result<T, ParseError<'a>> {
-    if quirks::applies(id) {
-        return read_reordered(id, name, rest, list_len, read);
-    }
-    let mut c = Cursor::new(rest, id).with_list_len(list_len);
-    let v = read(&mut c);
-    c.finish()?;
-    Ok(v)
-}
-
-/// [`read_known`] for the few commands with a field-order quirk: their
-/// fields are reordered first if `quirks` recognises an alternative layout.
-#[inline(never)]
-fn read_reordered<'a, T>(
-    id: CommandId,
-    name: &'a str,
-    rest: Option<&'a str>,
-    list_len: Option<u16>,
-    read: impl FnOnce(&mut Cursor<'_, 'a>) -> T,
-) -> Result<T, ParseError<'a>> {
-    let raw = RawMessage::from_parts(name, rest)?;
+    read: &mut dyn FnMut(&mut Cursor<'_, 'a>),
+) -> Result<(), ParseError<'a>> {
     let mut scratch = heapless::Vec::<&'a str, QUIRK_FIELDS>::new();
-    let mut c = if quirks::reorder(id, &raw, &mut scratch) {
+    let mut c = if quirks::applies(id) && reorder(id, name, rest, &mut scratch)? {
         Cursor::from_slice(&scratch, id)
     } else {
         Cursor::new(rest, id)
     }
     .with_list_len(list_len);
-    let v = read(&mut c);
-    c.finish()?;
-    Ok(v)
+    read(&mut c);
+    c.finish()
+}
+
+/// Reorders the fields of a command with a field-order quirk into `out`
+/// if `quirks` recognises an alternative layout.
+#[inline(never)]
+fn reorder<'a>(
+    id: CommandId,
+    name: &'a str,
+    rest: Option<&'a str>,
+    out: &mut heapless::Vec<&'a str, QUIRK_FIELDS>,
+) -> Result<bool, ParseError<'a>> {
+    let raw = RawMessage::from_parts(name, rest)?;
+    Ok(quirks::reorder(id, &raw, out))
 }
 
 /// The name and fields' text of a request, or why it is not one.
@@ -129,7 +122,10 @@ fn parse_request_as<'a, M: Message<'a>>(id: CommandId, text: &'a str) -> Result<
             got: name,
         });
     }
-    read_known(id, name, rest, None, M::read_fields)
+    let mut out = None;
+    read_known(id, name, rest, None, &mut |c| out = Some(M::read_fields(c)))?;
+    // `read_known` always calls the reader.
+    out.ok_or(ParseError::NotARequest)
 }
 
 fn encode_with(
@@ -287,6 +283,7 @@ pub enum Reply<'a> {
 impl<'a> Reply<'a> {
     /// Reads a reply to the request described by `expect`. A success reply
     /// must carry the request's name (or one of its aliases).
+    #[inline]
     pub fn parse(text: &'a str, expect: ReplyExpect) -> Result<Self, ParseError<'a>> {
         let (name, rest) = grammar::head(text)?;
         let (first, after) = match rest {
@@ -309,9 +306,11 @@ impl<'a> Reply<'a> {
                         got: name,
                     });
                 }
-                read_known(id, name, after, expect.count, |c| {
-                    Reply::Ok(Response::read(id, c))
-                })
+                let mut out = Response::Unknown(RawMessage::EMPTY);
+                read_known(id, name, after, expect.count, &mut |c| {
+                    out = Response::read(id, c)
+                })?;
+                Ok(Reply::Ok(out))
             }
             Kind::ErrorCmd => Ok(Reply::ErrorCmd(RawMessage::from_parts(name, rest)?)),
             Kind::Request => Err(ParseError::NotAReply),
@@ -377,18 +376,29 @@ macro_rules! catalogue {
             pub const ALL: &'static [CommandId] = &[$(CommandId::$Cmd),*];
 
             /// The name written on the wire.
+            #[allow(clippy::indexing_slicing)]
             pub const fn name(self) -> &'static str {
-                match self { $(CommandId::$Cmd => $wire,)* }
+                // One text and an end offset per command (2 bytes each),
+                // where a table of string references took 8.
+                let i = self as usize;
+                let (start, end) = match i {
+                    0 => (0, NAME_ENDS[0]),
+                    // `i` is a discriminant: below `NAME_ENDS.len()`.
+                    _ if i < NAME_ENDS.len() => (NAME_ENDS[i - 1], NAME_ENDS[i]),
+                    _ => (0, 0),
+                };
+                match WIRE_NAMES.split_at_checked(end as usize) {
+                    Some((head, _)) => match head.split_at_checked(start as usize) {
+                        Some((_, name)) => name,
+                        None => "",
+                    },
+                    None => "",
+                }
             }
 
             /// Other names accepted on input for this command.
             pub fn aliases(self) -> impl Iterator<Item = &'static str> {
-                NAMES
-                    .get(CommandId::ALL.len()..)
-                    .unwrap_or(&[])
-                    .iter()
-                    .filter(move |(_, id)| *id == self)
-                    .map(|(a, _)| *a)
+                ALIASES.iter().filter(move |(_, id)| *id == self).map(|(a, _)| *a)
             }
 
             /// The section of the protocol document (`"4.10.5"`).
@@ -403,10 +413,13 @@ macro_rules! catalogue {
                 // message read looks its name up; see `host-tests/benches`).
                 let mut slot = super::name_hash(name.as_bytes());
                 for _ in 0..BY_HASH.len() {
-                    let key = *BY_HASH.get(slot)?;
-                    let (k, id) = NAMES.get(usize::from(key))?;
-                    if *k == name {
-                        return Some(*id);
+                    let key = usize::from(*BY_HASH.get(slot)?);
+                    let (k, id) = match CommandId::ALL.get(key) {
+                        Some(&id) => (id.name(), id),
+                        None => *ALIASES.get(key - CommandId::ALL.len())?,
+                    };
+                    if k == name {
+                        return Some(id);
                     }
                     slot = (slot + 1) % BY_HASH.len();
                 }
@@ -414,23 +427,46 @@ macro_rules! catalogue {
             }
         }
 
-        /// Every wire name and alias with its command: wire names in
-        /// [`CommandId::ALL`] order, then the aliases.
-        const NAMES: &[(&str, CommandId)] = &[
-            $( ($wire, CommandId::$Cmd), )*
-            $( $( ($alias, CommandId::$Cmd), )* )*
-        ];
+        /// Every wire name, in [`CommandId::ALL`] order, run together.
+        const WIRE_NAMES: &str = concat!($($wire),*);
 
-        /// Open addressing over [`NAMES`] (linear probing), indexed by
-        /// `name_hash`; `u8::MAX` marks a free slot. The indexing runs only
-        /// in the compiler.
+        /// Where each wire name ends in [`WIRE_NAMES`]. The indexing runs
+        /// only in the compiler.
+        #[allow(clippy::indexing_slicing)]
+        const NAME_ENDS: [u16; CommandId::ALL.len()] = {
+            let lens = [$($wire.len()),*];
+            let mut ends = [0u16; CommandId::ALL.len()];
+            let mut total = 0;
+            let mut i = 0;
+            while i < lens.len() {
+                total += lens[i];
+                assert!(total <= u16::MAX as usize);
+                ends[i] = total as u16;
+                i += 1;
+            }
+            ends
+        };
+
+        /// Every alias with its command (a short list: most commands have none).
+        const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
+
+        /// Open addressing (linear probing) over the wire names, as indices
+        /// into [`CommandId::ALL`], and the aliases, as that length plus
+        /// their index into `ALIASES`; indexed by `name_hash`, `u8::MAX`
+        /// marks a free slot. The indexing runs only in the compiler.
         #[allow(clippy::indexing_slicing)]
         const BY_HASH: [u8; super::HASH_SLOTS] = {
-            assert!(NAMES.len() < u8::MAX as usize && NAMES.len() * 3 < super::HASH_SLOTS * 2);
+            const KEYS: usize = CommandId::ALL.len() + ALIASES.len();
+            assert!(KEYS < u8::MAX as usize && KEYS * 3 < super::HASH_SLOTS * 2);
             let mut table = [u8::MAX; super::HASH_SLOTS];
             let mut k = 0;
-            while k < NAMES.len() {
-                let mut slot = super::name_hash(NAMES[k].0.as_bytes());
+            while k < KEYS {
+                let name = if k < CommandId::ALL.len() {
+                    CommandId::ALL[k].name()
+                } else {
+                    ALIASES[k - CommandId::ALL.len()].0
+                };
+                let mut slot = super::name_hash(name.as_bytes());
                 while table[slot] != u8::MAX {
                     slot = (slot + 1) % super::HASH_SLOTS;
                 }
@@ -571,11 +607,19 @@ macro_rules! catalogue {
             /// [`Request::Unknown`], not as an error.
             pub fn parse(text: &'a str) -> Result<Self, ParseError<'a>> {
                 let (name, rest) = request_head(text)?;
-                match CommandId::from_name(name) {
-                    None => Ok(Request::Unknown(RawMessage::from_parts(name, rest)?)),
-                    Some(id) => read_known(id, name, rest, None, |c| match id {
-                        $( CommandId::$Cmd => Request::$Cmd(Message::read_fields(c)), )*
-                    }),
+                let Some(id) = CommandId::from_name(name) else {
+                    return Ok(Request::Unknown(RawMessage::from_parts(name, rest)?));
+                };
+                let mut out = Request::Unknown(RawMessage::EMPTY);
+                read_known(id, name, rest, None, &mut |c| Request::read_into(id, c, &mut out))?;
+                Ok(out)
+            }
+
+            /// Reads the fields of command `id` into `out`, in place.
+            #[inline(never)]
+            fn read_into(id: CommandId, c: &mut Cursor<'_, 'a>, out: &mut Self) {
+                match id {
+                    $( CommandId::$Cmd => *out = Request::$Cmd(Message::read_fields(c)), )*
                 }
             }
 
@@ -649,6 +693,8 @@ macro_rules! catalogue {
         }
 
         impl<'a> Response<'a> {
+            /// Reads the values of command `id`.
+            #[inline(never)]
             pub(crate) fn read(id: CommandId, c: &mut Cursor<'_, 'a>) -> Self {
                 match id {
                     $( CommandId::$Cmd => Response::$Cmd(Message::read_fields(c)), )*
