@@ -77,6 +77,16 @@ impl StepWait {
         }
     }
 
+    /// A short text for logs.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            StepWait::BoxConnected => "box connected",
+            StepWait::Powered => "48 V on",
+            StepWait::MasterStarted => "controller connected",
+            StepWait::Enabled => "robot enabled",
+        }
+    }
+
     /// Judges FSM state `s`.
     pub fn verdict(self, s: FsmState) -> Verdict {
         use FsmState as F;

@@ -14,6 +14,10 @@
 //!   (the robot takes one motion at a time). A successful `GrpStop` (or the
 //!   watchdog's stop or pause) ends the running motion's command and every
 //!   motion still waiting in the queue in CommandAborted (MC_Stop).
+//! * After the `OK` of a bring-up step (`ConnectToBox`, `Electrify`,
+//!   `StartMaster`, `GrpEnable`) the job is parked until `ReadCurFSM` shows
+//!   the step's state ([`fsm::StepWait`]), then goes on with its next
+//!   message or is Done; meanwhile only urgent commands are sent.
 //! * Between commands the engine polls the status (see [`crate::status`]).
 //! * The PLC watchdog: while a motion runs, the heartbeat register must
 //!   change at least every configured period, else the configured action
@@ -44,6 +48,7 @@ use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
 use crate::registers as r;
 use crate::status::{self, LinkState, PollStep};
+use fsm::{StepWait, Verdict};
 use job::{Gate, Job, Results};
 
 /// Poll period of `ReadRobotState` while a motion runs.
@@ -63,12 +68,24 @@ struct Active {
     watchdog_fired: bool,
 }
 
+/// A job between two messages, or after its last one, waiting for the
+/// state its last bring-up step leads to.
+struct Pending {
+    job: Job,
+    /// Byte offset in `job.text` of the next message to send.
+    next: usize,
+    wait: StepWait,
+    deadline: Instant,
+}
+
 struct Engine<'c, 'a> {
     ctx: &'c Ctx<'a>,
     config: Config,
     config_gen: u32,
     target: Target,
     active: Option<Active>,
+    pending: Option<Pending>,
+    next_state_poll: Instant,
     backoff: Duration,
     retry_at: Instant,
     next_tick: Instant,
@@ -95,6 +112,8 @@ pub(crate) async fn run<S: Socket>(ctx: &Ctx<'_>, mut link: Link<S>) -> Infallib
         config_gen,
         target: target_of(&config),
         active: None,
+        pending: None,
+        next_state_poll: now,
         backoff: MIN_BACKOFF,
         retry_at: now,
         next_tick: now,
@@ -144,6 +163,10 @@ impl<'c, 'a> Engine<'c, 'a> {
             self.poll_motion(link).await;
             return;
         }
+        if self.pending.is_some() && now >= self.next_state_poll {
+            self.poll_pending(link).await;
+            return;
+        }
         if let Some(i) = self.round {
             self.poll_status(link, i).await;
             return;
@@ -151,6 +174,9 @@ impl<'c, 'a> Engine<'c, 'a> {
         let mut due = self.next_tick;
         if self.active.is_some() {
             due = due.min(self.next_motion_poll);
+        }
+        if self.pending.is_some() {
+            due = due.min(self.next_state_poll);
         }
         if let Some(w) = self.watchdog_due() {
             due = due.min(w);
@@ -285,11 +311,15 @@ impl<'c, 'a> Engine<'c, 'a> {
     /// The link is gone: every queued and running command ends in Error.
     async fn link_lost<S: Socket>(&mut self, link: &mut Link<S>, e: GatewayError) {
         let active = self.active.take();
+        let pending = self.pending.take().map(|p| p.job.source);
         self.round = None;
         self.ctx.with(|s| {
             if let Some(a) = &active {
                 s.finish(a.source, Outcome::gateway(GatewayError::LinkLost));
                 s.regs.set(r::STATUS_ACTIVE_MOTION, 0);
+            }
+            if let Some(source) = pending {
+                s.finish(source, Outcome::gateway(GatewayError::LinkLost));
             }
             s.fail_queue(GatewayError::LinkLost);
             s.link_up = false;
@@ -303,7 +333,9 @@ impl<'c, 'a> Engine<'c, 'a> {
 
     /// Takes the next job that may go now.
     fn take_job(&mut self) -> Option<Job> {
-        let gate = if self.active.is_some() {
+        let gate = if self.pending.is_some() {
+            Gate::UrgentOnly
+        } else if self.active.is_some() {
             Gate::MotionRunning
         } else {
             Gate::Open
@@ -322,8 +354,18 @@ impl<'c, 'a> Engine<'c, 'a> {
 
     /// Sends a job's messages in turn and ends it (or starts its motion).
     async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job) {
+        self.run_job_from(link, job, 0).await;
+    }
+
+    /// Sends a job's messages from byte offset `from` in turn and ends it
+    /// (or starts its motion). After a bring-up step's `OK` the job is
+    /// parked until the FSM shows the step's state ([`Self::poll_pending`]).
+    async fn run_job_from<S: Socket>(&mut self, link: &mut Link<S>, job: Job, from: usize) {
         let mut last = None;
-        for msg in job.text.split_inclusive(';') {
+        let mut next = from;
+        let mut park = None;
+        for msg in job.text.get(from..).unwrap_or("").split_inclusive(';') {
+            next += msg.len();
             info!(
                 "{} #{}: send {}",
                 job.source.name(),
@@ -407,8 +449,28 @@ impl<'c, 'a> Engine<'c, 'a> {
                 }
                 return;
             }
+            if let Some(wait) = last.and_then(StepWait::after) {
+                park = Some(wait);
+                break;
+            }
         }
         let now = Instant::now();
+        if let Some(wait) = park {
+            debug!(
+                "{} #{}: waiting for {}",
+                job.source.name(),
+                job.source.index(),
+                wait.as_str()
+            );
+            self.pending = Some(Pending {
+                job,
+                next,
+                wait,
+                deadline: now + fsm::STATE_TIMEOUT,
+            });
+            self.next_state_poll = now + fsm::STATE_POLL;
+            return;
+        }
         if job.motion {
             self.ctx.with(|s| {
                 job.source.set_active(&mut s.regs, true);
@@ -615,6 +677,45 @@ impl<'c, 'a> Engine<'c, 'a> {
         })
         .await?;
         Ok(true)
+    }
+
+    /// `ReadCurFSM` for a job parked after a bring-up step: goes on with
+    /// the job once the step's state is reached, ends it in Error at a
+    /// fault state or after [`fsm::STATE_TIMEOUT`].
+    async fn poll_pending<S: Socket>(&mut self, link: &mut Link<S>) {
+        self.next_state_poll = Instant::now() + fsm::STATE_POLL;
+        let Ok(state) = self.read_fsm(link).await else {
+            return;
+        };
+        let Some(p) = self.pending.as_ref() else {
+            return;
+        };
+        let verdict = state.map_or(Verdict::Wait, |s| p.wait.verdict(s));
+        let verdict = match verdict {
+            Verdict::Wait if Instant::now() >= p.deadline => {
+                Verdict::Failed(GatewayError::StateNotReached)
+            }
+            v => v,
+        };
+        match verdict {
+            Verdict::Wait => {}
+            Verdict::Reached => {
+                if let Some(p) = self.pending.take() {
+                    self.run_job_from(link, p.job, p.next).await;
+                }
+            }
+            Verdict::Failed(e) => {
+                if let Some(p) = self.pending.take() {
+                    warn!(
+                        "{} #{}: {} not reached",
+                        p.job.source.name(),
+                        p.job.source.index(),
+                        p.wait.as_str()
+                    );
+                    self.end(p.job.source, Outcome::gateway(e));
+                }
+            }
+        }
     }
 
     /// `ReadCurFSM` (also copied into `FSM_STATE`); `Ok(None)` when the
