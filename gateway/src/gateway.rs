@@ -218,8 +218,7 @@ impl<'a> Ctx<'a> {
         }
         config.store(&mut regs);
         regs.set(r::STATUS_VERSION, VERSION);
-        regs.set(r::STATUS_FSM, u16::MAX);
-        regs.set_f32(r::STATUS_OVERRIDE, f32::NAN, config.word_order);
+        status::invalidate(&mut regs, config.word_order);
         regs.set(r::STATUS_SOURCE, config.status_source as u16);
         Ctx {
             shared: Mutex::new(RefCell::new(Shared {

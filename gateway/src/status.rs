@@ -189,10 +189,23 @@ pub fn apply_robot_state(s: &response::ReadRobotState, regs: &mut RegisterFile, 
     );
 }
 
-/// Marks the robot status invalid (link down), keeping the last values.
-pub fn invalidate(regs: &mut RegisterFile) {
-    regs.set_bits(r::STATUS_FLAGS, r::FLAG_VALID, false);
-    regs.set(r::STATUS_IO_VALID, 0);
+/// Marks the robot status unknown (at start, and when the link is lost):
+/// `FSM_STATE` 65535, `ROBOT_FLAGS` 0 (valid bit clear), error code and
+/// axis 0, override, joints and pose NaN, I/O registers and `IO_VALID` 0.
+/// Nothing of an earlier link survives, so no old value can pass for a
+/// current one.
+pub fn invalidate(regs: &mut RegisterFile, order: WordOrder) {
+    regs.set(r::STATUS_FSM, u16::MAX);
+    regs.set(r::STATUS_FLAGS, 0);
+    regs.set_i32(r::STATUS_ERROR_CODE, 0, order);
+    regs.set(r::STATUS_ERROR_AXIS, 0);
+    regs.set_f32(r::STATUS_OVERRIDE, f32::NAN, order);
+    for i in 0..12 {
+        regs.set_f32(r::STATUS_JOINTS + 2 * i, f32::NAN, order);
+    }
+    for a in r::STATUS_BOX_DI..=r::STATUS_IO_VALID {
+        regs.set(a, 0);
+    }
 }
 
 /// The actual joints from the status registers (IK reference).
@@ -246,5 +259,14 @@ mod tests {
             [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
         );
         assert_eq!(regs.get_f32(r::STATUS_POSE + 4, WordOrder::LowFirst), 445.0);
+        invalidate(&mut regs, WordOrder::HighFirst);
+        assert_eq!(regs.get(r::STATUS_FSM), 0xFFFF);
+        assert_eq!(regs.get(r::STATUS_FLAGS), 0);
+        assert!(regs
+            .get_f32(r::STATUS_POSE + 10, WordOrder::HighFirst)
+            .is_nan());
+        assert_eq!(regs.get(r::STATUS_BOX_DO), 0);
+        // The IK reference of moves to a pose stays finite.
+        assert_eq!(joints(&regs, WordOrder::HighFirst), [0.0; 6]);
     }
 }

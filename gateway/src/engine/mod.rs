@@ -323,7 +323,9 @@ impl<'c, 'a> Engine<'c, 'a> {
             }
             s.fail_queue(GatewayError::LinkLost);
             s.link_up = false;
-            status::invalidate(&mut s.regs);
+            let order = s.config.word_order;
+            status::invalidate(&mut s.regs, order);
+            s.status_time = None;
             s.regs.set_bits(r::STATUS_WATCHDOG, 1, false);
         });
         link.close().await;

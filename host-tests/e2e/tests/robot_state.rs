@@ -38,3 +38,36 @@ async fn power_on_and_enable_are_done_when_the_robot_is_there() {
     );
     rig.stop().await;
 }
+
+/// Finding M2: after the robot link was lost, FSM_STATE and ROBOT_FLAGS
+/// kept their old values (only the valid bit cleared). Every robot value
+/// must read "unknown" while there is no link.
+#[tokio::test]
+async fn without_a_link_the_robot_status_reads_unknown() {
+    let Rig { sim, gw, mut plc } = Rig::start(Config::ready()).await;
+    plc.wait_status().await;
+    plc.wait_reg(r::STATUS_FSM, "FSM StandBy", |v| v == 33)
+        .await;
+    plc.wait_reg(r::STATUS_IO_VALID, "I/O read", |v| v == 0x3F)
+        .await;
+    sim.shutdown().await;
+    plc.wait_reg(r::STATUS_LINK_STATE, "link down", |v| v != 3)
+        .await;
+    let s = plc.read(0, 50).await;
+    assert_eq!(s[usize::from(r::STATUS_FSM)], 0xFFFF, "FSM_STATE");
+    assert_eq!(s[usize::from(r::STATUS_FLAGS)], 0, "ROBOT_FLAGS");
+    assert_eq!(hans_e2e::i32_of(&s[8..10]), 0, "ROBOT_ERROR_CODE");
+    assert_eq!(s[usize::from(r::STATUS_AGE_MS)], 0xFFFF, "STATUS_AGE_MS");
+    for i in 0..12 {
+        let a = usize::from(r::STATUS_JOINTS) + 2 * i;
+        assert!(hans_e2e::f32_of(&s[a..]).is_nan(), "position value {i}");
+    }
+    assert!(hans_e2e::f32_of(&s[usize::from(r::STATUS_OVERRIDE)..]).is_nan());
+    assert_eq!(
+        &s[usize::from(r::STATUS_BOX_DI)..=usize::from(r::STATUS_IO_VALID)],
+        [0; 7],
+        "I/O"
+    );
+    drop(plc);
+    gw.stop();
+}
