@@ -266,9 +266,18 @@ pub trait Storage {
     fn load(&mut self, buf: &mut [u8]) -> Result<usize, StorageError>;
     /// Replaces the stored image.
     fn save(&mut self, image: &[u8]) -> Result<(), StorageError>;
+    /// `true` if a saved image survives a restart (file, flash). A
+    /// configuration applied with a storage that does not is reported as
+    /// "applied, not saved" (`CONFIG_RESULT` 3).
+    fn is_persistent(&self) -> bool {
+        true
+    }
 }
 
-/// Storage in RAM: survives reconnects, not a power cycle (the QEMU board).
+/// Storage in RAM, lost at every restart: for boards without persistent
+/// storage (the QEMU board) and the host binary without `--config`. It is
+/// not persistent ([`Storage::is_persistent`]): a configuration applied
+/// with it is reported as not saved.
 pub struct RamStorage {
     image: [u8; IMAGE_LEN],
     len: usize,
@@ -291,6 +300,10 @@ impl RamStorage {
 }
 
 impl Storage for RamStorage {
+    fn is_persistent(&self) -> bool {
+        false
+    }
+
     fn load(&mut self, buf: &mut [u8]) -> Result<usize, StorageError> {
         let src = self.image.get(..self.len).ok_or(StorageError::Io)?;
         let dst = buf.get_mut(..self.len).ok_or(StorageError::TooLarge)?;

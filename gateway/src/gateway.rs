@@ -335,7 +335,8 @@ impl<'a> Ctx<'a> {
         let checked = self.with(|s| {
             match Config::from_words(&Config::words_of(&s.regs)) {
                 Err(bad) => {
-                    s.regs.set(r::CONTROL_CONFIG_RESULT, 1);
+                    s.regs
+                        .set(r::CONTROL_CONFIG_RESULT, ConfigResult::Invalid as u16);
                     s.regs.set(r::CONTROL_CONFIG_BAD_ADDR, bad.addr);
                     Err(bad)
                 }
@@ -366,26 +367,50 @@ impl<'a> Ctx<'a> {
             warn!("config: register {} invalid, not applied", bad.addr);
             return Err(WriteError::Value);
         }
-        let saved = self.storage.borrow_mut().save(&image);
-        self.with(|s| match saved {
-            Ok(()) => {
-                s.regs.set(r::CONTROL_CONFIG_RESULT, 0);
+        let (saved, persistent) = {
+            let mut storage = self.storage.borrow_mut();
+            (storage.save(&image), storage.is_persistent())
+        };
+        let result = match (saved, persistent) {
+            (Ok(()), true) => ConfigResult::Saved,
+            (Ok(()), false) => ConfigResult::NotSaved,
+            (Err(_), _) => ConfigResult::SaveFailed,
+        };
+        self.with(|s| {
+            s.regs.set(r::CONTROL_CONFIG_RESULT, result as u16);
+            if result == ConfigResult::Saved {
                 let n = s.regs.get(r::CONTROL_SAVES).wrapping_add(1);
                 s.regs.set(r::CONTROL_SAVES, n);
             }
-            Err(_) => s.regs.set(r::CONTROL_CONFIG_RESULT, 2),
         });
-        match saved {
-            Ok(()) => {
+        match result {
+            ConfigResult::Saved => {
                 info!("config: applied and saved");
                 Ok(())
             }
-            Err(_) => {
+            ConfigResult::NotSaved => {
+                warn!("config: applied, not saved: no persistent storage (lost at restart)");
+                Ok(())
+            }
+            _ => {
                 warn!("config: applied, but saving failed");
                 Err(WriteError::Device)
             }
         }
     }
+}
+
+/// Values of `CONFIG_RESULT`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ConfigResult {
+    /// Applied and saved.
+    Saved = 0,
+    /// A value was out of range: nothing applied (exception 03).
+    Invalid = 1,
+    /// Applied, but the storage failed (exception 04).
+    SaveFailed = 2,
+    /// Applied, not saved: the gateway has no persistent storage.
+    NotSaved = 3,
 }
 
 fn flip(o: config::WordOrder) -> config::WordOrder {

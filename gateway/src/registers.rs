@@ -205,12 +205,13 @@ pub const CONTROL_HEARTBEAT: u16 = 140;
 /// discard edits (reload the active configuration), 3 = load factory
 /// defaults into the configuration registers (not applied until 1).
 pub const CONTROL_CONFIG_COMMAND: u16 = 141;
-/// Result of the last configuration command: 0 ok, 1 invalid value, 2
-/// storage failed.
+/// Result of the last configuration command: 0 ok (applied and saved), 1
+/// invalid value, 2 applied but storage failed, 3 applied but not saved (no
+/// persistent storage).
 pub const CONTROL_CONFIG_RESULT: u16 = 142;
 /// Address of the first invalid configuration register (when result = 1).
 pub const CONTROL_CONFIG_BAD_ADDR: u16 = 143;
-/// Number of successful saves since start (wraps).
+/// Number of saves to persistent storage since start (wraps).
 pub const CONTROL_SAVES: u16 = 144;
 
 // ------------------------------------------------------- command channels

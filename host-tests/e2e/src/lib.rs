@@ -286,17 +286,19 @@ impl Plc {
     }
 
     /// Sets configuration registers and applies them (command 1); panics
-    /// if refused.
-    pub async fn configure(&mut self, settings: &[(u16, u16)]) {
+    /// if refused. Returns `CONFIG_RESULT`: 0 applied and saved, 3 applied
+    /// but not saved (no persistent storage, as in [`Rig`]).
+    pub async fn configure(&mut self, settings: &[(u16, u16)]) -> u16 {
         for (a, v) in settings {
             self.write(*a, &[*v]).await;
         }
         self.write(r::CONTROL_CONFIG_COMMAND, &[1]).await;
-        assert_eq!(
-            self.read1(r::CONTROL_CONFIG_RESULT).await,
-            0,
-            "configuration refused"
+        let result = self.read1(r::CONTROL_CONFIG_RESULT).await;
+        assert!(
+            result == 0 || result == 3,
+            "configuration refused: CONFIG_RESULT {result}"
         );
+        result
     }
 }
 

@@ -584,8 +584,10 @@ async fn configuration_and_triggers_persist_and_a_failed_save_is_exception_04() 
     let mut plc = Plc::connect(gw.modbus_addr()).await;
     plc.write(r::trigger_text(7), &text_words("GrpStop,0,;", 16))
         .await;
-    plc.configure(&[(r::CONFIG_POLL_MS, 50), (r::CONFIG_WATCHDOG_MS, 1000)])
+    let result = plc
+        .configure(&[(r::CONFIG_POLL_MS, 50), (r::CONFIG_WATCHDOG_MS, 1000)])
         .await;
+    assert_eq!(result, 0, "applied and saved to the file");
     assert_eq!(plc.read1(r::CONTROL_SAVES).await, 1);
     drop(plc);
     gw.stop();
