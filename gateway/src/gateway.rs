@@ -39,13 +39,34 @@ pub struct Options {
     pub robot_override: Option<RobotOverride>,
 }
 
-/// A robot address given at start, overriding storage.
+/// A robot address given at start (host `--robot` / `--robot-listen`). It
+/// replaces the robot setting of a stored configuration for this run (the
+/// log says so); the other stored settings are kept. The configuration
+/// registers show it, so a save (`CONFIG_COMMAND` 1) stores it.
 #[derive(Clone, Copy, Debug)]
 pub enum RobotOverride {
     /// Connect to this address and port.
     Connect(Ipv4Addr, u16),
     /// Listen on this port for the controller.
     Listen(u16),
+}
+
+impl RobotOverride {
+    /// `config` with this robot setting.
+    pub fn apply(self, mut config: Config) -> Config {
+        match self {
+            RobotOverride::Connect(ip, port) => {
+                config.robot_ip = ip;
+                config.robot_port = port;
+                config.link_mode = config::LinkMode::Connect;
+            }
+            RobotOverride::Listen(port) => {
+                config.listen_port = port;
+                config.link_mode = config::LinkMode::Listen;
+            }
+        }
+        config
+    }
 }
 
 impl Default for Options {
@@ -184,37 +205,44 @@ impl<'a> Ctx<'a> {
     pub fn new(storage: &'a mut dyn Storage, opts: &Options) -> Self {
         let mut regs = RegisterFile::new();
         let mut image = [0u8; IMAGE_LEN];
-        let mut config = match storage.load(&mut image) {
+        let loaded = match storage.load(&mut image) {
             Ok(0) => {
                 info!("config: nothing stored, using defaults");
-                opts.defaults
+                None
             }
             Ok(n) => match config::decode_image(image.get(..n).unwrap_or(&[]), &mut regs) {
                 Ok(c) => {
                     info!("config: loaded from storage");
-                    c
+                    Some(c)
                 }
                 Err(_) => {
                     warn!("config: stored image invalid, using defaults");
-                    opts.defaults
+                    None
                 }
             },
             Err(_) => {
                 warn!("config: storage read failed, using defaults");
-                opts.defaults
+                None
             }
         };
-        match opts.robot_override {
-            Some(RobotOverride::Connect(ip, port)) => {
-                config.robot_ip = ip;
-                config.robot_port = port;
-                config.link_mode = config::LinkMode::Connect;
+        let mut config = loaded.unwrap_or(opts.defaults);
+        if let Some(o) = opts.robot_override {
+            config = o.apply(config);
+            if let Some(saved) = loaded.filter(|c| o.apply(*c) != *c) {
+                // The command line wins (the operator asked for it), but
+                // never silently: the other saved settings are kept.
+                let [a, b, c, d] = saved.robot_ip.octets();
+                warn!(
+                    "config: the robot setting given at start overrides the saved one (saved: link mode {}, robot {}.{}.{}.{}:{}, listen port {}) for this run; CONFIG_COMMAND 1 would save the new one",
+                    saved.link_mode as u16,
+                    a,
+                    b,
+                    c,
+                    d,
+                    saved.robot_port,
+                    saved.listen_port
+                );
             }
-            Some(RobotOverride::Listen(port)) => {
-                config.listen_port = port;
-                config.link_mode = config::LinkMode::Listen;
-            }
-            None => {}
         }
         config.store(&mut regs);
         regs.set(r::STATUS_VERSION, VERSION);
