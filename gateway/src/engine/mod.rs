@@ -252,7 +252,7 @@ impl<'c, 'a> Engine<'c, 'a> {
                     Ok(()) => self.on_connected(link),
                     Err(e) => {
                         debug!("robot link: connect failed: {}", e.as_str());
-                        self.backoff_after(GatewayError::NotConnected);
+                        self.backoff_after(GatewayError::ConnectFailed);
                     }
                 }
             }
@@ -268,7 +268,7 @@ impl<'c, 'a> Engine<'c, 'a> {
                     Either3::First(Ok(())) => self.on_connected(link),
                     Either3::First(Err(e)) => {
                         warn!("robot link: listen failed: {}", e.as_str());
-                        self.backoff_after(GatewayError::NotConnected);
+                        self.backoff_after(GatewayError::ConnectFailed);
                         Timer::at(self.retry_at).await;
                     }
                     _ => {}

@@ -71,3 +71,30 @@ async fn without_a_link_the_robot_status_reads_unknown() {
     drop(plc);
     gw.stop();
 }
+
+/// Finding (error codes): a refused connect showed 39500 ("not
+/// connected", a command code) in LINK_LAST_ERROR; REGISTERS.md names
+/// 39504 for it.
+#[tokio::test]
+async fn a_refused_connect_shows_39504_in_link_last_error() {
+    use std::net::{Ipv4Addr, SocketAddrV4};
+
+    use hans_gateway::host::{HostOptions, RunningGateway};
+
+    // Nothing listens on port 1 of the loopback: every connect is refused.
+    let gw = RunningGateway::start(HostOptions::new(
+        SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0),
+        SocketAddrV4::new(Ipv4Addr::LOCALHOST, 1),
+    ))
+    .expect("start the gateway");
+    let mut plc = hans_e2e::Plc::connect(gw.modbus_addr()).await;
+    let e = plc
+        .wait_reg(r::STATUS_LINK_LAST_ERROR, "a link error", |v| v != 0)
+        .await;
+    assert_eq!(e, 39504);
+    // A command fired meanwhile is refused with 39500 (not sent).
+    let ended = plc.run(0, code::RESET, &[], 1).await;
+    assert_eq!((ended.error_id, ended.error_source), (39500, 3));
+    drop(plc);
+    gw.stop();
+}
