@@ -19,7 +19,7 @@
 //! | 14 | relative linear move (`MoveRelL`) | P0 axis 0-5, P1 distance, P2 frame 0 user / 1 tool |
 //! | 20 | `SetOverride` | P0 ratio 0.01-1 |
 //! | 21 | `SetBoxDO` | P0 bit 0-7, P1 value 0/1 |
-//! | 22 | `SetEndDO` | P0 bit 0-3, P1 value 0/1 |
+//! | 22 | `SetEndDO` | P0 bit 0-2, P1 value 0/1 |
 //! | 23 | `SetBoxCO` | P0 bit 0-7, P1 value 0/1 |
 //! | 30-33 | `StartScript`, `StopScript`, `PauseScript`, `ContinueScript` | — |
 //! | 34 | `RunFunc` | TEXT1 function, TEXT2 parameters separated by `,` |
@@ -267,10 +267,17 @@ pub fn build(source: Source, seq: u16, inp: &Inputs<'_>) -> Result<Job, GatewayE
             CommandId::SetBoxCO
         }
         code::SET_END_DO => {
+            // The document allows bit 3 (older tool ends had four outputs),
+            // but tool ends have three and END_DO reads outputs 0-2 only
+            // (`ReadEO`): keep the code and the register in agreement.
+            let bit = int(p[0])?;
+            if bit > 2 {
+                return Err(BAD);
+            }
             put(
                 &request::SetEndDO {
                     rbt_id: id,
-                    bit: int(p[0])?,
+                    bit,
                     value: int(p[1])?,
                 },
                 &mut text,
@@ -408,6 +415,9 @@ mod tests {
         let e = |c, p: &[f32]| build(Source::Raw, 0, &inputs(c, p)).unwrap_err();
         assert_eq!(e(code::SET_BOX_DO, &[1.5, 1.0]), GatewayError::BadParameter);
         assert_eq!(e(code::SET_BOX_DO, &[8.0, 1.0]), GatewayError::BadParameter);
+        // Tool-end outputs 0-2, the ones END_DO shows.
+        assert_eq!(e(code::SET_END_DO, &[3.0, 1.0]), GatewayError::BadParameter);
+        assert!(build(Source::Raw, 0, &inputs(code::SET_END_DO, &[2.0, 1.0])).is_ok());
         assert_eq!(e(code::SET_OVERRIDE, &[1.5]), GatewayError::BadParameter);
         assert_eq!(
             e(code::SET_OVERRIDE, &[f32::NAN]),
