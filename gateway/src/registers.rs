@@ -683,8 +683,10 @@ impl RegisterFile {
         (u32::from(hi) << 16) | u32::from(lo)
     }
 
-    /// Writes an `f32`.
+    /// Writes an `f32`. Zero is always written as +0.0: the controller
+    /// sends `-0.000`, and some HMIs show negative zero as "-0".
     pub fn set_f32(&mut self, addr: u16, v: f32, order: WordOrder) {
+        let v = if v == 0.0 { 0.0 } else { v };
         self.set_u32(addr, v.to_bits(), order);
     }
 
@@ -781,6 +783,8 @@ mod tests {
         r.set_f32(STATUS_OVERRIDE, 1.5, WordOrder::LowFirst);
         assert_eq!(r.slice(STATUS_OVERRIDE, 2).unwrap(), &[0x0000, 0x3FC0]);
         assert_eq!(r.get_f32(STATUS_OVERRIDE, WordOrder::LowFirst), 1.5);
+        r.set_f32(STATUS_OVERRIDE, -0.0, WordOrder::HighFirst);
+        assert_eq!(r.slice(STATUS_OVERRIDE, 2).unwrap(), &[0, 0], "+0.0");
         r.set_i32(STATUS_ERROR_CODE, -2, WordOrder::HighFirst);
         assert_eq!(r.slice(STATUS_ERROR_CODE, 2).unwrap(), &[0xFFFF, 0xFFFE]);
         r.set_text(RAW_REQUEST, 3, b"ABC");
