@@ -58,6 +58,12 @@ pub const MIN_BACKOFF: Duration = Duration::from_millis(200);
 /// Longest reconnect delay.
 pub const MAX_BACKOFF: Duration = Duration::from_secs(5);
 
+/// A reply read without a type: any name, the values as sent.
+const UNTYPED: ReplyExpect = ReplyExpect {
+    command: None,
+    count: None,
+};
+
 struct Active {
     source: Source,
     since: Instant,
@@ -375,10 +381,7 @@ impl<'c, 'a> Engine<'c, 'a> {
                 msg
             );
             let req = Request::parse(msg).ok();
-            let expect = req.as_ref().map(|q| q.expect()).unwrap_or(ReplyExpect {
-                command: None,
-                count: None,
-            });
+            let expect = req.as_ref().map(|q| q.expect()).unwrap_or(UNTYPED);
             last = req.as_ref().and_then(|q| q.command());
             let req_name = req.as_ref().map(|q| q.name()).unwrap_or("");
             let deadline = self.deadline();
@@ -396,7 +399,32 @@ impl<'c, 'a> Engine<'c, 'a> {
                 Err(LinkError::BadFrame(_)) => Some(Outcome::gateway(GatewayError::BadReply)),
                 Ok(text) => {
                     let order = self.config.word_order;
-                    let parsed = Reply::parse(text, expect);
+                    let parsed = match Reply::parse(text, expect) {
+                        // An OK the codec cannot type (extra values, as
+                        // newer firmware may send): the robot accepted the
+                        // command. Success where the gateway does not use
+                        // the values; typed checks stay where it does.
+                        Err(e)
+                            if job.results == Results::None
+                                && !matches!(e, ParseError::NameMismatch { .. }) =>
+                        {
+                            match Reply::parse(text, UNTYPED) {
+                                Ok(Reply::Ok(Response::Unknown(raw)))
+                                    if same_command(raw.name(), req_name) =>
+                                {
+                                    warn!(
+                                        "{} #{}: reply values not as documented, accepted: {}",
+                                        job.source.name(),
+                                        job.source.index(),
+                                        text
+                                    );
+                                    Ok(Reply::Ok(Response::Unknown(raw)))
+                                }
+                                _ => Err(e),
+                            }
+                        }
+                        p => p,
+                    };
                     self.ctx.with(|s| {
                         if job.source == Source::Raw {
                             let b = text.as_bytes();
@@ -406,7 +434,9 @@ impl<'c, 'a> Engine<'c, 'a> {
                             s.regs.set(r::RAW_REPLY_TRUNCATED, u16::from(cut));
                         }
                         match &parsed {
-                            Ok(Reply::Ok(Response::Unknown(raw))) if raw.name() != req_name => {
+                            Ok(Reply::Ok(Response::Unknown(raw)))
+                                if !same_command(raw.name(), req_name) =>
+                            {
                                 Some(Outcome::gateway(GatewayError::ReplyMismatch))
                             }
                             Ok(Reply::Ok(resp)) => {
@@ -825,4 +855,10 @@ impl<'c, 'a> Engine<'c, 'a> {
         let last = self.ctx.with(|s| s.last_beat).max(a.since);
         Some(last + millis(self.config.watchdog_ms) + Duration::from_millis(1))
     }
+}
+
+/// `true` if reply name `a` answers request name `b`: the same name, or
+/// two names (aliases) of one known command.
+fn same_command(a: &str, b: &str) -> bool {
+    a == b || CommandId::from_name(a).is_some_and(|id| CommandId::from_name(b) == Some(id))
 }

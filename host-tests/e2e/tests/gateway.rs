@@ -499,6 +499,42 @@ async fn raw_commands_reach_every_protocol_command() {
     rig.stop().await;
 }
 
+/// Finding: `SetBoxDO,OK,1,;` (an OK with a value the document does not
+/// list, as newer firmware might send) ended in 39502. The robot accepted
+/// the command: where the gateway does not use the values it is Done;
+/// where it does (code 40's results) the reply is still checked.
+#[tokio::test]
+async fn an_ok_reply_with_extra_values_is_success_where_values_are_unused() {
+    let mut rig = Rig::start(Config::ready()).await;
+    let odd = |name: &str, reply: &str| {
+        FaultRule::new(Fault::Garbage(reply.as_bytes().to_vec()))
+            .only(name)
+            .times(1)
+    };
+    rig.sim.faults().add(odd("SetBoxDO", "SetBoxDO,OK,1,;"));
+    let e = rig.plc.run(0, code::SET_BOX_DO, &[1.0, 1.0], 1).await;
+    assert!(e.done(), "{e:?}");
+    rig.sim
+        .faults()
+        .add(odd("SetOverride", "SetOverride,OK,0.5,extra,;"));
+    let e = rig.plc.run(0, code::SET_OVERRIDE, &[0.5], 2).await;
+    assert!(e.done(), "{e:?}");
+    assert_eq!(f32_of(&rig.plc.read(r::STATUS_OVERRIDE, 2).await), 0.5);
+    // The values matter here: a short ReadActPos is still a bad reply (for
+    // every ReadActPos meanwhile: the status polls read it too).
+    rig.sim
+        .faults()
+        .add(FaultRule::new(Fault::Garbage(b"ReadActPos,OK,1,2,;".to_vec())).only("ReadActPos"));
+    let e = rig.plc.run(0, code::READ_ACT_POS, &[], 3).await;
+    assert_eq!((e.error_id, e.error_source), (39502, SRC_GATEWAY), "{e:?}");
+    rig.sim.faults().clear();
+    // And a reply naming another command is still a mismatch.
+    rig.sim.faults().add(odd("SetBoxCO", "SetBoxDO,OK,;"));
+    let e = rig.plc.run(0, code::SET_BOX_CO, &[1.0, 1.0], 4).await;
+    assert_eq!((e.error_id, e.error_source), (39505, SRC_GATEWAY), "{e:?}");
+    rig.stop().await;
+}
+
 #[tokio::test]
 async fn a_trigger_entry_fires_on_its_bit() {
     let mut rig = Rig::start(Config::ready()).await;
