@@ -497,7 +497,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
     /// its value and text. Anything else (spaces, exponents, `;` right after
     /// the value, an empty field) is left unread for the grammar
     /// (`next_field`, `Decimal::parse`) to decide.
-    #[inline(never)]
+    #[inline]
     pub(crate) fn take_plain(&mut self) -> Option<(Decimal, &'a str)> {
         let Source::Text(Some(rest)) = self.src else {
             return None;

@@ -132,7 +132,12 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
 pub(crate) trait Field<'a>: Sized {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self;
     /// The value of a field not read yet (zero, empty).
-    fn blank() -> Self;
+    const BLANK: Self;
+    /// Reads the field into `self`, in place.
+    #[inline]
+    fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: &'static str) {
+        *self = Self::read(c, param);
+    }
     /// Reads `out.len()` values in a row (the elements of an array).
     fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
         for slot in out.iter_mut() {
@@ -216,9 +221,7 @@ fn check_num(v: Decimal, range: &Range) -> Option<u16> {
 }
 
 impl<'a> Field<'a> for i32 {
-    fn blank() -> Self {
-        0
-    }
+    const BLANK: Self = 0;
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_int(c, param)
     }
@@ -234,9 +237,7 @@ impl<'a> Field<'a> for i32 {
 }
 
 impl<'a> Field<'a> for Decimal {
-    fn blank() -> Self {
-        Decimal::ZERO
-    }
+    const BLANK: Self = Decimal::ZERO;
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_num(c, param)
     }
@@ -263,9 +264,7 @@ impl<'a> Field<'a> for Decimal {
 }
 
 impl<'a> Field<'a> for &'a str {
-    fn blank() -> Self {
-        ""
-    }
+    const BLANK: Self = "";
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         match c.next_field() {
@@ -296,9 +295,7 @@ impl<'a> Field<'a> for &'a str {
 pub struct RobotId(pub i32);
 
 impl<'a> Field<'a> for RobotId {
-    fn blank() -> Self {
-        RobotId(0)
-    }
+    const BLANK: Self = RobotId(0);
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         if c.at_end() {
@@ -318,14 +315,16 @@ impl<'a> Field<'a> for RobotId {
 }
 
 impl<'a, T: Field<'a> + Copy, const N: usize> Field<'a> for [T; N] {
-    fn blank() -> Self {
-        [T::blank(); N]
-    }
+    const BLANK: Self = [T::BLANK; N];
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
-        let mut out = [T::blank(); N];
+        let mut out = [T::BLANK; N];
         T::read_slice(c, param, &mut out);
         out
+    }
+    #[inline(never)]
+    fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: &'static str) {
+        T::read_slice(c, param, self)
     }
     #[inline(never)]
     fn write(&self, w: &mut Writer<'_>, param: &'static str) {
@@ -352,9 +351,7 @@ fn check_all<'a, 'e, T: Field<'a> + 'e>(
 }
 
 impl<'a, T: Field<'a>> Field<'a> for Option<T> {
-    fn blank() -> Self {
-        None
-    }
+    const BLANK: Self = None;
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         (!c.at_end()).then(|| T::read(c, param))
     }
@@ -397,9 +394,7 @@ fn list_len_ok(c: &mut Cursor<'_, '_>, param: &'static str, n: u16, cap: u16) ->
 /// request that says how many values come back (`ReadBoxDI,5,6,;` expects
 /// two), exactly that many are required.
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
-    fn blank() -> Self {
-        heapless::Vec::new()
-    }
+    const BLANK: Self = heapless::Vec::new();
     #[inline(never)]
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
@@ -448,9 +443,7 @@ impl<T: Clone, const N: usize> CountedList<T, N> {
 }
 
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
-    fn blank() -> Self {
-        CountedList(heapless::Vec::new())
-    }
+    const BLANK: Self = CountedList(heapless::Vec::new());
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let mut out = heapless::Vec::new();
         let cap = u16::try_from(N).unwrap_or(u16::MAX);
@@ -570,9 +563,7 @@ fn rest_text<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> (&'a str, u16) 
 }
 
 impl<'a> Field<'a> for TextList<'a> {
-    fn blank() -> Self {
-        TextList::default()
-    }
+    const BLANK: Self = TextList(ListRepr::Slice(&[]));
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let (text, count) = rest_text(c, param);
         TextList(ListRepr::Wire { text, count })
@@ -668,9 +659,7 @@ impl defmt::Format for PointList<'_> {
 }
 
 impl<'a> Field<'a> for PointList<'a> {
-    fn blank() -> Self {
-        PointList::default()
-    }
+    const BLANK: Self = PointList(ListRepr::Slice(&[]));
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         let Some(count) = read_count(c, param, 0, u16::MAX) else {
             return PointList::default();
@@ -716,9 +705,7 @@ impl<'a> Field<'a> for PointList<'a> {
 
 /// The FSM state as a parameter (`ReadCurFSM` reply).
 impl<'a> Field<'a> for crate::fsm::FsmState {
-    fn blank() -> Self {
-        crate::fsm::FsmState::UnInitialize
-    }
+    const BLANK: Self = crate::fsm::FsmState::UnInitialize;
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         Self::from(read_int(c, param))
     }

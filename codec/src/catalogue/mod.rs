@@ -55,8 +55,17 @@ pub trait Command<'a>: Sized {
 
 /// How a table struct reads and writes its fields (crate-internal).
 pub(crate) trait Message<'a>: Sized {
-    fn read_fields(c: &mut Cursor<'_, 'a>) -> Self;
+    /// A value with every field blank (zero, empty).
+    fn blank() -> Self;
+    /// Reads the fields into `self`, in place: each value is written once,
+    /// where it stays.
+    fn read_in(&mut self, c: &mut Cursor<'_, 'a>);
     fn write_fields(&self, w: &mut Writer<'_>);
+    fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
+        let mut m = Self::blank();
+        m.read_in(c);
+        m
+    }
 }
 
 /// Most fields any command with a field-order quirk has.
@@ -308,7 +317,7 @@ impl<'a> Reply<'a> {
                 }
                 let mut out = Response::Unknown(RawMessage::EMPTY);
                 read_known(id, name, after, expect.count, &mut |c| {
-                    out = Response::read(id, c)
+                    Response::read_into(id, c, &mut out)
                 })?;
                 Ok(Reply::Ok(out))
             }
@@ -510,14 +519,18 @@ macro_rules! catalogue {
 
         $(
             impl<'a> Message<'a> for request::$Cmd $(<$lt>)? {
+                #[inline(always)]
+                fn blank() -> Self {
+                    request::$Cmd { $( $field: Field::BLANK, )* }
+                }
                 #[inline]
                 #[allow(unused_variables)]
-                fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
+                fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
                     let names: &[&str] = &[$(stringify!($field)),*];
                     if names.is_empty() {
                         c.skip_stray_robot_id();
                     }
-                    request::$Cmd { $( $field: Field::read(c, stringify!($field)), )* }
+                    $( Field::read_in(&mut self.$field, c, stringify!($field)); )*
                 }
                 #[inline(never)]
                 #[allow(unused_variables)]
@@ -574,10 +587,14 @@ macro_rules! catalogue {
             }
 
             impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
+                #[inline(always)]
+                fn blank() -> Self {
+                    response::$Cmd { $( $rfield: Field::BLANK, )* }
+                }
                 #[inline]
                 #[allow(unused_variables)]
-                fn read_fields(c: &mut Cursor<'_, 'a>) -> Self {
-                    response::$Cmd { $( $rfield: Field::read(c, stringify!($rfield)), )* }
+                fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
+                    $( Field::read_in(&mut self.$rfield, c, stringify!($rfield)); )*
                 }
                 #[inline(never)]
                 #[allow(unused_variables)]
@@ -619,7 +636,12 @@ macro_rules! catalogue {
             #[inline(never)]
             fn read_into(id: CommandId, c: &mut Cursor<'_, 'a>, out: &mut Self) {
                 match id {
-                    $( CommandId::$Cmd => *out = Request::$Cmd(Message::read_fields(c)), )*
+                    $( CommandId::$Cmd => {
+                        *out = Request::$Cmd(Message::blank());
+                        if let Request::$Cmd(m) = out {
+                            m.read_in(c);
+                        }
+                    } )*
                 }
             }
 
@@ -693,11 +715,16 @@ macro_rules! catalogue {
         }
 
         impl<'a> Response<'a> {
-            /// Reads the values of command `id`.
+            /// Reads the values of command `id` into `out`, in place.
             #[inline(never)]
-            pub(crate) fn read(id: CommandId, c: &mut Cursor<'_, 'a>) -> Self {
+            pub(crate) fn read_into(id: CommandId, c: &mut Cursor<'_, 'a>, out: &mut Self) {
                 match id {
-                    $( CommandId::$Cmd => Response::$Cmd(Message::read_fields(c)), )*
+                    $( CommandId::$Cmd => {
+                        *out = Response::$Cmd(Message::blank());
+                        if let Response::$Cmd(m) = out {
+                            m.read_in(c);
+                        }
+                    } )*
                 }
             }
 
