@@ -17,9 +17,12 @@
 //!
 //! Other function codes get exception 01; unmapped addresses, or writes to
 //! read-only ones, exception 02 (nothing is written); a configuration
-//! command that cannot be saved, exception 04. A frame whose MBAP header is
-//! not Modbus (protocol id ≠ 0, length < 2 or > 254) closes that client's
-//! connection only. Unit ids are not checked (the gateway answers all).
+//! command that cannot be saved, exception 04. A frame longer than any
+//! Modbus ADU (MBAP length > 254, e.g. FC 16 with 124 registers) is read
+//! off the stream and answered with exception 03 (01 for an unknown
+//! function code), as the specification asks for a quantity out of range.
+//! A frame whose MBAP header is not Modbus (protocol id ≠ 0, length < 2)
+//! closes that client's connection only. Unit ids are not checked (the gateway answers all).
 //! A client silent for [`IDLE_TIMEOUT`] is disconnected.
 
 use core::convert::Infallible;
@@ -88,14 +91,32 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
             Some(h) if len >= 7 => {
                 let proto = u16::from_be_bytes([h[2], h[3]]);
                 let length = usize::from(u16::from_be_bytes([h[4], h[5]]));
-                if proto != 0 || !(2..=254).contains(&length) {
+                if proto != 0 || length < 2 {
                     info!(
                         "modbus: not a Modbus frame (protocol {}, length {}), closing",
                         proto, length
                     );
                     return;
                 }
-                6 + length
+                if length > MAX_ADU - 6 {
+                    // Longer than any Modbus ADU: too many values (e.g.
+                    // FC 16 with 124 registers). Read it off the stream and
+                    // answer as for any quantity out of range.
+                    if len < 8 {
+                        8
+                    } else {
+                        let Some(n) = oversized(sock, &buf, len, 6 + length, &mut out).await else {
+                            return;
+                        };
+                        if sock.write_all(out.get(..n).unwrap_or(&[])).await.is_err() {
+                            return;
+                        }
+                        len = 0;
+                        continue;
+                    }
+                } else {
+                    6 + length
+                }
             }
             _ => 7,
         };
@@ -125,6 +146,44 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
         buf.copy_within(need..len, 0);
         len -= need;
     }
+}
+
+/// A frame of `total` bytes that cannot fit [`MAX_ADU`], of which `head`
+/// holds the first `have` (header and function code): reads the rest off
+/// the stream without keeping it and writes the exception reply into
+/// `out` (03, or 01 for an unknown function code). `None` when the client
+/// went away or fell silent.
+async fn oversized<S: Socket>(
+    sock: &mut S,
+    head: &[u8; MAX_ADU],
+    have: usize,
+    total: usize,
+    out: &mut [u8; MAX_ADU],
+) -> Option<usize> {
+    let hdr = Header {
+        transaction_id: u16::from_be_bytes([head[0], head[1]]),
+        unit_id: head[6],
+    };
+    let fc = head[7];
+    debug!("modbus: fc {} frame of {} bytes, too long", fc, total);
+    let mut sink = [0u8; 64];
+    let mut left = total.saturating_sub(have);
+    while left > 0 {
+        let room = sink.get_mut(..left.min(64))?;
+        match with_timeout(IDLE_TIMEOUT, sock.read(room)).await {
+            Ok(Ok(n)) if n > 0 => left = left.saturating_sub(n),
+            _ => return None,
+        }
+    }
+    let exception = match fc & 0x7F {
+        1..=6 | 15 | 16 | 23 => Exception::IllegalDataValue,
+        _ => Exception::IllegalFunction,
+    };
+    let pdu = ResponsePdu(Err(ExceptionResponse {
+        function: FunctionCode::new(fc & 0x7F),
+        exception,
+    }));
+    encode_response(ResponseAdu { hdr, pdu }, out).ok()
 }
 
 fn exception(e: WriteError) -> Exception {

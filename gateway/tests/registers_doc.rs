@@ -93,3 +93,36 @@ fn the_documented_command_codes_are_the_engine_codes() {
         assert_eq!(built.is_ok(), documented, "code {c}: {built:?}");
     }
 }
+
+/// Finding (doc gap): reads across unmapped gaps give exception 02, so the
+/// doc must say which blocks to read. Its block table must be exactly the
+/// gap-free runs of the map.
+#[test]
+fn the_documented_blocks_are_the_gap_free_runs_of_the_map() {
+    // The runs of TABLE: areas that follow each other without a gap.
+    let mut runs: Vec<(u16, u16)> = Vec::new();
+    for a in TABLE {
+        match runs.last_mut() {
+            Some((_, end)) if *end + 1 == a.start => *end = a.start + a.len - 1,
+            _ => runs.push((a.start, a.start + a.len - 1)),
+        }
+    }
+    let rows = table_after(&doc(), "### The blocks to read");
+    let mut documented = Vec::new();
+    for row in &rows {
+        let (first, last, count) = (&row[1], &row[2], row[3].parse::<u16>().expect("count"));
+        if let (Ok(f), Ok(l)) = (first.parse::<u16>(), last.parse::<u16>()) {
+            assert_eq!(l - f + 1, count, "{row:?}");
+            documented.push((f, l));
+        } else {
+            // "1200 + 100 × n": one row for the sixteen trigger entries.
+            let base = |t: &str| t.split(' ').next().and_then(|v| v.parse::<u16>().ok());
+            let (f, l) = (base(first).expect("first"), base(last).expect("last"));
+            assert_eq!(l - f + 1, count, "{row:?}");
+            for n in 0..16 {
+                documented.push((f + 100 * n, l + 100 * n));
+            }
+        }
+    }
+    assert_eq!(documented, runs);
+}

@@ -466,6 +466,38 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     rig.stop().await;
 }
 
+/// Finding: a 124-register FC 16 write (MBAP length 255) closed the
+/// connection. The Modbus specification answers a quantity out of range
+/// with exception 03; the connection stays usable.
+#[tokio::test]
+async fn an_oversized_write_gets_exception_03_and_the_connection_stays() {
+    let rig = Rig::start(Config::ready()).await;
+    let mut s = TcpStream::connect(SocketAddr::V4(rig.gw.modbus_addr()))
+        .await
+        .expect("connect");
+    for (tid, regs) in [(1u8, 124u16), (2, 300)] {
+        let bytes = 2 * regs;
+        let length = 7 + bytes;
+        let mut frame = vec![0, tid, 0, 0];
+        frame.extend(length.to_be_bytes());
+        frame.extend([1, 0x10, 0, 140]);
+        frame.extend(regs.to_be_bytes());
+        frame.push(bytes as u8); // wraps for 300: the quantity is checked first
+        frame.extend(std::iter::repeat_n(0u8, usize::from(bytes)));
+        assert_eq!(
+            raw_frame(&mut s, &frame).await,
+            [0x90, 3],
+            "{regs} registers"
+        );
+    }
+    // The same connection goes on.
+    assert_eq!(
+        raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]).await,
+        [3, 2, 0x01, 0x00]
+    );
+    rig.stop().await;
+}
+
 #[tokio::test]
 async fn raw_commands_reach_every_protocol_command() {
     let mut rig = Rig::start(Config::ready()).await;
