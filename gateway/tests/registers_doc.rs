@@ -126,3 +126,42 @@ fn the_documented_blocks_are_the_gap_free_runs_of_the_map() {
     }
     assert_eq!(documented, runs);
 }
+
+/// Finding: the example's "Write 200-227" covered P0-P11 while its values
+/// were Execute, code, sequence, reserved and P0-P8. The range must hold
+/// exactly the values listed.
+#[test]
+fn the_example_write_range_holds_exactly_its_values() {
+    let doc = doc();
+    let line = doc
+        .lines()
+        .find(|l| l.starts_with("1. Write ") && l.contains("with FC 16"))
+        .expect("the example's first step");
+    let range = line
+        .trim_start_matches("1. Write ")
+        .split(' ')
+        .next()
+        .expect("range");
+    let (a, b) = range.split_once('-').expect("A-B");
+    let (a, b): (u16, u16) = (a.parse().expect("A"), b.parse().expect("B"));
+    // `[0, 12, 7, 0, P0..P8 as f32 pairs]`: four words, then floats.
+    let values = line
+        .split('[')
+        .nth(1)
+        .and_then(|t| t.split(']').next())
+        .expect("the values");
+    let mut words = 0u16;
+    for item in values.split(", ") {
+        if let Some(ps) = item.strip_prefix('P') {
+            let (first, last) = ps.split_once("..P").expect("Pm..Pn");
+            let last = last.split(' ').next().expect("n");
+            let n = last.parse::<u16>().expect("n") - first.parse::<u16>().expect("m") + 1;
+            words += 2 * n;
+        } else {
+            item.parse::<u16>().expect("a register value");
+            words += 1;
+        }
+    }
+    assert_eq!(b - a + 1, words, "{line}");
+    assert_eq!(a, hans_gateway::registers::channel_base(0));
+}

@@ -567,6 +567,35 @@ async fn an_ok_reply_with_extra_values_is_success_where_values_are_unused() {
     rig.stop().await;
 }
 
+/// Finding (doc): REGISTERS.md said only that STATUS reads 0 when Execute
+/// falls. It now says exactly what clears (outcome bits, ERROR_ID,
+/// ERROR_SOURCE) and what stays until the next rising edge (echoes,
+/// results); this pins that behaviour.
+#[tokio::test]
+async fn when_execute_falls_the_outcome_clears_and_the_echoes_stay() {
+    let mut rig = Rig::start(Config::ready()).await;
+    let b = r::channel_base(0);
+    let e = rig.plc.run(0, 999, &[], 41).await;
+    assert_eq!((e.error_id, e.error_source), (39501, SRC_GATEWAY));
+    let w = rig.plc.read(b + r::CH_STATUS, 6).await;
+    assert_eq!(
+        w,
+        [0, 41, 0, 0, 0, 999],
+        "status, seq, error id, source, command"
+    );
+    let e = rig.plc.run(0, code::READ_ACT_POS, &[], 42).await;
+    assert!(e.done(), "{e:?}");
+    let results = rig.plc.read(b + r::CH_RESULTS, 48).await;
+    let j = rig.plc.read(r::STATUS_JOINTS, 12).await;
+    assert_eq!(
+        &results[..12],
+        &j[..],
+        "R0-R5 are the joints, kept after Execute fell"
+    );
+    assert_eq!(rig.plc.read(b + r::CH_STATUS, 2).await, [0, 42]);
+    rig.stop().await;
+}
+
 #[tokio::test]
 async fn a_trigger_entry_fires_on_its_bit() {
     let mut rig = Rig::start(Config::ready()).await;
