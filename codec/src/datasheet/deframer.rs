@@ -203,23 +203,12 @@ impl<const N: usize> Deframer<N> {
         }
     }
 
-    /// Appends the bytes of `payload` that are not stripped to `buf`, a run
-    /// between stripped bytes at a time.
-    fn keep(&mut self, mut payload: &[u8]) {
-        while !payload.is_empty() {
-            let run = scan::stripped(payload).unwrap_or(payload.len());
-            let end = self.len + run;
-            // `len` + what is left of the payload <= `payload_len` <= `N`:
-            // the room is always there.
-            if let (Some(dst), Some(src)) = (self.buf.get_mut(self.len..end), payload.get(..run)) {
-                dst.copy_from_slice(src);
-                self.len = end;
-            }
-            // Then past the stripped bytes (indentation comes in groups).
-            let rest = payload.get(run..).unwrap_or(&[]);
-            let skip = rest.iter().position(|&b| !is_stripped(b));
-            payload = rest.get(skip.unwrap_or(rest.len())..).unwrap_or(&[]);
-        }
+    /// Appends the bytes of `payload` that are not stripped to `buf`.
+    fn keep(&mut self, payload: &[u8]) {
+        // `len` + what is left of the payload <= `payload_len` <= `N`: the
+        // room is always there.
+        let room = self.buf.get_mut(self.len..).unwrap_or(&mut []);
+        self.len += scan::copy_kept(room, payload);
     }
 
     /// One header byte; `Some(error)` when it completed a header that was

@@ -1,13 +1,13 @@
-//! Word-at-a-time byte search: the next quote or backslash in a JSON string,
-//! the next stripped byte in a payload.
+//! Word-at-a-time byte work: the next quote or backslash in a JSON string,
+//! and the deframer's copy that drops stripped bytes.
 //!
-//! Both searches are the inner loops of the DataSheet path (a ~2 KiB payload
-//! at up to 20 Hz per port), and a byte-per-iteration loop was a large share
-//! of the decode time. Here a machine word (4 bytes on Cortex-M, 8 on a PC)
-//! is tested per step with the classic "has a zero byte" bit trick, with no
-//! `unsafe` and no table. The `memchr` crate does the same (and SIMD on a
-//! PC), but it is not a dependency of this crate and the two searches
-//! needed here are a few lines.
+//! Both are inner loops of the DataSheet path (a ~2 KiB payload at up to
+//! 20 Hz per port), and a byte-per-iteration loop was a large share of the
+//! decode time. Here a machine word (4 bytes on Cortex-M, 8 on a PC) is
+//! tested per step with the classic "has a zero byte" bit trick, with no
+//! `unsafe` and no table. The `memchr` crate searches the same way (and
+//! with SIMD on a PC), but it is not a dependency of this crate, does not
+//! copy, and what is needed here is a few lines.
 
 use core::mem::size_of;
 
@@ -52,6 +52,7 @@ fn find(hay: &[u8], hit: impl Fn(usize) -> usize, is: impl Fn(u8) -> bool) -> Op
 }
 
 /// Index of the first `"` or `\` in `hay`.
+#[inline]
 pub(crate) fn quote_or_backslash(hay: &[u8]) -> Option<usize> {
     find(
         hay,
@@ -60,14 +61,49 @@ pub(crate) fn quote_or_backslash(hay: &[u8]) -> Option<usize> {
     )
 }
 
-/// Index of the first NUL, `\n` or `\t` in `hay` (the bytes official
-/// readers strip).
-pub(crate) fn stripped(hay: &[u8]) -> Option<usize> {
-    find(
-        hay,
-        |w| zero_bytes(w) | zero_bytes(w ^ splat(b'\n')) | zero_bytes(w ^ splat(b'\t')),
-        super::deframer::is_stripped,
-    )
+/// The high bit of each NUL, `\n` or `\t` byte of `w` (the bytes official
+/// readers strip), exact for the lowest such byte (see [`zero_bytes`]).
+const fn stripped_bytes(w: usize) -> usize {
+    zero_bytes(w) | zero_bytes(w ^ splat(b'\n')) | zero_bytes(w ^ splat(b'\t'))
+}
+
+/// Copies the bytes of `src` that are not NUL, `\n` or `\t` to the start of
+/// `dst` and returns how many; the copy stops early only if `dst` is full.
+/// Bytes of `dst` after the returned length may be overwritten.
+///
+/// A word at a time: a word with no stripped byte is stored whole; one with
+/// some is copied byte by byte without branches (each byte is stored, and
+/// the length grows only for kept ones). The next word's position never
+/// depends on this one's contents, so the processor can overlap the steps.
+pub(crate) fn copy_kept(dst: &mut [u8], src: &[u8]) -> usize {
+    let mut n = 0;
+    let mut words = src.chunks_exact(W);
+    for word in &mut words {
+        let mut bytes = [0u8; W];
+        bytes.copy_from_slice(word);
+        if stripped_bytes(usize::from_le_bytes(bytes)) == 0 {
+            if let Some(out) = dst.get_mut(n..n + W) {
+                out.copy_from_slice(word);
+                n += W;
+                continue;
+            }
+        }
+        n = copy_bytes(dst, n, word);
+    }
+    copy_bytes(dst, n, words.remainder())
+}
+
+/// [`copy_kept`] a byte at a time, appending at `dst[n..]`; the new length.
+#[inline(always)]
+fn copy_bytes(dst: &mut [u8], mut n: usize, src: &[u8]) -> usize {
+    for &b in src {
+        let Some(slot) = dst.get_mut(n) else {
+            break;
+        };
+        *slot = b;
+        n += usize::from(!super::deframer::is_stripped(b));
+    }
+    n
 }
 
 #[cfg(test)]
@@ -95,11 +131,41 @@ mod tests {
                         let hay = &hay[..len];
                         let q = hay.iter().position(|&b| b == b'"' || b == b'\\');
                         assert_eq!(quote_or_backslash(hay), q, "{hay:?}");
-                        let s = hay.iter().position(|&b| matches!(b, 0 | b'\n' | b'\t'));
-                        assert_eq!(stripped(hay), s, "{hay:?}");
                     }
                 }
             }
+        }
+    }
+
+    /// Every pattern of kept and stripped bytes over a word and a bit,
+    /// with room to spare and with exactly the room needed: the same bytes
+    /// as a plain filter.
+    #[test]
+    fn copy_kept_is_a_filter() {
+        let len = W + 6;
+        let stripped = [0u8, b'\n', b'\t'];
+        for pattern in 0u32..(1 << len) {
+            let mut src = [0u8; 8 + 6];
+            let src = &mut src[..len];
+            for (i, b) in src.iter_mut().enumerate() {
+                *b = if pattern >> i & 1 == 1 {
+                    stripped[i % 3]
+                } else {
+                    // Neighbours of the stripped bytes' values.
+                    [b'a', 0x01, 0x0B, 0x08, 0x80][i % 5]
+                };
+            }
+            let want: heapless::Vec<u8, 32> = src
+                .iter()
+                .copied()
+                .filter(|&b| !matches!(b, 0 | b'\n' | b'\t'))
+                .collect();
+            let mut roomy = [0xEEu8; 32];
+            let n = copy_kept(&mut roomy, src);
+            assert_eq!(&roomy[..n], &want[..], "{src:?}");
+            let mut tight = [0xEEu8; 32];
+            let n = copy_kept(&mut tight[..want.len()], src);
+            assert_eq!(&tight[..n], &want[..], "{src:?}");
         }
     }
 
