@@ -368,72 +368,33 @@ impl<'a> Tokenizer<'a> {
             if self.byte(i) == Some(b'"') {
                 break;
             }
-            i = self.escape(i)?;
+            // An escape: check it, then go on after it.
+            let (at, e) = self.significant_at(i + 1);
+            i = at + 1;
+            match e {
+                None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
+                Some(b'"' | b'\\' | b'/' | b'b' | b'f' | b'n' | b'r' | b't') => {}
+                Some(b'u') => {
+                    for _ in 0..4 {
+                        let (at, h) = self.significant_at(i);
+                        match h {
+                            Some(h) if h.is_ascii_hexdigit() => i = at + 1,
+                            None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
+                            Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
+                        }
+                    }
+                }
+                Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
+            }
         }
         let s = self.input.get(start..i).unwrap_or(&[]);
         self.pos = i + 1;
         Ok(s)
     }
 
-    /// Checks the escape whose `\` is at `at`; returns where the string
-    /// goes on after it. Kept out of line: escapes are rare, and inlined
-    /// they slow the scan loop of [`Tokenizer::string`].
-    #[inline(never)]
-    fn escape(&mut self, at: usize) -> Result<usize, JsonError> {
-        let (at, e) = self.significant_at(at + 1);
-        let mut i = at + 1;
-        match e {
-            None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
-            Some(b'"' | b'\\' | b'/' | b'b' | b'f' | b'n' | b'r' | b't') => {}
-            Some(b'u') => {
-                for _ in 0..4 {
-                    let (at, h) = self.significant_at(i);
-                    match h {
-                        Some(h) if h.is_ascii_hexdigit() => i = at + 1,
-                        None => return Err(self.fail(at, JsonErrorKind::UnexpectedEnd)),
-                        Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
-                    }
-                }
-            }
-            Some(_) => return Err(self.fail(at, JsonErrorKind::BadEscape)),
-        }
-        Ok(i)
-    }
-
     /// A number starting under `pos`: `-? digits (. digits)? ([eE] [+-]? digits)?`
     /// with ignored bytes anywhere in it.
     fn number(&mut self) -> Result<&'a [u8], JsonError> {
-        let start = self.pos;
-        let rest = self.input.get(start..).unwrap_or(&[]);
-        // The usual forms, `-?digits(.digits)?` with no ignored byte, in one
-        // pass. When the next byte cannot continue a number, the general
-        // path below would take the same bytes and accept them.
-        let digits = |from: usize| {
-            let tail = rest.get(from..).unwrap_or(&[]);
-            from + tail
-                .iter()
-                .position(|b| !b.is_ascii_digit())
-                .unwrap_or(tail.len())
-        };
-        let sign = usize::from(rest.first() == Some(&b'-'));
-        let mut end = digits(sign);
-        let mut plain = end > sign;
-        if plain && rest.get(end) == Some(&b'.') {
-            let frac = end + 1;
-            end = digits(frac);
-            plain = end > frac;
-        }
-        if plain && !rest.get(end).is_some_and(|&b| is_number_byte(b)) {
-            self.pos = start + end;
-            return Ok(rest.get(..end).unwrap_or(&[]));
-        }
-        self.number_general()
-    }
-
-    /// [`Tokenizer::number`] for any form: takes every byte that can be
-    /// part of a number, then checks the grammar.
-    #[inline(never)]
-    fn number_general(&mut self) -> Result<&'a [u8], JsonError> {
         let start = self.pos;
         let mut end = start;
         while self.byte(end).is_some_and(is_number_byte) {
@@ -480,7 +441,7 @@ impl<'a> Tokenizer<'a> {
 }
 
 /// A byte that can be part of a number (ignored ones included).
-fn is_number_byte(b: u8) -> bool {
+pub(crate) fn is_number_byte(b: u8) -> bool {
     b.is_ascii_digit() || matches!(b, b'-' | b'+' | b'.' | b'e' | b'E') || is_stripped(b)
 }
 

@@ -43,6 +43,7 @@ pub mod deframer;
 pub mod header;
 pub mod json;
 mod names;
+mod read;
 mod scan;
 pub mod sheet;
 

@@ -91,14 +91,14 @@ impl Slot {
 pub(crate) struct Found {
     /// Index into the field names given to [`Names::new`].
     pub(crate) field: Option<usize>,
-    /// Whether it is also the name of a group.
-    pub(crate) group: bool,
+    /// Index into the group names, when it is (also) the name of a group.
+    pub(crate) group: Option<usize>,
 }
 
 impl Found {
     const NOTHING: Found = Found {
         field: None,
-        group: false,
+        group: None,
     };
 }
 
@@ -275,7 +275,7 @@ impl Names {
             {
                 return Some(Found {
                     field: (slot.field != NONE).then_some(usize::from(slot.field)),
-                    group: slot.group != NONE,
+                    group: (slot.group != NONE).then_some(usize::from(slot.group)),
                 });
             }
         }
@@ -322,7 +322,7 @@ pub(crate) mod tests {
     fn oracle(names: &Names, raw: &[u8]) -> Found {
         Found {
             field: names.fields.iter().position(|f| matches(raw, f)),
-            group: names.groups.iter().any(|g| matches(raw, g)),
+            group: names.groups.iter().position(|g| matches(raw, g)),
         }
     }
 
@@ -352,14 +352,14 @@ pub(crate) mod tests {
             NAMES.find(b"ftdata"),
             Found {
                 field: Some(1),
-                group: true
+                group: Some(1)
             }
         );
         assert_eq!(
             NAMES.find(b"POSAND\nVEL"),
             Found {
                 field: None,
-                group: true
+                group: Some(0)
             }
         );
     }
@@ -434,12 +434,12 @@ pub(crate) mod tests {
         for (i, n) in MANY.iter().enumerate() {
             assert_eq!(T.find(n.as_bytes()).field, Some(i));
         }
-        assert!(T.find(b"a0").group);
+        assert_eq!(T.find(b"a0").group, Some(0));
         assert_eq!(
             T.find(b"E0"),
             Found {
                 field: None,
-                group: true
+                group: Some(1)
             }
         );
         assert_eq!(T.find(b"f0"), Found::NOTHING);

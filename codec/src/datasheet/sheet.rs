@@ -73,8 +73,9 @@ use heapless::Vec;
 
 use super::deframer::is_stripped;
 use super::header::{emit_header, HEADER_LEN, MAX_PAYLOAD};
-use super::json::{significant, JsonError, JsonErrorKind, Token, Tokenizer, Writer};
+use super::json::{significant, JsonError, Token, Writer};
 use super::names::Names;
+use super::read;
 use crate::error::EncodeError;
 use crate::fsm::FsmState;
 use crate::number::Decimal;
@@ -402,7 +403,7 @@ enum Form {
 
 /// The number in a number or string token. `Ok(None)` for `null` and `""`;
 /// `Err(())` for anything else that is not a number.
-fn decimal_of(token: &Token<'_>) -> Result<Option<Decimal>, ()> {
+pub(super) fn decimal_of(token: &Token<'_>) -> Result<Option<Decimal>, ()> {
     let raw = match *token {
         Token::Number(raw) | Token::Str(raw) => raw,
         Token::Bool(b) => return Ok(Some(Decimal::from_int(i64::from(b)))),
@@ -439,18 +440,26 @@ fn decimal_of(token: &Token<'_>) -> Result<Option<Decimal>, ()> {
 trait Scalar: Copy {
     /// A placeholder value (fills arrays before they are read).
     const ZERO: Self;
-    /// What [`Scalar::from_token`] wants.
+    /// What [`Scalar::from_decimal`] wants.
     const EXPECTED: FieldExpected;
+    /// The value for a number.
+    fn from_decimal(d: Decimal) -> Result<Self, FieldExpected>;
     /// The value of a scalar token; `Ok(None)` for `null` / `""`.
-    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected>;
+    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
+        match decimal_of(token) {
+            Ok(Some(d)) => Self::from_decimal(d).map(Some),
+            Ok(None) => Ok(None),
+            Err(()) => Err(Self::EXPECTED),
+        }
+    }
     fn write(&self, form: Form, w: &mut Writer<'_>);
 }
 
 impl Scalar for Decimal {
     const ZERO: Self = Decimal::ZERO;
     const EXPECTED: FieldExpected = FieldExpected::Number;
-    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
-        decimal_of(token).map_err(|()| Self::EXPECTED)
+    fn from_decimal(d: Decimal) -> Result<Self, FieldExpected> {
+        Ok(d)
     }
     fn write(&self, form: Form, w: &mut Writer<'_>) {
         // Three decimals as controllers write them; more are kept, never
@@ -460,57 +469,13 @@ impl Scalar for Decimal {
     }
 }
 
-/// An integer written as plain digits (`0`, `-12`, `"33"`), the form nearly
-/// every integer field comes in, read without going through [`Decimal`].
-/// `None` for any other form, which [`integer_of`] reads as a decimal (with
-/// the same result for the forms taken here: the test
-/// `plain_integers_read_as_decimals_do` checks).
-fn plain_integer(token: &Token<'_>) -> Option<i64> {
-    let (Token::Number(raw) | Token::Str(raw)) = *token else {
-        return None;
-    };
-    let (negative, digits) = match raw.split_first() {
-        Some((b'-', rest)) => (true, rest),
-        _ => (false, raw),
-    };
-    // At most 18 digits: below 10^18, no overflow.
-    if digits.is_empty() || digits.len() > 18 {
-        return None;
-    }
-    let mut v: i64 = 0;
-    for &b in digits {
-        if !b.is_ascii_digit() {
-            return None;
-        }
-        v = v * 10 + i64::from(b - b'0');
-    }
-    Some(if negative { -v } else { v })
-}
-
-fn integer_of(token: &Token<'_>) -> Result<Option<i64>, FieldExpected> {
-    match plain_integer(token) {
-        Some(v) => Ok(Some(v)),
-        None => integer_of_decimal(token),
-    }
-}
-
-/// [`integer_of`] for every form: the number as a [`Decimal`], then whole.
-fn integer_of_decimal(token: &Token<'_>) -> Result<Option<i64>, FieldExpected> {
-    match decimal_of(token) {
-        Ok(Some(d)) => d.to_i64().map(Some).ok_or(FieldExpected::Integer),
-        Ok(None) => Ok(None),
-        Err(()) => Err(FieldExpected::Integer),
-    }
-}
-
 impl Scalar for i32 {
     const ZERO: Self = 0;
     const EXPECTED: FieldExpected = FieldExpected::Integer;
-    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
-        match integer_of(token)? {
-            Some(v) => i32::try_from(v).map(Some).map_err(|_| Self::EXPECTED),
-            None => Ok(None),
-        }
+    fn from_decimal(d: Decimal) -> Result<Self, FieldExpected> {
+        d.to_i64()
+            .and_then(|v| i32::try_from(v).ok())
+            .ok_or(Self::EXPECTED)
     }
     fn write(&self, _: Form, w: &mut Writer<'_>) {
         w.int(i64::from(*self))
@@ -520,25 +485,16 @@ impl Scalar for i32 {
 impl Scalar for u64 {
     const ZERO: Self = 0;
     const EXPECTED: FieldExpected = FieldExpected::Integer;
-    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
-        if let Some(v) = plain_integer(token).and_then(|v| u64::try_from(v).ok()) {
-            return Ok(Some(v));
-        }
-        let d = match decimal_of(token) {
-            Ok(Some(d)) => d,
-            Ok(None) => return Ok(None),
-            Err(()) => return Err(Self::EXPECTED),
-        };
+    fn from_decimal(d: Decimal) -> Result<Self, FieldExpected> {
         if d.is_sign_negative() && !d.is_zero() {
             return Err(Self::EXPECTED);
         }
         // Whole numbers above i64::MAX are read from the coefficient.
         if d.scale() == 0 {
-            return Ok(Some(d.coefficient()));
+            return Ok(d.coefficient());
         }
         d.to_i64()
             .and_then(|v| u64::try_from(v).ok())
-            .map(Some)
             .ok_or(Self::EXPECTED)
     }
     fn write(&self, _: Form, w: &mut Writer<'_>) {
@@ -549,12 +505,11 @@ impl Scalar for u64 {
 impl Scalar for bool {
     const ZERO: Self = false;
     const EXPECTED: FieldExpected = FieldExpected::Flag;
-    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
-        match integer_of(token).map_err(|_| Self::EXPECTED)? {
-            Some(0) => Ok(Some(false)),
-            Some(1) => Ok(Some(true)),
-            Some(_) => Err(Self::EXPECTED),
-            None => Ok(None),
+    fn from_decimal(d: Decimal) -> Result<Self, FieldExpected> {
+        match d.to_i64() {
+            Some(0) => Ok(false),
+            Some(1) => Ok(true),
+            _ => Err(Self::EXPECTED),
         }
     }
     fn write(&self, _: Form, w: &mut Writer<'_>) {
@@ -565,26 +520,41 @@ impl Scalar for bool {
 impl Scalar for FsmState {
     const ZERO: Self = FsmState::UnInitialize;
     const EXPECTED: FieldExpected = FieldExpected::Integer;
-    fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
-        Ok(i32::from_token(token)?.map(FsmState::from))
+    fn from_decimal(d: Decimal) -> Result<Self, FieldExpected> {
+        i32::from_decimal(d).map(FsmState::from)
     }
     fn write(&self, _: Form, w: &mut Writer<'_>) {
         w.int(i64::from(self.code()))
     }
 }
 
-/// A field of the table, read side: reads its value from the tokenizer.
+/// A value or list element, as the readers hand it to a field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Value<'a> {
+    /// A plain number (bare or the whole of a string), already read: the
+    /// value [`decimal_of`] gives for its token.
+    Number(Decimal),
+    /// Any other token: a string, a literal, a number in another form, or
+    /// the start of an array or object (always wrong for a field here).
+    Token(Token<'a>),
+}
+
+/// A field of the table, read side. Both readers drive it the same way:
+/// [`Member::set`] for a single value, or [`Member::begin`], one
+/// [`Member::push`] per element and [`Member::end`] for a list; so what a
+/// field accepts is defined once, here.
 ///
 /// Reading and writing are separate traits so that a decoder-only program
 /// (the gateway) does not link the encoder through the `dyn` tables.
-trait Member {
-    /// Reads the value whose first token, `first`, was just taken from `t`.
-    fn read(
-        &mut self,
-        first: Token<'_>,
-        t: &mut Tokenizer<'_>,
-        field: &'static str,
-    ) -> Result<(), DataSheetError>;
+pub(super) trait Member {
+    /// The value is not a list (`null` clears a list field).
+    fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected>;
+    /// The value is a list; its elements follow.
+    fn begin(&mut self) -> Result<(), FieldExpected>;
+    /// Element `i` of the list.
+    fn push(&mut self, i: usize, v: Value<'_>) -> Result<(), FieldExpected>;
+    /// The list ended after `n` elements.
+    fn end(&mut self, n: usize) -> Result<(), FieldExpected>;
 }
 
 /// A field of the table, write side.
@@ -593,26 +563,35 @@ trait Emit {
     fn write(&self, name: &str, form: Form, w: &mut Writer<'_>);
 }
 
-fn field_error(field: &'static str, expected: FieldExpected, t: &Tokenizer<'_>) -> DataSheetError {
-    DataSheetError::Field {
-        field,
-        expected,
-        offset: t.offset(),
+/// A list element's value. An element that is `null`, `""` or not a
+/// scalar is an error: a list cannot have holes.
+fn element<T: Scalar>(v: Value<'_>) -> Result<T, FieldExpected> {
+    match v {
+        Value::Number(d) => T::from_decimal(d),
+        Value::Token(token) => T::from_token(&token)?.ok_or(T::EXPECTED),
     }
+    .map_err(|_| T::EXPECTED)
 }
 
 impl<T: Scalar> Member for Option<T> {
-    fn read(
-        &mut self,
-        first: Token<'_>,
-        t: &mut Tokenizer<'_>,
-        field: &'static str,
-    ) -> Result<(), DataSheetError> {
-        if matches!(first, Token::BeginArray | Token::BeginObject) {
-            return Err(field_error(field, FieldExpected::Single, t));
-        }
-        *self = T::from_token(&first).map_err(|e| field_error(field, e, t))?;
+    fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected> {
+        *self = match v {
+            Value::Number(d) => Some(T::from_decimal(d)?),
+            Value::Token(Token::BeginArray | Token::BeginObject) => {
+                return Err(FieldExpected::Single)
+            }
+            Value::Token(token) => T::from_token(&token)?,
+        };
         Ok(())
+    }
+    fn begin(&mut self) -> Result<(), FieldExpected> {
+        Err(FieldExpected::Single)
+    }
+    fn push(&mut self, _: usize, _: Value<'_>) -> Result<(), FieldExpected> {
+        Err(FieldExpected::Single)
+    }
+    fn end(&mut self, _: usize) -> Result<(), FieldExpected> {
+        Err(FieldExpected::Single)
     }
 }
 
@@ -625,63 +604,37 @@ impl<T: Scalar> Emit for Option<T> {
     }
 }
 
-/// Reads the elements of a list whose `[` was just taken, handing each to
-/// `put` with its index. `put` returns `false` when the list is full.
-/// Returns how many elements were read, or `Ok(None)` for `null`.
-fn read_list<T: Scalar>(
-    first: Token<'_>,
-    t: &mut Tokenizer<'_>,
-    field: &'static str,
-    full: FieldExpected,
-    mut put: impl FnMut(usize, T) -> bool,
-) -> Result<Option<usize>, DataSheetError> {
-    match first {
-        Token::BeginArray => {}
-        Token::Null => return Ok(None),
-        _ => return Err(field_error(field, FieldExpected::List, t)),
-    }
-    let mut n = 0;
-    loop {
-        let token = t.next_token()?;
-        let value = match token {
-            Some(Token::EndArray) => return Ok(Some(n)),
-            // An element that is null, "" or not a scalar is an error: a
-            // list cannot have holes.
-            Some(ref tok) => match T::from_token(tok) {
-                Ok(Some(v)) => v,
-                Ok(None) | Err(_) => return Err(field_error(field, T::EXPECTED, t)),
-            },
-            None => return Err(field_error(field, FieldExpected::List, t)),
-        };
-        if !put(n, value) {
-            return Err(field_error(field, full, t));
-        }
-        n += 1;
+/// A list field given a single value: `null` leaves it unset (`true`),
+/// anything else is an error.
+fn list_null(v: Value<'_>) -> Result<(), FieldExpected> {
+    match v {
+        Value::Token(Token::Null) => Ok(()),
+        _ => Err(FieldExpected::List),
     }
 }
 
 impl<T: Scalar, const N: usize> Member for Option<[T; N]> {
-    fn read(
-        &mut self,
-        first: Token<'_>,
-        t: &mut Tokenizer<'_>,
-        field: &'static str,
-    ) -> Result<(), DataSheetError> {
-        let want = FieldExpected::Exactly(N as u16);
-        let mut a = [T::ZERO; N];
-        let got = read_list(first, t, field, want, |i, v| match a.get_mut(i) {
-            Some(slot) => {
-                *slot = v;
-                true
-            }
-            None => false,
-        })?;
-        *self = match got {
-            Some(n) if n == N => Some(a),
-            Some(_) => return Err(field_error(field, want, t)),
-            None => None,
-        };
+    fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected> {
+        list_null(v)?;
+        *self = None;
         Ok(())
+    }
+    fn begin(&mut self) -> Result<(), FieldExpected> {
+        *self = Some([T::ZERO; N]);
+        Ok(())
+    }
+    fn push(&mut self, i: usize, v: Value<'_>) -> Result<(), FieldExpected> {
+        let v = element(v)?;
+        let slot = self.as_mut().and_then(|a| a.get_mut(i));
+        *slot.ok_or(FieldExpected::Exactly(N as u16))? = v;
+        Ok(())
+    }
+    fn end(&mut self, n: usize) -> Result<(), FieldExpected> {
+        if n == N {
+            Ok(())
+        } else {
+            Err(FieldExpected::Exactly(N as u16))
+        }
     }
 }
 
@@ -703,15 +656,19 @@ fn write_list<T: Scalar>(values: &[T], form: Form, w: &mut Writer<'_>) {
 }
 
 impl<T: Scalar, const N: usize> Member for Vec<T, N> {
-    fn read(
-        &mut self,
-        first: Token<'_>,
-        t: &mut Tokenizer<'_>,
-        field: &'static str,
-    ) -> Result<(), DataSheetError> {
+    fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected> {
         self.clear();
-        let full = FieldExpected::AtMost(N as u16);
-        read_list(first, t, field, full, |_, v| self.push(v).is_ok())?;
+        list_null(v)
+    }
+    fn begin(&mut self) -> Result<(), FieldExpected> {
+        self.clear();
+        Ok(())
+    }
+    fn push(&mut self, _: usize, v: Value<'_>) -> Result<(), FieldExpected> {
+        let v = element(v)?;
+        Vec::push(self, v).map_err(|_| FieldExpected::AtMost(N as u16))
+    }
+    fn end(&mut self, _: usize) -> Result<(), FieldExpected> {
         Ok(())
     }
 }
@@ -724,32 +681,35 @@ impl<T: Scalar, const N: usize> Emit for Vec<T, N> {
 }
 
 impl Member for Option<Position> {
-    fn read(
-        &mut self,
-        first: Token<'_>,
-        t: &mut Tokenizer<'_>,
-        field: &'static str,
-    ) -> Result<(), DataSheetError> {
-        let want = FieldExpected::SixOrTwelve;
-        let mut a = [Decimal::ZERO; 12];
-        let got = read_list(first, t, field, want, |i, v| match a.get_mut(i) {
-            Some(slot) => {
-                *slot = v;
-                true
-            }
-            None => false,
-        })?;
-        let [j0, j1, j2, j3, j4, j5, p0, p1, p2, p3, p4, p5] = a;
-        let joints = [j0, j1, j2, j3, j4, j5];
-        *self = match got {
-            None => None,
-            Some(6) => Some(Position { joints, pose: None }),
-            Some(12) => Some(Position {
-                joints,
-                pose: Some([p0, p1, p2, p3, p4, p5]),
-            }),
-            Some(_) => return Err(field_error(field, want, t)),
+    fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected> {
+        list_null(v)?;
+        *self = None;
+        Ok(())
+    }
+    fn begin(&mut self) -> Result<(), FieldExpected> {
+        // Six joints, then the pose if six more values come.
+        *self = Some(Position {
+            joints: [Decimal::ZERO; 6],
+            pose: Some([Decimal::ZERO; 6]),
+        });
+        Ok(())
+    }
+    fn push(&mut self, i: usize, v: Value<'_>) -> Result<(), FieldExpected> {
+        let v = element(v)?;
+        let p = self.as_mut().ok_or(FieldExpected::SixOrTwelve)?;
+        let slot = match i.checked_sub(6) {
+            None => p.joints.get_mut(i),
+            Some(j) => p.pose.as_mut().and_then(|pose| pose.get_mut(j)),
         };
+        *slot.ok_or(FieldExpected::SixOrTwelve)? = v;
+        Ok(())
+    }
+    fn end(&mut self, n: usize) -> Result<(), FieldExpected> {
+        match (n, self.as_mut()) {
+            (6, Some(p)) => p.pose = None,
+            (12, Some(_)) => {}
+            _ => return Err(FieldExpected::SixOrTwelve),
+        }
         Ok(())
     }
 }
@@ -768,7 +728,7 @@ impl Emit for Option<Position> {
 }
 
 /// How the decoder reaches a field of a sheet.
-type ReadField = fn(&mut DataSheet) -> &mut dyn Member;
+pub(super) type ReadField = fn(&mut DataSheet) -> &mut dyn Member;
 
 /// A field of the encoder's table.
 struct WriteField {
@@ -797,11 +757,11 @@ macro_rules! layout {
     )*) => {
         /// The decoder's field names, every group's together (a field is
         /// read in whichever group it comes)...
-        const READ_NAMES: &[&str] = &[$($($name,)*)*];
+        pub(super) const READ_NAMES: &[&str] = &[$($($name,)*)*];
         /// ...and how to reach each one, in the same order.
-        const READ: &[ReadField] = &[$($(|ds| &mut ds.$g.$($f)+,)*)*];
+        pub(super) const READ: &[ReadField] = &[$($(|ds| &mut ds.$g.$($f)+,)*)*];
         /// The group names: an object under one of these is read as a group.
-        const GROUP_NAMES: &[&str] = &[$($group,)*];
+        pub(super) const GROUP_NAMES: &[&str] = &[$($group,)*];
 
         /// The encoder's table, in the order it writes.
         const WRITE: &[Group<WriteField>] = &[$(
@@ -889,40 +849,9 @@ layout! {
 }
 
 /// The decoder's look-up table of [`READ_NAMES`] and [`GROUP_NAMES`].
-static NAMES: Names = Names::new(READ_NAMES, GROUP_NAMES);
+pub(super) static NAMES: Names = Names::new(READ_NAMES, GROUP_NAMES);
 
 const _: () = assert!(READ.len() == READ_NAMES.len());
-
-/// Reads the members of an object whose `{` was just taken, up to its `}`.
-/// Recurses only into known groups, so at most [`MAX_DEPTH`] deep.
-///
-/// [`MAX_DEPTH`]: super::json::MAX_DEPTH
-fn read_object(t: &mut Tokenizer<'_>, ds: &mut DataSheet) -> Result<(), DataSheetError> {
-    loop {
-        let key = match t.next_token()? {
-            Some(Token::Key(k)) => k,
-            // The tokenizer yields only keys and `}` inside an object.
-            _ => return Ok(()),
-        };
-        let Some(value) = t.next_token()? else {
-            return Err(DataSheetError::Json(JsonError {
-                offset: t.offset(),
-                kind: JsonErrorKind::UnexpectedEnd,
-            }));
-        };
-        let found = NAMES.find(key);
-        let field = found
-            .field
-            .and_then(|i| Some((*READ.get(i)?, *READ_NAMES.get(i)?)));
-        if value == Token::BeginObject && found.group {
-            read_object(t, ds)?;
-        } else if let Some((get, name)) = field {
-            get(ds).read(value, t, name)?;
-        } else if matches!(value, Token::BeginObject | Token::BeginArray) {
-            t.skip_container()?;
-        }
-    }
-}
 
 impl DataSheet {
     /// Upper bound of [`DataSheet::write_json`]'s output for any sheet whose
@@ -934,15 +863,7 @@ impl DataSheet {
     /// or still holding NUL/`\n`/`\t` bytes: they are ignored either way).
     /// See the [module documentation](self) for what is accepted.
     pub fn parse(payload: &[u8]) -> Result<DataSheet, DataSheetError> {
-        let mut t = Tokenizer::new(payload);
-        if t.next_token()? != Some(Token::BeginObject) {
-            return Err(DataSheetError::NotAnObject);
-        }
-        let mut ds = DataSheet::default();
-        read_object(&mut t, &mut ds)?;
-        // Only whitespace may follow; the tokenizer reports anything else.
-        t.next_token()?;
-        Ok(ds)
+        read::parse(payload)
     }
 
     /// Writes the payload JSON into `out`; returns its length, or
@@ -1047,68 +968,16 @@ mod tests {
     }
 
     #[test]
-    fn plain_integers_read_as_decimals_do() {
-        let mut forms = heapless::Vec::<heapless::String<24>, 512>::new();
-        for body in [
-            "0",
-            "7",
-            "007",
-            "33",
-            "1000",
-            "48211972",
-            "2147483647",
-            "2147483648",
-            "999999999999999999",
-            "1000000000000000000",
-            "12345678901234567890",
-            "",
-            "1.0",
-            "1.5",
-            "1e3",
-            "1E+2",
-            " 5",
-            "5 ",
-            "+5",
-            "--1",
-            "0x10",
-            "1_0",
-        ] {
-            for sign in ["", "-"] {
-                let mut f = heapless::String::new();
-                f.push_str(sign).unwrap();
-                f.push_str(body).unwrap();
-                forms.push(f).unwrap();
-            }
-        }
-        for f in &forms {
-            for token in [Token::Number(f.as_bytes()), Token::Str(f.as_bytes())] {
-                if let Some(v) = plain_integer(&token) {
-                    assert_eq!(integer_of_decimal(&token), Ok(Some(v)), "{f:?}");
-                    let as_u64 = u64::from_token(&token);
-                    match u64::try_from(v) {
-                        Ok(u) => assert_eq!(as_u64, Ok(Some(u)), "{f:?}"),
-                        Err(_) => assert!(as_u64.is_err(), "{f:?}"),
-                    }
-                }
-            }
-        }
-        // The fast path does take the usual forms.
-        for f in ["0", "-12", "33", "999999999999999999"] {
-            assert!(plain_integer(&Token::Number(f.as_bytes())).is_some(), "{f}");
-        }
-    }
-
-    #[test]
     fn every_table_name_is_found() {
         for (i, name) in READ_NAMES.iter().enumerate() {
             assert_eq!(NAMES.find(name.as_bytes()).field, Some(i), "{name}");
         }
         for name in GROUP_NAMES {
-            assert!(NAMES.find(name.as_bytes()).group, "{name}");
+            assert!(NAMES.find(name.as_bytes()).group.is_some(), "{name}");
         }
         // The one name that is both.
         let ft = NAMES.find(b"ftdata");
-        assert!(ft.group && ft.field.is_some());
+        assert!(ft.group.is_some() && ft.field.is_some());
         super::super::names::tests::agrees_on_mutations(&NAMES);
     }
 
