@@ -60,11 +60,13 @@ pub(crate) mod syntax {
     pub(crate) type Res<'a, O> = IResult<In<'a>, O, ()>;
 
     /// `ws`: whitespace the reader trims around fields and messages.
+    #[inline]
     pub(crate) fn is_space(b: u8) -> bool {
         matches!(b, b' ' | b'\t' | b'\r' | b'\n')
     }
 
     /// `filler`: what may follow the last field.
+    #[inline]
     pub(crate) fn is_filler(b: u8) -> bool {
         is_space(b) || b == b';'
     }
@@ -82,11 +84,13 @@ pub(crate) mod syntax {
         m
     };
 
+    #[inline]
     fn is_name_byte(b: u8) -> bool {
         b < 128 && NAME_BYTES >> b & 1 == 1
     }
 
     /// `ws`.
+    #[inline]
     pub(crate) fn ws(i: In<'_>) -> Res<'_, In<'_>> {
         take_while(is_space).parse(i)
     }
@@ -98,6 +102,7 @@ pub(crate) mod syntax {
     }
 
     /// `field`: the raw text up to the next `,` (or the end).
+    #[inline]
     pub(crate) fn field(i: In<'_>) -> Res<'_, In<'_>> {
         take_till(|b| b == b',').parse(i)
     }
@@ -113,6 +118,7 @@ pub(crate) mod syntax {
     }
 
     /// The `,` between the name and the first field.
+    #[inline]
     pub(crate) fn separator(i: In<'_>) -> Res<'_, char> {
         char(',').parse(i)
     }
@@ -123,6 +129,7 @@ use syntax::{is_filler, In};
 pub(crate) use syntax::is_space;
 
 /// The rest of `text` after the parser left `rest` of it.
+#[inline]
 fn after<'a>(text: &'a str, rest: In<'_>) -> &'a str {
     // Every parser above stops next to an ASCII byte: a char boundary.
     text.get(text.len().saturating_sub(rest.len())..)
@@ -146,7 +153,17 @@ fn only_fillers_bytes(b: &[u8]) -> bool {
 }
 
 /// `s` without the whitespace [`is_space`] at its ends.
+#[cfg_attr(not(target_os = "none"), inline)]
 pub(crate) fn trim(s: &str) -> &str {
+    let b = s.as_bytes();
+    // Nearly every field has no space at either end.
+    match (b.first(), b.last()) {
+        (Some(&f), Some(&l)) if is_space(f) || is_space(l) => trim_spaces(s),
+        _ => s,
+    }
+}
+
+fn trim_spaces(s: &str) -> &str {
     let b = s.as_bytes();
     let start = b.iter().position(|&c| !is_space(c)).unwrap_or(b.len());
     let end = b
@@ -170,6 +187,7 @@ fn strip_terminator(s: &str) -> &str {
 
 /// Splits a field off a bounded body (no terminator in it): the raw field,
 /// and the text after its `,` (`None` when it was the last).
+#[inline]
 fn split_plain(body: &str) -> (&str, Option<&str>) {
     let (rest, f) = syntax::field(body.as_bytes()).unwrap_or((&[], body.as_bytes()));
     let field = body.get(..f.len()).unwrap_or("");
@@ -183,6 +201,7 @@ fn split_plain(body: &str) -> (&str, Option<&str>) {
 /// to its very end (terminator included): the raw field (for the last one,
 /// without the terminator) and the text of the fields after it, `None` when
 /// it was the last.
+#[inline]
 fn split_raw(rest: &str) -> (&str, Option<&str>) {
     match split_plain(rest) {
         (last, None) => (strip_terminator(last), None),
@@ -192,6 +211,7 @@ fn split_raw(rest: &str) -> (&str, Option<&str>) {
 }
 
 /// The next field of `rest` (as in [`split_raw`]), trimmed.
+#[cfg_attr(not(target_os = "none"), inline)]
 pub(crate) fn next_field(rest: &str) -> (&str, Option<&str>) {
     let (f, next) = split_raw(rest);
     (trim(f), next)
@@ -257,6 +277,7 @@ pub enum Kind {
 }
 
 /// The kind of a message from its name and the first of its fields.
+#[inline]
 pub(crate) fn kind_of(name: &str, first: Option<&str>) -> Kind {
     if name.len() == 8 && name.eq_ignore_ascii_case("errorcmd") {
         return Kind::ErrorCmd;
@@ -416,6 +437,7 @@ pub struct Cursor<'s, 'a> {
 impl<'s, 'a> Cursor<'s, 'a> {
     /// A cursor on the fields' text `rest` (terminator included), as
     /// [`head`] and [`next_field`] leave it.
+    #[inline]
     pub(crate) fn new(rest: Option<&'a str>, command: CommandId) -> Self {
         Cursor {
             src: Source::Text(rest),
@@ -436,6 +458,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
         }
     }
 
+    #[inline]
     pub(crate) fn with_list_len(mut self, n: Option<u16>) -> Self {
         self.list_len = n;
         self
@@ -461,6 +484,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// `true` when every field has been read.
+    #[inline]
     pub fn at_end(&self) -> bool {
         match self.src {
             Source::Text(r) => r.is_none(),
@@ -474,6 +498,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// The next field, trimmed, or `None` at the end.
+    #[cfg_attr(not(target_os = "none"), inline)]
     pub fn next_field(&mut self) -> Option<&'a str> {
         let f = match &mut self.src {
             Source::Text(rest) => {
@@ -624,7 +649,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// The first error recorded, else an error if fields are left over.
-    pub(crate) fn finish(self) -> Result<(), ParseError<'a>> {
+    pub(crate) fn finish(&mut self) -> Result<(), ParseError<'a>> {
         if let Some(e) = self.err {
             return Err(e);
         }
@@ -636,7 +661,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
 
     #[cold]
     #[inline(never)]
-    fn too_many(mut self) -> Result<(), ParseError<'a>> {
+    fn too_many(&mut self) -> Result<(), ParseError<'a>> {
         let expected = self.pos;
         let left = match self.src {
             Source::Text(Some(r)) => bound(r)?.1,

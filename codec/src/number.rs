@@ -265,6 +265,7 @@ fn digit_run(mut value: u64, mut b: &[u8]) -> (u64, &[u8]) {
 }
 
 impl Decimal {
+    #[inline]
     const fn make(negative: bool, coeff: u64, scale: u8) -> Self {
         Decimal {
             lo: coeff as u32,
@@ -273,10 +274,12 @@ impl Decimal {
         }
     }
 
+    #[inline]
     const fn coeff(&self) -> u64 {
         self.coefficient()
     }
 
+    #[inline]
     const fn negative(&self) -> bool {
         self.is_sign_negative()
     }
@@ -387,16 +390,19 @@ impl Decimal {
     }
 
     /// `true` when the number is written with a minus sign (also `-0.000`).
+    #[inline]
     pub const fn is_sign_negative(&self) -> bool {
         self.meta & 0x100 != 0
     }
 
     /// The coefficient: the written digits without sign and decimal point.
+    #[inline]
     pub const fn coefficient(&self) -> u64 {
         (self.hi as u64) << 32 | self.lo as u64
     }
 
     /// The number of decimals written.
+    #[inline]
     pub const fn scale(&self) -> u8 {
         (self.meta & 0xff) as u8
     }
@@ -439,6 +445,7 @@ impl Decimal {
 
     /// The value if it is a whole number that fits an `i64` (`5`, `5.000`,
     /// `-0`).
+    #[inline]
     pub fn to_i64(&self) -> Option<i64> {
         // Integers as written (`5`, `-0`) need no division.
         let (whole, frac) = match self.scale() {

@@ -386,6 +386,7 @@ macro_rules! catalogue {
 
             /// The name written on the wire.
             #[allow(clippy::indexing_slicing)]
+            #[cfg_attr(not(target_os = "none"), inline)]
             pub const fn name(self) -> &'static str {
                 // One text and an end offset per command (2 bytes each),
                 // where a table of string references took 8.
@@ -770,17 +771,22 @@ use catalogue;
 /// Slots of the name table: a power of two, under two thirds full.
 const HASH_SLOTS: usize = 256;
 
-/// FNV-1a of a name, folded to a slot of the name table (also run by the
-/// compiler to build the table).
+/// A slot of the name table for a name, from its length and three of its
+/// bytes (also run by the compiler to build the table). Cheap rather than
+/// strong: a collision costs one more probe, which compares lengths first.
 #[allow(clippy::indexing_slicing)]
 const fn name_hash(name: &[u8]) -> usize {
-    let mut h: u32 = 0x811c_9dc5;
-    let mut i = 0;
-    while i < name.len() {
-        h = (h ^ name[i] as u32).wrapping_mul(0x0100_0193);
-        i += 1;
-    }
-    ((h ^ (h >> 16)) as usize) % HASH_SLOTS
+    let n = name.len();
+    let h = match n {
+        0 => 0,
+        _ => {
+            (n as u32)
+                | (name[0] as u32) << 8
+                | (name[n / 2] as u32) << 16
+                | (name[n - 1] as u32) << 24
+        }
+    };
+    (h.wrapping_mul(0x9E37_79B1) >> 24) as usize % HASH_SLOTS
 }
 
 /// Visits the fields of an unknown message as texts named `0`, `1`, ...

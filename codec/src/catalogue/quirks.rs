@@ -26,6 +26,7 @@ use crate::number::Decimal;
 type Scratch<'a> = heapless::Vec<&'a str, QUIRK_FIELDS>;
 
 /// `true` for the commands that have an alternative layout.
+#[inline]
 pub(crate) fn applies(id: CommandId) -> bool {
     matches!(
         id,
