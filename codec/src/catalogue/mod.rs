@@ -294,6 +294,23 @@ impl<'a> Reply<'a> {
     /// must carry the request's name (or one of its aliases).
     #[inline]
     pub fn parse(text: &'a str, expect: ReplyExpect) -> Result<Self, ParseError<'a>> {
+        // A thin wrapper, inlined into the caller: the reply is read in
+        // place and moved once, which the compiler can then elide.
+        let mut reply = Ok(Reply::Ok(Response::Unknown(RawMessage::EMPTY)));
+        if let Ok(r) = &mut reply {
+            if let Err(e) = Self::parse_into(text, expect, r) {
+                reply = Err(e);
+            }
+        }
+        reply
+    }
+
+    /// [`Reply::parse`] into `out`.
+    fn parse_into(
+        text: &'a str,
+        expect: ReplyExpect,
+        out: &mut Self,
+    ) -> Result<(), ParseError<'a>> {
         let (name, rest) = grammar::head(text)?;
         let (first, after) = match rest {
             Some(r) => {
@@ -305,9 +322,8 @@ impl<'a> Reply<'a> {
         match grammar::kind_of(name, first) {
             Kind::Ok => {
                 let Some(id) = expect.command else {
-                    return Ok(Reply::Ok(Response::Unknown(RawMessage::from_parts(
-                        name, after,
-                    )?)));
+                    *out = Reply::Ok(Response::Unknown(RawMessage::from_parts(name, after)?));
+                    return Ok(());
                 };
                 if !names(id, name) {
                     return Err(ParseError::NameMismatch {
@@ -315,15 +331,23 @@ impl<'a> Reply<'a> {
                         got: name,
                     });
                 }
-                let mut out = Response::Unknown(RawMessage::EMPTY);
+                let Reply::Ok(response) = out else {
+                    // `parse` hands in an `Ok` reply.
+                    return Err(ParseError::NotAReply);
+                };
                 read_known(id, name, after, expect.count, &mut |c| {
-                    Response::read_into(id, c, &mut out)
-                })?;
-                Ok(Reply::Ok(out))
+                    Response::read_into(id, c, response)
+                })
             }
-            Kind::ErrorCmd => Ok(Reply::ErrorCmd(RawMessage::from_parts(name, rest)?)),
+            Kind::ErrorCmd => {
+                *out = Reply::ErrorCmd(RawMessage::from_parts(name, rest)?);
+                Ok(())
+            }
             Kind::Request => Err(ParseError::NotAReply),
-            Kind::Fail => Self::failure(name, after),
+            Kind::Fail => {
+                *out = Self::failure(name, after)?;
+                Ok(())
+            }
         }
     }
 
@@ -623,14 +647,28 @@ macro_rules! catalogue {
         impl<'a> Request<'a> {
             /// Reads a request. Names this crate does not know come back as
             /// [`Request::Unknown`], not as an error.
+            #[inline]
             pub fn parse(text: &'a str) -> Result<Self, ParseError<'a>> {
+                // A thin wrapper, inlined into the caller: the request is
+                // read in place and moved once, which the compiler can then
+                // elide.
+                let mut out = Ok(Request::Unknown(RawMessage::EMPTY));
+                if let Ok(r) = &mut out {
+                    if let Err(e) = Self::parse_into(text, r) {
+                        out = Err(e);
+                    }
+                }
+                out
+            }
+
+            /// [`Request::parse`] into `out`.
+            fn parse_into(text: &'a str, out: &mut Self) -> Result<(), ParseError<'a>> {
                 let (name, rest) = request_head(text)?;
                 let Some(id) = CommandId::from_name(name) else {
-                    return Ok(Request::Unknown(RawMessage::from_parts(name, rest)?));
+                    *out = Request::Unknown(RawMessage::from_parts(name, rest)?);
+                    return Ok(());
                 };
-                let mut out = Request::Unknown(RawMessage::EMPTY);
-                read_known(id, name, rest, None, &mut |c| Request::read_into(id, c, &mut out))?;
-                Ok(out)
+                read_known(id, name, rest, None, &mut |c| Request::read_into(id, c, out))
             }
 
             /// Reads the fields of command `id` into `out`, in place.
