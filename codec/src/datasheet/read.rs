@@ -30,13 +30,10 @@
 use super::json::{is_number_byte, JsonError, JsonErrorKind, Token, Tokenizer, MAX_DEPTH};
 use super::scan;
 use super::sheet::{
-    DataSheet, DataSheetError, FieldExpected, Member, ReadField, Value, GROUP_NAMES, NAMES, READ,
-    READ_NAMES,
+    decimal_of, DataSheet, DataSheetError, FieldExpected, Member, ReadField, Value, GROUP_NAMES,
+    NAMES, READ, READ_NAMES,
 };
-use crate::number::plain_prefix;
-
-#[cfg(doc)]
-use crate::number::Decimal;
+use crate::number::{plain_prefix, Decimal};
 
 /// Decodes a payload: see the module documentation.
 pub(super) fn parse(payload: &[u8]) -> Result<DataSheet, DataSheetError> {
@@ -66,7 +63,7 @@ fn field(i: Option<usize>) -> Option<(ReadField, &'static str)> {
 /// The general reader: see the module documentation.
 pub(super) fn general(payload: &[u8], ds: &mut DataSheet) -> Result<(), DataSheetError> {
     let mut t = Tokenizer::new(payload);
-    if t.next_token()? != Some(Token::BeginObject) {
+    if !matches!(t.next_token()?, Some(Token::BeginObject)) {
         return Err(DataSheetError::NotAnObject);
     }
     object(&mut t, ds)?;
@@ -91,7 +88,7 @@ fn object(t: &mut Tokenizer<'_>, ds: &mut DataSheet) -> Result<(), DataSheetErro
             }));
         };
         let (field, group) = lookup(key);
-        if value == Token::BeginObject && group {
+        if matches!(value, Token::BeginObject) && group {
             object(t, ds)?;
         } else if let Some((get, name)) = field {
             member(get(ds), value, t, name)?;
@@ -115,7 +112,7 @@ fn member(
         expected,
         offset: t.offset(),
     };
-    if first != Token::BeginArray {
+    if !matches!(first, Token::BeginArray) {
         return m.set(Value::Token(first)).map_err(|e| at(t, e));
     }
     m.begin().map_err(|e| at(t, e))?;
@@ -123,9 +120,12 @@ fn member(
     loop {
         match t.next_token()? {
             Some(Token::EndArray) => break,
-            // A nested array or object is refused here, so the `]` above
-            // is this list's.
-            Some(token) => m.push(n, Value::Token(token)).map_err(|e| at(t, e))?,
+            // A nested array or object is refused here (it is no number),
+            // so the `]` above is this list's.
+            Some(token) => match decimal_of(&token) {
+                Ok(Some(d)) => m.push(n, d).map_err(|e| at(t, e))?,
+                Ok(None) | Err(()) => return Err(at(t, m.expected())),
+            },
             None => return Err(at(t, FieldExpected::List)),
         }
         n += 1;
@@ -153,6 +153,32 @@ pub(super) fn fast(payload: &[u8], ds: &mut DataSheet) -> Option<()> {
     }
 }
 
+/// `a == b`, for the lengths of names: eight bytes at a time (the last
+/// eight overlapping the ones before), without a call to `memcmp`.
+#[inline]
+fn same(a: &[u8], b: &[u8]) -> bool {
+    let n = a.len();
+    if n != b.len() {
+        return false;
+    }
+    if n < 8 {
+        return a.iter().zip(b).all(|(x, y)| x == y);
+    }
+    let word = |s: &[u8], at: usize| {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(s.get(at..at + 8).unwrap_or(&[0; 8]));
+        u64::from_le_bytes(w)
+    };
+    let mut at = 0;
+    while at + 8 < n {
+        if word(a, at) != word(b, at) {
+            return false;
+        }
+        at += 8;
+    }
+    word(a, n - 8) == word(b, n - 8)
+}
+
 /// The cursor of the fast reader. Every method returns `None` to give up.
 struct Fast<'a> {
     b: &'a [u8],
@@ -174,7 +200,7 @@ struct Key {
 impl<'a> Fast<'a> {
     /// The next byte that is not whitespace between tokens (the
     /// tokenizer's set), without taking it; `None` at the end.
-    #[inline(always)]
+    #[inline]
     fn peek(&mut self) -> Option<u8> {
         loop {
             let c = *self.b.get(self.i)?;
@@ -186,7 +212,7 @@ impl<'a> Fast<'a> {
     }
 
     /// Takes `c`, the next byte that is not whitespace.
-    #[inline(always)]
+    #[inline]
     fn expect(&mut self, c: u8) -> Option<()> {
         if self.peek()? != c {
             return None;
@@ -198,7 +224,7 @@ impl<'a> Fast<'a> {
     /// After an element or member: `true` at the end of the container
     /// (`close`, also after a trailing comma), `false` after a `,` with
     /// more to come.
-    #[inline(always)]
+    #[inline]
     fn next_or_end(&mut self, close: u8) -> Option<bool> {
         match self.peek()? {
             b',' => {
@@ -218,7 +244,7 @@ impl<'a> Fast<'a> {
     }
 
     /// `true` (and the byte taken) when the container just opened is empty.
-    #[inline(always)]
+    #[inline]
     fn empty(&mut self, close: u8) -> Option<bool> {
         if self.peek()? == close {
             self.i += 1;
@@ -228,7 +254,7 @@ impl<'a> Fast<'a> {
     }
 
     /// A string with no escape, its `"` next: its contents.
-    #[inline(always)]
+    #[inline]
     fn string(&mut self) -> Option<&'a [u8]> {
         let body = self.b.get(self.i + 1..)?;
         let len = scan::quote_or_backslash(body)?;
@@ -321,7 +347,7 @@ impl<'a> Fast<'a> {
     /// next field below) is tried first, by a plain comparison; only a
     /// key that is not that name is looked up. Both ways give the same
     /// answer: a key equal to the expected name is that name.
-    #[inline(always)]
+    #[inline]
     fn key(&mut self, depth: usize) -> Option<Key> {
         let (names, next) = if depth == 1 {
             (GROUP_NAMES, self.next_group)
@@ -332,7 +358,7 @@ impl<'a> Fast<'a> {
         let rest = self.b.get(self.i + 1..)?;
         let predicted = !guess.is_empty()
             && rest.get(guess.len()) == Some(&b'"')
-            && rest.get(..guess.len()) == Some(guess);
+            && rest.get(..guess.len()).is_some_and(|k| same(k, guess));
         let raw = if predicted {
             self.i += guess.len() + 2;
             guess
@@ -367,7 +393,7 @@ impl<'a> Fast<'a> {
     }
 
     /// Takes the `[` or `{` of a container that would be at `depth + 1`.
-    #[inline(always)]
+    #[inline]
     fn open(&mut self, depth: usize) -> Option<()> {
         if depth >= MAX_DEPTH {
             return None;
@@ -379,8 +405,12 @@ impl<'a> Fast<'a> {
     /// A field's value, whose first byte `c` is next.
     fn member(&mut self, m: &mut dyn Member, c: u8, depth: usize) -> Option<()> {
         if c != b'[' {
-            // An object here is a field error: `scalar` gives up on it.
-            return m.set(self.scalar()?).ok();
+            let v = match self.plain() {
+                Some(d) => Value::Number(d),
+                // An object here is a field error: `scalar` gives up on it.
+                None => self.scalar()?,
+            };
+            return m.set(v).ok();
         }
         self.open(depth)?;
         m.begin().ok()?;
@@ -397,32 +427,44 @@ impl<'a> Fast<'a> {
         m.end(n).ok()
     }
 
-    /// A list element: the usual plain number (bare or quoted) read here,
-    /// anything else by [`Fast::scalar`].
-    #[inline(always)]
-    fn element(&mut self) -> Option<Value<'a>> {
+    /// The usual value, a plain number bare or quoted, read here: its value,
+    /// or `None` with nothing taken.
+    #[inline]
+    fn plain(&mut self) -> Option<Decimal> {
         let rest = self.b.get(self.i..)?;
         let (quotes, body) = match rest {
             [b'"', body @ ..] => (2, body),
             _ => (0, rest),
         };
-        if let Some((d, tail)) = plain_prefix(body) {
-            let len = body.len() - tail.len();
-            let whole = if quotes == 2 {
-                tail.first() == Some(&b'"')
-            } else {
-                // JSON wants a digit after a `.`. (A byte after the number
-                // that would continue it is refused by the caller, which
-                // wants `,` or `]` next; ignored bytes there are whitespace
-                // either way.)
-                body.get(len.wrapping_sub(1)) != Some(&b'.')
-            };
-            if whole {
-                self.i += len + quotes;
-                return Some(Value::Number(d));
-            }
+        let (d, tail) = plain_prefix(body)?;
+        let len = body.len() - tail.len();
+        let whole = if quotes == 2 {
+            tail.first() == Some(&b'"')
+        } else {
+            // JSON wants a digit after a `.`. (A byte after the number that
+            // would continue it is refused by the caller, which wants a
+            // separator next; ignored bytes there are whitespace either way.)
+            body.get(len.wrapping_sub(1)) != Some(&b'.')
+        };
+        if !whole {
+            return None;
         }
-        self.scalar()
+        self.i += len + quotes;
+        Some(d)
+    }
+
+    /// A list element's number: [`Fast::plain`], or anything else by
+    /// [`Fast::scalar`] and the conversion the general reader applies
+    /// ([`decimal_of`]).
+    #[inline]
+    fn element(&mut self) -> Option<Decimal> {
+        if let Some(d) = self.plain() {
+            return Some(d);
+        }
+        match self.scalar()? {
+            Value::Number(d) => Some(d),
+            Value::Token(token) => decimal_of(&token).ok().flatten(),
+        }
     }
 
     /// Checks and passes over any value (an unknown member's).
@@ -501,6 +543,22 @@ mod tests {
 \"Box48IN_Voltage\":48.12,\"Slave_Voltage\":[47.90,47.88]},\"Script\":{\"errorCode\":0,\
 \"cmdid\":[\"\",\"\"],\"GlobalVar\":[]},\"pluginsdata\":{\"g\":{\"on\":true,\"p\":\"1.5\",\
 \"s\":[0,1,null,false]}}\n}";
+
+    #[test]
+    fn same_is_equality() {
+        let text = b"Actual_Joint_Acceleration_and_more_bytes";
+        for len in 0..text.len() {
+            let a = &text[..len];
+            assert!(same(a, a));
+            assert!(!same(a, &text[..len + 1]));
+            for at in 0..len {
+                let mut b = [0u8; 64];
+                b[..len].copy_from_slice(a);
+                b[at] ^= 0x20;
+                assert!(!same(a, &b[..len]), "{len} {at}");
+            }
+        }
+    }
 
     #[test]
     fn the_vendor_layout_takes_the_fast_path() {

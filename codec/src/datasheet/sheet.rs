@@ -551,10 +551,14 @@ pub(super) trait Member {
     fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected>;
     /// The value is a list; its elements follow.
     fn begin(&mut self) -> Result<(), FieldExpected>;
-    /// Element `i` of the list.
-    fn push(&mut self, i: usize, v: Value<'_>) -> Result<(), FieldExpected>;
+    /// Element `i` of the list, a number: the value [`decimal_of`] gives
+    /// for its token. (Any other element is a list with a hole, the error
+    /// [`Member::expected`].)
+    fn push(&mut self, i: usize, d: Decimal) -> Result<(), FieldExpected>;
     /// The list ended after `n` elements.
     fn end(&mut self, n: usize) -> Result<(), FieldExpected>;
+    /// What an element should have been.
+    fn expected(&self) -> FieldExpected;
 }
 
 /// A field of the table, write side.
@@ -563,14 +567,9 @@ trait Emit {
     fn write(&self, name: &str, form: Form, w: &mut Writer<'_>);
 }
 
-/// A list element's value. An element that is `null`, `""` or not a
-/// scalar is an error: a list cannot have holes.
-fn element<T: Scalar>(v: Value<'_>) -> Result<T, FieldExpected> {
-    match v {
-        Value::Number(d) => T::from_decimal(d),
-        Value::Token(token) => T::from_token(&token)?.ok_or(T::EXPECTED),
-    }
-    .map_err(|_| T::EXPECTED)
+/// A list element's value: `T::EXPECTED` if the number does not fit.
+fn element<T: Scalar>(d: Decimal) -> Result<T, FieldExpected> {
+    T::from_decimal(d).map_err(|_| T::EXPECTED)
 }
 
 impl<T: Scalar> Member for Option<T> {
@@ -587,11 +586,14 @@ impl<T: Scalar> Member for Option<T> {
     fn begin(&mut self) -> Result<(), FieldExpected> {
         Err(FieldExpected::Single)
     }
-    fn push(&mut self, _: usize, _: Value<'_>) -> Result<(), FieldExpected> {
+    fn push(&mut self, _: usize, _: Decimal) -> Result<(), FieldExpected> {
         Err(FieldExpected::Single)
     }
     fn end(&mut self, _: usize) -> Result<(), FieldExpected> {
         Err(FieldExpected::Single)
+    }
+    fn expected(&self) -> FieldExpected {
+        FieldExpected::Single
     }
 }
 
@@ -623,8 +625,8 @@ impl<T: Scalar, const N: usize> Member for Option<[T; N]> {
         *self = Some([T::ZERO; N]);
         Ok(())
     }
-    fn push(&mut self, i: usize, v: Value<'_>) -> Result<(), FieldExpected> {
-        let v = element(v)?;
+    fn push(&mut self, i: usize, d: Decimal) -> Result<(), FieldExpected> {
+        let v = element(d)?;
         let slot = self.as_mut().and_then(|a| a.get_mut(i));
         *slot.ok_or(FieldExpected::Exactly(N as u16))? = v;
         Ok(())
@@ -635,6 +637,9 @@ impl<T: Scalar, const N: usize> Member for Option<[T; N]> {
         } else {
             Err(FieldExpected::Exactly(N as u16))
         }
+    }
+    fn expected(&self) -> FieldExpected {
+        T::EXPECTED
     }
 }
 
@@ -664,12 +669,15 @@ impl<T: Scalar, const N: usize> Member for Vec<T, N> {
         self.clear();
         Ok(())
     }
-    fn push(&mut self, _: usize, v: Value<'_>) -> Result<(), FieldExpected> {
-        let v = element(v)?;
+    fn push(&mut self, _: usize, d: Decimal) -> Result<(), FieldExpected> {
+        let v = element(d)?;
         Vec::push(self, v).map_err(|_| FieldExpected::AtMost(N as u16))
     }
     fn end(&mut self, _: usize) -> Result<(), FieldExpected> {
         Ok(())
+    }
+    fn expected(&self) -> FieldExpected {
+        T::EXPECTED
     }
 }
 
@@ -694,8 +702,7 @@ impl Member for Option<Position> {
         });
         Ok(())
     }
-    fn push(&mut self, i: usize, v: Value<'_>) -> Result<(), FieldExpected> {
-        let v = element(v)?;
+    fn push(&mut self, i: usize, v: Decimal) -> Result<(), FieldExpected> {
         let p = self.as_mut().ok_or(FieldExpected::SixOrTwelve)?;
         let slot = match i.checked_sub(6) {
             None => p.joints.get_mut(i),
@@ -711,6 +718,9 @@ impl Member for Option<Position> {
             _ => return Err(FieldExpected::SixOrTwelve),
         }
         Ok(())
+    }
+    fn expected(&self) -> FieldExpected {
+        FieldExpected::Number
     }
 }
 
