@@ -590,14 +590,12 @@ impl Decimal {
             (true, false) => return Ordering::Less,
             _ => {}
         }
-        // Compare magnitudes: integer parts first, then the fractions at a
-        // common scale (a fraction is below 10^18, so this cannot overflow).
-        let (ai, af) = div_pow10(self.coeff(), self.scale());
-        let (bi, bf) = div_pow10(other.coeff(), other.scale());
+        // Compare magnitudes at a common scale: a coefficient below 2^64
+        // times at most 10^18 fits a u128 exactly.
         let s = self.scale().max(other.scale());
-        let af = af.saturating_mul(pow10(s - self.scale()).unwrap_or(1));
-        let bf = bf.saturating_mul(pow10(s - other.scale()).unwrap_or(1));
-        let mag = ai.cmp(&bi).then(af.cmp(&bf));
+        let at =
+            |d: &Decimal| u128::from(d.coeff()) * u128::from(pow10(s - d.scale()).unwrap_or(1));
+        let mag = at(self).cmp(&at(other));
         if a_neg {
             mag.reverse()
         } else {

@@ -510,13 +510,14 @@ impl<'a> TextList<'a> {
 
     /// The texts, trimmed as the reader trims fields.
     pub fn iter(&self) -> impl Iterator<Item = &'a str> + 'a {
-        let (wire, slice) = match self.0 {
-            ListRepr::Wire { text, count } => ((count > 0).then(|| Fields::of(text)), None),
-            ListRepr::Slice(s) => (None, Some(s.iter().copied())),
+        let (mut wire, mut slice) = match self.0 {
+            ListRepr::Wire { text, count } => ((count > 0).then(|| Fields::of(text)), [].iter()),
+            ListRepr::Slice(s) => (None, s.iter()),
         };
-        wire.into_iter()
-            .flatten()
-            .chain(slice.into_iter().flatten())
+        core::iter::from_fn(move || match &mut wire {
+            Some(fields) => fields.next(),
+            None => slice.next().copied(),
+        })
     }
 }
 
