@@ -36,11 +36,11 @@
 //! Fields are read one at a time, forward, straight from the message text:
 //! nothing is counted, split or copied up front, so a typed reader makes one
 //! pass over its message. The numbers inside fields have their own grammar
-//! in [`number`](crate::number).
+//! in [`crate::number`].
 //!
 //! The typed readers take plain numbers (`-12.345`, the form controllers
 //! reply with) through a fast path in the same pass that finds the field's
-//! end; see [`number`](crate::number) for why that pays and how it is tested
+//! end; see [`crate::number`] for why that pays and how it is tested
 //! against the grammar.
 
 use crate::catalogue::CommandId;
@@ -517,7 +517,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
     }
 
     /// The typed readers' fast path: the next field if it is a plain number
-    /// (see [`number`](crate::number)) directly followed by its `,` or the
+    /// (see [`crate::number`]) directly followed by its `,` or the
     /// end of the text, read in the same pass that finds the field's end;
     /// its value and text. Anything else (spaces, exponents, `;` right after
     /// the value, an empty field) is left unread for the grammar

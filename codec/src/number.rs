@@ -19,6 +19,25 @@
 //! ~20 KiB of flash on Cortex-M, Cortex-M4F has no double-precision FPU, and a
 //! float cannot tell `-0.000` from `0` or `1.5` from `1.500000`. This type
 //! costs well under a kilobyte.
+//!
+//! # Reading: the grammar and its fast path
+//! The syntax, `[+-]? (digits ["." digits?] | "." digits) ([eE] [+-]? digits)?`,
+//! is defined once, with nom's byte-level combinators (`syntax` below, `()`
+//! as error type), and everything it accepts is read through it.
+//!
+//! Plain numbers, `-? digits ("." digits?)?` with at most 19 digits, the only
+//! form controllers reply with, also have a fast path (`plain_prefix`): one
+//! loop that computes the value while it finds the number's end, used by
+//! [`Decimal::parse`] and by the typed readers, which read a whole pose this
+//! way without leaving the loop. nom's combinators find the digit runs first
+//! and compute the value in a second pass, which measured 1.6 times as long
+//! on a 24-value reply (and the reply must be read 5 times faster than a
+//! naive `str::parse::<f64>` reader, `host-tests/benches`). The fast path
+//! decides nothing on its own: whatever it does not take goes to the
+//! grammar, and the tests below check, on every string of up to 6 bytes over
+//! the number alphabet (alone and followed by other bytes) and on a million
+//! random longer ones, that whenever the fast path reads a number, the
+//! grammar reads the same bytes to the identical value.
 
 use core::cmp::Ordering;
 use core::fmt;
