@@ -103,25 +103,30 @@ pub struct Config {
 
 impl Default for Config {
     fn default() -> Self {
-        Config {
-            robot_ip: Ipv4Addr::UNSPECIFIED,
-            robot_port: 10003,
-            link_mode: LinkMode::Connect,
-            listen_port: 10003,
-            poll_ms: 100,
-            reply_timeout_ms: 1000,
-            word_order: WordOrder::HighFirst,
-            watchdog_ms: 0,
-            watchdog_action: WatchdogAction::Stop,
-            wait_blending_done: false,
-            wait_in_position: false,
-            start_grace_ms: 200,
-            auto_reset: false,
-            status_source: StatusSource::Polling,
-            datasheet_port: 10005,
-            robot_id: 0,
-        }
+        Config::DEFAULT
     }
+}
+
+impl Config {
+    /// The factory defaults (as `Default`, usable in constants).
+    pub const DEFAULT: Config = Config {
+        robot_ip: Ipv4Addr::UNSPECIFIED,
+        robot_port: 10003,
+        link_mode: LinkMode::Connect,
+        listen_port: 10003,
+        poll_ms: 100,
+        reply_timeout_ms: 1000,
+        word_order: WordOrder::HighFirst,
+        watchdog_ms: 0,
+        watchdog_action: WatchdogAction::Stop,
+        wait_blending_done: false,
+        wait_in_position: false,
+        start_grace_ms: 200,
+        auto_reset: false,
+        status_source: StatusSource::Polling,
+        datasheet_port: 10005,
+        robot_id: 0,
+    };
 }
 
 /// A configuration register holds a value outside its range.

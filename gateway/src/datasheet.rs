@@ -132,21 +132,17 @@ pub(crate) async fn run<S: Socket>(ctx: &Ctx<'_>, mut sock: S) -> Infallible {
                 Ok(Ok(n)) if n > 0 => n,
                 _ => break,
             };
-            let mut latest = None;
+            // Each sheet is applied where it is parsed: a DataSheet is ~2 KiB,
+            // one on the stack is enough.
             deframer.feed(buf.get(..n).unwrap_or(&[]), |item| {
-                if let Ok(payload) = item {
-                    if let Ok(sheet) = DataSheet::parse(payload) {
-                        latest = Some(sheet);
-                    }
+                if let Ok(Ok(sheet)) = item.map(DataSheet::parse) {
+                    ctx.with(|s| {
+                        let order = s.config.word_order;
+                        apply(&sheet, s.regs, order);
+                        s.status_time = Some(Instant::now());
+                    });
                 }
             });
-            if let Some(sheet) = latest {
-                ctx.with(|s| {
-                    let order = s.config.word_order;
-                    apply(&sheet, &mut s.regs, order);
-                    s.status_time = Some(Instant::now());
-                });
-            }
         }
         info!("datasheet: connection ended");
         sock.close().await;

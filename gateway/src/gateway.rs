@@ -5,6 +5,7 @@
 use core::cell::RefCell;
 use core::convert::Infallible;
 use core::net::Ipv4Addr;
+use core::pin::pin;
 
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
@@ -18,7 +19,8 @@ use crate::net::Net;
 use crate::registers::{self as r, AccessError, RegisterFile};
 use crate::status;
 
-/// Number of Modbus clients served at once.
+/// Number of Modbus clients served at once ([`run`] starts one session
+/// future for each).
 pub const MAX_SESSIONS: usize = 4;
 /// Socket buffer size of each Modbus session (each direction).
 pub const MODBUS_BUF: usize = 512;
@@ -80,8 +82,10 @@ impl Default for Options {
 }
 
 /// State shared by the engine and the Modbus sessions.
-pub(crate) struct Shared {
-    pub regs: RegisterFile,
+pub(crate) struct Shared<'r> {
+    /// The register map (5.5 KiB: a local of [`run`], borrowed so that it
+    /// is zeroed where it stays instead of being moved into place).
+    pub regs: &'r mut RegisterFile,
     /// The active configuration.
     pub config: Config,
     /// Bumped when the configuration is applied.
@@ -97,7 +101,7 @@ pub(crate) struct Shared {
     pub robot_peer: Option<Ipv4Addr>,
 }
 
-impl Shared {
+impl Shared<'_> {
     /// One register as the PLC reads it (the status age is computed now).
     pub fn read(&self, addr: u16, now: Instant) -> u16 {
         if addr == r::STATUS_AGE_MS {
@@ -114,7 +118,7 @@ impl Shared {
     /// Ends a source's command and logs it.
     pub fn finish(&mut self, source: Source, outcome: Outcome) {
         let order = self.config.word_order;
-        source.set_outcome(&mut self.regs, outcome, order);
+        source.set_outcome(self.regs, outcome, order);
         match outcome {
             Outcome::Done => info!("{} #{}: done", source.name(), source.index()),
             Outcome::Aborted => info!("{} #{}: aborted", source.name(), source.index()),
@@ -154,7 +158,7 @@ impl Shared {
 
 /// What the tasks share.
 pub(crate) struct Ctx<'a> {
-    pub shared: Mutex<NoopRawMutex, RefCell<Shared>>,
+    pub shared: Mutex<NoopRawMutex, RefCell<Shared<'a>>>,
     /// Wakes the engine (a job was queued, the configuration changed).
     pub wake: Signal<NoopRawMutex, ()>,
     pub storage: RefCell<&'a mut dyn Storage>,
@@ -202,61 +206,19 @@ impl Controls {
 }
 
 impl<'a> Ctx<'a> {
-    pub fn new(storage: &'a mut dyn Storage, opts: &Options) -> Self {
-        let mut regs = RegisterFile::new();
-        let mut image = [0u8; IMAGE_LEN];
-        let loaded = match storage.load(&mut image) {
-            Ok(0) => {
-                info!("config: nothing stored, using defaults");
-                None
-            }
-            Ok(n) => match config::decode_image(image.get(..n).unwrap_or(&[]), &mut regs) {
-                Ok(c) => {
-                    info!("config: loaded from storage");
-                    Some(c)
-                }
-                Err(_) => {
-                    warn!("config: stored image invalid, using defaults");
-                    None
-                }
-            },
-            Err(_) => {
-                warn!("config: storage read failed, using defaults");
-                None
-            }
-        };
-        let mut config = loaded.unwrap_or(opts.defaults);
-        if let Some(o) = opts.robot_override {
-            config = o.apply(config);
-            if let Some(saved) = loaded.filter(|c| o.apply(*c) != *c) {
-                // The command line wins (the operator asked for it), but
-                // never silently: the other saved settings are kept.
-                let [a, b, c, d] = saved.robot_ip.octets();
-                warn!(
-                    "config: the robot setting given at start overrides the saved one (saved: link mode {}, robot {}.{}.{}.{}:{}, listen port {}) for this run; CONFIG_COMMAND 1 would save the new one",
-                    saved.link_mode as u16,
-                    a,
-                    b,
-                    c,
-                    d,
-                    saved.robot_port,
-                    saved.listen_port
-                );
-            }
-        }
-        config.store(&mut regs);
-        regs.set(r::STATUS_VERSION, VERSION);
-        status::invalidate(&mut regs, config.word_order);
-        regs.set(r::STATUS_SOURCE, config.status_source as u16);
+    /// A context with every register 0 and the default configuration;
+    /// [`Ctx::load`] fills it. Built in place: nothing large passes
+    /// through the stack.
+    pub fn new(storage: &'a mut dyn Storage, regs: &'a mut RegisterFile) -> Self {
         Ctx {
             shared: Mutex::new(RefCell::new(Shared {
                 regs,
-                config,
+                config: Config::DEFAULT,
                 config_gen: 0,
                 queue: JobQueue::new(),
                 link_up: false,
                 status_time: None,
-                last_beat: Instant::now(),
+                last_beat: Instant::from_ticks(0),
                 sessions: 0,
                 robot_peer: None,
             })),
@@ -265,8 +227,66 @@ impl<'a> Ctx<'a> {
         }
     }
 
+    /// Loads the stored configuration and trigger table (or `opts`'
+    /// defaults), applies the robot override and sets the start values
+    /// of the registers. Once, at start. Not inlined, so that its 3 KiB
+    /// image buffer is off the stack once it returns.
+    #[inline(never)]
+    pub fn load(&self, opts: &Options) {
+        let mut image = [0u8; IMAGE_LEN];
+        let stored = self.storage.borrow_mut().load(&mut image);
+        self.with(|s| {
+            let regs = &mut *s.regs;
+            let loaded = match stored {
+                Ok(0) => {
+                    info!("config: nothing stored, using defaults");
+                    None
+                }
+                Ok(n) => match config::decode_image(image.get(..n).unwrap_or(&[]), regs) {
+                    Ok(c) => {
+                        info!("config: loaded from storage");
+                        Some(c)
+                    }
+                    Err(_) => {
+                        warn!("config: stored image invalid, using defaults");
+                        None
+                    }
+                },
+                Err(_) => {
+                    warn!("config: storage read failed, using defaults");
+                    None
+                }
+            };
+            let mut config = loaded.unwrap_or(opts.defaults);
+            if let Some(o) = opts.robot_override {
+                config = o.apply(config);
+                if let Some(saved) = loaded.filter(|c| o.apply(*c) != *c) {
+                    // The command line wins (the operator asked for it), but
+                    // never silently: the other saved settings are kept.
+                    let [a, b, c, d] = saved.robot_ip.octets();
+                    warn!(
+                        "config: the robot setting given at start overrides the saved one (saved: link mode {}, robot {}.{}.{}.{}:{}, listen port {}) for this run; CONFIG_COMMAND 1 would save the new one",
+                        saved.link_mode as u16,
+                        a,
+                        b,
+                        c,
+                        d,
+                        saved.robot_port,
+                        saved.listen_port
+                    );
+                }
+            }
+            config.store(regs);
+            regs.set(r::STATUS_VERSION, VERSION);
+            status::invalidate(regs, config.word_order);
+            regs.set(r::STATUS_SOURCE, config.status_source as u16);
+            s.config = config;
+            s.last_beat = Instant::now();
+        });
+    }
+
     /// Runs `f` on the shared state.
-    pub fn with<R>(&self, f: impl FnOnce(&mut Shared) -> R) -> R {
+    pub fn with<R>(&self, f: impl FnOnce(&mut Shared<'a>) -> R) -> R {
         self.shared.lock(|c| f(&mut c.borrow_mut()))
     }
 
@@ -301,12 +321,12 @@ impl<'a> Ctx<'a> {
             }
         }
         let fired = self.with(|s| {
-            let old = Controls::of(&s.regs);
+            let old = Controls::of(s.regs);
             for (i, v) in values.iter().enumerate() {
                 s.regs.set(start + i as u16, *v);
             }
             s.regs.set(r::CONTROL_CONFIG_COMMAND, 0);
-            let new = Controls::of(&s.regs);
+            let new = Controls::of(s.regs);
             if new.heartbeat != old.heartbeat {
                 s.last_beat = now;
                 s.regs.set_bits(r::STATUS_WATCHDOG, 1 << 1, false);
@@ -340,14 +360,14 @@ impl<'a> Ctx<'a> {
             Some(2) => {
                 self.with(|s| {
                     let c = s.config;
-                    c.store(&mut s.regs);
+                    c.store(s.regs);
                     s.regs.set(r::CONTROL_CONFIG_RESULT, 0);
                 });
                 Ok(())
             }
             Some(3) => {
                 self.with(|s| {
-                    Config::default().store(&mut s.regs);
+                    Config::default().store(s.regs);
                     s.regs.set(r::CONTROL_CONFIG_RESULT, 0);
                 });
                 Ok(())
@@ -361,7 +381,7 @@ impl<'a> Ctx<'a> {
     fn apply_config(&self) -> Result<(), WriteError> {
         let mut image = [0u8; IMAGE_LEN];
         let checked = self.with(|s| {
-            match Config::from_words(&Config::words_of(&s.regs)) {
+            match Config::from_words(&Config::words_of(s.regs)) {
                 Err(bad) => {
                     s.regs
                         .set(r::CONTROL_CONFIG_RESULT, ConfigResult::Invalid as u16);
@@ -385,7 +405,7 @@ impl<'a> Ctx<'a> {
                         let e = s.regs.get_u32(r::STATUS_ERROR_CODE, flip(c.word_order));
                         s.regs.set_u32(r::STATUS_ERROR_CODE, e, c.word_order);
                     }
-                    config::encode_image(&c, &s.regs, &mut image);
+                    config::encode_image(&c, s.regs, &mut image);
                     Ok(())
                 }
             }
@@ -451,14 +471,14 @@ fn flip(o: config::WordOrder) -> config::WordOrder {
 /// Acts on one control bit: a rising edge fires the command, a falling edge
 /// clears the outputs of a finished command. Returns `true` if a job was
 /// queued.
-fn edge(s: &mut Shared, source: Source, old: u16, new: u16) -> bool {
+fn edge(s: &mut Shared<'_>, source: Source, old: u16, new: u16) -> bool {
     if old == new {
         return false;
     }
-    let busy = source.is_busy(&s.regs);
+    let busy = source.is_busy(s.regs);
     if new == 0 {
         if !busy {
-            source.clear_outputs(&mut s.regs);
+            source.clear_outputs(s.regs);
         }
         return false;
     }
@@ -467,7 +487,7 @@ fn edge(s: &mut Shared, source: Source, old: u16, new: u16) -> bool {
         return false;
     }
     let (seq, code, job) = build_job(s, source);
-    source.set_started(&mut s.regs, seq, code);
+    source.set_started(s.regs, seq, code);
     let job = match job {
         Ok(j) => j,
         Err(e) => {
@@ -494,7 +514,7 @@ fn edge(s: &mut Shared, source: Source, old: u16, new: u16) -> bool {
 }
 
 /// Reads what a source's registers say and builds its job.
-fn build_job(s: &Shared, source: Source) -> (u16, u16, Result<Job, GatewayError>) {
+fn build_job(s: &Shared<'_>, source: Source) -> (u16, u16, Result<Job, GatewayError>) {
     let order = s.config.word_order;
     let regs = &s.regs;
     match source {
@@ -561,21 +581,33 @@ fn text_job(source: Source, seq: u16, text: Option<&[u8]>) -> Result<Job, Gatewa
 /// Everything lives in this one future (sockets and buffers included), so
 /// a board runs it from one task and the host from one thread.
 pub async fn run<N: Net>(net: &N, storage: &mut dyn Storage, opts: Options) -> Infallible {
-    let ctx = Ctx::new(storage, &opts);
+    // Every part is built where it stays (a pinned local of this future):
+    // futures and buffers of kilobytes are never moved through the stack.
+    let mut regs = RegisterFile::new();
+    let ctx = Ctx::new(storage, &mut regs);
+    ctx.load(&opts);
     let mut link_bufs = [[0u8; LINK_BUF]; 4];
     let [l0, l1, l2, l3] = link_bufs.each_mut();
-    let link = crate::link::Link::new(net.socket(l0, l1), net.socket(l2, l3));
-    let engine = crate::engine::run(&ctx, link);
+    let engine = pin!(crate::engine::run(
+        &ctx,
+        net.socket(l0, l1),
+        net.socket(l2, l3)
+    ));
     let mut bufs = [[[0u8; MODBUS_BUF]; 2]; MAX_SESSIONS];
-    let sessions = bufs.each_mut().map(|b| {
-        let [rx, tx] = b.each_mut();
-        crate::modbus::session(&ctx, net.socket(rx, tx), opts.modbus_port)
-    });
+    let [[r0, t0], [r1, t1], [r2, t2], [r3, t3]] = bufs.each_mut().map(|b| b.each_mut());
+    let port = opts.modbus_port;
+    let s0 = pin!(crate::modbus::session(&ctx, net.socket(r0, t0), port));
+    let s1 = pin!(crate::modbus::session(&ctx, net.socket(r1, t1), port));
+    let s2 = pin!(crate::modbus::session(&ctx, net.socket(r2, t2), port));
+    let s3 = pin!(crate::modbus::session(&ctx, net.socket(r3, t3), port));
     let (mut ds_rx, mut ds_tx) = ([0u8; LINK_BUF], [0u8; 64]);
-    let datasheet = crate::datasheet::run(&ctx, net.socket(&mut ds_rx, &mut ds_tx));
+    let datasheet = pin!(crate::datasheet::run(
+        &ctx,
+        net.socket(&mut ds_rx, &mut ds_tx)
+    ));
     let _ = embassy_futures::join::join3(
         engine,
-        embassy_futures::join::join_array(sessions),
+        embassy_futures::join::join_array([s0, s1, s2, s3]),
         datasheet,
     )
     .await;

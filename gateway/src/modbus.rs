@@ -30,7 +30,7 @@ use core::convert::Infallible;
 use embassy_time::{with_timeout, Duration, Timer};
 use modbus_core::tcp::{server::encode_response, Header, ResponseAdu};
 use modbus_core::{
-    Coils, Data, Exception, ExceptionResponse, FunctionCode, Request, Response, ResponsePdu,
+    Data, Exception, ExceptionResponse, FunctionCode, Request, Response, ResponsePdu,
 };
 
 use crate::gateway::{Ctx, WriteError};
@@ -160,10 +160,6 @@ async fn oversized<S: Socket>(
     total: usize,
     out: &mut [u8; MAX_ADU],
 ) -> Option<usize> {
-    let hdr = Header {
-        transaction_id: u16::from_be_bytes([head[0], head[1]]),
-        unit_id: head[6],
-    };
     let fc = head[7];
     debug!("modbus: fc {} frame of {} bytes, too long", fc, total);
     let mut sink = [0u8; 64];
@@ -175,15 +171,15 @@ async fn oversized<S: Socket>(
             _ => return None,
         }
     }
-    let exception = match fc & 0x7F {
+    let code = match fc & 0x7F {
         1..=6 | 15 | 16 | 23 => Exception::IllegalDataValue,
         _ => Exception::IllegalFunction,
     };
-    let pdu = ResponsePdu(Err(ExceptionResponse {
-        function: FunctionCode::new(fc & 0x7F),
-        exception,
-    }));
-    encode_response(ResponseAdu { hdr, pdu }, out).ok()
+    // Transaction id, protocol 0, length 3, unit id, function | 0x80, code.
+    let reply = [head[0], head[1], 0, 0, 0, 3, head[6], fc | 0x80, code as u8];
+    let dst = out.get_mut(..reply.len())?;
+    dst.copy_from_slice(&reply);
+    Some(reply.len())
 }
 
 fn exception(e: WriteError) -> Exception {
@@ -231,7 +227,10 @@ fn be16(b: &[u8], at: usize) -> u16 {
     ])
 }
 
-fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, bools: &mut [bool]) -> Result<(), Exception> {
+/// Reads `qty` bits from `addr` packed as the reply wants them (bit `i` in
+/// bit `i % 8` of byte `i / 8`) into `packed`; returns the bytes used.
+/// Packs straight from the registers: no array of 2000 `bool`s.
+fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, packed: &mut [u8]) -> Result<usize, Exception> {
     if !(1..=2000).contains(&qty) {
         return Err(Exception::IllegalDataValue);
     }
@@ -247,15 +246,24 @@ fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, bools: &mut [bool]) -> Result<(
         .ok_or(Exception::IllegalDataAddress)?;
     ctx.read(first_reg, w)
         .map_err(|_| Exception::IllegalDataAddress)?;
-    for (i, b) in bools.iter_mut().take(usize::from(qty)).enumerate() {
+    let bytes = usize::from(qty).div_ceil(8);
+    let out = packed
+        .get_mut(..bytes)
+        .ok_or(Exception::ServerDeviceFailure)?;
+    out.fill(0);
+    for i in 0..usize::from(qty) {
         let bit = usize::from(addr) + i;
         let word = w
             .get(bit / 16 - usize::from(first_reg))
             .copied()
             .unwrap_or(0);
-        *b = word & (1 << (bit % 16)) != 0;
+        if word & (1 << (bit % 16)) != 0 {
+            if let Some(b) = out.get_mut(i / 8) {
+                *b |= 1 << (i % 8);
+            }
+        }
     }
-    Ok(())
+    Ok(bytes)
 }
 
 /// Writes `qty` bits from `addr`, taking bit `i` from `bit(i)`.
@@ -297,19 +305,22 @@ fn execute<'d>(
     pdu: &[u8],
     data: &'d mut [u8; 252],
 ) -> Result<Response<'d>, Exception> {
-    let mut bools = [false; 2000];
     let mut words = [0u16; 125];
     match req {
         Request::ReadCoils(addr, qty) | Request::ReadDiscreteInputs(addr, qty) => {
-            read_bits(ctx, addr, qty, &mut bools)?;
-            let b = bools
-                .get(..usize::from(qty))
-                .ok_or(Exception::IllegalDataValue)?;
-            let coils = Coils::from_bools(b, data).map_err(|_| Exception::ServerDeviceFailure)?;
-            Ok(match req {
-                Request::ReadCoils(..) => Response::ReadCoils(coils),
-                _ => Response::ReadDiscreteInputs(coils),
-            })
+            // Byte count, then the packed bits (the standard reply, written
+            // here so that no array of 2000 bools is needed).
+            let (count, bits) = data.split_at_mut(1);
+            let n = read_bits(ctx, addr, qty, bits)?;
+            if let Some(c) = count.first_mut() {
+                *c = n as u8;
+            }
+            let fc = match req {
+                Request::ReadCoils(..) => FunctionCode::ReadCoils,
+                _ => FunctionCode::ReadDiscreteInputs,
+            };
+            let d = data.get(..1 + n).ok_or(Exception::ServerDeviceFailure)?;
+            Ok(Response::Custom(fc, d))
         }
         Request::ReadHoldingRegisters(addr, qty) | Request::ReadInputRegisters(addr, qty) => {
             if !(1..=125).contains(&qty) {
@@ -413,7 +424,9 @@ mod tests {
     #[test]
     fn exceptions_for_bad_requests() {
         let mut st = RamStorage::new();
-        let ctx = Ctx::new(&mut st, &Options::default());
+        let mut regs = RegisterFile::new();
+        let ctx = Ctx::new(&mut st, &mut regs);
+        ctx.load(&Options::default());
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 2, 1, 0x2B]),
             [0, 1, 0, 0, 0, 3, 1, 0xAB, 1]
@@ -430,6 +443,19 @@ mod tests {
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]),
             [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 0]
         );
+        // FC 1: bits 0-11 of register 0 (version 0x0100: bit 8), packed.
+        assert_eq!(
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
+            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x00, 0x01]
+        );
+        // FC 2 from bit 4, 796 bits (up to register 49): 100 bytes; bit 4
+        // of the reply is bit 8 of register 0.
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x1C]);
+        assert_eq!((r[7], r[8], r.len()), (2, 100, 9 + 100));
+        assert_eq!(r[9], 1 << 4);
+        // One bit more reaches register 50, unmapped: 02.
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x1D]);
+        assert_eq!(&r[7..], [0x82, 2]);
         // FC 16 shorter than its header says -> 03, never a panic.
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 5, 1, 0x10, 0, 140, 0]),

@@ -5,7 +5,7 @@
 //! DataSheet port (see [`crate::datasheet`]). Motion completion always
 //! polls `ReadRobotState` on the command port.
 
-use hans_codec::{request, response, Command, Reply, ReplyExpect, Response, RobotId};
+use hans_codec::{request, response, Command, FsmState, Reply, ReplyExpect, Response, RobotId};
 
 use crate::config::WordOrder;
 use crate::registers::{self as r, RegisterFile};
@@ -132,6 +132,12 @@ fn bits(values: &[i32]) -> u16 {
         .fold(0, |acc, (i, _)| acc | (1 << i))
 }
 
+/// Sets `FSM_STATE` (65535 for states beyond 16 bits).
+pub fn set_fsm(regs: &mut RegisterFile, state: FsmState) {
+    let v = i32::from(state);
+    regs.set(r::STATUS_FSM, u16::try_from(v).unwrap_or(u16::MAX));
+}
+
 /// Copies any status-bearing response into the registers.
 pub fn apply_response(resp: &Response<'_>, regs: &mut RegisterFile, order: WordOrder) {
     let io = |regs: &mut RegisterFile, reg: u16, valid: u16, v: &[i32]| {
@@ -140,10 +146,7 @@ pub fn apply_response(resp: &Response<'_>, regs: &mut RegisterFile, order: WordO
     };
     match resp {
         Response::ReadRobotState(s) => apply_robot_state(s, regs, order),
-        Response::ReadCurFSM(f) => {
-            let v = i32::from(f.state);
-            regs.set(r::STATUS_FSM, u16::try_from(v).unwrap_or(u16::MAX));
-        }
+        Response::ReadCurFSM(f) => set_fsm(regs, f.state),
         Response::ReadActPos(p) => {
             for (i, v) in p.joints.iter().enumerate() {
                 regs.set_f32(r::STATUS_JOINTS + 2 * i as u16, v.to_f32(), order);

@@ -132,11 +132,21 @@ fn put<'c, C: Command<'c>>(
     cmd: &C,
     out: &mut heapless::String<MSG_MAX>,
 ) -> Result<(), GatewayError> {
-    cmd.validate().map_err(|_| BAD)?;
     let mut buf = [0u8; MSG_MAX];
-    let n = cmd.encode(&mut buf).map_err(|_| BAD)?;
-    let s = buf
-        .get(..n)
+    let n = cmd.validate().ok().and_then(|()| cmd.encode(&mut buf).ok());
+    append(&buf, n, out)
+}
+
+/// The part of [`put`] that does not depend on the command (one copy in
+/// flash instead of one per command).
+#[inline(never)]
+fn append(
+    buf: &[u8],
+    n: Option<usize>,
+    out: &mut heapless::String<MSG_MAX>,
+) -> Result<(), GatewayError> {
+    let s = n
+        .and_then(|n| buf.get(..n))
         .and_then(|b| core::str::from_utf8(b).ok())
         .ok_or(BAD)?;
     out.push_str(s).map_err(|_| BAD)

@@ -219,15 +219,19 @@ impl Job {
     }
 
     /// The job in the urgent lane's form: its text as written if it fits,
-    /// else the document's form of the message.
+    /// else with the blanks around its fields removed (urgent messages are
+    /// short: a name and at most the robot id).
     fn to_urgent(&self) -> Option<Job<URGENT_MSG_MAX>> {
         let mut text = heapless::String::new();
         if text.push_str(&self.text).is_err() {
-            let req = Request::parse(&self.text).ok()?;
-            let mut buf = [0u8; URGENT_MSG_MAX];
-            let n = req.encode(&mut buf).ok()?;
-            let s = core::str::from_utf8(buf.get(..n)?).ok()?;
-            text.push_str(s).ok()?;
+            text.clear();
+            let mut fields = self.text.split(',').peekable();
+            while let Some(f) = fields.next() {
+                text.push_str(f.trim()).ok()?;
+                if fields.peek().is_some() {
+                    text.push(',').ok()?;
+                }
+            }
         }
         Some(Job {
             source: self.source,
@@ -532,7 +536,7 @@ mod tests {
         for (i, t) in urgent.iter().enumerate() {
             q.push(job(Source::Trigger(10 + i as u8), t)).unwrap();
         }
-        // Long but valid: kept in the document's form.
+        // Long but valid: kept without the blanks.
         q.push(job(Source::Raw, "GrpReset,                     0      ,;"))
             .unwrap();
         assert_eq!(q.len(), QUEUE_DEPTH + 4);

@@ -36,13 +36,13 @@ use core::convert::Infallible;
 use embassy_futures::select::{select3, Either3};
 use embassy_time::{Duration, Instant, Timer};
 use hans_codec::{
-    request, Command, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request, Response,
-    RobotId,
+    request, response, Command, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request,
+    Response, RobotId,
 };
 
 pub use job::{ErrorSource, GatewayError, Outcome, Source};
 
-use crate::config::{Config, LinkMode, WatchdogAction};
+use crate::config::{Config, LinkMode, WatchdogAction, WordOrder};
 use crate::gateway::{millis, Ctx};
 use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
@@ -72,6 +72,18 @@ struct Active {
     seen_moving: bool,
     /// The watchdog already acted on this motion.
     watchdog_fired: bool,
+}
+
+/// What a polled reply gave the engine.
+enum Polled {
+    /// Nothing it needs (the registers may have been updated).
+    Nothing,
+    /// `ReadRobotState`.
+    State(response::ReadRobotState),
+    /// `ReadCurFSM`.
+    Fsm(FsmState),
+    /// The code of a reply to the gateway's own command (0 = OK).
+    Code(i32),
 }
 
 /// A job between two messages, or after its last one, waiting for the
@@ -108,8 +120,10 @@ fn target_of(c: &Config) -> Target {
     }
 }
 
-/// Runs the engine forever.
-pub(crate) async fn run<S: Socket>(ctx: &Ctx<'_>, mut link: Link<S>) -> Infallible {
+/// Runs the engine forever on a link over sockets `a` and `b` (built here,
+/// in place: the link holds kilobytes of buffers).
+pub(crate) async fn run<S: Socket>(ctx: &Ctx<'_>, a: S, b: S) -> Infallible {
+    let mut link = Link::new(a, b);
     let (config, config_gen) = ctx.with(|s| (s.config, s.config_gen));
     let now = Instant::now();
     let mut e = Engine {
@@ -330,7 +344,7 @@ impl<'c, 'a> Engine<'c, 'a> {
             s.fail_queue(GatewayError::LinkLost);
             s.link_up = false;
             let order = s.config.word_order;
-            status::invalidate(&mut s.regs, order);
+            status::invalidate(s.regs, order);
             s.status_time = None;
             s.regs.set_bits(r::STATUS_WATCHDOG, 1, false);
         });
@@ -350,7 +364,7 @@ impl<'c, 'a> Engine<'c, 'a> {
         };
         self.ctx.with(|s| {
             let job = s.queue.take(gate)?;
-            job.source.set_dequeued(&mut s.regs);
+            job.source.set_dequeued(s.regs);
             s.update_queue_reg();
             Some(job)
         })
@@ -440,7 +454,7 @@ impl<'c, 'a> Engine<'c, 'a> {
                                 Some(Outcome::gateway(GatewayError::ReplyMismatch))
                             }
                             Ok(Reply::Ok(resp)) => {
-                                status::apply_response(resp, &mut s.regs, order);
+                                status::apply_response(resp, s.regs, order);
                                 if let (
                                     Results::ActPos,
                                     Response::ReadActPos(p),
@@ -505,7 +519,7 @@ impl<'c, 'a> Engine<'c, 'a> {
         }
         if job.motion {
             self.ctx.with(|s| {
-                job.source.set_active(&mut s.regs, true);
+                job.source.set_active(s.regs, true);
                 s.regs.set(r::STATUS_ACTIVE_MOTION, job.source.code());
             });
             self.active = Some(Active {
@@ -551,15 +565,16 @@ impl<'c, 'a> Engine<'c, 'a> {
 
     /// Sends the request in `self.buf[..len]` and hands its reply to `f`.
     /// `Err(())` when the link was lost (already handled), `Ok(None)` when
-    /// the reply could not be read.
-    async fn poll<S: Socket, R>(
+    /// the reply could not be read. One instance for every caller (`f` is
+    /// a trait object): this runs on small boards.
+    async fn poll<S: Socket>(
         &mut self,
         link: &mut Link<S>,
         len: usize,
         expect: ReplyExpect,
         what: &str,
-        f: impl FnOnce(&Reply<'_>, &mut crate::gateway::Shared, crate::config::WordOrder) -> R,
-    ) -> Result<Option<R>, ()> {
+        f: &mut dyn FnMut(&Reply<'_>, &mut crate::gateway::Shared<'_>, WordOrder) -> Polled,
+    ) -> Result<Option<Polled>, ()> {
         let deadline = self.deadline();
         let order = self.config.word_order;
         let ctx = self.ctx;
@@ -594,8 +609,9 @@ impl<'c, 'a> Engine<'c, 'a> {
             return;
         };
         let r = self
-            .poll(link, len, expect, "status", |reply, s, order| {
-                step.apply(reply, &mut s.regs, order)
+            .poll(link, len, expect, "status", &mut |reply, s, order| {
+                step.apply(reply, s.regs, order);
+                Polled::Nothing
             })
             .await;
         if r.is_err() {
@@ -617,15 +633,21 @@ impl<'c, 'a> Engine<'c, 'a> {
             return;
         };
         let state = self
-            .poll(link, len, expect, "motion", |reply, s, order| match reply {
-                Reply::Ok(Response::ReadRobotState(rs)) => {
-                    status::apply_robot_state(rs, &mut s.regs, order);
-                    Some(rs.clone())
-                }
-                _ => None,
-            })
+            .poll(
+                link,
+                len,
+                expect,
+                "motion",
+                &mut |reply, s, order| match reply {
+                    Reply::Ok(Response::ReadRobotState(rs)) => {
+                        status::apply_robot_state(rs, s.regs, order);
+                        Polled::State(rs.clone())
+                    }
+                    _ => Polled::Nothing,
+                },
+            )
             .await;
-        let Ok(Some(Some(rs))) = state else {
+        let Ok(Some(Polled::State(rs))) = state else {
             return;
         };
         let Some(a) = self.active.as_mut() else {
@@ -670,10 +692,7 @@ impl<'c, 'a> Engine<'c, 'a> {
         self.end_motion(a.source, outcome);
         if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
             info!("auto-reset: GrpReset after the motion error");
-            let cmd = request::GrpReset {
-                rbt_id: RobotId(i32::from(self.config.robot_id)),
-            };
-            self.send_internal(link, &cmd).await;
+            self.send_internal(link, CommandId::GrpReset).await;
         }
     }
 
@@ -704,8 +723,9 @@ impl<'c, 'a> Engine<'c, 'a> {
         };
         // A refused or unreadable reply leaves the registers as they are;
         // the motion is Done all the same (the robot said so twice).
-        self.poll(link, len, expect, "position", |reply, s, order| {
-            PollStep::ActPos.apply(reply, &mut s.regs, order)
+        self.poll(link, len, expect, "position", &mut |reply, s, order| {
+            PollStep::ActPos.apply(reply, s.regs, order);
+            Polled::Nothing
         })
         .await?;
         Ok(true)
@@ -757,34 +777,47 @@ impl<'c, 'a> Engine<'c, 'a> {
             return Ok(None);
         };
         let r = self
-            .poll(link, len, expect, "fsm", |reply, s, order| match reply {
-                Reply::Ok(resp @ Response::ReadCurFSM(f)) => {
-                    status::apply_response(resp, &mut s.regs, order);
-                    Some(f.state)
+            .poll(link, len, expect, "fsm", &mut |reply, s, _| match reply {
+                Reply::Ok(Response::ReadCurFSM(f)) => {
+                    status::set_fsm(s.regs, f.state);
+                    Polled::Fsm(f.state)
                 }
-                _ => None,
+                _ => Polled::Nothing,
             })
             .await?;
-        Ok(r.flatten())
+        Ok(match r {
+            Some(Polled::Fsm(state)) => Some(state),
+            _ => None,
+        })
     }
 
-    /// Sends a command of the gateway's own (watchdog action, auto reset).
-    async fn send_internal<'x, S: Socket, C: Command<'x>>(&mut self, link: &mut Link<S>, cmd: &C) {
-        let Ok(len) = cmd.encode(&mut self.buf) else {
+    /// Sends a command of the gateway's own (watchdog action, auto reset):
+    /// `GrpStop`, `GrpInterrupt` or `GrpReset` of the configured robot.
+    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, id: CommandId) {
+        let rbt_id = RobotId(i32::from(self.config.robot_id));
+        let encoded = match id {
+            CommandId::GrpStop => request::GrpStop { rbt_id }.encode(&mut self.buf),
+            CommandId::GrpInterrupt => request::GrpInterrupt { rbt_id }.encode(&mut self.buf),
+            _ => request::GrpReset { rbt_id }.encode(&mut self.buf),
+        };
+        let Ok(len) = encoded else {
             return;
         };
-        let name = C::ID.name();
+        let expect = ReplyExpect::of(id);
+        let name = id.name();
         let r = self
-            .poll(link, len, cmd.expect(), name, |reply, _, _| match reply {
-                Reply::Ok(_) => 0,
-                Reply::Fail(f) => f.code.code(),
-                Reply::ErrorCmd(_) => GatewayError::BadReply.code(),
+            .poll(link, len, expect, name, &mut |reply, _, _| {
+                Polled::Code(match reply {
+                    Reply::Ok(_) => 0,
+                    Reply::Fail(f) => f.code.code(),
+                    Reply::ErrorCmd(_) => GatewayError::BadReply.code(),
+                })
             })
             .await;
         match r {
-            Ok(Some(0)) => info!("{}: sent, ok", name),
-            Ok(Some(code)) => warn!("{}: refused, code {}", name, code),
-            Ok(None) => warn!("{}: unreadable reply", name),
+            Ok(Some(Polled::Code(0))) => info!("{}: sent, ok", name),
+            Ok(Some(Polled::Code(code))) => warn!("{}: refused, code {}", name, code),
+            Ok(_) => warn!("{}: unreadable reply", name),
             Err(()) => {}
         }
     }
@@ -818,7 +851,6 @@ impl<'c, 'a> Engine<'c, 'a> {
             let n = s.regs.get(r::STATUS_WATCHDOG_TRIPS).wrapping_add(1);
             s.regs.set(r::STATUS_WATCHDOG_TRIPS, n);
         });
-        let id = RobotId(i32::from(self.config.robot_id));
         match action {
             WatchdogAction::ReportOnly => {
                 if let Some(a) = self.active.as_mut() {
@@ -831,16 +863,14 @@ impl<'c, 'a> Engine<'c, 'a> {
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
                 // As a Stop: the motions waiting behind it are not sent.
                 self.ctx.with(|s| s.abort_queued_motions());
-                self.send_internal(link, &request::GrpStop { rbt_id: id })
-                    .await;
+                self.send_internal(link, CommandId::GrpStop).await;
             }
             WatchdogAction::Pause => {
                 self.active = None;
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
                 // The robot holds the motion: nothing may start behind it.
                 self.ctx.with(|s| s.abort_queued_motions());
-                self.send_internal(link, &request::GrpInterrupt { rbt_id: id })
-                    .await;
+                self.send_internal(link, CommandId::GrpInterrupt).await;
             }
         }
         true
