@@ -37,12 +37,12 @@ use crate::number::{plain_prefix, Decimal};
 
 /// Decodes a payload: see the module documentation.
 pub(super) fn parse(payload: &[u8]) -> Result<DataSheet, DataSheetError> {
+    // One sheet, returned from one place: built where the caller gets it.
     let mut ds = DataSheet::default();
-    if fast(payload, &mut ds).is_some() {
-        return Ok(ds);
+    if fast(payload, &mut ds).is_none() {
+        ds = DataSheet::default();
+        general(payload, &mut ds)?;
     }
-    let mut ds = DataSheet::default();
-    general(payload, &mut ds)?;
     Ok(ds)
 }
 
@@ -139,8 +139,7 @@ fn member(
 /// `None` (with `ds` partly filled) where it gives up.
 pub(super) fn fast(payload: &[u8], ds: &mut DataSheet) -> Option<()> {
     let mut r = Fast {
-        b: payload,
-        i: 0,
+        rest: payload,
         next_group: 0,
         next_field: 0,
     };
@@ -179,10 +178,37 @@ fn same(a: &[u8], b: &[u8]) -> bool {
     word(a, n - 8) == word(b, n - 8)
 }
 
-/// The cursor of the fast reader. Every method returns `None` to give up.
+/// A plain number, bare or quoted, at the start of `rest`: its value and
+/// its length. `None` for anything else.
+#[inline]
+fn plain_at(rest: &[u8]) -> Option<(Decimal, usize)> {
+    let (quotes, body) = match rest {
+        [b'"', body @ ..] => (2, body),
+        _ => (0, rest),
+    };
+    let (d, tail) = plain_prefix(body)?;
+    let len = body.len() - tail.len();
+    let whole = if quotes == 2 {
+        tail.first() == Some(&b'"')
+    } else {
+        // JSON wants a digit after a `.`. (A byte after the number that
+        // would continue it is refused by the caller, which wants a
+        // separator next; ignored bytes there are whitespace either way.)
+        body.get(len.wrapping_sub(1)) != Some(&b'.')
+    };
+    whole.then_some((d, len + quotes))
+}
+
+/// `true` for the bytes the tokenizer takes as whitespace between tokens.
+#[inline]
+fn is_space(c: u8) -> bool {
+    matches!(c, b' ' | b'\r' | b'\n' | b'\t' | 0)
+}
+
+/// The cursor of the fast reader: what is left of the payload. Every method
+/// returns `None` to give up.
 struct Fast<'a> {
-    b: &'a [u8],
-    i: usize,
+    rest: &'a [u8],
     /// The group expected next at the top level (an index into
     /// [`GROUP_NAMES`]).
     next_group: usize,
@@ -198,16 +224,22 @@ struct Key {
 }
 
 impl<'a> Fast<'a> {
+    /// Passes over `n` bytes (known to be there).
+    #[inline]
+    fn take(&mut self, n: usize) {
+        self.rest = self.rest.get(n..).unwrap_or(&[]);
+    }
+
     /// The next byte that is not whitespace between tokens (the
     /// tokenizer's set), without taking it; `None` at the end.
     #[inline]
     fn peek(&mut self) -> Option<u8> {
         loop {
-            let c = *self.b.get(self.i)?;
-            if !matches!(c, b' ' | b'\r' | b'\n' | b'\t' | 0) {
+            let (&c, tail) = self.rest.split_first()?;
+            if !is_space(c) {
                 return Some(c);
             }
-            self.i += 1;
+            self.rest = tail;
         }
     }
 
@@ -217,7 +249,7 @@ impl<'a> Fast<'a> {
         if self.peek()? != c {
             return None;
         }
-        self.i += 1;
+        self.take(1);
         Some(())
     }
 
@@ -228,15 +260,15 @@ impl<'a> Fast<'a> {
     fn next_or_end(&mut self, close: u8) -> Option<bool> {
         match self.peek()? {
             b',' => {
-                self.i += 1;
+                self.take(1);
                 if self.peek()? == close {
-                    self.i += 1;
+                    self.take(1);
                     return Some(true);
                 }
                 Some(false)
             }
             c if c == close => {
-                self.i += 1;
+                self.take(1);
                 Some(true)
             }
             _ => None,
@@ -247,7 +279,7 @@ impl<'a> Fast<'a> {
     #[inline]
     fn empty(&mut self, close: u8) -> Option<bool> {
         if self.peek()? == close {
-            self.i += 1;
+            self.take(1);
             return Some(true);
         }
         Some(false)
@@ -256,19 +288,20 @@ impl<'a> Fast<'a> {
     /// A string with no escape, its `"` next: its contents.
     #[inline]
     fn string(&mut self) -> Option<&'a [u8]> {
-        let body = self.b.get(self.i + 1..)?;
+        let body = self.rest.get(1..)?;
         let len = scan::quote_or_backslash(body)?;
-        if body.get(len) != Some(&b'"') {
+        let (s, tail) = body.split_at_checked(len)?;
+        let (b'"', after) = tail.split_first()? else {
             return None;
-        }
-        self.i += len + 2;
-        body.get(..len)
+        };
+        self.rest = after;
+        Some(s)
     }
 
     /// A scalar value (not an array or object).
     fn scalar(&mut self) -> Option<Value<'a>> {
         let c = self.peek()?;
-        let rest = self.b.get(self.i..)?;
+        let rest = self.rest;
         match c {
             b'"' => {
                 // Most strings hold a plain number: read it, and if the
@@ -277,7 +310,7 @@ impl<'a> Fast<'a> {
                 // reader stops at the quote.)
                 let body = rest.get(1..)?;
                 if let Some((d, tail @ [b'"', ..])) = plain_prefix(body) {
-                    self.i += body.len() - tail.len() + 2;
+                    self.take(body.len() - tail.len() + 2);
                     return Some(Value::Number(d));
                 }
                 Some(Value::Token(Token::Str(self.string()?)))
@@ -293,7 +326,7 @@ impl<'a> Fast<'a> {
                 {
                     return None;
                 }
-                self.i += len;
+                self.rest = tail;
                 Some(Value::Number(d))
             }
             b't' => self.literal(b"true", Token::Bool(true)),
@@ -304,10 +337,7 @@ impl<'a> Fast<'a> {
     }
 
     fn literal(&mut self, word: &[u8], token: Token<'a>) -> Option<Value<'a>> {
-        if !self.b.get(self.i..)?.starts_with(word) {
-            return None;
-        }
-        self.i += word.len();
+        self.rest = self.rest.strip_prefix(word)?;
         Some(Value::Token(token))
     }
 
@@ -320,13 +350,12 @@ impl<'a> Fast<'a> {
             if self.peek()? != b'"' {
                 return None;
             }
-            let key = self.key(depth)?;
+            let (key, c) = self.key(depth)?;
             if let Some(g) = key.group {
                 self.open(depth)?;
                 self.object(ds, depth + 1)?;
                 self.next_group = g + 1;
             } else if let Some((get, _)) = field(key.field) {
-                let c = self.peek()?;
                 self.member(get(ds), c, depth)?;
                 self.next_field = key.field.map_or(0, |k| k + 1);
             } else {
@@ -339,8 +368,9 @@ impl<'a> Fast<'a> {
     }
 
     /// A member's key, whose `"` is next, and the `:` after it: what the
-    /// reader does with the member. `group` is set only when the value is
-    /// an object (the only case where a group name matters).
+    /// reader does with the member, and the value's first byte. `group` is
+    /// set only when the value is an object (the only case where a group
+    /// name matters).
     ///
     /// Controllers send the members in the table's order and spelling, so
     /// the name that would come next (the next group at the top level, the
@@ -348,48 +378,52 @@ impl<'a> Fast<'a> {
     /// key that is not that name is looked up. Both ways give the same
     /// answer: a key equal to the expected name is that name.
     #[inline]
-    fn key(&mut self, depth: usize) -> Option<Key> {
+    fn key(&mut self, depth: usize) -> Option<(Key, u8)> {
         let (names, next) = if depth == 1 {
             (GROUP_NAMES, self.next_group)
         } else {
             (READ_NAMES, self.next_field)
         };
         let guess = names.get(next).map_or(&b""[..], |n| n.as_bytes());
-        let rest = self.b.get(self.i + 1..)?;
+        let body = self.rest.get(1..)?;
         let predicted = !guess.is_empty()
-            && rest.get(guess.len()) == Some(&b'"')
-            && rest.get(..guess.len()).is_some_and(|k| same(k, guess));
+            && body.get(guess.len()) == Some(&b'"')
+            && body.get(..guess.len()).is_some_and(|k| same(k, guess));
         let raw = if predicted {
-            self.i += guess.len() + 2;
+            self.take(guess.len() + 2);
             guess
         } else {
             self.string()?
         };
         self.expect(b':')?;
-        let object = self.peek()? == b'{';
+        let c = self.peek()?;
+        let object = c == b'{';
         if predicted {
             // The expected group with an object, or the expected field with
             // anything else: the answer is known. (The other cases, a
             // field name with an object or a group name with a value, are
             // the names both kinds share: look them up.)
             if depth == 1 && object {
-                return Some(Key {
+                let key = Key {
                     field: None,
                     group: Some(next),
-                });
+                };
+                return Some((key, c));
             }
             if depth > 1 && !object {
-                return Some(Key {
+                let key = Key {
                     field: Some(next),
                     group: None,
-                });
+                };
+                return Some((key, c));
             }
         }
         let found = NAMES.find(raw);
-        Some(Key {
+        let key = Key {
             field: found.field,
             group: found.group.filter(|_| object),
-        })
+        };
+        Some((key, c))
     }
 
     /// Takes the `[` or `{` of a container that would be at `depth + 1`.
@@ -398,7 +432,7 @@ impl<'a> Fast<'a> {
         if depth >= MAX_DEPTH {
             return None;
         }
-        self.i += 1;
+        self.take(1);
         Some(())
     }
 
@@ -419,8 +453,14 @@ impl<'a> Fast<'a> {
             loop {
                 m.push(n, self.element()?).ok()?;
                 n += 1;
-                if self.next_or_end(b']')? {
-                    break;
+                // The usual `,` straight before the next element.
+                match self.rest {
+                    [b',', c, ..] if *c != b']' && !is_space(*c) => self.take(1),
+                    _ => {
+                        if self.next_or_end(b']')? {
+                            break;
+                        }
+                    }
                 }
             }
         }
@@ -431,25 +471,8 @@ impl<'a> Fast<'a> {
     /// or `None` with nothing taken.
     #[inline]
     fn plain(&mut self) -> Option<Decimal> {
-        let rest = self.b.get(self.i..)?;
-        let (quotes, body) = match rest {
-            [b'"', body @ ..] => (2, body),
-            _ => (0, rest),
-        };
-        let (d, tail) = plain_prefix(body)?;
-        let len = body.len() - tail.len();
-        let whole = if quotes == 2 {
-            tail.first() == Some(&b'"')
-        } else {
-            // JSON wants a digit after a `.`. (A byte after the number that
-            // would continue it is refused by the caller, which wants a
-            // separator next; ignored bytes there are whitespace either way.)
-            body.get(len.wrapping_sub(1)) != Some(&b'.')
-        };
-        if !whole {
-            return None;
-        }
-        self.i += len + quotes;
+        let (d, len) = plain_at(self.rest)?;
+        self.take(len);
         Some(d)
     }
 
