@@ -21,8 +21,7 @@
 //! the table (a few share a hash and sit in neighbouring slots) and costs
 //! the same for every key, however long. [`Names::find`] probes from the
 //! key's slot: an empty slot ends the search, an occupied one is confirmed
-//! by comparing the whole name (a plain slice comparison first, as keys
-//! usually come in the table's spelling, then byte by byte by the rule).
+//! by comparing the whole name byte by byte by the rule.
 //! The table is never more than three-quarters full, so the probe always
 //! reaches an empty slot; the loop is bounded by [`SLOTS`] anyway.
 //!
@@ -271,7 +270,7 @@ impl Names {
             }
             let name = self.name_of_checked(slot).as_bytes();
             if name.len() == key.len()
-                && (name == key || name.iter().zip(key).all(|(&n, &k)| same(k, n)))
+                && name.iter().zip(key).all(|(&n, &k)| same(k, n))
             {
                 return Some(Found {
                     field: (slot.field != NONE).then_some(usize::from(slot.field)),
