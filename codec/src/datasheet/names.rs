@@ -269,9 +269,7 @@ impl Names {
                 return None;
             }
             let name = self.name_of_checked(slot).as_bytes();
-            if name.len() == key.len()
-                && name.iter().zip(key).all(|(&n, &k)| same(k, n))
-            {
+            if name.len() == key.len() && name.iter().zip(key).all(|(&n, &k)| same(k, n)) {
                 return Some(Found {
                     field: (slot.field != NONE).then_some(usize::from(slot.field)),
                     group: (slot.group != NONE).then_some(usize::from(slot.group)),
