@@ -752,6 +752,11 @@ impl<'c, 'a> Engine<'c, 'a> {
         match verdict {
             Verdict::Wait => {}
             Verdict::Reached => {
+                // FSM_STATE shows the new state; make ROBOT_FLAGS agree
+                // before the job goes on (or is Done).
+                if self.refresh_robot_state(link).await.is_err() {
+                    return;
+                }
                 if let Some(p) = self.pending.take() {
                     self.run_job_from(link, p.job, p.next).await;
                 }
@@ -768,6 +773,21 @@ impl<'c, 'a> Engine<'c, 'a> {
                 }
             }
         }
+    }
+
+    /// `ReadRobotState` into the status registers; `Err(())` when the link
+    /// was lost (already handled).
+    async fn refresh_robot_state<S: Socket>(&mut self, link: &mut Link<S>) -> Result<(), ()> {
+        let Some((len, expect)) = PollStep::RobotState.request(self.config.robot_id, &mut self.buf)
+        else {
+            return Ok(());
+        };
+        self.poll(link, len, expect, "state", &mut |reply, s, order| {
+            PollStep::RobotState.apply(reply, s.regs, order);
+            Polled::Nothing
+        })
+        .await?;
+        Ok(())
     }
 
     /// `ReadCurFSM` (also copied into `FSM_STATE`); `Ok(None)` when the

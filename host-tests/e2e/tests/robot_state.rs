@@ -26,6 +26,12 @@ async fn power_on_and_enable_are_done_when_the_robot_is_there() {
     assert!(e.done(), "enable: {e:?}");
     assert_eq!(rig.sim.fsm(), FsmState::StandBy, "robot at Done of Enable");
     assert_eq!(rig.plc.read1(r::STATUS_FSM).await, 33, "FSM_STATE at Done");
+    let flags = rig.plc.read1(r::STATUS_FLAGS).await;
+    assert_eq!(
+        flags & (r::FLAG_ENABLED | r::FLAG_POWERED | r::FLAG_VALID),
+        r::FLAG_ENABLED | r::FLAG_POWERED | r::FLAG_VALID,
+        "ROBOT_FLAGS agree with FSM_STATE at Done: {flags:#x}"
+    );
     // Each step waited for its state: the next one went out after it.
     assert_eq!(
         rig.commands_received(),
