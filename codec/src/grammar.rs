@@ -71,13 +71,14 @@ pub(crate) mod syntax {
         is_space(b) || b == b';'
     }
 
-    /// `A-Z a-z 0-9 _`, one bit per ASCII byte.
-    const NAME_BYTES: u128 = {
-        let mut m = 0u128;
+    /// `A-Z a-z 0-9 _`, one bit per byte: bytes 0-63, then 64-127 (two
+    /// 64-bit masks: a 128-bit shift costs several instructions).
+    const NAME_BYTES: [u64; 2] = {
+        let mut m = [0u64; 2];
         let mut b = 0;
         while b < 128 {
-            if (b as u8).is_ascii_alphanumeric() || b == b'_' as u32 {
-                m |= 1 << b;
+            if (b as u8).is_ascii_alphanumeric() || b == b'_' as usize {
+                m[b / 64] |= 1 << (b % 64);
             }
             b += 1;
         }
@@ -86,7 +87,11 @@ pub(crate) mod syntax {
 
     #[inline]
     fn is_name_byte(b: u8) -> bool {
-        b < 128 && NAME_BYTES >> b & 1 == 1
+        match b {
+            0..64 => NAME_BYTES[0] >> b & 1 == 1,
+            64..128 => NAME_BYTES[1] >> (b - 64) & 1 == 1,
+            _ => false,
+        }
     }
 
     /// `ws`.
@@ -414,7 +419,7 @@ impl<'a> Iterator for Fields<'a> {
 
 /// Where a [`Cursor`] reads its fields from.
 #[derive(Clone, Copy, Debug)]
-enum Source<'s, 'a> {
+pub(crate) enum Source<'s, 'a> {
     /// The message text from the next field to the end, terminator
     /// included; `None` when no field is left.
     Text(Option<&'a str>),
@@ -518,17 +523,16 @@ impl<'s, 'a> Cursor<'s, 'a> {
 
     /// The typed readers' fast path: the next field if it is a plain number
     /// (see [`crate::number`]) directly followed by its `,` or the
-    /// end of the text, read in the same pass that finds the field's end;
-    /// its value and text. Anything else (spaces, exponents, `;` right after
-    /// the value, an empty field) is left unread for the grammar
-    /// (`next_field`, `Decimal::parse`) to decide.
-    #[inline]
-    pub(crate) fn take_plain(&mut self) -> Option<(Decimal, &'a str)> {
+    /// end of the text, read in the same pass that finds the field's end.
+    /// Anything else (spaces, exponents, `;` right after the value, an empty
+    /// field) is left unread for the grammar (`next_field`,
+    /// `Decimal::parse`) to decide.
+    #[cfg_attr(not(target_os = "none"), inline(always))]
+    pub(crate) fn take_plain(&mut self) -> Option<Decimal> {
         let Source::Text(Some(rest)) = self.src else {
             return None;
         };
         let (d, next) = number::plain_prefix(rest.as_bytes())?;
-        let text = rest.get(..rest.len() - next.len())?;
         let tail = match next {
             [] => None,
             [b',', next @ ..] => (!only_fillers_bytes(next)).then(|| after(rest, next)),
@@ -536,7 +540,20 @@ impl<'s, 'a> Cursor<'s, 'a> {
         };
         self.src = Source::Text(tail);
         self.pos = self.pos.saturating_add(1);
-        Some((d, text))
+        Some(d)
+    }
+
+    /// Where the cursor is, to come back to with [`Cursor::reset`].
+    #[inline]
+    pub(crate) fn mark(&self) -> (Source<'s, 'a>, u16) {
+        (self.src, self.pos)
+    }
+
+    /// Back to a [`Cursor::mark`].
+    #[inline]
+    pub(crate) fn reset(&mut self, (src, pos): (Source<'s, 'a>, u16)) {
+        self.src = src;
+        self.pos = pos;
     }
 
     /// Reads plain numbers (as `take_plain` does) into `out`, in
@@ -727,7 +744,7 @@ mod tests {
         while !c.at_end() {
             let pos = c.position();
             match c.take_plain() {
-                Some((d, _)) => {
+                Some(d) => {
                     fast += 1;
                     assert_eq!(c.position(), pos + 1);
                     let mut again = Cursor::new(rest, CommandId::ReadActPos);

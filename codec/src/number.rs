@@ -306,10 +306,6 @@ impl Decimal {
     /// Zero, written `0`.
     pub const ZERO: Decimal = Decimal::make(false, 0, 0);
 
-    /// `0.1`: not a whole number (stands in for text that is no number at
-    /// all where only "is it an integer" matters).
-    pub(crate) const ONE_TENTH: Decimal = Decimal::make(false, 1, 1);
-
     /// Builds a decimal from its parts: `(-1)^negative × coeff × 10^-scale`.
     ///
     /// Returns `None` when `scale` exceeds [`MAX_SCALE`].

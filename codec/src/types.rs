@@ -155,7 +155,7 @@ pub(crate) trait Field<'a>: Sized {
 #[inline(never)]
 fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
     match c.take_plain() {
-        Some((d, _)) => d,
+        Some(d) => d,
         None => read_num_general(c, param),
     }
 }
@@ -177,24 +177,32 @@ fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal 
 /// decimals (`5.000`) or as `-0`.
 #[inline(never)]
 fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
-    let (d, f) = match c.take_plain() {
-        Some(plain) => plain,
-        None => match c.next_field() {
-            None => {
-                c.fail(param, Expected::Integer, Got::End);
-                return 0;
-            }
-            Some("") => return 0,
-            Some(f) => (Decimal::parse(f).unwrap_or(Decimal::ONE_TENTH), f),
-        },
-    };
-    match d.to_i64().and_then(|v| i32::try_from(v).ok()) {
-        Some(v) => v,
-        None => {
-            c.fail(param, Expected::Integer, Got::Field(f));
-            0
+    let mark = c.mark();
+    if let Some(d) = c.take_plain() {
+        if let Some(v) = d.to_i64().and_then(|v| i32::try_from(v).ok()) {
+            return v;
         }
+        // Not an i32: read the field again for the error's text.
+        c.reset(mark);
     }
+    read_int_general(c, param)
+}
+
+#[inline(never)]
+fn read_int_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
+    match c.next_field() {
+        None => c.fail(param, Expected::Integer, Got::End),
+        Some("") => {}
+        Some(f) => match Decimal::parse(f)
+            .ok()
+            .and_then(|d| d.to_i64())
+            .and_then(|v| i32::try_from(v).ok())
+        {
+            Some(v) => return v,
+            None => c.fail(param, Expected::Integer, Got::Field(f)),
+        },
+    }
+    0
 }
 
 /// Reads a count field (`nRegCount`, `nPointsSize`): an integer in
