@@ -72,7 +72,9 @@ pub(crate) mod syntax {
     }
 
     /// `A-Z a-z 0-9 _`, one bit per byte: bytes 0-63, then 64-127 (two
-    /// 64-bit masks: a 128-bit shift costs several instructions).
+    /// 64-bit masks: a 128-bit shift costs several instructions). The
+    /// indexing runs only in the compiler.
+    #[allow(clippy::indexing_slicing)]
     const NAME_BYTES: [u64; 2] = {
         let mut m = [0u64; 2];
         let mut b = 0;
