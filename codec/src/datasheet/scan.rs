@@ -61,36 +61,61 @@ pub(crate) fn quote_or_backslash(hay: &[u8]) -> Option<usize> {
     )
 }
 
-/// The high bit of each NUL, `\n` or `\t` byte of `w` (the bytes official
-/// readers strip), exact for the lowest such byte (see [`zero_bytes`]).
-const fn stripped_bytes(w: usize) -> usize {
-    zero_bytes(w) | zero_bytes(w ^ splat(b'\n')) | zero_bytes(w ^ splat(b'\t'))
+/// Non-zero when a byte of `w` is below 11: a NUL, `\t` or `\n` (or another
+/// control byte, which the byte-by-byte path then keeps). Three operations
+/// where testing the three bytes exactly takes ten.
+const fn below_11(w: usize) -> usize {
+    w.wrapping_sub(splat(11)) & !w & HI
 }
 
 /// Copies the bytes of `src` that are not NUL, `\n` or `\t` to the start of
 /// `dst` and returns how many; the copy stops early only if `dst` is full.
 /// Bytes of `dst` after the returned length may be overwritten.
 ///
-/// A word at a time: a word with no stripped byte is stored whole; one with
-/// some is copied byte by byte without branches (each byte is stored, and
-/// the length grows only for kept ones). The next word's position never
-/// depends on this one's contents, so the processor can overlap the steps.
+/// Two words at a time, then one: words with no byte below 11 (no possible
+/// stripped byte, tested in three operations) are stored whole; any other
+/// word is copied byte by byte (each byte stored, the length grown only for
+/// kept ones). The next word's position never depends on this one's
+/// contents, so the processor can overlap the steps.
 pub(crate) fn copy_kept(dst: &mut [u8], src: &[u8]) -> usize {
     let mut n = 0;
-    let mut words = src.chunks_exact(W);
-    for word in &mut words {
-        let mut bytes = [0u8; W];
-        bytes.copy_from_slice(word);
-        if stripped_bytes(usize::from_le_bytes(bytes)) == 0 {
-            if let Some(out) = dst.get_mut(n..n + W) {
-                out.copy_from_slice(word);
-                n += W;
+    let mut pairs = src.chunks_exact(2 * W);
+    for pair in &mut pairs {
+        let (a, b) = pair.split_at(W);
+        let (mut x, mut y) = ([0u8; W], [0u8; W]);
+        x.copy_from_slice(a);
+        y.copy_from_slice(b);
+        let (x, y) = (usize::from_le_bytes(x), usize::from_le_bytes(y));
+        if below_11(x) | below_11(y) == 0 {
+            if let Some(out) = dst.get_mut(n..n + 2 * W) {
+                out.copy_from_slice(pair);
+                n += 2 * W;
                 continue;
             }
         }
-        n = copy_bytes(dst, n, word);
+        n = copy_word(dst, n, a, x);
+        n = copy_word(dst, n, b, y);
+    }
+    let mut words = pairs.remainder().chunks_exact(W);
+    for word in &mut words {
+        let mut bytes = [0u8; W];
+        bytes.copy_from_slice(word);
+        n = copy_word(dst, n, word, usize::from_le_bytes(bytes));
     }
     copy_bytes(dst, n, words.remainder())
+}
+
+/// One word of [`copy_kept`], `w` its value: whole when it has no byte
+/// below 11, else byte by byte.
+#[inline(always)]
+fn copy_word(dst: &mut [u8], n: usize, word: &[u8], w: usize) -> usize {
+    if below_11(w) == 0 {
+        if let Some(out) = dst.get_mut(n..n + W) {
+            out.copy_from_slice(word);
+            return n + W;
+        }
+    }
+    copy_bytes(dst, n, word)
 }
 
 /// [`copy_kept`] a byte at a time, appending at `dst[n..]`; the new length.
@@ -137,35 +162,59 @@ mod tests {
         }
     }
 
-    /// Every pattern of kept and stripped bytes over a word and a bit,
-    /// with room to spare and with exactly the room needed: the same bytes
-    /// as a plain filter.
+    /// `copy_kept` against a plain filter: every length up to three words
+    /// and a bit (single words, pairs and the tail), every placement of up
+    /// to two stripped bytes and many random patterns, with room to spare
+    /// and with exactly the room needed. Kept bytes include other control
+    /// bytes, which the word test cannot tell from stripped ones.
     #[test]
     fn copy_kept_is_a_filter() {
-        let len = W + 6;
+        const LEN: usize = 3 * 8 + 4;
+        // Kept bytes: printable ones (words of these take the whole-word
+        // paths) and, in the random patterns, control bytes the word test
+        // cannot tell from stripped ones.
+        let kept = [b'a', b'Z', 0x80, b' ', 0xFF, b'0', b'~'];
+        let controls = [0x01u8, 0x08, 0x0B, 0x0C, 0x1F];
         let stripped = [0u8, b'\n', b'\t'];
-        for pattern in 0u32..(1 << len) {
-            let mut src = [0u8; 8 + 6];
-            let src = &mut src[..len];
-            for (i, b) in src.iter_mut().enumerate() {
-                *b = if pattern >> i & 1 == 1 {
-                    stripped[i % 3]
-                } else {
-                    // Neighbours of the stripped bytes' values.
-                    [b'a', 0x01, 0x0B, 0x08, 0x80][i % 5]
-                };
-            }
-            let want: heapless::Vec<u8, 32> = src
+        let check = |src: &[u8]| {
+            let want: heapless::Vec<u8, LEN> = src
                 .iter()
                 .copied()
                 .filter(|&b| !matches!(b, 0 | b'\n' | b'\t'))
                 .collect();
-            let mut roomy = [0xEEu8; 32];
+            let mut roomy = [0xEEu8; 64];
             let n = copy_kept(&mut roomy, src);
             assert_eq!(&roomy[..n], &want[..], "{src:?}");
-            let mut tight = [0xEEu8; 32];
+            let mut tight = [0xEEu8; 64];
             let n = copy_kept(&mut tight[..want.len()], src);
             assert_eq!(&tight[..n], &want[..], "{src:?}");
+        };
+        let mut seed = 0x2545_f491_u32;
+        for len in 0..=(3 * W + 4).min(LEN) {
+            let base: heapless::Vec<u8, LEN> = (0..len).map(|i| kept[i % kept.len()]).collect();
+            check(&base);
+            for i in 0..len {
+                for j in i..len {
+                    let mut src = base.clone();
+                    src[i] = stripped[i % 3];
+                    src[j] = stripped[j % 3];
+                    check(&src);
+                }
+            }
+            for _ in 0..500 {
+                let mut src = base.clone();
+                for b in src.iter_mut() {
+                    seed ^= seed << 13;
+                    seed ^= seed >> 17;
+                    seed ^= seed << 5;
+                    match seed % 8 {
+                        0 | 1 => *b = stripped[(seed >> 8) as usize % 3],
+                        2 => *b = controls[(seed >> 8) as usize % controls.len()],
+                        _ => {}
+                    }
+                }
+                check(&src);
+            }
         }
     }
 
