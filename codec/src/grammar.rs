@@ -567,34 +567,29 @@ impl<'s, 'a> Cursor<'s, 'a> {
             return 0;
         };
         let mut rest = text.as_bytes();
-        let mut n = 0;
-        let mut done = false;
+        let (mut n, mut end_of_text) = (0, false);
         for slot in out.iter_mut() {
             let Some((d, next)) = number::plain_prefix(rest) else {
                 break;
             };
             match next {
-                [b',', tail @ ..] => {
-                    *slot = d;
-                    n += 1;
-                    rest = tail;
-                    if only_fillers_bytes(tail) {
-                        done = true;
-                        break;
-                    }
-                }
-                [] => {
-                    *slot = d;
-                    n += 1;
-                    done = true;
-                    break;
-                }
+                [b',', tail @ ..] => rest = tail,
+                [] => end_of_text = true,
                 _ => break,
             }
+            *slot = d;
+            n += 1;
+            if end_of_text {
+                break;
+            }
         }
+        // The fields end at the end of the text, or where only the
+        // terminator is left after a `,` (checked once, here: a number
+        // never starts with a filler, so the loop stops there).
+        let done = end_of_text || only_fillers_bytes(rest);
         // `rest` starts just after a `,` (or is the whole text): a character
         // boundary.
-        self.src = Source::Text(if done { None } else { after(text, rest).into() });
+        self.src = Source::Text(if done { None } else { Some(after(text, rest)) });
         self.pos = self
             .pos
             .saturating_add(u16::try_from(n).unwrap_or(u16::MAX));
