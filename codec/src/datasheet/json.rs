@@ -441,7 +441,7 @@ impl<'a> Tokenizer<'a> {
 }
 
 /// A byte that can be part of a number (ignored ones included).
-pub(crate) fn is_number_byte(b: u8) -> bool {
+fn is_number_byte(b: u8) -> bool {
     b.is_ascii_digit() || matches!(b, b'-' | b'+' | b'.' | b'e' | b'E') || is_stripped(b)
 }
 

@@ -27,11 +27,11 @@
 //!
 //! [`DataSheet::parse`]: super::DataSheet::parse
 
-use super::json::{is_number_byte, JsonError, JsonErrorKind, Token, Tokenizer, MAX_DEPTH};
+use super::json::{JsonError, JsonErrorKind, Token, Tokenizer, MAX_DEPTH};
 use super::scan;
 use super::sheet::{
     decimal_of, DataSheet, DataSheetError, FieldExpected, Member, ReadField, Value, GROUP_NAMES,
-    NAMES, READ, READ_NAMES,
+    MAX_LIST, NAMES, READ, READ_NAMES,
 };
 use crate::number::{plain_prefix, Decimal};
 
@@ -298,37 +298,12 @@ impl<'a> Fast<'a> {
         Some(s)
     }
 
-    /// A scalar value (not an array or object).
+    /// A scalar value (not an array or object). Numbers only in the plain
+    /// form; strings as they are (the field converts them).
     fn scalar(&mut self) -> Option<Value<'a>> {
-        let c = self.peek()?;
-        let rest = self.rest;
-        match c {
-            b'"' => {
-                // Most strings hold a plain number: read it, and if the
-                // closing quote follows, that was the whole string. (If a
-                // string is a plain number, this finds it: the number
-                // reader stops at the quote.)
-                let body = rest.get(1..)?;
-                if let Some((d, tail @ [b'"', ..])) = plain_prefix(body) {
-                    self.take(body.len() - tail.len() + 2);
-                    return Some(Value::Number(d));
-                }
-                Some(Value::Token(Token::Str(self.string()?)))
-            }
-            b'-' | b'0'..=b'9' => {
-                let (d, tail) = plain_prefix(rest)?;
-                let len = rest.len() - tail.len();
-                // Where JSON's grammar and the number reader differ (`5.`),
-                // and where the number goes on (`1e3`, `1.5.2`, ignored
-                // bytes inside), the general reader decides.
-                if rest.get(len.wrapping_sub(1)) == Some(&b'.')
-                    || tail.first().is_some_and(|&b| is_number_byte(b))
-                {
-                    return None;
-                }
-                self.rest = tail;
-                Some(Value::Number(d))
-            }
+        match self.peek()? {
+            b'"' => Some(Value::Token(Token::Str(self.string()?))),
+            b'-' | b'0'..=b'9' => self.plain().map(Value::Number),
             b't' => self.literal(b"true", Token::Bool(true)),
             b'f' => self.literal(b"false", Token::Bool(false)),
             b'n' => self.literal(b"null", Token::Null),
@@ -447,12 +422,12 @@ impl<'a> Fast<'a> {
             return m.set(v).ok();
         }
         self.open(depth)?;
-        m.begin().ok()?;
-        let mut n = 0;
+        // The numbers first, then the field takes them in one call. (More
+        // than any field takes is an error the general reader reports.)
+        let mut values = heapless::Vec::<Decimal, MAX_LIST>::new();
         if !self.empty(b']')? {
             loop {
-                m.push(n, self.element()?).ok()?;
-                n += 1;
+                values.push(self.element()?).ok()?;
                 // The usual `,` straight before the next element.
                 match self.rest {
                     [b',', c, ..] if *c != b']' && !is_space(*c) => self.take(1),
@@ -464,7 +439,7 @@ impl<'a> Fast<'a> {
                 }
             }
         }
-        m.end(n).ok()
+        m.list(&values).ok()
     }
 
     /// The usual value, a plain number bare or quoted, read here: its value,

@@ -565,7 +565,31 @@ pub(super) trait Member {
     fn end(&mut self, n: usize) -> Result<(), FieldExpected>;
     /// What an element should have been.
     fn expected(&self) -> FieldExpected;
+    /// A whole list at once: exactly [`Member::begin`], [`Member::push`]
+    /// for each value in order and [`Member::end`], in one dynamic call
+    /// (the fast reader's lists).
+    fn list(&mut self, values: &[Decimal]) -> Result<(), FieldExpected> {
+        self.begin()?;
+        for (i, &d) in values.iter().enumerate() {
+            self.push(i, d)?;
+        }
+        self.end(values.len())
+    }
 }
+
+/// The longest list any field takes (the capacities above, 6 values for a
+/// pose, 12 for `Actual_Position`): a longer one is an error whatever the
+/// field.
+pub(super) const MAX_LIST: usize = 16;
+
+const _: () = assert!(
+    MAX_END_IO <= MAX_LIST
+        && MAX_END_AI <= MAX_LIST
+        && MAX_BOX_IO <= MAX_LIST
+        && MAX_AXIS_GROUPS <= MAX_LIST
+        && MAX_SLAVES <= MAX_LIST
+        && 12 <= MAX_LIST
+);
 
 /// A field of the table, write side.
 trait Emit {
