@@ -50,7 +50,6 @@ use crate::number::{self, Decimal};
 /// The grammar above, in nom combinators over bytes.
 pub(crate) mod syntax {
     use nom::bytes::complete::{take_till, take_while};
-    use nom::character::complete::char;
     use nom::combinator::{eof, opt};
     use nom::{IResult, Parser};
 
@@ -119,15 +118,26 @@ pub(crate) mod syntax {
         (take_while(is_filler), eof).map(|_| ()).parse(i)
     }
 
+    /// `","`, as a primitive parser: nom's `char` slices through a method
+    /// that is not inlined across crates, which costs a call per comma on
+    /// hosts.
+    #[inline]
+    fn comma(i: In<'_>) -> Res<'_, u8> {
+        match i.split_first() {
+            Some((&b',', rest)) => Ok((rest, b',')),
+            _ => Err(nom::Err::Error(())),
+        }
+    }
+
     /// `terminator`.
     pub(crate) fn terminator(i: In<'_>) -> Res<'_, ()> {
-        (opt(char(',')), fillers_to_end).map(|_| ()).parse(i)
+        (opt(comma), fillers_to_end).map(|_| ()).parse(i)
     }
 
     /// The `,` between the name and the first field.
     #[inline]
-    pub(crate) fn separator(i: In<'_>) -> Res<'_, char> {
-        char(',').parse(i)
+    pub(crate) fn separator(i: In<'_>) -> Res<'_, u8> {
+        comma(i)
     }
 }
 

@@ -249,6 +249,7 @@ impl<'a> Field<'a> for Decimal {
     fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
         read_num(c, param)
     }
+    #[cfg_attr(not(target_os = "none"), inline)]
     fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
         let mut rest = out;
         loop {
@@ -330,7 +331,8 @@ impl<'a, T: Field<'a> + Copy, const N: usize> Field<'a> for [T; N] {
         T::read_slice(c, param, &mut out);
         out
     }
-    #[inline(never)]
+    #[cfg_attr(not(target_os = "none"), inline)]
+    #[cfg_attr(target_os = "none", inline(never))]
     fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: &'static str) {
         T::read_slice(c, param, self)
     }
