@@ -77,6 +77,8 @@ const fn below_11(w: usize) -> usize {
 /// word is copied byte by byte (each byte stored, the length grown only for
 /// kept ones). The next word's position never depends on this one's
 /// contents, so the processor can overlap the steps.
+// Out of line: one copy however many deframers (one per `N`) use it.
+#[inline(never)]
 pub(crate) fn copy_kept(dst: &mut [u8], src: &[u8]) -> usize {
     let mut n = 0;
     let mut pairs = src.chunks_exact(2 * W);
@@ -107,7 +109,7 @@ pub(crate) fn copy_kept(dst: &mut [u8], src: &[u8]) -> usize {
 
 /// One word of [`copy_kept`], `w` its value: whole when it has no byte
 /// below 11, else byte by byte.
-#[inline(always)]
+#[inline]
 fn copy_word(dst: &mut [u8], n: usize, word: &[u8], w: usize) -> usize {
     if below_11(w) == 0 {
         if let Some(out) = dst.get_mut(n..n + W) {
@@ -119,7 +121,7 @@ fn copy_word(dst: &mut [u8], n: usize, word: &[u8], w: usize) -> usize {
 }
 
 /// [`copy_kept`] a byte at a time, appending at `dst[n..]`; the new length.
-#[inline(always)]
+#[inline]
 fn copy_bytes(dst: &mut [u8], mut n: usize, src: &[u8]) -> usize {
     for &b in src {
         let Some(slot) = dst.get_mut(n) else {
