@@ -340,7 +340,10 @@ impl<'a> Fast<'a> {
             } else {
                 self.skip(depth)?;
             }
-            if self.next_or_end(b'}')? {
+            // The usual `,` straight before the next key.
+            if let [b',', b'"', ..] = self.rest {
+                self.take(1);
+            } else if self.next_or_end(b'}')? {
                 return Some(());
             }
         }
