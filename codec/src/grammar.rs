@@ -252,11 +252,21 @@ fn bound(rest: &str) -> Result<(&str, u16), GrammarError> {
     }
 }
 
+/// `ws` skipped: the parser runs only when there is whitespace to skip (a
+/// message usually has none, and a parser call is not free on hosts).
+#[inline]
+fn skip_ws(i: In<'_>) -> In<'_> {
+    match i.first() {
+        Some(&c) if is_space(c) => syntax::ws(i).map_or(i, |(r, _)| r),
+        _ => i,
+    }
+}
+
 /// Reads `ws name ws` and what follows: the name, and the text of the
 /// fields (terminator included) if there are any.
 pub(crate) fn head(text: &str) -> Result<(&str, Option<&str>), GrammarError> {
     let b = text.as_bytes();
-    let start = syntax::ws(b).map_or(b, |(r, _)| r);
+    let start = skip_ws(b);
     let (rest, name) = syntax::name(start).unwrap_or((start, &[]));
     if name.is_empty() {
         return Err(match syntax::terminator(start) {
@@ -265,7 +275,7 @@ pub(crate) fn head(text: &str) -> Result<(&str, Option<&str>), GrammarError> {
         });
     }
     let name = after(text, start).get(..name.len()).unwrap_or("");
-    let rest = syntax::ws(rest).map_or(rest, |(r, _)| r);
+    let rest = skip_ws(rest);
     // `,` then more than fillers: the fields start after it. Anything else
     // must be the terminator.
     if let Ok((fields, _)) = syntax::separator(rest) {
