@@ -232,7 +232,8 @@ pub(crate) mod syntax {
 /// Controllers reply with such numbers only (`-0.000`, `970.143`), and a
 /// 24-value reply spends most of its time here: nom's combinators find the
 /// digit runs first and the value is computed in a second pass, which took
-/// about 1.6 times as long as this path (`host-tests/benches`). On every
+/// about 1.6 times as long as this path on the 24 values of the benchmark's
+/// `ReadActPos` reply (a stand-alone timing of both). On every
 /// input this path accepts, [`syntax::number`] reads the same bytes to the
 /// identical value: `fast_path_agrees_with_the_grammar` below checks every
 /// string of up to 6 bytes over the number alphabet (alone and followed by
