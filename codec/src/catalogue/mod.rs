@@ -292,10 +292,12 @@ pub enum Reply<'a> {
 impl<'a> Reply<'a> {
     /// Reads a reply to the request described by `expect`. A success reply
     /// must carry the request's name (or one of its aliases).
-    #[inline]
+    // Not inlined: inlined into a caller that moves the big reply around,
+    // the copies measured slower in some callers (up to 1.5x) than the one
+    // move out of a call.
+    #[inline(never)]
     pub fn parse(text: &'a str, expect: ReplyExpect) -> Result<Self, ParseError<'a>> {
-        // A thin wrapper, inlined into the caller: the reply is read in
-        // place and moved once, which the compiler can then elide.
+        // The reply is read in place, into the value returned.
         let mut reply = Ok(Reply::Ok(Response::Unknown(RawMessage::EMPTY)));
         if let Ok(r) = &mut reply {
             if let Err(e) = Self::parse_into(text, expect, r) {
@@ -647,11 +649,10 @@ macro_rules! catalogue {
         impl<'a> Request<'a> {
             /// Reads a request. Names this crate does not know come back as
             /// [`Request::Unknown`], not as an error.
-            #[inline]
+            // Not inlined, as `Reply::parse`.
+            #[inline(never)]
             pub fn parse(text: &'a str) -> Result<Self, ParseError<'a>> {
-                // A thin wrapper, inlined into the caller: the request is
-                // read in place and moved once, which the compiler can then
-                // elide.
+                // The request is read in place, into the value returned.
                 let mut out = Ok(Request::Unknown(RawMessage::EMPTY));
                 if let Ok(r) = &mut out {
                     if let Err(e) = Self::parse_into(text, r) {
