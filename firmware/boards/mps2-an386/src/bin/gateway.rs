@@ -44,14 +44,15 @@ async fn start(spawner: Spawner) {
 async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
     static STORAGE: ConstStaticCell<RamStorage> = ConstStaticCell::new(RamStorage::new());
     let storage = STORAGE.take();
+    // Only what differs from the library's defaults (Modbus on 502, no
+    // override), so new options need no change here.
     let options = Options {
-        modbus_port: 502,
         defaults: Config {
             robot_ip: board::SIM_IP,
             robot_port: board::SIM_PORT,
             ..Config::default()
         },
-        robot_override: None,
+        ..Options::default()
     };
     match hans_gateway::board::run(stack, storage, options).await {}
 }
