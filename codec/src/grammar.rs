@@ -46,6 +46,7 @@
 use crate::catalogue::CommandId;
 use crate::error::{Expected, Got, ParseError};
 use crate::number::{self, Decimal};
+use crate::types::Param;
 
 /// The grammar above, in nom combinators over bytes.
 pub(crate) mod syntax {
@@ -643,21 +644,16 @@ impl<'s, 'a> Cursor<'s, 'a> {
     /// Records a field error at the current position (the first one wins).
     #[cold]
     #[inline(never)]
-    pub(crate) fn fail(&mut self, param: &'static str, expected: Expected, got: Got<'a>) {
+    pub(crate) fn fail(&mut self, param: Param, expected: Expected, got: Got<'a>) {
         let e = self.error(param, expected, got);
         self.record(e);
     }
 
     /// A field error at the current position.
-    pub(crate) fn error(
-        &self,
-        param: &'static str,
-        expected: Expected,
-        got: Got<'a>,
-    ) -> ParseError<'a> {
+    pub(crate) fn error(&self, param: Param, expected: Expected, got: Got<'a>) -> ParseError<'a> {
         ParseError::Field {
             command: self.command,
-            param,
+            param: param.name(Some(self.command)),
             // A field just read is at pos - 1; the end or a list starts at pos.
             index: match got {
                 Got::Field(_) => self.pos.saturating_sub(1),

@@ -18,7 +18,7 @@
 
 use core::fmt;
 
-use crate::error::{EncodeError, Expected, Got};
+use crate::error::{Expected, Got};
 use crate::grammar::{Cursor, Fields};
 use crate::number::Decimal;
 use crate::writer::{is_carriable, Writer};
@@ -122,6 +122,20 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
     Range::Either(Decimal::lit(a), Decimal::lit(b))
 }
 
+/// A parameter of a command, as its position in the table: request
+/// parameters count from 0, the reply's values follow them. Readers and
+/// writers pass this one byte around instead of the parameter's name (a
+/// pointer and a length at every one of ~1,200 call sites cost ~5 KiB of
+/// flash); the name is looked up only when an error is reported (see
+/// `catalogue::params`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Param(pub(crate) u8);
+
+impl Param {
+    /// A field of a message this crate does not know (named `field`).
+    pub(crate) const RAW: Param = Param(u8::MAX);
+}
+
 /// How one parameter type reads, writes, checks and shows itself.
 ///
 /// Reading and writing never return errors: the first error is recorded in
@@ -130,21 +144,21 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
 /// per parameter to one call, which is what makes 139 commands fit in a few
 /// kilobytes of flash.
 pub(crate) trait Field<'a>: Sized {
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self;
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self;
     /// The value of a field not read yet (zero, empty).
     const BLANK: Self;
     /// Reads the field into `self`, in place.
     #[inline]
-    fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: &'static str) {
+    fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: Param) {
         *self = Self::read(c, param);
     }
     /// Reads `out.len()` values in a row (the elements of an array).
-    fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
+    fn read_slice(c: &mut Cursor<'_, 'a>, param: Param, out: &mut [Self]) {
         for slot in out.iter_mut() {
             *slot = Self::read(c, param);
         }
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str);
+    fn write(&self, w: &mut Writer<'_>, param: Param);
     fn visit(&self, name: &str, v: &mut dyn Visitor);
     /// Index of the first element outside `range`, if any.
     fn check(&self, range: &Range) -> Option<u16>;
@@ -153,7 +167,7 @@ pub(crate) trait Field<'a>: Sized {
 /// Reads a decimal: plain numbers through the cursor's fast path, the
 /// rest (and every error) through the grammar.
 #[inline(never)]
-fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
+fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> Decimal {
     match c.take_plain() {
         Some(d) => d,
         None => read_num_general(c, param),
@@ -161,7 +175,7 @@ fn read_num<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
 }
 
 #[inline(never)]
-fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal {
+fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> Decimal {
     match c.next_field() {
         None => c.fail(param, Expected::Number, Got::End),
         Some("") => {}
@@ -176,7 +190,7 @@ fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> Decimal 
 /// Reads an integer: a whole number that fits an `i32`, also written with
 /// decimals (`5.000`) or as `-0`.
 #[inline(never)]
-fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
+fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> i32 {
     let mark = c.mark();
     if let Some(d) = c.take_plain() {
         if let Some(v) = d.to_i64().and_then(|v| i32::try_from(v).ok()) {
@@ -189,7 +203,7 @@ fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
 }
 
 #[inline(never)]
-fn read_int_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
+fn read_int_general<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> i32 {
     match c.next_field() {
         None => c.fail(param, Expected::Integer, Got::End),
         Some("") => {}
@@ -209,7 +223,7 @@ fn read_int_general<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> i32 {
 /// `min..=max`. A count out of range is reported with its own text
 /// (`at least 1, got "0"`), not as a list length.
 #[inline(never)]
-fn read_count<'a>(c: &mut Cursor<'_, 'a>, param: &'static str, min: u16, max: u16) -> Option<u16> {
+fn read_count<'a>(c: &mut Cursor<'_, 'a>, param: Param, min: u16, max: u16) -> Option<u16> {
     let Some(f) = c.next_field() else {
         c.fail(param, Expected::Integer, Got::End);
         return None;
@@ -230,10 +244,10 @@ fn check_num(v: Decimal, range: &Range) -> Option<u16> {
 
 impl<'a> Field<'a> for i32 {
     const BLANK: Self = 0;
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         read_int(c, param)
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, _: Param) {
         w.int(*self)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -246,11 +260,11 @@ impl<'a> Field<'a> for i32 {
 
 impl<'a> Field<'a> for Decimal {
     const BLANK: Self = Decimal::ZERO;
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         read_num(c, param)
     }
     #[cfg_attr(not(target_os = "none"), inline)]
-    fn read_slice(c: &mut Cursor<'_, 'a>, param: &'static str, out: &mut [Self]) {
+    fn read_slice(c: &mut Cursor<'_, 'a>, param: Param, out: &mut [Self]) {
         let mut rest = out;
         loop {
             let plain = c.plain_numbers(rest);
@@ -261,7 +275,7 @@ impl<'a> Field<'a> for Decimal {
             rest = tail;
         }
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, _: Param) {
         w.num(self)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -275,7 +289,7 @@ impl<'a> Field<'a> for Decimal {
 impl<'a> Field<'a> for &'a str {
     const BLANK: Self = "";
     #[inline(never)]
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         match c.next_field() {
             Some(f) => f,
             None => {
@@ -284,8 +298,8 @@ impl<'a> Field<'a> for &'a str {
             }
         }
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
-        w.text(self, param)
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        w.text_at(self, param)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.text(name, self)
@@ -306,13 +320,13 @@ pub struct RobotId(pub i32);
 impl<'a> Field<'a> for RobotId {
     const BLANK: Self = RobotId(0);
     #[inline(never)]
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         if c.at_end() {
             return RobotId(0);
         }
         RobotId(read_int(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, _: Param) {
         w.int(self.0)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -326,18 +340,18 @@ impl<'a> Field<'a> for RobotId {
 impl<'a, T: Field<'a> + Copy, const N: usize> Field<'a> for [T; N] {
     const BLANK: Self = [T::BLANK; N];
     #[inline(never)]
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         let mut out = [T::BLANK; N];
         T::read_slice(c, param, &mut out);
         out
     }
     #[cfg_attr(not(target_os = "none"), inline)]
     #[cfg_attr(target_os = "none", inline(never))]
-    fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: &'static str) {
+    fn read_in(&mut self, c: &mut Cursor<'_, 'a>, param: Param) {
         T::read_slice(c, param, self)
     }
     #[inline(never)]
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
         self.iter().for_each(|e| e.write(w, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -362,10 +376,10 @@ fn check_all<'a, 'e, T: Field<'a> + 'e>(
 
 impl<'a, T: Field<'a>> Field<'a> for Option<T> {
     const BLANK: Self = None;
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         (!c.at_end()).then(|| T::read(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
         if let Some(t) = self {
             t.write(w, param)
         }
@@ -382,7 +396,7 @@ impl<'a, T: Field<'a>> Field<'a> for Option<T> {
 
 /// Checks that a list of `n` fields may follow: what the reply must have
 /// (from the request), at least one, at most `cap`.
-fn list_len_ok(c: &mut Cursor<'_, '_>, param: &'static str, n: u16, cap: u16) -> bool {
+fn list_len_ok(c: &mut Cursor<'_, '_>, param: Param, n: u16, cap: u16) -> bool {
     if let Some(want) = c.expected_len() {
         if n != want {
             c.fail(param, Expected::Exactly(want), Got::Count(n));
@@ -406,7 +420,7 @@ fn list_len_ok(c: &mut Cursor<'_, '_>, param: &'static str, n: u16, cap: u16) ->
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
     const BLANK: Self = heapless::Vec::new();
     #[inline(never)]
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         let mut out = heapless::Vec::new();
         let n = c.remaining();
         if list_len_ok(c, param, n, u16::try_from(N).unwrap_or(u16::MAX)) {
@@ -418,7 +432,7 @@ impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
         out
     }
     #[inline(never)]
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
         self.iter().for_each(|e| e.write(w, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
@@ -454,7 +468,7 @@ impl<T: Clone, const N: usize> CountedList<T, N> {
 
 impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
     const BLANK: Self = CountedList(heapless::Vec::new());
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         let mut out = heapless::Vec::new();
         let cap = u16::try_from(N).unwrap_or(u16::MAX);
         if let Some(n) = read_count(c, param, 1, cap) {
@@ -470,9 +484,9 @@ impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
         }
         CountedList(out)
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
         if self.0.is_empty() {
-            w.fail(EncodeError::ListTooLong { param });
+            w.fail_list_too_long(param);
         }
         w.int(i32::try_from(self.0.len()).unwrap_or(i32::MAX));
         self.0.write(w, param)
@@ -563,7 +577,7 @@ impl defmt::Format for TextList<'_> {
     }
 }
 
-fn rest_text<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> (&'a str, u16) {
+fn rest_text<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> (&'a str, u16) {
     match c.take_rest() {
         Some(r) => r,
         None => {
@@ -575,12 +589,12 @@ fn rest_text<'a>(c: &mut Cursor<'_, 'a>, param: &'static str) -> (&'a str, u16) 
 
 impl<'a> Field<'a> for TextList<'a> {
     const BLANK: Self = TextList(ListRepr::Slice(&[]));
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         let (text, count) = rest_text(c, param);
         TextList(ListRepr::Wire { text, count })
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
-        self.iter().for_each(|t| w.text(t, param))
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        self.iter().for_each(|t| w.text_at(t, param))
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.begin_list(name);
@@ -671,7 +685,7 @@ impl defmt::Format for PointList<'_> {
 
 impl<'a> Field<'a> for PointList<'a> {
     const BLANK: Self = PointList(ListRepr::Slice(&[]));
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         let Some(count) = read_count(c, param, 0, u16::MAX) else {
             return PointList::default();
         };
@@ -697,10 +711,10 @@ impl<'a> Field<'a> for PointList<'a> {
         let (text, _) = rest_text(c, param);
         PointList(ListRepr::Wire { text, count })
     }
-    fn write(&self, w: &mut Writer<'_>, param: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
         match i32::try_from(self.len()) {
             Ok(n) => w.int(n),
-            Err(_) => w.fail(EncodeError::ListTooLong { param }),
+            Err(_) => w.fail_list_too_long(param),
         }
         self.iter().for_each(|p| p.write(w, param))
     }
@@ -717,10 +731,10 @@ impl<'a> Field<'a> for PointList<'a> {
 /// The FSM state as a parameter (`ReadCurFSM` reply).
 impl<'a> Field<'a> for crate::fsm::FsmState {
     const BLANK: Self = crate::fsm::FsmState::UnInitialize;
-    fn read(c: &mut Cursor<'_, 'a>, param: &'static str) -> Self {
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         Self::from(read_int(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, _: &'static str) {
+    fn write(&self, w: &mut Writer<'_>, _: Param) {
         w.int(self.code())
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {

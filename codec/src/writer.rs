@@ -1,7 +1,9 @@
 //! Strict writer: always the canonical `Name,p1,...,pn,;`.
 
+use crate::catalogue::CommandId;
 use crate::error::EncodeError;
 use crate::number::Decimal;
+use crate::types::Param;
 
 /// Writes one message into a caller's buffer. It never panics: the first
 /// error (buffer too small, text the grammar cannot carry) is kept, later
@@ -13,6 +15,8 @@ pub struct Writer<'b> {
     buf: &'b mut [u8],
     len: usize,
     err: Option<EncodeError>,
+    /// The command written, to name a parameter in an error.
+    command: Option<CommandId>,
 }
 
 /// `true` for text the grammar can carry unchanged: printable ASCII without
@@ -31,6 +35,15 @@ impl<'b> Writer<'b> {
             buf,
             len: 0,
             err: None,
+            command: None,
+        }
+    }
+
+    /// A writer of command `command` (or of an unknown one).
+    pub(crate) fn of(buf: &'b mut [u8], command: Option<CommandId>) -> Self {
+        Writer {
+            command,
+            ..Writer::new(buf)
         }
     }
 
@@ -101,6 +114,28 @@ impl<'b> Writer<'b> {
         } else {
             self.fail(EncodeError::InvalidText { param })
         }
+    }
+
+    /// A text parameter of the command table, checked to be carriable.
+    #[inline(never)]
+    pub(crate) fn text_at(&mut self, s: &str, param: Param) {
+        if is_carriable(s) {
+            self.raw_field(s)
+        } else {
+            self.fail_at(param, |param| EncodeError::InvalidText { param })
+        }
+    }
+
+    /// A list parameter with more elements than its count field can say.
+    pub(crate) fn fail_list_too_long(&mut self, param: Param) {
+        self.fail_at(param, |param| EncodeError::ListTooLong { param })
+    }
+
+    /// Records an error about `param`, named now (errors are rare).
+    #[cold]
+    #[inline(never)]
+    fn fail_at(&mut self, param: Param, e: fn(&'static str) -> EncodeError) {
+        self.fail(e(param.name(self.command)))
     }
 
     /// Terminates the message with `;` and returns its length, or the

@@ -21,10 +21,11 @@
 
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::grammar::{self, Cursor, Kind, RawMessage};
-use crate::types::{Field, Range, Visitor};
+use crate::types::{Field, Param, Range, Visitor};
 use crate::writer::Writer;
 use crate::ErrorCode;
 
+mod params;
 mod quirks;
 mod table;
 
@@ -138,12 +139,13 @@ fn parse_request_as<'a, M: Message<'a>>(id: CommandId, text: &'a str) -> Result<
 }
 
 fn encode_with(
+    id: Option<CommandId>,
     name: &str,
     ok: bool,
     buf: &mut [u8],
     fields: impl FnOnce(&mut Writer<'_>),
 ) -> Result<usize, EncodeError> {
-    let mut w = Writer::new(buf);
+    let mut w = Writer::of(buf, id);
     w.name(name);
     if ok {
         w.raw_field("OK");
@@ -153,13 +155,13 @@ fn encode_with(
 }
 
 fn encode_raw(raw: &RawMessage<'_>, ok: bool, buf: &mut [u8]) -> Result<usize, EncodeError> {
-    encode_with(raw.name(), ok, buf, |w| {
-        raw.fields().for_each(|f| w.text(f, "field"))
+    encode_with(None, raw.name(), ok, buf, |w| {
+        raw.fields().for_each(|f| w.text_at(f, Param::RAW))
     })
 }
 
 /// A range violation before the command is known: parameter, element, range.
-type Violation = (&'static str, u16, &'static Range);
+type Violation = (Param, u16, &'static Range);
 
 /// Collects the first range violation of a request. It does not know the
 /// command, so the checks of commands with the same parameters compile to
@@ -171,7 +173,7 @@ struct Validator {
 
 impl Validator {
     #[inline(never)]
-    fn check<'a, T: Field<'a>>(&mut self, v: &T, param: &'static str, range: &'static Range) {
+    fn check<'a, T: Field<'a>>(&mut self, v: &T, param: Param, range: &'static Range) {
         if self.first.is_none() {
             if let Some(element) = v.check(range) {
                 self.first = Some((param, element, range));
@@ -185,7 +187,7 @@ fn range_error(command: CommandId, v: Option<Violation>) -> Result<(), RangeErro
         None => Ok(()),
         Some((param, element, range)) => Err(RangeError {
             command,
-            param,
+            param: param.name(Some(command)),
             element,
             range: *range,
         }),
@@ -483,6 +485,32 @@ macro_rules! catalogue {
             ends
         };
 
+        /// Every parameter name of the table: each command's request
+        /// parameters, then its reply's values. Read only by the compiler
+        /// (see `params`).
+        pub(super) const PARAM_NAMES: &[&str] = &[$( $(stringify!($field),)* $(stringify!($rfield),)* )*];
+
+        /// Where each command's parameters start in [`PARAM_NAMES`], and
+        /// where the last command's end.
+        #[allow(clippy::indexing_slicing)]
+        pub(super) const PARAM_STARTS: [u16; CommandId::ALL.len() + 1] = {
+            let counts = [$(
+                <[&str]>::len(&[$(stringify!($field)),*])
+                    + <[&str]>::len(&[$(stringify!($rfield)),*])
+            ),*];
+            let mut starts = [0u16; CommandId::ALL.len() + 1];
+            let mut i = 0;
+            while i < counts.len() {
+                // A `Param` is one byte, `u8::MAX` excluded.
+                assert!(counts[i] < u8::MAX as usize);
+                let next = starts[i] as usize + counts[i];
+                assert!(next <= u16::MAX as usize);
+                starts[i + 1] = next as u16;
+                i += 1;
+            }
+            starts
+        };
+
         /// Every alias with its command (a short list: most commands have none).
         const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
 
@@ -551,18 +579,20 @@ macro_rules! catalogue {
                     request::$Cmd { $( $field: Field::BLANK, )* }
                 }
                 #[inline]
-                #[allow(unused_variables)]
+                #[allow(unused_variables, unused_mut, unused_assignments)]
                 fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
                     let names: &[&str] = &[$(stringify!($field)),*];
                     if names.is_empty() {
                         c.skip_stray_robot_id();
                     }
-                    $( Field::read_in(&mut self.$field, c, stringify!($field)); )*
+                    let mut i = 0;
+                    $( Field::read_in(&mut self.$field, c, Param(i)); i += 1; )*
                 }
                 #[inline(never)]
-                #[allow(unused_variables)]
+                #[allow(unused_variables, unused_mut, unused_assignments)]
                 fn write_fields(&self, w: &mut Writer<'_>) {
-                    $( Field::write(&self.$field, w, stringify!($field)); )*
+                    let mut i = 0;
+                    $( Field::write(&self.$field, w, Param(i)); i += 1; )*
                 }
             }
 
@@ -574,7 +604,8 @@ macro_rules! catalogue {
                 }
 
                 fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
-                    encode_with(CommandId::$Cmd.name(), false, buf, |w| self.write_fields(w))
+                    let id = CommandId::$Cmd;
+                    encode_with(Some(id), id.name(), false, buf, |w| self.write_fields(w))
                 }
 
                 fn expect(&self) -> ReplyExpect {
@@ -599,10 +630,11 @@ macro_rules! catalogue {
 
             impl $(<$lt>)? request::$Cmd $(<$lt>)? {
                 #[inline(never)]
-                #[allow(unused_mut)]
+                #[allow(unused_mut, unused_assignments, unused_variables)]
                 fn violation(&self) -> Option<Violation> {
                     let mut v = Validator::default();
-                    $( $( v.check(&self.$field, stringify!($field), const { &$range }); )? )*
+                    let mut i = 0;
+                    $( $( v.check(&self.$field, Param(i), const { &$range }); )? i += 1; )*
                     v.first
                 }
             }
@@ -619,14 +651,17 @@ macro_rules! catalogue {
                     response::$Cmd { $( $rfield: Field::BLANK, )* }
                 }
                 #[inline]
-                #[allow(unused_variables)]
+                #[allow(unused_variables, unused_mut, unused_assignments)]
                 fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
-                    $( Field::read_in(&mut self.$rfield, c, stringify!($rfield)); )*
+                    // The reply's values follow the request's parameters.
+                    let mut i = <[&str]>::len(&[$(stringify!($field)),*]) as u8;
+                    $( Field::read_in(&mut self.$rfield, c, Param(i)); i += 1; )*
                 }
                 #[inline(never)]
-                #[allow(unused_variables)]
+                #[allow(unused_variables, unused_mut, unused_assignments)]
                 fn write_fields(&self, w: &mut Writer<'_>) {
-                    $( Field::write(&self.$rfield, w, stringify!($rfield)); )*
+                    let mut i = <[&str]>::len(&[$(stringify!($field)),*]) as u8;
+                    $( Field::write(&self.$rfield, w, Param(i)); i += 1; )*
                 }
             }
 
@@ -707,9 +742,9 @@ macro_rules! catalogue {
             /// Writes the canonical message and returns its length.
             pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
                 // One writer for all commands; each arm is a single call.
-                encode_with(self.name(), false, buf, |w| match self {
+                encode_with(self.command(), self.name(), false, buf, |w| match self {
                     $( Request::$Cmd(r) => r.write_fields(w), )*
-                    Request::Unknown(raw) => raw.fields().for_each(|f| w.text(f, "field")),
+                    Request::Unknown(raw) => raw.fields().for_each(|f| w.text_at(f, Param::RAW)),
                 })
             }
 
@@ -795,9 +830,9 @@ macro_rules! catalogue {
 
             /// Writes `Name,OK,v1,...,vn,;` and returns its length.
             pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
-                encode_with(self.name(), true, buf, |w| match self {
+                encode_with(self.command(), self.name(), true, buf, |w| match self {
                     $( Response::$Cmd(r) => r.write_fields(w), )*
-                    Response::Unknown(raw) => raw.fields().for_each(|f| w.text(f, "field")),
+                    Response::Unknown(raw) => raw.fields().for_each(|f| w.text_at(f, Param::RAW)),
                 })
             }
 

@@ -36,8 +36,8 @@ use crate::fsm::FsmState;
 use crate::grammar::{Cursor, RawMessage};
 use crate::number::Decimal;
 use crate::types::{
-    above, at_least, either, int, num, CountedList, Field, Joints, PointList, Pose, Range, RobotId,
-    TextList, Visitor,
+    above, at_least, either, int, num, CountedList, Field, Joints, Param, PointList, Pose, Range,
+    RobotId, TextList, Visitor,
 };
 use crate::writer::Writer;
 
