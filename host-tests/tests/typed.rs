@@ -5,8 +5,8 @@
 use std::path::Path;
 
 use hans_codec::{
-    request, Command, CommandId, Decimal, ErrorCode, FsmState, Reply, ReplyExpect, Request,
-    Response, RobotId,
+    request, Command, CommandId, Decimal, ErrorCode, FsmState, Got, ParseError, Reply, ReplyExpect,
+    Request, Response, RobotId,
 };
 use hans_host_tests::corpus::{Corpus, Kind, Source, Vector};
 
@@ -352,4 +352,28 @@ fn failures() {
         panic!("{t}")
     };
     assert_eq!(f.detail, "state error, robot moving, try again");
+
+    // The code is read as every integer field is; a code that is not a
+    // whole i32 is a typed error naming the field.
+    let expect = ReplyExpect::of(CommandId::GrpEnable);
+    for (text, code) in [
+        ("GrpEnable,Fail, 20018 ,;", 20018),
+        ("GrpEnable,Fail,20018.0,;", 20018),
+    ] {
+        let Ok(Reply::Fail(f)) = Reply::parse(text, expect) else {
+            panic!("{text}")
+        };
+        assert_eq!(f.code, ErrorCode::from(code), "{text}");
+    }
+    for (text, field) in [
+        ("GrpEnable,Fail,20018.5,;", "20018.5"),
+        ("GrpEnable,Fail,x1,;", "x1"),
+        ("GrpEnable,Fail,9999999999,;", "9999999999"),
+    ] {
+        assert_eq!(
+            Reply::parse(text, expect),
+            Err(ParseError::BadErrorCode(Got::Field(field))),
+            "{text}"
+        );
+    }
 }
