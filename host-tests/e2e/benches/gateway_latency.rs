@@ -12,7 +12,7 @@
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
-use hans_e2e::{code, Plc};
+use hans_e2e::{canned_reply, code, Plc};
 use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -22,19 +22,6 @@ use tokio::sync::mpsc;
 const SAMPLES: usize = 2000;
 const WARMUP: usize = 200;
 const RATE_TIME: Duration = Duration::from_secs(3);
-
-fn reply_to(msg: &str) -> String {
-    let name = msg.split(',').next().unwrap_or("").trim();
-    let values = match name {
-        "ReadRobotState" => "0,1,0,0,0,1,0,0,0,1,1,1,1,",
-        "ReadCurFSM" => "33,",
-        "ReadActPos" => "0,0,90,0,90,0,420,0,445,180,0,180,0,0,0,0,0,0,0,0,0,0,0,0,",
-        "ReadBoxDI" | "ReadBoxDO" | "ReadBoxCI" | "ReadBoxCO" => "0,0,0,0,0,0,0,0,",
-        "ReadEI" | "ReadEO" => "0,0,0,",
-        _ => "",
-    };
-    format!("{name},OK,{values};")
-}
 
 /// The robot: answers everything, reports when each `SetBoxDO` arrived.
 async fn robot(listener: TcpListener, arrivals: mpsc::UnboundedSender<Instant>) {
@@ -56,7 +43,7 @@ async fn robot(listener: TcpListener, arrivals: mpsc::UnboundedSender<Instant>) 
                     if msg.starts_with("SetBoxDO") {
                         let _ = tx.send(now);
                     }
-                    if s.write_all(reply_to(&msg).as_bytes()).await.is_err() {
+                    if s.write_all(canned_reply(&msg).as_bytes()).await.is_err() {
                         return;
                     }
                 }

@@ -30,6 +30,24 @@ fn words_of_f32(v: f32) -> [u16; 2] {
     [(b >> 16) as u16, b as u16]
 }
 
+/// The reply of a minimal robot that accepts every request: `Name,OK,;`,
+/// with plausible values for the reads the gateway polls (StandBy, not
+/// moving, at the document's home pose, I/O off). For rigs that stand in for
+/// the controller where the simulator is not wanted (a peer embassy-net
+/// stack, a latency benchmark that must not measure the simulator).
+pub fn canned_reply(msg: &str) -> String {
+    let name = msg.split(',').next().unwrap_or("").trim();
+    let values = match name {
+        "ReadRobotState" => "0,1,0,0,0,1,0,0,0,1,1,1,1,",
+        "ReadCurFSM" => "33,",
+        "ReadActPos" => "0,0,90,0,90,0,420,0,445,180,0,180,0,0,0,0,0,0,0,0,0,0,0,0,",
+        "ReadBoxDI" | "ReadBoxDO" | "ReadBoxCI" | "ReadBoxCO" => "0,0,0,0,0,0,0,0,",
+        "ReadEI" | "ReadEO" => "0,0,0,",
+        _ => "",
+    };
+    format!("{name},OK,{values};")
+}
+
 /// Two registers (high word first) as `f32`.
 pub fn f32_of(w: &[u16]) -> f32 {
     f32::from_bits((u32::from(w[0]) << 16) | u32::from(w[1]))

@@ -12,6 +12,7 @@ use embassy_net::tcp::TcpSocket;
 use embassy_net::{Config, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
 use embassy_net_driver_channel as ch;
 use embassy_time::{with_timeout, Timer};
+use hans_e2e::canned_reply;
 use hans_gateway::registers as r;
 
 const MTU: usize = 1514;
@@ -38,19 +39,6 @@ async fn bridge(mut tx: ch::TxRunner<'_, MTU>, mut rx: ch::RxRunner<'_, MTU>) {
     }
 }
 
-fn reply_to(msg: &str) -> String {
-    let name = msg.split(',').next().unwrap_or("").trim();
-    let values = match name {
-        "ReadRobotState" => "0,1,0,0,0,1,0,0,0,1,1,1,1,",
-        "ReadCurFSM" => "33,",
-        "ReadActPos" => "0,0,90,0,90,0,420,0,445,180,0,180,0,0,0,0,0,0,0,0,0,0,0,0,",
-        "ReadBoxDI" | "ReadBoxDO" | "ReadBoxCI" | "ReadBoxCO" => "0,0,0,0,0,0,0,0,",
-        "ReadEI" | "ReadEO" => "0,0,0,",
-        _ => "",
-    };
-    format!("{name},OK,{values};")
-}
-
 /// A robot controller on the peer stack: answers everything, records what
 /// it received.
 async fn robot(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
@@ -72,7 +60,7 @@ async fn robot(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
             while let Some(i) = pending.find(';') {
                 let msg: String = pending.drain(..=i).collect();
                 received.borrow_mut().push(msg.clone());
-                let reply = reply_to(&msg);
+                let reply = canned_reply(&msg);
                 let mut out = reply.as_bytes();
                 while !out.is_empty() {
                     match s.write(out).await {
