@@ -269,6 +269,20 @@ impl Segment {
             Speed::Timed(_) => 1000.0,
         }
     }
+
+    /// Decelerates from where it is at `t` (stop, pause, an I/O seek) and
+    /// enters `phase`.
+    fn brake(&mut self, t: f64, phase: Phase) {
+        let (s, v) = self.s_at(t);
+        self.profile = Profile::Brake {
+            t0: t,
+            s0: s,
+            v0: v,
+            a: self.decel(),
+            s_max: self.plan.path.length(),
+        };
+        self.phase = phase;
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -527,15 +541,7 @@ impl Robot {
                 if let (Phase::Run, Some((bit, level))) = (seg.phase, seg.plan.seek) {
                     if self.io.di.get(bit).copied() == Some(level) {
                         let t = seg.started.max(now.min(end));
-                        let (s, v) = seg.s_at(t);
-                        seg.profile = Profile::Brake {
-                            t0: t,
-                            s0: s,
-                            v0: v,
-                            a: seg.decel(),
-                            s_max: seg.plan.path.length(),
-                        };
-                        seg.phase = Phase::Stop;
+                        seg.brake(t, Phase::Stop);
                         self.queue.clear();
                         continue;
                     }
@@ -694,15 +700,7 @@ impl Robot {
             }
             _ if seg.phase == Phase::Stop => {}
             _ => {
-                let (s, v) = seg.s_at(now);
-                seg.profile = Profile::Brake {
-                    t0: now,
-                    s0: s,
-                    v0: v,
-                    a: seg.decel(),
-                    s_max: seg.plan.path.length(),
-                };
-                seg.phase = Phase::Stop;
+                seg.brake(now, Phase::Stop);
             }
         }
         self.advance_motion(now);
@@ -716,15 +714,7 @@ impl Robot {
         if seg.phase != Phase::Run {
             return false;
         }
-        let (s, v) = seg.s_at(now);
-        seg.profile = Profile::Brake {
-            t0: now,
-            s0: s,
-            v0: v,
-            a: seg.decel(),
-            s_max: seg.plan.path.length(),
-        };
-        seg.phase = Phase::Pause;
+        seg.brake(now, Phase::Pause);
         self.advance_motion(now);
         true
     }
