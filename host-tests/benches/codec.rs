@@ -233,6 +233,31 @@ fn print_ratio(what: &str, goal: f64, naive: impl FnMut(), codec: impl FnMut()) 
     );
 }
 
+/// Benchmarks one job both ways in a criterion group and prints their ratio.
+fn compare<N, C>(
+    c: &mut Criterion,
+    group: &str,
+    what: &str,
+    goal: f64,
+    mut naive: impl FnMut() -> N,
+    mut codec: impl FnMut() -> C,
+) {
+    let mut g = c.benchmark_group(group);
+    g.bench_function("naive std", |b| b.iter(&mut naive));
+    g.bench_function("codec", |b| b.iter(&mut codec));
+    g.finish();
+    print_ratio(
+        what,
+        goal,
+        || {
+            black_box(naive());
+        },
+        || {
+            black_box(codec());
+        },
+    );
+}
+
 // ---------------------------------------------------------------- benches
 
 fn read_act_pos(c: &mut Criterion) {
@@ -241,23 +266,13 @@ fn read_act_pos(c: &mut Criterion) {
         codec_read_act_pos(ACT_POS).map(|v| v[8].to_f64()),
         Some(970.143)
     );
-    let mut g = c.benchmark_group("parse ReadActPos reply (24 values)");
-    g.bench_function("naive std", |b| {
-        b.iter(|| naive_read_act_pos(black_box(ACT_POS)))
-    });
-    g.bench_function("codec", |b| {
-        b.iter(|| codec_read_act_pos(black_box(ACT_POS)))
-    });
-    g.finish();
-    print_ratio(
+    compare(
+        c,
+        "parse ReadActPos reply (24 values)",
         "parse ReadActPos",
         5.0,
-        || {
-            black_box(naive_read_act_pos(black_box(ACT_POS)));
-        },
-        || {
-            black_box(codec_read_act_pos(black_box(ACT_POS)));
-        },
+        || naive_read_act_pos(black_box(ACT_POS)),
+        || codec_read_act_pos(black_box(ACT_POS)),
     );
 }
 
@@ -271,23 +286,13 @@ fn way_point(c: &mut Criterion) {
     let n = wp.encode(&mut buf).expect("encodes");
     assert_eq!(&buf[..n], WAY_POINT.as_bytes());
 
-    let mut g = c.benchmark_group("parse WayPoint request");
-    g.bench_function("naive std", |b| {
-        b.iter(|| naive_parse_way_point(black_box(WAY_POINT)))
-    });
-    g.bench_function("codec", |b| {
-        b.iter(|| codec_parse_way_point(black_box(WAY_POINT)))
-    });
-    g.finish();
-    print_ratio(
+    compare(
+        c,
+        "parse WayPoint request",
         "parse WayPoint",
         5.0,
-        || {
-            black_box(naive_parse_way_point(black_box(WAY_POINT)));
-        },
-        || {
-            black_box(codec_parse_way_point(black_box(WAY_POINT)));
-        },
+        || naive_parse_way_point(black_box(WAY_POINT)),
+        || codec_parse_way_point(black_box(WAY_POINT)),
     );
 
     // Formatting from typed values: f64s with format! against Decimals.
@@ -295,22 +300,13 @@ fn way_point(c: &mut Criterion) {
         rbt_id: RobotId(0),
         ..wp.clone()
     };
-    let mut g = c.benchmark_group("format WayPoint request");
-    g.bench_function("naive std", |b| {
-        b.iter(|| naive_format_way_point(black_box(&naive)))
-    });
-    g.bench_function("codec", |b| b.iter(|| black_box(&typed).encode(&mut buf)));
-    g.finish();
-    print_ratio(
+    compare(
+        c,
+        "format WayPoint request",
         "format WayPoint",
         3.0,
-        || {
-            black_box(naive_format_way_point(black_box(&naive)));
-        },
-        || {
-            let mut out = [0u8; 512];
-            let _ = black_box(black_box(&typed).encode(&mut out));
-        },
+        || naive_format_way_point(black_box(&naive)),
+        || black_box(&typed).encode(&mut buf),
     );
 }
 
@@ -326,23 +322,13 @@ fn datasheet(c: &mut Criterion) {
     let mut deframer = Deframer::<8192>::new();
     assert_eq!(codec_datasheet(&stream, &mut deframer), 1);
 
-    let mut g = c.benchmark_group("deframe and decode a DataSheet packet");
-    g.bench_function("naive std", |b| {
-        b.iter(|| naive_datasheet(black_box(&stream)))
-    });
-    g.bench_function("codec", |b| {
-        b.iter(|| codec_datasheet(black_box(&stream), &mut deframer))
-    });
-    g.finish();
-    print_ratio(
+    compare(
+        c,
+        "deframe and decode a DataSheet packet",
         "DataSheet",
         5.0,
-        || {
-            black_box(naive_datasheet(black_box(&stream)));
-        },
-        || {
-            black_box(codec_datasheet(black_box(&stream), &mut deframer));
-        },
+        || naive_datasheet(black_box(&stream)),
+        || codec_datasheet(black_box(&stream), &mut deframer),
     );
 }
 
