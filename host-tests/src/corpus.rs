@@ -319,26 +319,48 @@ fn evaluate_request(v: &Vector) -> (Outcome, Option<ReplyExpect>) {
             .problems
             .push(format!("read as {got:?}, the header says {}", v.command)),
     }
+    round_trip(
+        &mut o,
+        |b| r.encode(b),
+        |t| differs(Request::parse(t), &r, t),
+    );
+    o.values = Some(or_dash(dump::request(&r)));
+    o.range_error = r.validate().err().map(|e| format!("{e:?}"));
+    (o, Some(r.expect()))
+}
+
+/// Writes a message canonically into `o.canonical` and records a problem
+/// if it does not encode, or (`reread`) if the text does not read back as
+/// the same value.
+fn round_trip(
+    o: &mut Outcome,
+    encode: impl FnOnce(&mut [u8]) -> Result<usize, hans_codec::EncodeError>,
+    reread: impl FnOnce(&str) -> Option<String>,
+) {
     let mut buf = vec![0u8; BUF];
-    match r.encode(&mut buf) {
+    match encode(&mut buf) {
         Ok(n) => {
             let text = String::from_utf8_lossy(&buf[..n]).into_owned();
-            match Request::parse(&text) {
-                Ok(again) if again == r => {}
-                Ok(again) => o
-                    .problems
-                    .push(format!("canonical form reads back as {again:?}, not {r:?}")),
-                Err(e) => o
-                    .problems
-                    .push(format!("canonical form {text:?} does not read back: {e:?}")),
-            }
+            o.problems.extend(reread(&text));
             o.canonical = Some(text);
         }
         Err(e) => o.problems.push(format!("does not encode: {e:?}")),
     }
-    o.values = Some(or_dash(dump::request(&r)));
-    o.range_error = r.validate().err().map(|e| format!("{e:?}"));
-    (o, Some(r.expect()))
+}
+
+/// The problem, if `again` (read from the canonical `text`) is not `value`.
+fn differs<T: PartialEq + std::fmt::Debug, E: std::fmt::Debug>(
+    again: Result<T, E>,
+    value: &T,
+    text: &str,
+) -> Option<String> {
+    match again {
+        Ok(again) if again == *value => None,
+        Ok(again) => Some(format!(
+            "canonical form reads back as {again:?}, not {value:?}"
+        )),
+        Err(e) => Some(format!("canonical form {text:?} does not read back: {e:?}")),
+    }
 }
 
 fn evaluate_reply(v: &Vector, expect: ReplyExpect) -> Outcome {
@@ -368,23 +390,11 @@ fn evaluate_reply(v: &Vector, expect: ReplyExpect) -> Outcome {
             ));
         }
     }
-    let mut buf = vec![0u8; BUF];
-    match r.encode(&mut buf) {
-        Ok(n) => {
-            let text = String::from_utf8_lossy(&buf[..n]).into_owned();
-            match Reply::parse(&text, expect) {
-                Ok(again) if again == r => {}
-                Ok(again) => o
-                    .problems
-                    .push(format!("canonical form reads back as {again:?}, not {r:?}")),
-                Err(e) => o
-                    .problems
-                    .push(format!("canonical form {text:?} does not read back: {e:?}")),
-            }
-            o.canonical = Some(text);
-        }
-        Err(e) => o.problems.push(format!("does not encode: {e:?}")),
-    }
+    round_trip(
+        &mut o,
+        |b| r.encode(b),
+        |t| differs(Reply::parse(t, expect), &r, t),
+    );
     o.values = Some(or_dash(dump::reply(&r)));
     o
 }
