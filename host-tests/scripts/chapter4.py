@@ -130,12 +130,25 @@ def check(corpus_path, spec_path):
     return 0
 
 
+def spec_or_explain(path):
+    """`path` if the document is there, else None after saying where it was looked for."""
+    if os.path.isfile(path):
+        return path
+    print(f"chapter4.py: no protocol document at {path}; "
+          "set HANS_SPEC or pass SPEC", file=sys.stderr)
+    return None
+
+
 def main(argv):
     if len(argv) >= 2 and argv[1] == "extract":
-        extract(argv[2] if len(argv) > 2 else DEFAULT_SPEC)
+        spec = spec_or_explain(argv[2] if len(argv) > 2 else DEFAULT_SPEC)
+        if spec is None:
+            return 2
+        extract(spec)
         return 0
     if len(argv) >= 3 and argv[1] == "check":
-        return check(argv[2], argv[3] if len(argv) > 3 else DEFAULT_SPEC)
+        spec = spec_or_explain(argv[3] if len(argv) > 3 else DEFAULT_SPEC)
+        return 2 if spec is None else check(argv[2], spec)
     print(__doc__, file=sys.stderr)
     return 2
 
