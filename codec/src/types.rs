@@ -86,6 +86,22 @@ impl Range {
     }
 }
 
+impl Range {
+    /// `true` when both are the same range, written the same; `const`, for
+    /// the range table the compiler builds (`catalogue::params`).
+    pub(crate) const fn same(&self, other: &Range) -> bool {
+        match (self, other) {
+            (Range::Int { min: a, max: b }, Range::Int { min: c, max: d }) => *a == *c && *b == *d,
+            (Range::Num { min: a, max: b }, Range::Num { min: c, max: d })
+            | (Range::Either(a, b), Range::Either(c, d)) => a.same_text(c) && b.same_text(d),
+            (Range::AtLeast(a), Range::AtLeast(c)) | (Range::Above(a), Range::Above(c)) => {
+                a.same_text(c)
+            }
+            _ => false,
+        }
+    }
+}
+
 impl fmt::Display for Range {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -136,13 +152,17 @@ impl Param {
     pub(crate) const RAW: Param = Param(u8::MAX);
 }
 
-/// How one parameter type reads, writes, checks and shows itself.
+/// How one parameter type reads, writes and shows itself.
 ///
 /// Reading and writing never return errors: the first error is recorded in
 /// the [`Cursor`] / [`Writer`] (a default value is returned) and reported
 /// once at the end of the message. That keeps the code the table generates
 /// per parameter to one call, which is what makes 139 commands fit in a few
 /// kilobytes of flash.
+///
+/// Range checks have no code of their own: a [`Writer`] in checking mode
+/// walks the same `write` calls and checks each number against its
+/// parameter's range from the table (`Request::validate`).
 pub(crate) trait Field<'a>: Sized {
     fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self;
     /// The value of a field not read yet (zero, empty).
@@ -160,8 +180,6 @@ pub(crate) trait Field<'a>: Sized {
     }
     fn write(&self, w: &mut Writer<'_>, param: Param);
     fn visit(&self, name: &str, v: &mut dyn Visitor);
-    /// Index of the first element outside `range`, if any.
-    fn check(&self, range: &Range) -> Option<u16>;
 }
 
 /// Reads a decimal: plain numbers through the cursor's fast path, the
@@ -237,24 +255,16 @@ fn read_count<'a>(c: &mut Cursor<'_, 'a>, param: Param, min: u16, max: u16) -> O
     None
 }
 
-#[inline(never)]
-fn check_num(v: Decimal, range: &Range) -> Option<u16> {
-    (!range.contains(v)).then_some(0)
-}
-
 impl<'a> Field<'a> for i32 {
     const BLANK: Self = 0;
     fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
         read_int(c, param)
     }
-    fn write(&self, w: &mut Writer<'_>, _: Param) {
-        w.int(*self)
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        w.int_at(*self, param)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.int(name, *self)
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        check_num(Decimal::from(*self), range)
     }
 }
 
@@ -275,14 +285,11 @@ impl<'a> Field<'a> for Decimal {
             rest = tail;
         }
     }
-    fn write(&self, w: &mut Writer<'_>, _: Param) {
-        w.num(self)
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        w.num_at(self, param)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.num(name, *self)
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        check_num(*self, range)
     }
 }
 
@@ -304,9 +311,6 @@ impl<'a> Field<'a> for &'a str {
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.text(name, self)
     }
-    fn check(&self, _: &Range) -> Option<u16> {
-        None
-    }
 }
 
 /// `nRbtID`, the robot (axis group) id, 0-5; 0 on single-arm controllers.
@@ -326,14 +330,11 @@ impl<'a> Field<'a> for RobotId {
         }
         RobotId(read_int(c, param))
     }
-    fn write(&self, w: &mut Writer<'_>, _: Param) {
-        w.int(self.0)
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        w.int_at(self.0, param)
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.int(name, self.0)
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        self.0.check(range)
     }
 }
 
@@ -359,19 +360,6 @@ impl<'a, T: Field<'a> + Copy, const N: usize> Field<'a> for [T; N] {
         self.iter().for_each(|e| e.visit("", v));
         v.end_list();
     }
-    fn check(&self, range: &Range) -> Option<u16> {
-        check_all(self.iter(), range)
-    }
-}
-
-fn check_all<'a, 'e, T: Field<'a> + 'e>(
-    items: impl Iterator<Item = &'e T>,
-    range: &Range,
-) -> Option<u16> {
-    items
-        .enumerate()
-        .find(|(_, e)| e.check(range).is_some())
-        .map(|(i, _)| u16::try_from(i).unwrap_or(u16::MAX))
 }
 
 impl<'a, T: Field<'a>> Field<'a> for Option<T> {
@@ -388,9 +376,6 @@ impl<'a, T: Field<'a>> Field<'a> for Option<T> {
         if let Some(t) = self {
             t.visit(name, v)
         }
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        self.as_ref().and_then(|t| t.check(range))
     }
 }
 
@@ -439,9 +424,6 @@ impl<'a, T: Field<'a>, const N: usize> Field<'a> for heapless::Vec<T, N> {
         v.begin_list(name);
         self.iter().for_each(|e| e.visit("", v));
         v.end_list();
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        check_all(self.iter(), range)
     }
 }
 
@@ -493,9 +475,6 @@ impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         self.0.visit(name, v)
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        check_all(self.0.iter(), range)
     }
 }
 
@@ -600,9 +579,6 @@ impl<'a> Field<'a> for TextList<'a> {
         v.begin_list(name);
         self.iter().for_each(|t| v.text("", t));
         v.end_list();
-    }
-    fn check(&self, _: &Range) -> Option<u16> {
-        None
     }
 }
 
@@ -723,9 +699,6 @@ impl<'a> Field<'a> for PointList<'a> {
         self.iter().for_each(|p| p.visit("", v));
         v.end_list();
     }
-    fn check(&self, _: &Range) -> Option<u16> {
-        None
-    }
 }
 
 /// The FSM state as a parameter (`ReadCurFSM` reply).
@@ -739,9 +712,6 @@ impl<'a> Field<'a> for crate::fsm::FsmState {
     }
     fn visit(&self, name: &str, v: &mut dyn Visitor) {
         v.int(name, self.code())
-    }
-    fn check(&self, range: &Range) -> Option<u16> {
-        self.code().check(range)
     }
 }
 

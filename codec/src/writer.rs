@@ -5,18 +5,41 @@ use crate::error::EncodeError;
 use crate::number::Decimal;
 use crate::types::Param;
 
+/// Receives the numbers a checking [`Writer`] walks past instead of
+/// writing them (crate-internal: range checks, see `catalogue`). Called
+/// through a reference, so that a program that never checks links none of
+/// the checking code.
+pub(crate) trait Check {
+    /// A value of parameter `param` of `command`.
+    fn value(&mut self, v: Decimal, param: Param, command: Option<CommandId>);
+}
+
 /// Writes one message into a caller's buffer. It never panics: the first
 /// error (buffer too small, text the grammar cannot carry) is kept, later
 /// writes do nothing, and [`Writer::finish`] returns it. Keeping the error
 /// instead of returning it from every call keeps the code generated per
 /// parameter to a single call.
-#[derive(Debug)]
 pub struct Writer<'b> {
     buf: &'b mut [u8],
     len: usize,
     err: Option<EncodeError>,
     /// The command written, to name a parameter in an error.
     command: Option<CommandId>,
+    /// Set in checking mode: nothing is written, numbers go here instead.
+    check: Option<&'b mut dyn Check>,
+}
+
+impl core::fmt::Debug for Writer<'_> {
+    // By hand: the check is a trait object without `Debug` (a `Debug`
+    // bound would put formatting code into every check's vtable).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Writer")
+            .field("len", &self.len)
+            .field("err", &self.err)
+            .field("command", &self.command)
+            .field("checking", &self.check.is_some())
+            .finish()
+    }
 }
 
 /// `true` for text the grammar can carry unchanged: printable ASCII without
@@ -36,6 +59,7 @@ impl<'b> Writer<'b> {
             len: 0,
             err: None,
             command: None,
+            check: None,
         }
     }
 
@@ -44,6 +68,15 @@ impl<'b> Writer<'b> {
         Writer {
             command,
             ..Writer::new(buf)
+        }
+    }
+
+    /// A writer of command `command` that writes nothing and hands every
+    /// number to `check` instead.
+    pub(crate) fn checking(command: CommandId, check: &'b mut dyn Check) -> Self {
+        Writer {
+            check: Some(check),
+            ..Writer::of(&mut [], Some(command))
         }
     }
 
@@ -65,7 +98,7 @@ impl<'b> Writer<'b> {
     }
 
     fn bytes(&mut self, b: &[u8]) {
-        if self.err.is_some() {
+        if self.err.is_some() || self.check.is_some() {
             return;
         }
         let end = self.len.saturating_add(b.len());
@@ -104,6 +137,24 @@ impl<'b> Writer<'b> {
         let n = v.write_to(&mut b).unwrap_or(0);
         self.bytes(b.get(..n).unwrap_or(b""));
         self.bytes(b",");
+    }
+
+    /// An integer of parameter `param`: written, or handed to the check.
+    #[inline(never)]
+    pub(crate) fn int_at(&mut self, v: i32, param: Param) {
+        match &mut self.check {
+            Some(c) => c.value(Decimal::from(v), param, self.command),
+            None => self.int(v),
+        }
+    }
+
+    /// A decimal of parameter `param`: written, or handed to the check.
+    #[inline(never)]
+    pub(crate) fn num_at(&mut self, v: &Decimal, param: Param) {
+        match &mut self.check {
+            Some(c) => c.value(*v, param, self.command),
+            None => self.num(v),
+        }
     }
 
     /// A text field, checked to be carriable: `s,`.

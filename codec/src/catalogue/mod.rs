@@ -9,7 +9,8 @@
 //! * one struct per command in [`request`] and in [`response`],
 //! * the [`Request`] and [`Response`] enums (plus `Unknown` for names this
 //!   crate does not know: newer firmware keeps working),
-//! * reading, writing, range checks and a generic [`Visitor`] walk for each.
+//! * reading, writing and a generic [`Visitor`] walk for each, and the
+//!   ranges the writers' walk is checked against (`Request::validate`).
 //!
 //! A reply is read against the request it answers ([`ReplyExpect`]), so
 //! `ReadBoxDI,5,6,;` expects exactly two values back.
@@ -21,8 +22,9 @@
 
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::grammar::{self, Cursor, Kind, RawMessage};
-use crate::types::{Field, Param, Range, Visitor};
-use crate::writer::Writer;
+use crate::number::Decimal;
+use crate::types::{Param, Range, Visitor};
+use crate::writer::{Check, Writer};
 use crate::ErrorCode;
 
 mod params;
@@ -160,26 +162,49 @@ fn encode_raw(raw: &RawMessage<'_>, ok: bool, buf: &mut [u8]) -> Result<usize, E
     })
 }
 
-/// A range violation before the command is known: parameter, element, range.
+/// A value outside its parameter's range: the parameter, the element (0
+/// for a single value), the range.
 type Violation = (Param, u16, &'static Range);
 
-/// Collects the first range violation of a request. It does not know the
-/// command, so the checks of commands with the same parameters compile to
-/// one function.
-#[derive(Default)]
-struct Validator {
+/// Checks the numbers of a request against their parameters' ranges, as a
+/// checking [`Writer`] walks them (range checks have no per-command code:
+/// they reuse the writers').
+struct RangeCheck {
+    /// The parameter of the last value, and that value's element index.
+    last: Param,
+    element: u16,
+    /// The first value outside its range.
     first: Option<Violation>,
 }
 
-impl Validator {
-    #[inline(never)]
-    fn check<'a, T: Field<'a>>(&mut self, v: &T, param: Param, range: &'static Range) {
+impl Check for RangeCheck {
+    fn value(&mut self, v: Decimal, param: Param, command: Option<CommandId>) {
+        if self.last == param {
+            self.element = self.element.saturating_add(1);
+        } else {
+            self.last = param;
+            self.element = 0;
+        }
         if self.first.is_none() {
-            if let Some(element) = v.check(range) {
-                self.first = Some((param, element, range));
+            if let Some(range) = param.range(command) {
+                if !range.contains(v) {
+                    self.first = Some((param, self.element, range));
+                }
             }
         }
     }
+}
+
+/// Checks the parameters of command `id` against their ranges: `fields`
+/// walks them through a checking writer.
+fn validate_with(id: CommandId, fields: impl FnOnce(&mut Writer<'_>)) -> Result<(), RangeError> {
+    let mut check = RangeCheck {
+        last: Param::RAW,
+        element: 0,
+        first: None,
+    };
+    fields(&mut Writer::checking(id, &mut check));
+    range_error(id, check.first)
 }
 
 fn range_error(command: CommandId, v: Option<Violation>) -> Result<(), RangeError> {
@@ -493,6 +518,13 @@ macro_rules! catalogue {
         /// (see `params`).
         pub(super) const PARAM_NAMES: &[&str] = &[$( $(stringify!($field),)* $(stringify!($rfield),)* )*];
 
+        /// The range of each parameter of [`PARAM_NAMES`] that has one (none
+        /// for replies). Read only by the compiler (see `params`).
+        pub(super) const PARAM_RANGES: &[Option<Range>] = &[$(
+            $( range_entry!($($range)?), )*
+            $( range_entry!(@reply $rfield), )*
+        )*];
+
         /// Where each command's parameters start in [`PARAM_NAMES`], and
         /// where the last command's end.
         #[allow(clippy::indexing_slicing)]
@@ -622,23 +654,12 @@ macro_rules! catalogue {
                 }
 
                 fn validate(&self) -> Result<(), RangeError> {
-                    range_error(CommandId::$Cmd, self.violation())
+                    validate_with(CommandId::$Cmd, |w| self.write_fields(w))
                 }
 
                 #[allow(unused_variables)]
                 fn visit(&self, v: &mut dyn Visitor) {
                     $( Field::visit(&self.$field, stringify!($field), v); )*
-                }
-            }
-
-            impl $(<$lt>)? request::$Cmd $(<$lt>)? {
-                #[inline(never)]
-                #[allow(unused_mut, unused_assignments, unused_variables)]
-                fn violation(&self) -> Option<Violation> {
-                    let mut v = Validator::default();
-                    let mut i = 0;
-                    $( $( v.check(&self.$field, Param(i), const { &$range }); )? i += 1; )*
-                    v.first
                 }
             }
 
@@ -777,17 +798,10 @@ macro_rules! catalogue {
             /// commands always pass).
             pub fn validate(&self) -> Result<(), RangeError> {
                 match self.command() {
-                    Some(id) => range_error(id, self.violation()),
+                    // The writers walk the parameters; a checking writer
+                    // checks instead of writing.
+                    Some(id) => validate_with(id, |w| self.write_fields(w)),
                     None => Ok(()),
-                }
-            }
-
-            /// The first range violation. Out of line, as `write_fields`.
-            #[inline(never)]
-            fn violation(&self) -> Option<Violation> {
-                match self {
-                    $( Request::$Cmd(r) => r.violation(), )*
-                    Request::Unknown(_) => None,
                 }
             }
 
@@ -869,6 +883,21 @@ macro_rules! catalogue {
     };
 }
 use catalogue;
+
+/// An entry of `PARAM_RANGES`: the range a table parameter declares after
+/// `=`, if any; a reply's values have none.
+macro_rules! range_entry {
+    () => {
+        None
+    };
+    (@reply $value:ident) => {
+        None
+    };
+    ($range:expr) => {
+        Some($range)
+    };
+}
+use range_entry;
 
 /// Slots of the name table: a power of two, under two thirds full.
 const HASH_SLOTS: usize = 256;

@@ -29,8 +29,8 @@
 //! omitted (the vendor SDK sends them only sometimes) and `ReadBoxInfo`
 //! replies with 6 or 8 values.
 
-use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect, Validator};
-use super::{range_error, read_known, request_head, visit_raw, Violation};
+use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect};
+use super::{range_entry, read_known, request_head, validate_with, visit_raw};
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::fsm::FsmState;
 use crate::grammar::{Cursor, RawMessage};
