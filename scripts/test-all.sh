@@ -77,7 +77,7 @@ step "clippy (gateway, embassy-net + defmt, thumbv7em)" \
   cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt --locked -- -D warnings
 
 # --- reports (they fail only if their build fails) and bounded fuzzing
-step "codec footprint on Cortex-M4F (report)" bash host-tests/scripts/footprint.sh
+step "codec footprint on Cortex-M4F (full codec <= 32 KiB)" bash host-tests/scripts/footprint.sh --check
 step "benchmarks build" cargo bench --workspace --no-run --locked
 step "fuzz: framer, request, reply, DataSheet (20 s each)" bash host-tests/fuzz/run.sh 20
 
