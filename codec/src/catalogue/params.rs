@@ -42,38 +42,81 @@ const fn same(a: &str, b: &str) -> bool {
     true
 }
 
-/// For each parameter, the index of the first parameter with its name.
-const FIRST: [u16; FIELDS] = {
+/// `true` when two parameters have the same range, or both none.
+const fn same_range(a: &Option<Range>, b: &Option<Range>) -> bool {
+    match (a, b) {
+        (Some(a), Some(b)) => a.same(b),
+        (None, None) => true,
+        _ => false,
+    }
+}
+
+/// For each parameter, the index of the first parameter equal to it by
+/// `KIND`: 0 the name, 1 the range, 2 both.
+const fn firsts<const KIND: u8>() -> [u16; FIELDS] {
     let mut first = [0u16; FIELDS];
     let mut i = 0;
     while i < FIELDS {
         let mut j = 0;
-        while j < i && !same(PARAM_NAMES[j], PARAM_NAMES[i]) {
+        while j < i {
+            let name = same(PARAM_NAMES[j], PARAM_NAMES[i]);
+            let range = same_range(&PARAM_RANGES[j], &PARAM_RANGES[i]);
+            let equal = match KIND {
+                0 => name,
+                1 => range,
+                _ => name && range,
+            };
+            if equal {
+                break;
+            }
             j += 1;
         }
-        assert!(j <= u16::MAX as usize);
         first[i] = j as u16;
         i += 1;
     }
     first
-};
+}
 
-/// Distinct names, and their bytes run together.
-const DISTINCT: (usize, usize) = {
-    let (mut n, mut bytes, mut i) = (0, 0, 0);
+/// Classes of equal parameters, numbered in order of first appearance:
+/// `first` as `firsts` gives it; for each parameter its class, and how
+/// many classes there are.
+const fn classes(first: &[u16; FIELDS]) -> ([u8; FIELDS], usize) {
+    let mut ids = [0u8; FIELDS];
+    let (mut n, mut i) = (0, 0);
+    while i < FIELDS {
+        let f = first[i] as usize;
+        if f == i {
+            assert!(n < u8::MAX as usize);
+            ids[i] = n as u8;
+            n += 1;
+        } else {
+            ids[i] = ids[f];
+        }
+        i += 1;
+    }
+    (ids, n)
+}
+
+/// For each parameter, the first parameter with its name.
+const FIRST: [u16; FIELDS] = firsts::<0>();
+/// For each parameter, its name (an index into [`OFFSETS`]); distinct names.
+const NAMES: ([u8; FIELDS], usize) = classes(&FIRST);
+
+/// The bytes of the distinct names run together.
+const POOL_LEN: usize = {
+    let (mut bytes, mut i) = (0, 0);
     while i < FIELDS {
         if FIRST[i] as usize == i {
-            n += 1;
             bytes += PARAM_NAMES[i].len();
         }
         i += 1;
     }
-    (n, bytes)
+    bytes
 };
 
 /// Each distinct name once, in table order, run together.
-const POOL_BYTES: [u8; DISTINCT.1] = {
-    let mut pool = [0u8; DISTINCT.1];
+const POOL_BYTES: [u8; POOL_LEN] = {
+    let mut pool = [0u8; POOL_LEN];
     let (mut at, mut i) = (0, 0);
     while i < FIELDS {
         if FIRST[i] as usize == i {
@@ -97,8 +140,8 @@ const POOL: &str = match core::str::from_utf8(&POOL_BYTES) {
 };
 
 /// Where the distinct names start in [`POOL`], and where the last ends.
-const OFFSETS: [u16; DISTINCT.0 + 1] = {
-    let mut offsets = [0u16; DISTINCT.0 + 1];
+const OFFSETS: [u16; NAMES.1 + 1] = {
+    let mut offsets = [0u16; NAMES.1 + 1];
     let (mut at, mut n, mut i) = (0, 0, 0);
     while i < FIELDS {
         if FIRST[i] as usize == i {
@@ -113,134 +156,43 @@ const OFFSETS: [u16; DISTINCT.0 + 1] = {
     offsets
 };
 
-/// For each parameter of the table, its name as an index into [`OFFSETS`].
-const NAME_IDS: [u8; FIELDS] = {
-    assert!(DISTINCT.0 < u8::MAX as usize);
-    let mut ids = [0u8; FIELDS];
-    let (mut n, mut i) = (0u8, 0);
-    while i < FIELDS {
-        let f = FIRST[i] as usize;
-        if f == i {
-            ids[i] = n;
-            n += 1;
-        } else {
-            ids[i] = ids[f];
-        }
-        i += 1;
-    }
-    ids
-};
-
-/// Distinct ranges in the table.
-const RANGES: usize = {
-    let (mut n, mut i) = (0, 0);
-    while i < FIELDS {
-        if let Some(r) = &PARAM_RANGES[i] {
-            if first_range(r, i) == i {
-                n += 1;
-            }
-        }
-        i += 1;
-    }
-    n
-};
-
-/// The index of the first parameter before `end` whose range is `r` (`end`
-/// if none).
-const fn first_range(r: &Range, end: usize) -> usize {
-    let mut j = 0;
-    while j < end {
-        if let Some(q) = &PARAM_RANGES[j] {
-            if q.same(r) {
-                return j;
-            }
-        }
-        j += 1;
-    }
-    end
-}
-
-/// Each distinct range once, and for each parameter of the table its range
-/// as an index into that list (`u8::MAX`: no range).
-const RANGE_TABLE: ([Range; RANGES], [u8; FIELDS]) = {
-    assert!(RANGES < u8::MAX as usize);
-    let mut pool = [Range::Int { min: 0, max: 0 }; RANGES];
-    let mut ids = [u8::MAX; FIELDS];
-    let (mut n, mut i) = (0, 0);
-    while i < FIELDS {
-        if let Some(r) = &PARAM_RANGES[i] {
-            let f = first_range(r, i);
-            if f == i {
-                pool[n] = *r;
-                ids[i] = n as u8;
-                n += 1;
-            } else {
-                ids[i] = ids[f];
-            }
-        }
-        i += 1;
-    }
-    (pool, ids)
-};
+/// For each parameter, the first parameter with its range.
+const FIRST_RANGE: [u16; FIELDS] = firsts::<1>();
+/// For each parameter, its range (an index into [`RANGE_POOL`]); distinct
+/// ranges ("none" is one of them).
+const RANGES: ([u8; FIELDS], usize) = classes(&FIRST_RANGE);
 
 /// The distinct ranges (a `static`: one copy, referenced by errors).
-static RANGE_POOL: [Range; RANGES] = RANGE_TABLE.0;
-
-/// For each parameter, the first parameter with the same name and range.
-const SAME: [u16; FIELDS] = {
-    let ranges = &RANGE_TABLE.1;
-    let mut same = [0u16; FIELDS];
+static RANGE_POOL: [Option<Range>; RANGES.1] = {
+    let mut pool = [None; RANGES.1];
     let mut i = 0;
     while i < FIELDS {
-        let mut j = 0;
-        while j < i && (NAME_IDS[j] != NAME_IDS[i] || ranges[j] != ranges[i]) {
-            j += 1;
-        }
-        same[i] = j as u16;
+        pool[RANGES.0[i] as usize] = PARAM_RANGES[i];
         i += 1;
     }
-    same
+    pool
 };
 
-/// Distinct (name, range) pairs.
-const PAIR_COUNT: usize = {
-    let (mut n, mut i) = (0, 0);
+/// For each parameter, the first parameter with its name and range.
+const FIRST_PAIR: [u16; FIELDS] = firsts::<2>();
+/// For each parameter, its (name, range) pair (an index into [`PAIRS`]);
+/// distinct pairs.
+const PAIR_IDS: ([u8; FIELDS], usize) = classes(&FIRST_PAIR);
+
+/// Each distinct pair of a name (index into [`OFFSETS`]) and a range (index
+/// into [`RANGE_POOL`]). One byte per parameter and two per pair: a name
+/// and a range index per parameter took 2 × 480 bytes, pairs ~480 + 2 × 170.
+static PAIRS: [[u8; 2]; PAIR_IDS.1] = {
+    let mut pairs = [[0u8; 2]; PAIR_IDS.1];
+    let mut i = 0;
     while i < FIELDS {
-        if SAME[i] as usize == i {
-            n += 1;
-        }
+        pairs[PAIR_IDS.0[i] as usize] = [NAMES.0[i], RANGES.0[i]];
         i += 1;
     }
-    n
+    pairs
 };
-
-/// Each distinct pair of a name (index into [`OFFSETS`]) and a range
-/// (index into [`RANGE_POOL`], `u8::MAX` for none), and for each parameter
-/// of the table its pair. One byte per parameter: a name and a range
-/// index each took 480 bytes, the pairs take ~2 × 170.
-const PAIR_TABLE: ([[u8; 2]; PAIR_COUNT], [u8; FIELDS]) = {
-    assert!(PAIR_COUNT < u8::MAX as usize);
-    let mut pairs = [[0u8; 2]; PAIR_COUNT];
-    let mut ids = [0u8; FIELDS];
-    let (mut n, mut i) = (0, 0);
-    while i < FIELDS {
-        let f = SAME[i] as usize;
-        if f == i {
-            pairs[n] = [NAME_IDS[i], RANGE_TABLE.1[i]];
-            ids[i] = n as u8;
-            n += 1;
-        } else {
-            ids[i] = ids[f];
-        }
-        i += 1;
-    }
-    (pairs, ids)
-};
-
-/// The distinct (name, range) pairs.
-static PAIRS: [[u8; 2]; PAIR_COUNT] = PAIR_TABLE.0;
 /// Each parameter's pair, as an index into [`PAIRS`].
-static IDS: [u8; FIELDS] = PAIR_TABLE.1;
+static IDS: [u8; FIELDS] = PAIR_IDS.0;
 
 /// The (name, range) pair of parameter `p` of `command`.
 fn pair(command: CommandId, p: Param) -> Option<&'static [u8; 2]> {
@@ -261,7 +213,9 @@ impl Param {
     /// The valid range of this parameter of `command`, if the table gives
     /// one.
     pub(crate) fn range(self, command: Option<CommandId>) -> Option<&'static Range> {
-        RANGE_POOL.get(usize::from(pair(command?, self)?[1]))
+        RANGE_POOL
+            .get(usize::from(pair(command?, self)?[1]))?
+            .as_ref()
     }
 
     /// The name of this parameter of `command`, as in the table (empty for
@@ -320,9 +274,9 @@ mod tests {
             assert_eq!(Param(n as u8).range(Some(id)), None);
         }
         assert!(ranged > 200, "{ranged} parameters have a range");
-        assert!(RANGES < ranged / 4, "{RANGES} distinct ranges");
+        assert!(RANGES.1 < ranged / 4, "{} distinct ranges", RANGES.1);
         // Pairs pay off only while fewer than half the parameters are distinct.
-        const { assert!(PAIR_COUNT < FIELDS / 2) };
+        const { assert!(PAIR_IDS.1 < FIELDS / 2) };
         assert_eq!(Param::RAW.range(None), None);
     }
 
