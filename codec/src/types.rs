@@ -84,9 +84,7 @@ impl Range {
             Range::Either(a, b) => v == a || v == b,
         }
     }
-}
 
-impl Range {
     /// `true` when both are the same range, written the same; `const`, for
     /// the range table the compiler builds (`catalogue::params`).
     pub(crate) const fn same(&self, other: &Range) -> bool {
