@@ -10,11 +10,20 @@
 # (frames, reads and validates any request, writes any reply), full (both),
 # datasheet (DataSheet deframer and JSON decoder). Flash = text + data.
 # With --check, exits 1 when the full command-port codec exceeds 32 KiB.
+# Exits 2 on an unknown argument or without llvm-size or binutils' size.
 set -euo pipefail
 cd "$(dirname "$0")/../footprint"
 
 check=0
-[ "${1:-}" = "--check" ] && check=1
+for arg in "$@"; do
+  case "$arg" in
+    --check) check=1 ;;
+    *) echo "usage: $0 [--check]   (unknown argument: $arg)" >&2; exit 2 ;;
+  esac
+done
+
+size_tool=$(command -v llvm-size || command -v size || true)
+[ -n "$size_tool" ] || { echo "footprint: need llvm-size or binutils' size" >&2; exit 2; }
 
 if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
   echo "footprint: rustup target add thumbv7em-none-eabihf (scripts/setup.sh does it)" >&2
@@ -23,12 +32,13 @@ fi
 cargo build --release --quiet
 
 dir="${CARGO_TARGET_DIR:-target}/thumbv7em-none-eabihf/release"
-size_tool=$(command -v llvm-size || command -v size)
-
 read_size() { # prints "text data bss" of an ELF
   "$size_tool" -B "$1" | awk 'NR == 2 { print $1, $2, $3 }'
 }
 
+# The figures (and the 32 KiB check, which has little margin) depend on the
+# compiler: say which one made them.
+echo "$(rustc --version) ($(basename "$size_tool"))"
 read -r bt bd bb < <(read_size "$dir/baseline")
 base=$((bt + bd))
 printf '%-10s %8s %6s %6s %12s\n' profile text data bss "codec flash"

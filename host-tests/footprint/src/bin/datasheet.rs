@@ -3,11 +3,11 @@
 #![no_main]
 
 use hans_codec::datasheet::{DataSheet, Deframer};
-use hans_codec_footprint::{input, output};
+use hans_codec_footprint::{input, output, BUF};
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let mut rx = [0u8; 512];
+    let mut rx = [0u8; BUF];
     let mut deframer = Deframer::<{ DataSheet::MAX_JSON_LEN }>::new();
     loop {
         let bytes = input(&mut rx).as_bytes();
