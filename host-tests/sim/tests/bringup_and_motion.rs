@@ -146,3 +146,23 @@ async fn override_scales_the_move() {
     assert_eq!(c.fail("SetOverride,0,1,;").await, 20018);
     sim.shutdown().await;
 }
+
+/// The README's "`nInPos` 1 at t0+D+20 ms", taken literally: the manual clock
+/// advanced to exactly that instant must show the flag, although the
+/// simulator's event time is a sum of `f64` durations.
+#[tokio::test]
+async fn in_position_is_set_exactly_at_the_documented_instant() {
+    let sim = manual(Config::ready()).await;
+    let mut c = Client::connect(sim.command_addr()).await;
+    // Starting at t0 = 100 ms, t0 + D + 20 ms in f64 lands one ulp below the
+    // simulator's sum of the same durations.
+    sim.advance(ms(100));
+    // D = 2.3 s (see the move test above).
+    c.ok("WayPoint,0,0,0,0,0,0,0,90,0,90,0,90,0,TCP,Base,50,100,0,0,1,0,0,0,wp8,;")
+        .await;
+    sim.advance(ms(2300 + 19));
+    assert_eq!(c.state().await[12], 0, "not in position 1 ms early");
+    sim.advance(ms(1));
+    assert_eq!(c.state().await[12], 1, "in position at t0+D+20 ms");
+    sim.shutdown().await;
+}

@@ -15,7 +15,8 @@ use hans_codec::{request as rq, response as rs, Decimal, FsmState, Request, Resp
 
 use super::motion::{Path, PlanError};
 use super::{
-    MoveKind, Planned, Robot, Script, Speed, Stage, Track, MAX_PATHS, MAX_PATH_POINTS, MAX_QUEUE,
+    reached, MoveKind, Planned, Robot, Script, Speed, Stage, Track, MAX_PATHS, MAX_PATH_POINTS,
+    MAX_QUEUE,
 };
 use crate::kinematics::{self as k, Frame, Joints, Pose};
 
@@ -1446,7 +1447,7 @@ impl Robot {
                 } else {
                     tr.state = 2;
                     tr.ready_at = ready_at;
-                    if now >= ready_at {
+                    if reached(now, ready_at) {
                         tr.state = 3;
                     }
                 }

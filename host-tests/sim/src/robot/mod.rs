@@ -158,6 +158,14 @@ pub enum Initial {
 /// are not exact (0.2 + 0.1 > 0.3).
 const SLACK: f64 = 1e-9;
 
+/// Whether simulated time `now` has reached the event time `at`, give or take
+/// [`SLACK`]. Every comparison of a clock reading with an event time goes
+/// through here, so a test that advances the manual clock exactly to an
+/// event sees it happen even when `at` is a sum of durations one ulp above.
+fn reached(now: f64, at: f64) -> bool {
+    now + SLACK >= at
+}
+
 /// A power/connection stage of the bring-up chain.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Stage {
@@ -170,8 +178,8 @@ enum Stage {
 impl Stage {
     fn settle(&mut self, now: f64) {
         match *self {
-            Stage::Rising { done } if now + SLACK >= done => *self = Stage::On,
-            Stage::Falling { done } if now + SLACK >= done => *self = Stage::Off,
+            Stage::Rising { done } if reached(now, done) => *self = Stage::On,
+            Stage::Falling { done } if reached(now, done) => *self = Stage::Off,
             _ => {}
         }
     }
@@ -516,15 +524,15 @@ impl Robot {
             s.settle(now);
         }
         self.script = match self.script.take() {
-            Some(Script::Running { until }) if now + SLACK >= until => None,
-            Some(Script::Stopping { until }) if now + SLACK >= until => None,
-            Some(Script::Pausing { until, remaining }) if now + SLACK >= until => {
+            Some(Script::Running { until }) if reached(now, until) => None,
+            Some(Script::Stopping { until }) if reached(now, until) => None,
+            Some(Script::Pausing { until, remaining }) if reached(now, until) => {
                 Some(Script::Held { remaining })
             }
             other => other,
         };
         for t in self.tracks.values_mut() {
-            if t.state == 2 && now + SLACK >= t.ready_at {
+            if t.state == 2 && reached(now, t.ready_at) {
                 t.state = 3;
             }
         }
@@ -546,7 +554,7 @@ impl Robot {
                         continue;
                     }
                 }
-                if end > now + SLACK {
+                if !reached(now, end) {
                     break;
                 }
                 let q = seg.plan.path.at(seg.profile.final_s());
@@ -785,7 +793,7 @@ impl Robot {
         if self.error.is_some() {
             return F::Error;
         }
-        if now + SLACK < self.resetting_until {
+        if !reached(now, self.resetting_until) {
             return F::Reseting;
         }
         match self.enable {
@@ -828,13 +836,13 @@ impl Robot {
     pub fn flags(&self, now: f64) -> Flags {
         let lagged = now - Self::secs(self.timing.moving_flag_lag);
         let moving = if self.motion_running() {
-            lagged + SLACK >= self.busy_since
+            reached(lagged, self.busy_since)
         } else {
-            lagged + SLACK >= self.busy_since && lagged + SLACK < self.idle_since
-        } || self.ft_on.is_some_and(|since| lagged + SLACK >= since);
+            reached(lagged, self.busy_since) && !reached(lagged, self.idle_since)
+        } || self.ft_on.is_some_and(|since| reached(lagged, since));
         let enabled = self.enable.is_on() && !self.estop;
-        let settled =
-            !self.motion_running() && now >= self.idle_since + Self::secs(self.timing.actual_lag);
+        let settled = !self.motion_running()
+            && reached(now, self.idle_since + Self::secs(self.timing.actual_lag));
         Flags {
             moving,
             enabled,
@@ -909,7 +917,7 @@ impl Robot {
             return 3;
         }
         match self.ft_on {
-            Some(since) if now + SLACK >= since + Self::secs(self.timing.force_search) => 2,
+            Some(since) if reached(now, since + Self::secs(self.timing.force_search)) => 2,
             Some(_) => 1,
             None => 0,
         }
@@ -943,5 +951,21 @@ impl Robot {
             self.script = None;
         }
         self.error = e;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::reached;
+
+    #[test]
+    fn reached_absorbs_float_sums_but_not_real_gaps() {
+        // 0.1 + 0.2 is one ulp above 0.3.
+        let sum = std::hint::black_box(0.1) + 0.2;
+        assert!(sum > 0.3);
+        assert!(reached(0.3, sum));
+        assert!(reached(0.4, 0.3));
+        assert!(!reached(0.299, 0.3));
+        assert!(!reached(0.3 - 1e-6, 0.3));
     }
 }
