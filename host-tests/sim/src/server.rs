@@ -232,38 +232,38 @@ pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream) {
                 Ok(stream.read(&mut buf).await)
             }
         };
-        let n = tokio::select! {
+        // `None`: an incomplete message went quiet for `incomplete_timeout`.
+        let got = tokio::select! {
             _ = drops.changed() => return,
             _ = shutdown.changed() => return,
             r = read => match r {
-                Err(_elapsed) => {
-                    framer.reset();
-                    if stream.write_all(ERRORCMD).await.is_err() {
-                        return;
-                    }
-                    continue;
-                }
+                Err(_elapsed) => None,
                 Ok(Ok(0)) | Ok(Err(_)) => return,
-                Ok(Ok(n)) => n,
+                Ok(Ok(n)) => Some(n),
             },
         };
-        let data = buf.get(..n).unwrap_or(&[]);
-        if framer.pending() == 0 && starts_with_empty_message(data) {
-            // The framer skips empty messages; the controller answers one
-            // like any message it cannot read (and, as the first message of
-            // this read, discards the rest).
-            if stream.write_all(ERRORCMD).await.is_err() {
-                return;
+        // `None`: what arrived is not a message the controller can read, so
+        // it answers `errorcmd` (below, the one place that writes it).
+        let msg = match got {
+            None => None,
+            Some(n) => {
+                let data = buf.get(..n).unwrap_or(&[]);
+                if framer.pending() == 0 && starts_with_empty_message(data) {
+                    // The framer skips empty messages; the controller answers
+                    // one like any message it cannot read (and, as the first
+                    // message of this read, discards the rest).
+                    None
+                } else {
+                    match framer.push(data).1 {
+                        None => continue,
+                        Some(Ok(m)) => Some(m.to_string()),
+                        Some(Err(_)) => None,
+                    }
+                }
             }
-            continue;
-        }
-        let (_, item) = framer.push(data);
-        let msg = match item {
-            None => continue,
-            Some(Ok(m)) => Some(m.to_string()),
-            Some(Err(_)) => None,
         };
-        // One message per read: the rest of this read is discarded.
+        // One message per read: the rest of this read (or the quiet partial
+        // message) is discarded.
         framer.reset();
         let keep = match msg {
             Some(m) => respond(&shared, &mut stream, &m).await,
