@@ -5,33 +5,19 @@
 
 mod support;
 
-use std::time::Duration;
-
 use hans_codec::datasheet::{DataSheet, Deframer, MAGIC};
-use hans_sim::{ClockMode, Config, FsmState, RobotError, Sim};
-use support::{close, Client, WAIT};
+use hans_codec::RawMessage;
+use hans_sim::{Config, FsmState, RobotError, Sim};
+use support::{close, manual, ms, Client, WAIT};
 use tokio::io::AsyncReadExt;
 use tokio::net::TcpStream;
-
-fn ms(v: u64) -> Duration {
-    Duration::from_millis(v)
-}
-
-async fn manual() -> Sim {
-    Sim::start(Config {
-        clock: ClockMode::Manual,
-        ..Config::ready()
-    })
-    .await
-    .unwrap()
-}
 
 /// J1 0 -> 90 at 50 °/s, 100 °/s²: 2.3 s.
 const MOVE: &str = "WayPoint,0,0,0,0,0,0,0,90,0,90,0,90,0,TCP,Base,50,100,0,0,1,0,0,0,m1,;";
 
 #[tokio::test]
 async fn stop_pause_and_continue() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     c.ok(MOVE).await;
     sim.advance(ms(1000));
@@ -77,7 +63,7 @@ async fn stop_pause_and_continue() {
 
 #[tokio::test]
 async fn safety_errors_and_reset() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     c.ok(MOVE).await;
     sim.advance(ms(500));
@@ -128,7 +114,7 @@ async fn safety_errors_and_reset() {
 
 #[tokio::test]
 async fn seek_stops_a_way_point_when_the_input_matches() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     c.ok("WayPoint,0,0,0,0,0,0,0,90,0,90,0,90,0,TCP,Base,50,100,0,0,1,1,3,1,s1,;")
         .await;
@@ -144,7 +130,7 @@ async fn seek_stops_a_way_point_when_the_input_matches() {
 
 #[tokio::test]
 async fn a_linear_move_keeps_the_tcp_on_the_line() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     // From 420,0,445 to 420,100,445 at 100 mm/s, 1000 mm/s².
     c.ok("WayPoint,0,420,100,445,180,0,180,0,0,90,0,90,0,TCP,Base,100,1000,0,1,0,0,0,0,l1,;")
@@ -160,7 +146,7 @@ async fn a_linear_move_keeps_the_tcp_on_the_line() {
 
 #[tokio::test]
 async fn kinematics_and_pose_commands_match_the_document() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     assert_eq!(
         c.call("GetForwardKin,0,0,0,90,0,90,0,0,0,0,0,0,0,0,0,0,0,0,0,;")
@@ -235,14 +221,15 @@ async fn kinematics_and_pose_commands_match_the_document() {
         // Numerically equal, angles modulo 360 (the document itself prints
         // `-0.000` and both `180` and `-180`).
         let got = c.call(req).await;
-        let nums = |t: &str| -> Vec<f64> {
-            t.split(',')
-                .skip(2)
-                .filter_map(|f| f.trim().parse().ok())
-                .collect()
+        // The name and the values after `OK`, read by the codec.
+        let parts = |t: &str| -> (String, Vec<f64>) {
+            let raw = RawMessage::parse(t).unwrap_or_else(|e| panic!("{t}: {e}"));
+            let values = raw.fields().skip(1);
+            let nums = values.filter_map(|f| f.trim().parse().ok()).collect();
+            (raw.name().to_string(), nums)
         };
-        let (g, w) = (nums(&got), nums(want));
-        assert_eq!(got.split(',').next(), want.split(',').next(), "{req}");
+        let ((got_name, g), (want_name, w)) = (parts(&got), parts(want));
+        assert_eq!(got_name, want_name, "{req}");
         assert_eq!(g.len(), w.len(), "{req} -> {got}");
         for (a, b) in g.iter().zip(&w) {
             let d = (a - b).abs();
@@ -272,7 +259,7 @@ async fn kinematics_and_pose_commands_match_the_document() {
 
 #[tokio::test]
 async fn io_reads_back_and_tool_registers() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     c.ok("SetBoxDO,5,1,;").await;
     c.ok("SetBoxCO,2,1,;").await;
@@ -317,7 +304,7 @@ async fn io_reads_back_and_tool_registers() {
 
 #[tokio::test]
 async fn scripts_free_drive_and_force_control() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     assert_eq!(c.call("RunFunc,Func_1,55,;").await, "RunFunc,OK,Func_1,;");
     assert_eq!(c.fsm().await, 34);
@@ -357,7 +344,7 @@ async fn scripts_free_drive_and_force_control() {
 
 #[tokio::test]
 async fn joint_and_cartesian_paths_and_servo() {
-    let sim = manual().await;
+    let sim = manual(Config::ready()).await;
     let mut c = Client::connect(sim.command_addr()).await;
     assert_eq!(c.fail("MovePath,0,P1,;").await, 20042);
     c.ok("StartPushMovePath,0,P1,0.5,2,;").await;

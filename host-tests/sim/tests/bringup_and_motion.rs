@@ -3,23 +3,8 @@
 
 mod support;
 
-use std::time::Duration;
-
-use hans_sim::{ClockMode, Config, FsmState, Sim};
-use support::{close, Client};
-
-fn ms(v: u64) -> Duration {
-    Duration::from_millis(v)
-}
-
-async fn manual(config: Config) -> Sim {
-    Sim::start(Config {
-        clock: ClockMode::Manual,
-        ..config
-    })
-    .await
-    .unwrap()
-}
+use hans_sim::{Config, FsmState};
+use support::{close, manual, ms, Client};
 
 #[tokio::test]
 async fn bring_up_steps_through_the_fsm_to_standby() {

@@ -6,11 +6,28 @@ use std::net::SocketAddr;
 use std::time::Duration;
 
 use hans_codec::{Framer, Reply, ReplyExpect, Request};
+use hans_sim::{ClockMode, Config, Sim};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
 /// Generous bound for any single wait in the tests.
 pub const WAIT: Duration = Duration::from_secs(10);
+
+/// `v` milliseconds.
+pub fn ms(v: u64) -> Duration {
+    Duration::from_millis(v)
+}
+
+/// A simulator started from `config` on the manual clock (time moves only
+/// by `Sim::advance`), so every test is deterministic.
+pub async fn manual(config: Config) -> Sim {
+    Sim::start(Config {
+        clock: ClockMode::Manual,
+        ..config
+    })
+    .await
+    .unwrap()
+}
 
 pub struct Client {
     pub stream: TcpStream,
