@@ -9,11 +9,40 @@ use hans_sim::{Config, Sim};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 
+const USAGE: &str =
+    "usage: throughput [CLIENTS] [SECONDS]  (whole numbers from 1; defaults 4 and 3)";
+
+/// The optional argument `what`: `default` when absent, an error for
+/// anything but a whole number from 1.
+fn count(arg: Option<String>, what: &str, default: u64) -> Result<u64, String> {
+    let Some(text) = arg else {
+        return Ok(default);
+    };
+    match text.parse::<u64>() {
+        Ok(0) => Err(format!("{what} must be at least 1, got 0")),
+        Ok(v) => Ok(v),
+        Err(_) => Err(format!("{what} must be a whole number, got {text:?}")),
+    }
+}
+
 #[tokio::main]
 async fn main() {
     let mut args = std::env::args().skip(1);
-    let clients: usize = args.next().and_then(|a| a.parse().ok()).unwrap_or(4);
-    let secs: u64 = args.next().and_then(|a| a.parse().ok()).unwrap_or(3);
+    let parsed = (|| {
+        let clients = count(args.next(), "CLIENTS", 4)?;
+        let secs = count(args.next(), "SECONDS", 3)?;
+        match args.next() {
+            Some(extra) => Err(format!("unexpected argument {extra:?}")),
+            None => Ok((clients, secs)),
+        }
+    })();
+    let (clients, secs) = match parsed {
+        Ok(v) => v,
+        Err(e) => {
+            eprintln!("throughput: {e}\n{USAGE}");
+            std::process::exit(2);
+        }
+    };
     let sim = Sim::start(Config {
         datasheet_ports: vec![],
         received_capacity: 1000,
@@ -59,12 +88,20 @@ async fn main() {
         lat.extend(l);
     }
     lat.sort();
-    let pct = |p: f64| lat[((lat.len() as f64 - 1.0) * p) as usize];
-    println!(
-        "{clients} clients, {secs} s: {total} requests, {:.0} requests/s, latency p50 {:?} p99 {:?}",
-        total as f64 / secs as f64,
-        pct(0.5),
-        pct(0.99)
-    );
+    // The sample at quantile `p` of a non-empty, sorted list.
+    let pct = |p: f64| {
+        let i = (lat.len().saturating_sub(1) as f64 * p) as usize;
+        lat.get(i).copied().unwrap_or_default()
+    };
+    if lat.is_empty() {
+        println!("{clients} clients, {secs} s: no request completed");
+    } else {
+        println!(
+            "{clients} clients, {secs} s: {total} requests, {:.0} requests/s, latency p50 {:?} p99 {:?}",
+            total as f64 / secs as f64,
+            pct(0.5),
+            pct(0.99)
+        );
+    }
     sim.shutdown().await;
 }
