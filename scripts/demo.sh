@@ -4,9 +4,10 @@
 #
 #   scripts/demo.sh
 #
-# Installs what it needs (scripts/setup.sh: qemu-system-arm, mbpoll, the
-# rustup target), builds the firmware and hans-sim, starts both, prints the
-# Modbus address to point a PLC or mbpoll at, and stops everything on Ctrl-C.
+# Installs what it needs (scripts/setup.sh), builds the firmware and hans-sim,
+# starts both, prints the Modbus address to point a PLC or mbpoll at, and
+# stops everything on Ctrl-C. If either process ends by itself (a port already
+# taken, say), the other is stopped too and the script exits with its status.
 #
 # Environment: MODBUS_PORT (default 5020), SIM_PORT (default 10003),
 # ADMIN_PORT (default 5021). Everything listens on 127.0.0.1 only.
@@ -19,7 +20,6 @@ SIM_PORT=${SIM_PORT:-10003}
 ADMIN_PORT=${ADMIN_PORT:-5021}
 export MODBUS_PORT SIM_PORT ADMIN_PORT
 
-# qemu-system-arm, socat (QEMU's forward to the simulator), mbpoll, the target.
 SETUP_FUZZ=0 bash scripts/setup.sh
 
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
@@ -44,7 +44,8 @@ cleanup() {
   done
   echo "demo: stopped"
 }
-trap cleanup INT TERM EXIT
+trap 'cleanup; exit 130' INT TERM
+trap cleanup EXIT
 
 "$HOST_TARGET/release/hans-sim" --host 127.0.0.1 --command-port "$SIM_PORT" --datasheet-ports "" &
 pids+=($!)
@@ -64,4 +65,7 @@ cat <<MSG
 MSG
 
 # Ends when either process ends (or on Ctrl-C, through the trap).
-wait -n "${pids[@]}" || true
+status=0
+wait -n "${pids[@]}" || status=$?
+echo "demo: a process ended by itself (status $status); stopping the other" >&2
+exit "$status"

@@ -16,7 +16,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 
-# qemu-system-arm, socat (QEMU's forward to the simulator) and the target.
 SETUP_FUZZ=0 bash scripts/setup.sh
 
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}

@@ -1,9 +1,20 @@
 #!/usr/bin/env bash
-# Installs everything the project needs on a fresh Debian machine. Idempotent:
-# each step checks first and does nothing when already done.
+# Installs everything the project needs on a fresh Debian machine with rustup
+# (https://rustup.rs, or Debian's `rustup` package). Idempotent: each step
+# checks first and does nothing when already done.
 set -euo pipefail
 
+if ! command -v rustup >/dev/null; then
+  echo "setup: rustup not found. Install it (https://rustup.rs, or 'apt-get install rustup'" >&2
+  echo "       then 'rustup default stable') and run this again." >&2
+  exit 1
+fi
+
 need_apt=()
+# A C toolchain links the host binaries and builds libFuzzer; python3 seeds the
+# fuzzers and checks the vectors against the protocol document.
+command -v cc >/dev/null || need_apt+=(build-essential)
+command -v python3 >/dev/null || need_apt+=(python3)
 command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 command -v mbpoll >/dev/null || need_apt+=(mbpoll)
 # socat relays QEMU's guest forward to the simulator, one relay per connection.
@@ -17,6 +28,13 @@ if ((${#need_apt[@]})); then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${need_apt[@]}" >/dev/null
 fi
+
+for component in rustfmt clippy; do
+  if ! rustup component list --installed | grep -q "^$component"; then
+    echo "setup: rustup component add $component"
+    rustup component add "$component"
+  fi
+done
 
 if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
   echo "setup: rustup target add thumbv7em-none-eabihf"

@@ -76,7 +76,7 @@ step "gateway library builds for thumbv7em-none-eabihf" \
 step "clippy (gateway, embassy-net + defmt, thumbv7em)" \
   cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt --locked -- -D warnings
 
-# --- reports (they fail only if their build fails) and bounded fuzzing
+# --- the footprint goal, benchmark builds (run them with cargo bench) and bounded fuzzing
 step "codec footprint on Cortex-M4F (full codec <= 32 KiB)" bash host-tests/scripts/footprint.sh --check
 step "benchmarks build" cargo bench --workspace --no-run --locked
 step "fuzz: framer, request, reply, DataSheet (20 s each)" bash host-tests/fuzz/run.sh 20
