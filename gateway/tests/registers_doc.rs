@@ -1,9 +1,11 @@
 //! REGISTERS.md is the PLC programmer's copy of the register map: its
 //! table must match `registers::TABLE` row by row, and its command-code
-//! table the codes the engine knows.
+//! table the codes the engine knows, and its error-code table the
+//! gateway's own codes.
 
 use hans_gateway::engine::commands::{build, Inputs};
 use hans_gateway::engine::job::Source;
+use hans_gateway::engine::GatewayError;
 use hans_gateway::registers::{Access, TABLE};
 
 fn doc() -> String {
@@ -92,6 +94,65 @@ fn the_documented_command_codes_are_the_engine_codes() {
         }
         assert_eq!(built.is_ok(), documented, "code {c}: {built:?}");
     }
+}
+
+/// Every [`GatewayError`]: the match in `position` fails to compile when a
+/// variant is added, until it is listed here too.
+const GATEWAY_ERRORS: [GatewayError; 14] = [
+    GatewayError::NotConnected,
+    GatewayError::BadParameter,
+    GatewayError::BadReply,
+    GatewayError::ReplyTimeout,
+    GatewayError::ConnectFailed,
+    GatewayError::ReplyMismatch,
+    GatewayError::QueueFull,
+    GatewayError::LinkLost,
+    GatewayError::Watchdog,
+    GatewayError::TriggerEmpty,
+    GatewayError::RobotErrorNoCode,
+    GatewayError::EmergencyStop,
+    GatewayError::SafetyGuard,
+    GatewayError::StateNotReached,
+];
+
+fn position(e: GatewayError) -> usize {
+    match e {
+        GatewayError::NotConnected => 0,
+        GatewayError::BadParameter => 1,
+        GatewayError::BadReply => 2,
+        GatewayError::ReplyTimeout => 3,
+        GatewayError::ConnectFailed => 4,
+        GatewayError::ReplyMismatch => 5,
+        GatewayError::QueueFull => 6,
+        GatewayError::LinkLost => 7,
+        GatewayError::Watchdog => 8,
+        GatewayError::TriggerEmpty => 9,
+        GatewayError::RobotErrorNoCode => 10,
+        GatewayError::EmergencyStop => 11,
+        GatewayError::SafetyGuard => 12,
+        GatewayError::StateNotReached => 13,
+    }
+}
+
+/// Finding: a paragraph inside the error-code table cut it in two, and
+/// the codes after it no longer rendered as rows. The table, read as
+/// Markdown reads it (up to its first non-row line), must hold exactly the
+/// gateway's codes, each with a meaning.
+#[test]
+fn the_documented_error_codes_are_the_gateway_codes() {
+    for (i, e) in GATEWAY_ERRORS.iter().enumerate() {
+        assert_eq!(position(*e), i, "{e:?} listed once, in order");
+    }
+    let rows = table_after(&doc(), "## Error codes");
+    let documented: Vec<i32> = rows
+        .iter()
+        .map(|r| {
+            assert!(r.len() == 2 && !r[1].is_empty(), "row {r:?}");
+            r[0].parse().unwrap_or_else(|_| panic!("code in {r:?}"))
+        })
+        .collect();
+    let codes: Vec<i32> = GATEWAY_ERRORS.iter().map(|e| e.code()).collect();
+    assert_eq!(documented, codes);
 }
 
 /// Finding (doc gap): reads across unmapped gaps give exception 02, so the
