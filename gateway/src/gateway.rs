@@ -361,14 +361,16 @@ impl<'a> Ctx<'a> {
                 self.with(|s| {
                     let c = s.config;
                     c.store(s.regs);
-                    s.regs.set(r::CONTROL_CONFIG_RESULT, 0);
+                    s.regs
+                        .set(r::CONTROL_CONFIG_RESULT, ConfigResult::Ok as u16);
                 });
                 Ok(())
             }
             Some(3) => {
                 self.with(|s| {
                     Config::default().store(s.regs);
-                    s.regs.set(r::CONTROL_CONFIG_RESULT, 0);
+                    s.regs
+                        .set(r::CONTROL_CONFIG_RESULT, ConfigResult::Ok as u16);
                 });
                 Ok(())
             }
@@ -419,40 +421,37 @@ impl<'a> Ctx<'a> {
             let mut storage = self.storage.borrow_mut();
             (storage.save(&image), storage.is_persistent())
         };
-        let result = match (saved, persistent) {
-            (Ok(()), true) => ConfigResult::Saved,
-            (Ok(()), false) => ConfigResult::NotSaved,
-            (Err(_), _) => ConfigResult::SaveFailed,
+        let (result, answer) = match (saved, persistent) {
+            (Ok(()), true) => {
+                info!("config: applied and saved");
+                (ConfigResult::Ok, Ok(()))
+            }
+            (Ok(()), false) => {
+                warn!("config: applied, not saved: no persistent storage (lost at restart)");
+                (ConfigResult::NotSaved, Ok(()))
+            }
+            (Err(_), _) => {
+                warn!("config: applied, but saving failed");
+                (ConfigResult::SaveFailed, Err(WriteError::Device))
+            }
         };
         self.with(|s| {
             s.regs.set(r::CONTROL_CONFIG_RESULT, result as u16);
-            if result == ConfigResult::Saved {
+            if result == ConfigResult::Ok {
                 let n = s.regs.get(r::CONTROL_SAVES).wrapping_add(1);
                 s.regs.set(r::CONTROL_SAVES, n);
             }
         });
-        match result {
-            ConfigResult::Saved => {
-                info!("config: applied and saved");
-                Ok(())
-            }
-            ConfigResult::NotSaved => {
-                warn!("config: applied, not saved: no persistent storage (lost at restart)");
-                Ok(())
-            }
-            _ => {
-                warn!("config: applied, but saving failed");
-                Err(WriteError::Device)
-            }
-        }
+        answer
     }
 }
 
 /// Values of `CONFIG_RESULT`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum ConfigResult {
-    /// Applied and saved.
-    Saved = 0,
+    /// Done: for CONFIG_COMMAND 1 applied and saved, for 2 and 3 the CFG_*
+    /// registers rewritten.
+    Ok = 0,
     /// A value was out of range: nothing applied (exception 03).
     Invalid = 1,
     /// Applied, but the storage failed (exception 04).
@@ -611,7 +610,7 @@ pub async fn run<N: Net>(net: &N, storage: &mut dyn Storage, opts: Options) -> I
         datasheet,
     )
     .await;
-    // Both halves loop forever.
+    // The engine, the sessions and the DataSheet reader loop forever.
     core::future::pending().await
 }
 
