@@ -598,23 +598,38 @@ impl<'c, 'a> Engine<'c, 'a> {
         Err(())
     }
 
+    /// Sends the request of `step` and copies its reply into the registers
+    /// ([`PollStep::apply`]). As [`Self::poll`]; the reply comes back as
+    /// [`Polled::State`] or [`Polled::Fsm`] where the engine needs it.
+    /// `Ok(None)` also if the request could not be written (it fits
+    /// `buf`, so that does not happen).
+    async fn poll_step<S: Socket>(
+        &mut self,
+        link: &mut Link<S>,
+        step: PollStep,
+        what: &str,
+    ) -> Result<Option<Polled>, ()> {
+        let Some((len, expect)) = step.request(self.config.robot_id, &mut self.buf) else {
+            return Ok(None);
+        };
+        self.poll(link, len, expect, what, &mut |reply, s, order| {
+            step.apply(reply, s.regs, order);
+            match reply {
+                Reply::Ok(Response::ReadRobotState(rs)) => Polled::State(rs.clone()),
+                Reply::Ok(Response::ReadCurFSM(f)) => Polled::Fsm(f.state),
+                _ => Polled::Nothing,
+            }
+        })
+        .await
+    }
+
     /// One request of the status round.
     async fn poll_status<S: Socket>(&mut self, link: &mut Link<S>, i: usize) {
         let Some(step) = PollStep::ROUND.get(i).copied() else {
             self.round = None;
             return;
         };
-        let Some((len, expect)) = step.request(self.config.robot_id, &mut self.buf) else {
-            self.round = None;
-            return;
-        };
-        let r = self
-            .poll(link, len, expect, "status", &mut |reply, s, order| {
-                step.apply(reply, s.regs, order);
-                Polled::Nothing
-            })
-            .await;
-        if r.is_err() {
+        if self.poll_step(link, step, "status").await.is_err() {
             return;
         }
         if i + 1 >= PollStep::ROUND.len() {
@@ -628,25 +643,7 @@ impl<'c, 'a> Engine<'c, 'a> {
     /// `ReadRobotState` while a motion runs: decides Done or Error.
     async fn poll_motion<S: Socket>(&mut self, link: &mut Link<S>) {
         self.next_motion_poll = Instant::now() + MOTION_POLL;
-        let Some((len, expect)) = PollStep::RobotState.request(self.config.robot_id, &mut self.buf)
-        else {
-            return;
-        };
-        let state = self
-            .poll(
-                link,
-                len,
-                expect,
-                "motion",
-                &mut |reply, s, order| match reply {
-                    Reply::Ok(Response::ReadRobotState(rs)) => {
-                        status::apply_robot_state(rs, s.regs, order);
-                        Polled::State(rs.clone())
-                    }
-                    _ => Polled::Nothing,
-                },
-            )
-            .await;
+        let state = self.poll_step(link, PollStep::RobotState, "motion").await;
         let Ok(Some(Polled::State(rs))) = state else {
             return;
         };
@@ -717,17 +714,9 @@ impl<'c, 'a> Engine<'c, 'a> {
         if self.ctx.with(|s| s.queue.has_urgent()) {
             return Ok(false);
         }
-        let Some((len, expect)) = PollStep::ActPos.request(self.config.robot_id, &mut self.buf)
-        else {
-            return Ok(true);
-        };
         // A refused or unreadable reply leaves the registers as they are;
         // the motion is Done all the same (the robot said so twice).
-        self.poll(link, len, expect, "position", &mut |reply, s, order| {
-            PollStep::ActPos.apply(reply, s.regs, order);
-            Polled::Nothing
-        })
-        .await?;
+        self.poll_step(link, PollStep::ActPos, "position").await?;
         Ok(true)
     }
 
@@ -754,7 +743,11 @@ impl<'c, 'a> Engine<'c, 'a> {
             Verdict::Reached => {
                 // FSM_STATE shows the new state; make ROBOT_FLAGS agree
                 // before the job goes on (or is Done).
-                if self.refresh_robot_state(link).await.is_err() {
+                if self
+                    .poll_step(link, PollStep::RobotState, "state")
+                    .await
+                    .is_err()
+                {
                     return;
                 }
                 if let Some(p) = self.pending.take() {
@@ -775,36 +768,10 @@ impl<'c, 'a> Engine<'c, 'a> {
         }
     }
 
-    /// `ReadRobotState` into the status registers; `Err(())` when the link
-    /// was lost (already handled).
-    async fn refresh_robot_state<S: Socket>(&mut self, link: &mut Link<S>) -> Result<(), ()> {
-        let Some((len, expect)) = PollStep::RobotState.request(self.config.robot_id, &mut self.buf)
-        else {
-            return Ok(());
-        };
-        self.poll(link, len, expect, "state", &mut |reply, s, order| {
-            PollStep::RobotState.apply(reply, s.regs, order);
-            Polled::Nothing
-        })
-        .await?;
-        Ok(())
-    }
-
     /// `ReadCurFSM` (also copied into `FSM_STATE`); `Ok(None)` when the
     /// robot refused it or the reply could not be read.
     async fn read_fsm<S: Socket>(&mut self, link: &mut Link<S>) -> Result<Option<FsmState>, ()> {
-        let Some((len, expect)) = PollStep::Fsm.request(self.config.robot_id, &mut self.buf) else {
-            return Ok(None);
-        };
-        let r = self
-            .poll(link, len, expect, "fsm", &mut |reply, s, _| match reply {
-                Reply::Ok(Response::ReadCurFSM(f)) => {
-                    status::set_fsm(s.regs, f.state);
-                    Polled::Fsm(f.state)
-                }
-                _ => Polled::Nothing,
-            })
-            .await?;
+        let r = self.poll_step(link, PollStep::Fsm, "fsm").await?;
         Ok(match r {
             Some(Polled::Fsm(state)) => Some(state),
             _ => None,
