@@ -502,7 +502,8 @@ impl<'s, 'a> Cursor<'s, 'a> {
         self.command
     }
 
-    /// Fields not yet read (counted on each call: it walks them).
+    /// Fields not yet read (counted on each call: it walks them; `u16::MAX`
+    /// for more than that, which every list reader then refuses).
     pub fn remaining(&self) -> u16 {
         match self.src {
             Source::Text(None) => 0,
@@ -620,18 +621,22 @@ impl<'s, 'a> Cursor<'s, 'a> {
     /// All remaining fields as one borrowed text (for variable lists), and
     /// their count. Only available on message text; a reordered cursor has no
     /// contiguous text and yields `None`.
+    /// More fields than a count can say (over 65535) is an error recorded
+    /// here, and nothing is taken.
     pub(crate) fn take_rest(&mut self) -> Option<(&'a str, u16)> {
-        match &mut self.src {
-            Source::Text(rest) => {
-                let (text, n) = match rest.take() {
-                    None => ("", 0),
-                    Some(r) => bound(r).unwrap_or((r, u16::MAX)),
-                };
-                self.pos = self.pos.saturating_add(n);
-                Some((text, n))
+        let Source::Text(rest) = &mut self.src else {
+            return None;
+        };
+        let (text, n) = match rest.take().map(bound) {
+            None => ("", 0),
+            Some(Ok(bounded)) => bounded,
+            Some(Err(e)) => {
+                self.record(e.into());
+                ("", 0)
             }
-            Source::Slice(_) => None,
-        }
+        };
+        self.pos = self.pos.saturating_add(n);
+        Some((text, n))
     }
 
     /// Records an error (the first one wins).

@@ -377,3 +377,27 @@ fn failures() {
         );
     }
 }
+
+/// A list taking the rest of a message cannot count more than 65535 fields:
+/// such a message is refused as a whole, as `RawMessage::parse` refuses it,
+/// not read with a wrong count.
+#[test]
+fn a_rest_of_message_list_over_65535_fields_is_refused() {
+    use hans_codec::{grammar::GrammarError, RawMessage};
+    for (name, n) in [("RunFunc,f", 70_000), ("HRAppCmd,0,a", 65_536)] {
+        let text = format!("{name}{},;", ",1".repeat(n));
+        assert_eq!(RawMessage::parse(&text), Err(GrammarError::TooManyFields));
+        assert_eq!(
+            Request::parse(&text),
+            Err(ParseError::Grammar(GrammarError::TooManyFields)),
+            "{name} with {n} more fields"
+        );
+    }
+    // At the bound it still reads, with the right count.
+    let text = format!("RunFunc,f{},;", ",1".repeat(65_534));
+    let Ok(Request::RunFunc(r)) = Request::parse(&text) else {
+        panic!("RunFunc with 65535 fields")
+    };
+    assert_eq!(r.params.len(), 65_534);
+    assert_eq!(r.params.iter().count(), 65_534);
+}
