@@ -211,8 +211,18 @@ impl Decoder {
     }
 }
 
+/// The object of a line that is not a message: `kind` `invalid` and why.
+fn invalid_obj(error: String) -> Obj {
+    let mut o = Obj::new();
+    o.insert("name", "");
+    o.insert("kind", "invalid");
+    o.insert("known", false);
+    o.insert("error", error);
+    o
+}
+
 fn invalid(error: String) -> Json {
-    crate::obj! { "name" => "", "kind" => "invalid", "known" => false, "error" => error }
+    Json::Obj(invalid_obj(error))
 }
 
 /// Decodes a reply read against its request (`expect`), as `send --json`
@@ -234,17 +244,11 @@ pub fn reply(text: &str, expect: ReplyExpect) -> Json {
 /// object and, for a valid request of a known command, what its reply must
 /// look like.
 fn message(text: &str, previous: Option<ReplyExpect>) -> (Obj, Option<ReplyExpect>) {
-    let mut out = Obj::new();
     let raw = match RawMessage::parse(text) {
         Ok(r) => r,
-        Err(e) => {
-            out.insert("name", "");
-            out.insert("kind", "invalid");
-            out.insert("known", false);
-            out.insert("error", e.to_string());
-            return (out, None);
-        }
+        Err(e) => return (invalid_obj(e.to_string()), None),
     };
+    let mut out = Obj::new();
     let name = raw.name();
     let command = CommandId::from_name(name);
     out.insert("name", name);
