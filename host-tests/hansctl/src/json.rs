@@ -22,8 +22,8 @@ pub enum Json {
     Null,
     /// `true` / `false`.
     Bool(bool),
-    /// An integer.
-    Int(i64),
+    /// An integer (every integer the codec reads is an `i32`).
+    Int(i32),
     /// An exact decimal, written with its own digits (`-0.000` stays so).
     Num(Decimal),
     /// A string.
@@ -64,11 +64,6 @@ impl Obj {
     }
 }
 
-impl From<Obj> for Json {
-    fn from(o: Obj) -> Json {
-        Json::Obj(o)
-    }
-}
 impl From<bool> for Json {
     fn from(v: bool) -> Json {
         Json::Bool(v)
@@ -76,16 +71,6 @@ impl From<bool> for Json {
 }
 impl From<i32> for Json {
     fn from(v: i32) -> Json {
-        Json::Int(i64::from(v))
-    }
-}
-impl From<u8> for Json {
-    fn from(v: u8) -> Json {
-        Json::Int(i64::from(v))
-    }
-}
-impl From<i64> for Json {
-    fn from(v: i64) -> Json {
         Json::Int(v)
     }
 }

@@ -891,13 +891,12 @@ fn sheet_line(as_json: bool, s: &DataSheet) -> String {
             .collect::<String>()
     };
     if as_json {
-        let nums = |v: Option<[Decimal; 6]>| Json::from(v.map(|a| Json::from(&a)));
         return obj! {
             "fsm" => fsm.map(|f| f.code()), "fsm_name" => fsm.and_then(|f| f.name()),
             "moving" => s.state.moving, "enabled" => s.state.enabled, "paused" => s.state.paused,
             "blending_done" => s.state.blending_done, "in_pos" => s.state.in_pos,
             "error_code" => s.state.error_code,
-            "joints" => nums(pos.map(|p| p.joints)), "tcp" => nums(s.pos_and_vel.pcs_tcp),
+            "joints" => pos.map(|p| p.joints).as_ref(), "tcp" => s.pos_and_vel.pcs_tcp.as_ref(),
             "box_di" => s.box_io.box_di.as_slice(), "box_do" => s.box_io.box_do.as_slice(),
             "end_di" => s.end_io.end_di.as_slice(), "end_do" => s.end_io.end_do.as_slice(),
         }

@@ -371,6 +371,12 @@ async fn power_on_move_io_state_and_watch() {
     assert_eq!(v.len(), 3);
     assert_eq!(v[0]["fsm"], serde_json::json!(33));
     assert_eq!(v[0]["box_do"][3], serde_json::json!(1));
+    for key in ["joints", "tcp"] {
+        let six = v[0][key]
+            .as_array()
+            .map(|a| a.len() == 6 && a.iter().all(|x| x.is_number()));
+        assert_eq!(six, Some(true), "{key}: six numbers in {}", v[0]);
+    }
 
     // A refused move surfaces as exit 1.
     sim.set_safety_guard(true);
