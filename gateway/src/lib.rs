@@ -35,7 +35,15 @@
 //! full),
 //! RAW requests of 256 characters and replies of 512 (longer replies are
 //! cut and flagged), robot replies up to [`link::REPLY_MAX`] bytes (longer:
-//! Error 39502), Modbus ADUs of 260 bytes.
+//! Error 39502), Modbus ADUs of 260 bytes, DataSheet packets up to
+//! [`datasheet::PAYLOAD_MAX`] bytes (longer ones are dropped and logged).
+//!
+//! Time limits: a robot connect [`link::CONNECT_TIMEOUT`] (the
+//! DataSheet connection too), a bring-up step [`engine::fsm::STATE_TIMEOUT`]
+//! (Error 39607), a DataSheet connection without data
+//! [`datasheet::SILENCE_TIMEOUT`], a silent Modbus client
+//! [`modbus::IDLE_TIMEOUT`], and a robot reply the configured
+//! `CFG_REPLY_TIMEOUT_MS` (Error 39503).
 //!
 //! ## Stack
 //! Large state (the register map, socket buffers, the futures of the
@@ -43,7 +51,8 @@
 //! [`run`], and never moved through the stack; temporaries of kilobytes
 //! live in functions that are not inlined (loading the stored
 //! configuration) or are avoided (Modbus bit reads are packed straight from
-//! the registers). The QEMU board's measured high-water mark is ~11 KiB.
+//! the registers). The measured high-water marks are in the memory budget
+//! of `firmware/README.md`.
 //!
 //! ## Features
 //! * `std` (default): tokio adapter, `log` output, embassy-time's std driver.

@@ -5,7 +5,9 @@
 //! DataSheet port (see [`crate::datasheet`]). Motion completion always
 //! polls `ReadRobotState` on the command port.
 
-use hans_codec::{request, response, Command, FsmState, Reply, ReplyExpect, Response, RobotId};
+use hans_codec::{
+    request, response, Command, Decimal, FsmState, Reply, ReplyExpect, Response, RobotId,
+};
 
 use crate::config::WordOrder;
 use crate::registers::{self as r, RegisterFile};
@@ -97,15 +99,15 @@ impl PollStep {
         }
     }
 
-    /// The I/O register and its valid bit for I/O steps.
-    fn io(self) -> Option<(u16, u16)> {
+    /// The I/O group an I/O step reads.
+    fn io(self) -> Option<Io> {
         match self {
-            PollStep::BoxDi => Some((r::STATUS_BOX_DI, 1 << 0)),
-            PollStep::BoxDo => Some((r::STATUS_BOX_DO, 1 << 1)),
-            PollStep::BoxCi => Some((r::STATUS_BOX_CI, 1 << 2)),
-            PollStep::BoxCo => Some((r::STATUS_BOX_CO, 1 << 3)),
-            PollStep::EndDi => Some((r::STATUS_END_DI, 1 << 4)),
-            PollStep::EndDo => Some((r::STATUS_END_DO, 1 << 5)),
+            PollStep::BoxDi => Some(Io::BoxDi),
+            PollStep::BoxDo => Some(Io::BoxDo),
+            PollStep::BoxCi => Some(Io::BoxCi),
+            PollStep::BoxCo => Some(Io::BoxCo),
+            PollStep::EndDi => Some(Io::EndDi),
+            PollStep::EndDo => Some(Io::EndDo),
             _ => None,
         }
     }
@@ -116,20 +118,107 @@ impl PollStep {
         match reply {
             Reply::Ok(resp) => apply_response(resp, regs, order),
             _ => {
-                if let Some((_, valid)) = self.io() {
-                    regs.set_bits(r::STATUS_IO_VALID, valid, false);
+                if let Some(io) = self.io() {
+                    regs.set_bits(r::STATUS_IO_VALID, io.valid_bit(), false);
                 }
             }
         }
     }
 }
 
+/// One of the I/O groups mirrored in `BOX_DI` ... `END_DO`, each with its
+/// bit in `IO_VALID`. Both status sources write them through [`set_io`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Io {
+    /// The box's digital inputs (`BOX_DI`).
+    BoxDi,
+    /// The box's digital outputs (`BOX_DO`).
+    BoxDo,
+    /// The box's configurable inputs (`BOX_CI`).
+    BoxCi,
+    /// The box's configurable outputs (`BOX_CO`).
+    BoxCo,
+    /// The tool flange's digital inputs (`END_DI`).
+    EndDi,
+    /// The tool flange's digital outputs (`END_DO`).
+    EndDo,
+}
+
+impl Io {
+    /// The group's register.
+    pub const fn register(self) -> u16 {
+        match self {
+            Io::BoxDi => r::STATUS_BOX_DI,
+            Io::BoxDo => r::STATUS_BOX_DO,
+            Io::BoxCi => r::STATUS_BOX_CI,
+            Io::BoxCo => r::STATUS_BOX_CO,
+            Io::EndDi => r::STATUS_END_DI,
+            Io::EndDo => r::STATUS_END_DO,
+        }
+    }
+
+    /// The group's bit in `IO_VALID`.
+    pub const fn valid_bit(self) -> u16 {
+        match self {
+            Io::BoxDi => 1 << 0,
+            Io::BoxDo => 1 << 1,
+            Io::BoxCi => 1 << 2,
+            Io::BoxCo => 1 << 3,
+            Io::EndDi => 1 << 4,
+            Io::EndDo => 1 << 5,
+        }
+    }
+}
+
+/// Packs I/O values (0 off, anything else on) into a register, value `i`
+/// in bit `i`. Values beyond the sixteenth have no bit and are left out
+/// (the codec's lists hold at most 16).
 fn bits(values: &[i32]) -> u16 {
     values
         .iter()
+        .take(16)
         .enumerate()
         .filter(|(_, v)| **v != 0)
         .fold(0, |acc, (i, _)| acc | (1 << i))
+}
+
+/// Writes an I/O group's values and marks them valid in `IO_VALID`.
+pub fn set_io(regs: &mut RegisterFile, io: Io, values: &[i32]) {
+    regs.set(io.register(), bits(values));
+    regs.set_bits(r::STATUS_IO_VALID, io.valid_bit(), true);
+}
+
+/// Writes the six actual joint angles (`ACT_JOINTS`, f32 in °).
+pub fn set_joints(regs: &mut RegisterFile, joints: &[Decimal; 6], order: WordOrder) {
+    set_f32s(
+        regs,
+        r::STATUS_JOINTS,
+        joints.iter().map(Decimal::to_f32),
+        order,
+    );
+}
+
+/// Writes the actual TCP pose (`ACT_POSE`, f32 in mm and °).
+pub fn set_pose(regs: &mut RegisterFile, pose: &[Decimal; 6], order: WordOrder) {
+    set_f32s(
+        regs,
+        r::STATUS_POSE,
+        pose.iter().map(Decimal::to_f32),
+        order,
+    );
+}
+
+/// Writes six f32 values to the registers from `start` on.
+fn set_f32s(
+    regs: &mut RegisterFile,
+    start: u16,
+    values: impl Iterator<Item = f32>,
+    order: WordOrder,
+) {
+    for (a, v) in (start..).step_by(2).zip(values.take(6)) {
+        regs.set_f32(a, v, order);
+    }
 }
 
 /// Sets `FSM_STATE` (65535 for states beyond 16 bits).
@@ -140,27 +229,19 @@ pub fn set_fsm(regs: &mut RegisterFile, state: FsmState) {
 
 /// Copies any status-bearing response into the registers.
 pub fn apply_response(resp: &Response<'_>, regs: &mut RegisterFile, order: WordOrder) {
-    let io = |regs: &mut RegisterFile, reg: u16, valid: u16, v: &[i32]| {
-        regs.set(reg, bits(v));
-        regs.set_bits(r::STATUS_IO_VALID, valid, true);
-    };
     match resp {
         Response::ReadRobotState(s) => apply_robot_state(s, regs, order),
         Response::ReadCurFSM(f) => set_fsm(regs, f.state),
         Response::ReadActPos(p) => {
-            for (i, v) in p.joints.iter().enumerate() {
-                regs.set_f32(r::STATUS_JOINTS + 2 * i as u16, v.to_f32(), order);
-            }
-            for (i, v) in p.pose.iter().enumerate() {
-                regs.set_f32(r::STATUS_POSE + 2 * i as u16, v.to_f32(), order);
-            }
+            set_joints(regs, &p.joints, order);
+            set_pose(regs, &p.pose, order);
         }
-        Response::ReadBoxDI(v) => io(regs, r::STATUS_BOX_DI, 1 << 0, &v.values),
-        Response::ReadBoxDO(v) => io(regs, r::STATUS_BOX_DO, 1 << 1, &v.values),
-        Response::ReadBoxCI(v) => io(regs, r::STATUS_BOX_CI, 1 << 2, &v.values),
-        Response::ReadBoxCO(v) => io(regs, r::STATUS_BOX_CO, 1 << 3, &v.values),
-        Response::ReadEI(v) => io(regs, r::STATUS_END_DI, 1 << 4, &v.values),
-        Response::ReadEO(v) => io(regs, r::STATUS_END_DO, 1 << 5, &v.values),
+        Response::ReadBoxDI(v) => set_io(regs, Io::BoxDi, &v.values),
+        Response::ReadBoxDO(v) => set_io(regs, Io::BoxDo, &v.values),
+        Response::ReadBoxCI(v) => set_io(regs, Io::BoxCi, &v.values),
+        Response::ReadBoxCO(v) => set_io(regs, Io::BoxCo, &v.values),
+        Response::ReadEI(v) => set_io(regs, Io::EndDi, &v.values),
+        Response::ReadEO(v) => set_io(regs, Io::EndDo, &v.values),
         _ => {}
     }
 }
@@ -203,9 +284,9 @@ pub fn invalidate(regs: &mut RegisterFile, order: WordOrder) {
     regs.set_i32(r::STATUS_ERROR_CODE, 0, order);
     regs.set(r::STATUS_ERROR_AXIS, 0);
     regs.set_f32(r::STATUS_OVERRIDE, f32::NAN, order);
-    for i in 0..12 {
-        regs.set_f32(r::STATUS_JOINTS + 2 * i, f32::NAN, order);
-    }
+    let nan = || core::iter::repeat(f32::NAN);
+    set_f32s(regs, r::STATUS_JOINTS, nan(), order);
+    set_f32s(regs, r::STATUS_POSE, nan(), order);
     for a in r::STATUS_BOX_DI..=r::STATUS_IO_VALID {
         regs.set(a, 0);
     }
