@@ -49,16 +49,8 @@ fn decode_reads_a_fixture_and_keeps_going_after_bad_lines() {
         "/tests/fixtures/decode.txt"
     ))
     .unwrap();
-    let mut child = Command::new(BIN)
-        .arg("decode")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child.stdin.take().unwrap().write_all(&fixture).unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(out.status.success());
-    let v = json_lines(&out);
+    let (code, _, v) = decode(&fixture);
+    assert_eq!(code, Some(0), "exits with success");
     assert_eq!(v.len(), 11, "one object per non-empty line");
     assert_eq!(
         (v[0]["name"].as_str(), v[0]["kind"].as_str()),
