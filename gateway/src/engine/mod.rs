@@ -36,8 +36,8 @@ use core::convert::Infallible;
 use embassy_futures::select::{select3, Either3};
 use embassy_time::{Duration, Instant, Timer};
 use hans_codec::{
-    request, response, Command, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request,
-    Response, RobotId,
+    request, response, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request, Response,
+    RobotId,
 };
 
 pub use job::{ErrorSource, GatewayError, Outcome, Source};
@@ -689,7 +689,10 @@ impl<'c, 'a> Engine<'c, 'a> {
         self.end_motion(a.source, outcome);
         if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
             info!("auto-reset: GrpReset after the motion error");
-            self.send_internal(link, CommandId::GrpReset).await;
+            let reset = request::GrpReset {
+                rbt_id: self.robot(),
+            };
+            self.send_internal(link, reset.into()).await;
         }
     }
 
@@ -778,20 +781,23 @@ impl<'c, 'a> Engine<'c, 'a> {
         })
     }
 
-    /// Sends a command of the gateway's own (watchdog action, auto reset):
-    /// `GrpStop`, `GrpInterrupt` or `GrpReset` of the configured robot.
-    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, id: CommandId) {
-        let rbt_id = RobotId(i32::from(self.config.robot_id));
-        let encoded = match id {
-            CommandId::GrpStop => request::GrpStop { rbt_id }.encode(&mut self.buf),
-            CommandId::GrpInterrupt => request::GrpInterrupt { rbt_id }.encode(&mut self.buf),
-            _ => request::GrpReset { rbt_id }.encode(&mut self.buf),
+    /// The configured robot, as the codec's requests name it.
+    fn robot(&self) -> RobotId {
+        RobotId(i32::from(self.config.robot_id))
+    }
+
+    /// Sends a command of the gateway's own (watchdog action, auto reset)
+    /// and reads its reply as that command's.
+    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, req: Request<'static>) {
+        // Moved into a block: the request (hundreds of bytes) is not kept
+        // in the future while the reply is awaited.
+        let (encoded, expect, name) = {
+            let req = req;
+            (req.encode(&mut self.buf), req.expect(), req.name())
         };
         let Ok(len) = encoded else {
             return;
         };
-        let expect = ReplyExpect::of(id);
-        let name = id.name();
         let r = self
             .poll(link, len, expect, name, &mut |reply, _, _| {
                 Polled::Code(match reply {
@@ -850,14 +856,20 @@ impl<'c, 'a> Engine<'c, 'a> {
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
                 // As a Stop: the motions waiting behind it are not sent.
                 self.ctx.with(|s| s.abort_queued_motions());
-                self.send_internal(link, CommandId::GrpStop).await;
+                let stop = request::GrpStop {
+                    rbt_id: self.robot(),
+                };
+                self.send_internal(link, stop.into()).await;
             }
             WatchdogAction::Pause => {
                 self.active = None;
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
                 // The robot holds the motion: nothing may start behind it.
                 self.ctx.with(|s| s.abort_queued_motions());
-                self.send_internal(link, CommandId::GrpInterrupt).await;
+                let pause = request::GrpInterrupt {
+                    rbt_id: self.robot(),
+                };
+                self.send_internal(link, pause.into()).await;
             }
         }
         true
