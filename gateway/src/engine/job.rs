@@ -16,6 +16,8 @@ pub const QUEUE_DEPTH: usize = 8;
 /// Longest text of a job in the urgent lane (the document's form of every
 /// urgent command is at most 25 characters).
 pub const URGENT_MSG_MAX: usize = 32;
+// An urgent job always fits back into an ordinary one ([`JobQueue::take`]).
+const _: () = assert!(URGENT_MSG_MAX <= MSG_MAX);
 /// Room of the urgent lane: one job per source (two channels, RAW, sixteen
 /// trigger entries). A source has at most one job at a time (a rising edge
 /// while Busy is ignored), so this lane cannot fill up.
@@ -188,7 +190,9 @@ pub fn is_urgent(id: CommandId) -> bool {
 impl Job {
     /// A job of one protocol message written by the PLC (RAW or trigger):
     /// checked with the codec's grammar, sent as written (a missing
-    /// terminator is added).
+    /// terminator is added). An urgent command too long as written for the
+    /// urgent lane ([`URGENT_MSG_MAX`], blanks around its fields, say) is
+    /// sent in the codec's canonical form, which is short.
     pub fn from_text(source: Source, seq: u16, text: &str) -> Result<Job, GatewayError> {
         let t = text.trim_matches(|c: char| c == ' ' || c == '\0');
         if t.is_empty() {
@@ -202,61 +206,49 @@ impl Job {
         }
         let req = Request::parse(t).map_err(|_| GatewayError::BadParameter)?;
         let id = req.command();
+        let urgent = id.is_some_and(is_urgent);
         let mut out = heapless::String::new();
         out.push_str(t).map_err(|_| GatewayError::BadParameter)?;
         if !t.ends_with(';') {
             let tail = if t.ends_with(',') { ";" } else { ",;" };
             out.push_str(tail).map_err(|_| GatewayError::BadParameter)?;
         }
+        if urgent && out.len() > URGENT_MSG_MAX {
+            if let Some(short) = canonical(&req) {
+                out = short;
+            }
+        }
         Ok(Job {
             source,
             seq,
             text: out,
             motion: id.is_some_and(CommandId::is_motion),
-            urgent: id.is_some_and(is_urgent),
+            urgent,
             results: Results::None,
-        })
-    }
-
-    /// The job in the urgent lane's form: its text as written if it fits,
-    /// else with the blanks around its fields removed (urgent messages are
-    /// short: a name and at most the robot id).
-    fn to_urgent(&self) -> Option<Job<URGENT_MSG_MAX>> {
-        let mut text = heapless::String::new();
-        if text.push_str(&self.text).is_err() {
-            text.clear();
-            let mut fields = self.text.split(',').peekable();
-            while let Some(f) = fields.next() {
-                text.push_str(f.trim()).ok()?;
-                if fields.peek().is_some() {
-                    text.push(',').ok()?;
-                }
-            }
-        }
-        Some(Job {
-            source: self.source,
-            seq: self.seq,
-            text,
-            motion: self.motion,
-            urgent: true,
-            results: self.results,
         })
     }
 }
 
-impl Job<URGENT_MSG_MAX> {
-    fn widen(&self) -> Job {
-        let mut text = heapless::String::new();
-        // MSG_MAX > URGENT_MSG_MAX: always fits.
-        let _ = text.push_str(&self.text);
-        Job {
+/// The codec's canonical text of `req`, if it fits the urgent lane.
+fn canonical<const N: usize>(req: &Request<'_>) -> Option<heapless::String<N>> {
+    let mut buf = [0u8; URGENT_MSG_MAX];
+    let n = req.encode(&mut buf).ok()?;
+    let text = core::str::from_utf8(buf.get(..n)?).ok()?;
+    heapless::String::try_from(text).ok()
+}
+
+impl<const N: usize> Job<N> {
+    /// The same job with its text in room `M` (the urgent lane's or the
+    /// ordinary one's); `None` if the text does not fit.
+    fn with_room<const M: usize>(&self) -> Option<Job<M>> {
+        Some(Job {
             source: self.source,
             seq: self.seq,
-            text,
+            text: heapless::String::try_from(self.text.as_str()).ok()?,
             motion: self.motion,
-            urgent: true,
+            urgent: self.urgent,
             results: self.results,
-        }
+        })
     }
 }
 
@@ -294,7 +286,7 @@ impl JobQueue {
     /// Queues a job; gives its source back when there is no room.
     pub fn push(&mut self, job: Job) -> Result<(), Source> {
         if job.urgent {
-            if let Some(u) = job.to_urgent() {
+            if let Some(u) = job.with_room() {
                 if self.urgent.push(u).is_ok() {
                     return Ok(());
                 }
@@ -307,7 +299,8 @@ impl JobQueue {
     /// Takes the next job allowed through `gate`: urgent jobs first.
     pub fn take(&mut self, gate: Gate) -> Option<Job> {
         if !self.urgent.is_empty() {
-            return Some(self.urgent.remove(0).widen());
+            // Always fits: URGENT_MSG_MAX <= MSG_MAX (asserted above).
+            return self.urgent.remove(0).with_room();
         }
         let head = self.ordinary.first()?;
         let go = match gate {
