@@ -158,18 +158,10 @@ impl Decoder {
 
     /// Decodes one input line (bytes as read; a trailing `\n` and `\r` are
     /// ignored). `None` for a blank line, which is skipped and does not
-    /// separate a request from its reply.
-    ///
-    /// * Bytes that are not UTF-8: an `invalid` object whose `error` names
-    ///   the first bad byte and its offset in the line.
-    /// * A line not ending in `;` (spaces and tabs after it are ignored):
-    ///   `error` (an incomplete message on the wire), with the body still
-    ///   decoded.
-    /// * A reply (`OK` or `Fail`) right after a valid request of the same
-    ///   command is read against that request (`Request::expect()`: e.g. a
-    ///   `ReadBoxDI` reply must have as many values as bits were asked
-    ///   for), and gets `"against_request": true`. Any other reply is read
-    ///   by its name alone.
+    /// separate a request from its reply. What the object holds (bytes
+    /// that are not UTF-8, a missing `;`, a reply read against the request
+    /// before it) is described once, on the `decode` subcommand: see
+    /// `hansctl decode --help`.
     pub fn line(&mut self, bytes: &[u8]) -> Option<Json> {
         let bytes = bytes.strip_suffix(b"\n").unwrap_or(bytes);
         let bytes = bytes.strip_suffix(b"\r").unwrap_or(bytes);

@@ -42,7 +42,7 @@ struct Args {
     #[arg(long)]
     instant: bool,
     /// Client mode: connect to this address and serve commands over it
-    /// (retried every second until it succeeds).
+    /// (retried every second until it succeeds; gives up after an hour).
     #[arg(long)]
     connect: Option<SocketAddr>,
     /// Fault rule KIND[=ARG][@COMMAND][*TIMES], repeatable: delay=MS,
