@@ -19,8 +19,8 @@
 //! read-only ones, exception 02 (nothing is written); a configuration
 //! command that cannot be saved, exception 04. A frame longer than any
 //! Modbus ADU (MBAP length > 254, e.g. FC 16 with 124 registers) is read
-//! off the stream and answered with exception 03 (01 for an unknown
-//! function code), as the specification asks for a quantity out of range.
+//! off the stream and answered with exception 03 (01 for a function code
+//! not in the table), as the specification asks for a quantity out of range.
 //! A frame whose MBAP header is not Modbus (protocol id ≠ 0, length < 2)
 //! closes that client's connection only. Unit ids are not checked (the gateway answers all).
 //! A client silent for [`IDLE_TIMEOUT`] is disconnected.
@@ -39,6 +39,8 @@ use crate::registers::{self as r, RegisterFile};
 
 /// Longest ADU: 7-byte MBAP header + 253-byte PDU.
 pub const MAX_ADU: usize = 260;
+/// An exception reply: 7-byte MBAP header, function code, exception code.
+const EXCEPTION_ADU: usize = 9;
 /// A client that sends nothing for this long is disconnected.
 pub const IDLE_TIMEOUT: Duration = Duration::from_secs(120);
 
@@ -151,7 +153,7 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
 /// A frame of `total` bytes that cannot fit [`MAX_ADU`], of which `head`
 /// holds the first `have` (header and function code): reads the rest off
 /// the stream without keeping it and writes the exception reply into
-/// `out` (03, or 01 for an unknown function code). `None` when the client
+/// `out` (03, or 01 for a function code not [`served`]). `None` when the client
 /// went away or fell silent.
 async fn oversized<S: Socket>(
     sock: &mut S,
@@ -171,15 +173,49 @@ async fn oversized<S: Socket>(
             _ => return None,
         }
     }
-    let code = match fc & 0x7F {
-        1..=6 | 15 | 16 | 23 => Exception::IllegalDataValue,
-        _ => Exception::IllegalFunction,
+    let code = if served(FunctionCode::new(fc & 0x7F)) {
+        Exception::IllegalDataValue
+    } else {
+        Exception::IllegalFunction
     };
-    // Transaction id, protocol 0, length 3, unit id, function | 0x80, code.
-    let reply = [head[0], head[1], 0, 0, 0, 3, head[6], fc | 0x80, code as u8];
-    let dst = out.get_mut(..reply.len())?;
-    dst.copy_from_slice(&reply);
-    Some(reply.len())
+    let hdr = Header {
+        transaction_id: u16::from_be_bytes([head[0], head[1]]),
+        unit_id: head[6],
+    };
+    exception_reply(hdr, fc, code, out)
+}
+
+/// `true` for the function codes [`execute`] answers.
+fn served(fc: FunctionCode) -> bool {
+    matches!(
+        fc,
+        FunctionCode::ReadCoils
+            | FunctionCode::ReadDiscreteInputs
+            | FunctionCode::ReadHoldingRegisters
+            | FunctionCode::ReadInputRegisters
+            | FunctionCode::WriteSingleCoil
+            | FunctionCode::WriteSingleRegister
+            | FunctionCode::WriteMultipleCoils
+            | FunctionCode::WriteMultipleRegisters
+            | FunctionCode::ReadWriteMultipleRegisters
+    )
+}
+
+/// Writes exception `e` to a request of function code `fc` into `out`;
+/// returns its length. Function codes of 0x80 and above are malformed
+/// requests: answered as for their low 7 bits (modbus-core adds 0x80).
+fn exception_reply(hdr: Header, fc: u8, e: Exception, out: &mut [u8]) -> Option<usize> {
+    // The reply is 9 bytes; modbus-core 0.2 would index past a buffer with
+    // room for only one byte of the PDU.
+    if out.len() < EXCEPTION_ADU {
+        return None;
+    }
+    debug!("modbus: fc {} -> exception {}", fc, e as u8);
+    let pdu = ResponsePdu(Err(ExceptionResponse {
+        function: FunctionCode::new(fc & 0x7F),
+        exception: e,
+    }));
+    encode_response(ResponseAdu { hdr, pdu }, out).ok()
 }
 
 fn exception(e: WriteError) -> Exception {
@@ -208,16 +244,17 @@ pub(crate) fn handle(ctx: &Ctx<'_>, adu: &[u8], out: &mut [u8]) -> Option<usize>
         Err(_) => Err(Exception::IllegalDataValue),
         Ok(req) => execute(ctx, req, pdu, &mut data),
     };
-    let pdu = ResponsePdu(result.map_err(|exception| ExceptionResponse {
-        // Function codes of 0x80 and above are malformed requests; answer
-        // as for their low 7 bits (modbus-core adds 0x80).
-        function: FunctionCode::new(fc & 0x7F),
-        exception,
-    }));
-    if let Err(e) = &pdu.0 {
-        debug!("modbus: fc {} -> exception {}", fc, e.exception as u8);
+    match result {
+        Ok(resp) => encode_response(
+            ResponseAdu {
+                hdr,
+                pdu: ResponsePdu(Ok(resp)),
+            },
+            out,
+        )
+        .ok(),
+        Err(e) => exception_reply(hdr, fc, e, out),
     }
-    encode_response(ResponseAdu { hdr, pdu }, out).ok()
 }
 
 fn be16(b: &[u8], at: usize) -> u16 {
@@ -465,5 +502,35 @@ mod tests {
             answer(&ctx, &[0, 1, 0, 0, 0, 3, 1, 0x0F, 0]),
             [0, 1, 0, 0, 0, 3, 1, 0x8F, 3]
         );
+    }
+
+    #[test]
+    fn exception_replies_name_the_function_and_the_code() {
+        let mut out = [0u8; MAX_ADU];
+        let hdr = Header {
+            transaction_id: 0x1234,
+            unit_id: 9,
+        };
+        let n = exception_reply(hdr, 0x10, Exception::IllegalDataValue, &mut out).unwrap();
+        assert_eq!(out[..n], [0x12, 0x34, 0, 0, 0, 3, 9, 0x90, 3]);
+        // A malformed code (0x80 set) is answered as its low 7 bits.
+        let n = exception_reply(hdr, 0xC1, Exception::IllegalFunction, &mut out).unwrap();
+        assert_eq!(out[..n], [0x12, 0x34, 0, 0, 0, 3, 9, 0xC1, 1]);
+        // Too small a buffer: no reply, no panic.
+        assert_eq!(
+            exception_reply(
+                hdr,
+                3,
+                Exception::IllegalFunction,
+                &mut out[..EXCEPTION_ADU - 1]
+            ),
+            None
+        );
+        // The codes an oversized frame gets 03 for (else 01): those of the
+        // module table, not 22 (MaskWriteRegister, known to modbus-core).
+        let served: Vec<u8> = (0..=0x7F)
+            .filter(|&c| served(FunctionCode::new(c)))
+            .collect();
+        assert_eq!(served, [1, 2, 3, 4, 5, 6, 15, 16, 23]);
     }
 }
