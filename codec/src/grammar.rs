@@ -35,8 +35,9 @@
 //! costs a branch and nothing else; nom's types stay inside this crate).
 //! Fields are read one at a time, forward, straight from the message text:
 //! nothing is counted, split or copied up front, so a typed reader makes one
-//! pass over its message. The numbers inside fields have their own grammar
-//! in [`crate::number`].
+//! pass over a message of fixed fields; a list that takes the rest of the
+//! message counts that rest once more to check its length. The numbers inside
+//! fields have their own grammar in [`crate::number`].
 //!
 //! The typed readers take plain numbers (`-12.345`, the form controllers
 //! reply with) through a fast path in the same pass that finds the field's
@@ -123,7 +124,7 @@ pub(crate) mod syntax {
     /// that is not inlined across crates, which costs a call per comma on
     /// hosts.
     #[inline]
-    fn comma(i: In<'_>) -> Res<'_, u8> {
+    pub(crate) fn comma(i: In<'_>) -> Res<'_, u8> {
         match i.split_first() {
             Some((&b',', rest)) => Ok((rest, b',')),
             _ => Err(nom::Err::Error(())),
@@ -133,12 +134,6 @@ pub(crate) mod syntax {
     /// `terminator`.
     pub(crate) fn terminator(i: In<'_>) -> Res<'_, ()> {
         (opt(comma), fillers_to_end).map(|_| ()).parse(i)
-    }
-
-    /// The `,` between the name and the first field.
-    #[inline]
-    pub(crate) fn separator(i: In<'_>) -> Res<'_, u8> {
-        comma(i)
     }
 }
 
@@ -154,15 +149,10 @@ fn after<'a>(text: &'a str, rest: In<'_>) -> &'a str {
         .unwrap_or("")
 }
 
-/// `true` when `text` is nothing but fillers (`filler* end`). The first
-/// byte decides in nearly every call, so that test is inline.
+/// `true` when `b` is nothing but fillers (`filler* end`). The first byte
+/// decides in nearly every call, so that test is inline.
 #[inline]
-fn only_fillers(text: &str) -> bool {
-    only_fillers_bytes(text.as_bytes())
-}
-
-#[inline]
-fn only_fillers_bytes(b: &[u8]) -> bool {
+fn only_fillers(b: &[u8]) -> bool {
     match b.first() {
         None => true,
         Some(&c) if !is_filler(c) => false,
@@ -223,7 +213,7 @@ fn split_plain(body: &str) -> (&str, Option<&str>) {
 fn split_raw(rest: &str) -> (&str, Option<&str>) {
     match split_plain(rest) {
         (last, None) => (strip_terminator(last), None),
-        (field, Some(next)) if only_fillers(next) => (field, None),
+        (field, Some(next)) if only_fillers(next.as_bytes()) => (field, None),
         (field, next) => (field, next),
     }
 }
@@ -279,8 +269,8 @@ pub(crate) fn head(text: &str) -> Result<(&str, Option<&str>), GrammarError> {
     let rest = skip_ws(rest);
     // `,` then more than fillers: the fields start after it. Anything else
     // must be the terminator.
-    if let Ok((fields, _)) = syntax::separator(rest) {
-        if !only_fillers_bytes(fields) {
+    if let Ok((fields, _)) = syntax::comma(rest) {
+        if !only_fillers(fields) {
             return Ok((name, Some(after(text, fields))));
         }
     }
@@ -307,7 +297,7 @@ pub enum Kind {
 /// The kind of a message from its name and the first of its fields.
 #[inline]
 pub(crate) fn kind_of(name: &str, first: Option<&str>) -> Kind {
-    if name.len() == 8 && name.eq_ignore_ascii_case("errorcmd") {
+    if name.eq_ignore_ascii_case("errorcmd") {
         return Kind::ErrorCmd;
     }
     match first {
@@ -559,7 +549,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
         let (d, next) = number::plain_prefix(rest.as_bytes())?;
         let tail = match next {
             [] => None,
-            [b',', next @ ..] => (!only_fillers_bytes(next)).then(|| after(rest, next)),
+            [b',', next @ ..] => (!only_fillers(next)).then(|| after(rest, next)),
             _ => return None,
         };
         self.src = Source::Text(tail);
@@ -608,7 +598,7 @@ impl<'s, 'a> Cursor<'s, 'a> {
         // The fields end at the end of the text, or where only the
         // terminator is left after a `,` (checked once, here: a number
         // never starts with a filler, so the loop stops there).
-        let done = end_of_text || only_fillers_bytes(rest);
+        let done = end_of_text || only_fillers(rest);
         // `rest` starts just after a `,` (or is the whole text): a character
         // boundary.
         self.src = Source::Text(if done { None } else { Some(after(text, rest)) });
@@ -799,7 +789,7 @@ mod tests {
     /// grammar accepts: it strips the terminator from the end and splits the
     /// rest, where the grammar above reads forward.
     mod reference {
-        use super::super::{is_space, trim, GrammarError};
+        use super::super::{trim, GrammarError};
 
         pub fn parse(text: &str) -> Result<(&str, &str, usize), GrammarError> {
             let mut t = trim(text);
@@ -821,7 +811,6 @@ mod tests {
                 return Err(GrammarError::BadName);
             }
             let count = rest.map_or(0, |b| b.bytes().filter(|&c| c == b',').count() + 1);
-            let _ = is_space;
             Ok((name, rest.unwrap_or(""), count))
         }
     }

@@ -304,12 +304,6 @@ impl Decimal {
         self.is_sign_negative()
     }
 
-    /// `true` when both are written the same (same sign, digits and
-    /// scale); `const`, for tables the compiler builds.
-    pub(crate) const fn same_text(&self, other: &Decimal) -> bool {
-        self.lo == other.lo && self.hi == other.hi && self.meta == other.meta
-    }
-
     /// Zero, written `0`.
     pub const ZERO: Decimal = Decimal::make(false, 0, 0);
 

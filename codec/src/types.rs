@@ -91,9 +91,9 @@ impl Range {
         match (self, other) {
             (Range::Int { min: a, max: b }, Range::Int { min: c, max: d }) => *a == *c && *b == *d,
             (Range::Num { min: a, max: b }, Range::Num { min: c, max: d })
-            | (Range::Either(a, b), Range::Either(c, d)) => a.same_text(c) && b.same_text(d),
+            | (Range::Either(a, b), Range::Either(c, d)) => a.is_identical(c) && b.is_identical(d),
             (Range::AtLeast(a), Range::AtLeast(c)) | (Range::Above(a), Range::Above(c)) => {
-                a.same_text(c)
+                a.is_identical(c)
             }
             _ => false,
         }
@@ -452,8 +452,8 @@ impl<'a, T: Field<'a>, const N: usize> Field<'a> for CountedList<T, N> {
         let mut out = heapless::Vec::new();
         let cap = u16::try_from(N).unwrap_or(u16::MAX);
         if let Some(n) = read_count(c, param, 1, cap) {
-            if c.remaining() != n {
-                let got = c.remaining();
+            let got = c.remaining();
+            if got != n {
                 c.fail(param, Expected::Exactly(n), Got::Count(got));
             } else {
                 for _ in 0..n {
@@ -664,8 +664,8 @@ impl<'a> Field<'a> for PointList<'a> {
             return PointList::default();
         };
         let want = u32::from(count) * 6;
-        if u32::from(c.remaining()) != want {
-            let got = c.remaining();
+        let got = c.remaining();
+        if u32::from(got) != want {
             c.fail(
                 param,
                 Expected::Exactly(u16::try_from(want).unwrap_or(u16::MAX)),

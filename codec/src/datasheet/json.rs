@@ -48,6 +48,22 @@ use super::scan;
 use crate::error::EncodeError;
 use crate::number::Decimal;
 
+
+/// The bytes taken as whitespace between tokens, as a pattern: JSON's four,
+/// and NUL, which controllers pad payloads with. A pattern, so that the
+/// tokenizer's byte dispatch keeps it in its one `match`.
+macro_rules! space {
+    () => {
+        b' ' | b'\r' | b'\n' | b'\t' | 0
+    };
+}
+
+/// `true` for the bytes [`space!`] names; the fast reader (`read.rs`) skips
+/// exactly these too.
+#[inline]
+pub(super) fn is_space(b: u8) -> bool {
+    matches!(b, space!())
+}
 /// The deepest nesting of objects and arrays accepted.
 pub const MAX_DEPTH: usize = 16;
 
@@ -285,7 +301,7 @@ impl<'a> Tokenizer<'a> {
                 return self.end(at);
             };
             match b {
-                b' ' | b'\r' | b'\n' | b'\t' | 0 => at += 1,
+                space!() => at += 1,
                 b':' if expect == Expect::Colon => {
                     at += 1;
                     expect = Expect::Value;

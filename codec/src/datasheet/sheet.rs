@@ -448,7 +448,7 @@ trait Scalar: Copy {
     const ZERO: Self;
     /// What [`Scalar::from_decimal`] wants.
     const EXPECTED: FieldExpected;
-    /// The value for a number.
+    /// The value for a number; [`Scalar::EXPECTED`] if it does not fit.
     fn from_decimal(d: Decimal) -> Result<Self, FieldExpected>;
     /// The value of a scalar token; `Ok(None)` for `null` / `""`.
     fn from_token(token: &Token<'_>) -> Result<Option<Self>, FieldExpected> {
@@ -597,11 +597,6 @@ trait Emit {
     fn write(&self, name: &str, form: Form, w: &mut Writer<'_>);
 }
 
-/// A list element's value: `T::EXPECTED` if the number does not fit.
-fn element<T: Scalar>(d: Decimal) -> Result<T, FieldExpected> {
-    T::from_decimal(d).map_err(|_| T::EXPECTED)
-}
-
 impl<T: Scalar> Member for Option<T> {
     fn set(&mut self, v: Value<'_>) -> Result<(), FieldExpected> {
         *self = match v {
@@ -636,8 +631,8 @@ impl<T: Scalar> Emit for Option<T> {
     }
 }
 
-/// A list field given a single value: `null` leaves it unset (`true`),
-/// anything else is an error.
+/// A list field given a single value: `null` leaves it unset, anything
+/// else is an error.
 fn list_null(v: Value<'_>) -> Result<(), FieldExpected> {
     match v {
         Value::Token(Token::Null) => Ok(()),
@@ -656,7 +651,7 @@ impl<T: Scalar, const N: usize> Member for Option<[T; N]> {
         Ok(())
     }
     fn push(&mut self, i: usize, d: Decimal) -> Result<(), FieldExpected> {
-        let v = element(d)?;
+        let v = T::from_decimal(d)?;
         let slot = self.as_mut().and_then(|a| a.get_mut(i));
         *slot.ok_or(FieldExpected::Exactly(N as u16))? = v;
         Ok(())
@@ -700,7 +695,7 @@ impl<T: Scalar, const N: usize> Member for Vec<T, N> {
         Ok(())
     }
     fn push(&mut self, _: usize, d: Decimal) -> Result<(), FieldExpected> {
-        let v = element(d)?;
+        let v = T::from_decimal(d)?;
         Vec::push(self, v).map_err(|_| FieldExpected::AtMost(N as u16))
     }
     fn end(&mut self, _: usize) -> Result<(), FieldExpected> {
