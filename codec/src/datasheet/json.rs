@@ -48,7 +48,6 @@ use super::scan;
 use crate::error::EncodeError;
 use crate::number::Decimal;
 
-
 /// The bytes taken as whitespace between tokens, as a pattern: JSON's four,
 /// and NUL, which controllers pad payloads with. A pattern, so that the
 /// tokenizer's byte dispatch keeps it in its one `match`.
