@@ -208,7 +208,6 @@ fn plain_at(rest: &[u8]) -> Option<(Decimal, usize)> {
     whole.then_some((d, len + quotes))
 }
 
-
 /// The cursor of the fast reader: what is left of the payload. Every method
 /// returns `None` to give up.
 struct Fast<'a> {
