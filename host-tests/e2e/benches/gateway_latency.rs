@@ -7,12 +7,15 @@
 //! The robot is a minimal peer in this process that timestamps each
 //! message the moment its bytes are read (hans-sim records what it received
 //! but not when) and answers every request at once with a canned reply.
+//! The PLC polls the status without pausing between reads (each read's
+//! round trip is the pace), so the rate measures the gateway, not a test
+//! helper's sleep. Every wait is bounded by [`hans_e2e::WAIT`].
 //! Goals: p99 under 2 ms, 500 commands per second or more.
 
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
-use hans_e2e::{canned_reply, code, Plc};
+use hans_e2e::{code, CannedRobot, Plc, WAIT};
 use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -30,20 +33,18 @@ async fn robot(listener: TcpListener, arrivals: mpsc::UnboundedSender<Instant>) 
         let tx = arrivals.clone();
         tokio::spawn(async move {
             let mut buf = vec![0u8; 4096];
-            let mut pending = String::new();
+            let mut canned = CannedRobot::new();
             loop {
                 let n = match s.read(&mut buf).await {
                     Ok(0) | Err(_) => return,
                     Ok(n) => n,
                 };
                 let now = Instant::now();
-                pending.push_str(&String::from_utf8_lossy(&buf[..n]));
-                while let Some(i) = pending.find(';') {
-                    let msg: String = pending.drain(..=i).collect();
+                for (msg, reply) in canned.feed(&buf[..n]) {
                     if msg.starts_with("SetBoxDO") {
                         let _ = tx.send(now);
                     }
-                    if s.write_all(canned_reply(&msg).as_bytes()).await.is_err() {
+                    if s.write_all(reply.as_bytes()).await.is_err() {
                         return;
                     }
                 }
@@ -52,11 +53,21 @@ async fn robot(listener: TcpListener, arrivals: mpsc::UnboundedSender<Instant>) 
     }
 }
 
+/// Execute high, the command's bytes at the robot, Done, Execute low;
+/// returns the time from the Execute write to the bytes' arrival.
 async fn handshake(plc: &mut Plc, arrivals: &mut mpsc::UnboundedReceiver<Instant>) -> Duration {
+    let status = Plc::ch_status(0);
     let t0 = Instant::now();
     plc.write(r::channel_base(0) + r::CH_CONTROL, &[1]).await;
-    let t1 = arrivals.recv().await.expect("robot alive");
-    let end = plc.wait_end(Plc::ch_status(0)).await;
+    let t1 = match tokio::time::timeout(WAIT, arrivals.recv()).await {
+        Ok(Some(t)) => t,
+        Ok(None) => panic!("the robot task ended"),
+        Err(_) => {
+            let now = plc.outputs(status).await;
+            panic!("no SetBoxDO reached the robot within {WAIT:?}; channel 0 shows {now:?}")
+        }
+    };
+    let end = plc.wait_end_every(status, Duration::ZERO).await;
     assert!(end.done(), "{end:?}");
     plc.write(r::channel_base(0) + r::CH_CONTROL, &[0]).await;
     t1.saturating_duration_since(t0)
@@ -90,7 +101,8 @@ fn main() {
         plc.wait_link().await;
         // Inputs once: SetBoxDO bit 1 = 1; then only Execute is toggled.
         plc.command(0, code::SET_BOX_DO, &[1.0, 1.0], 1).await;
-        plc.wait_end(Plc::ch_status(0)).await;
+        let end = plc.wait_end(Plc::ch_status(0)).await;
+        assert!(end.done(), "first SetBoxDO: {end:?}");
         plc.write(r::channel_base(0) + r::CH_CONTROL, &[0]).await;
         while arrivals.try_recv().is_ok() {}
 

@@ -13,10 +13,27 @@ use hans_sim::Sim;
 use tokio_modbus::client::{Context, Reader, Writer};
 
 pub use hans_gateway::engine::commands::code;
+pub use hans_gateway::engine::{ErrorSource, GatewayError};
 
 /// Longest wait for anything in these tests (generous: the machine is
 /// shared).
 pub const WAIT: Duration = Duration::from_secs(20);
+
+/// The pause between two reads of a register that [`Plc::wait_reg`] waits
+/// on (the tests' pace, not the gateway's).
+pub const POLL_PAUSE: Duration = Duration::from_millis(5);
+
+/// Error source register value "the robot refused the command".
+pub const SRC_ROBOT_FAIL: u16 = ErrorSource::RobotFail as u16;
+
+/// Error source register value "the gateway" (ErrorID is a
+/// [`GatewayError`] code).
+pub const SRC_GATEWAY: u16 = ErrorSource::Gateway as u16;
+
+/// What the PLC reads for a gateway error: (ErrorID, error source).
+pub const fn gateway_error(e: GatewayError) -> (i32, u16) {
+    (e.code(), SRC_GATEWAY)
+}
 
 /// A Modbus client for the gateway's map (32-bit values high word first,
 /// the default word order).
@@ -25,7 +42,8 @@ pub struct Plc {
     pub ctx: Context,
 }
 
-fn words_of_f32(v: f32) -> [u16; 2] {
+/// An `f32` as two registers, high word first.
+pub fn words_of_f32(v: f32) -> [u16; 2] {
     let b = v.to_bits();
     [(b >> 16) as u16, b as u16]
 }
@@ -46,6 +64,36 @@ pub fn canned_reply(msg: &str) -> String {
         _ => "",
     };
     format!("{name},OK,{values};")
+}
+
+/// The reading side of a robot that answers with [`canned_reply`]: give it
+/// the bytes as a socket delivers them, get back each complete message (up
+/// to and including its `;`) with the reply to send. The socket stays with
+/// the caller.
+#[derive(Debug, Default)]
+pub struct CannedRobot {
+    pending: Vec<u8>,
+}
+
+impl CannedRobot {
+    /// A robot with nothing received yet.
+    pub fn new() -> CannedRobot {
+        CannedRobot::default()
+    }
+
+    /// Takes `bytes`; returns `(message, reply)` for each message they
+    /// complete, in order. A partial message waits for the next call.
+    pub fn feed(&mut self, bytes: &[u8]) -> Vec<(String, String)> {
+        self.pending.extend_from_slice(bytes);
+        let mut out = Vec::new();
+        while let Some(i) = self.pending.iter().position(|&b| b == b';') {
+            let raw: Vec<u8> = self.pending.drain(..=i).collect();
+            let msg = String::from_utf8_lossy(&raw).into_owned();
+            let reply = canned_reply(&msg);
+            out.push((msg, reply));
+        }
+        out
+    }
 }
 
 /// Two registers (high word first) as `f32`.
@@ -135,8 +183,23 @@ impl Plc {
         self.read(addr, 1).await[0]
     }
 
-    /// Waits until `cond` holds for register `addr`.
+    /// Waits until `cond` holds for register `addr`, reading it every
+    /// [`POLL_PAUSE`]; returns its value. Fails after [`WAIT`].
     pub async fn wait_reg(&mut self, addr: u16, what: &str, cond: impl Fn(u16) -> bool) -> u16 {
+        self.wait_reg_every(addr, what, POLL_PAUSE, cond).await
+    }
+
+    /// Like [`Plc::wait_reg`] with `pause` between two reads. With
+    /// `Duration::ZERO` it reads again as soon as an answer arrives (the
+    /// Modbus round trip is the pace), for measurements that must not
+    /// include the test's own sleep.
+    pub async fn wait_reg_every(
+        &mut self,
+        addr: u16,
+        what: &str,
+        pause: Duration,
+        cond: impl Fn(u16) -> bool,
+    ) -> u16 {
         let start = Instant::now();
         loop {
             let v = self.read1(addr).await;
@@ -147,7 +210,9 @@ impl Plc {
                 start.elapsed() < WAIT,
                 "timed out waiting for {what} (register {addr} = {v:#x})"
             );
-            tokio::time::sleep(Duration::from_millis(5)).await;
+            if !pause.is_zero() {
+                tokio::time::sleep(pause).await;
+            }
         }
     }
 
@@ -191,13 +256,26 @@ impl Plc {
         self.write(b + r::CH_CONTROL, &[1]).await;
     }
 
-    /// Waits for the end of the command on channel `ch` (Done, Error or
-    /// Aborted) and returns it; Execute stays high.
+    /// Waits for the end of the command whose status register is
+    /// `status_reg` (Done, Error or Aborted) and returns it; Execute stays
+    /// high.
     pub async fn wait_end(&mut self, status_reg: u16) -> Ended {
-        self.wait_reg(status_reg, "command end", |v| {
+        self.wait_end_every(status_reg, POLL_PAUSE).await
+    }
+
+    /// Like [`Plc::wait_end`] with `pause` between two reads (see
+    /// [`Plc::wait_reg_every`]).
+    pub async fn wait_end_every(&mut self, status_reg: u16, pause: Duration) -> Ended {
+        self.wait_reg_every(status_reg, "command end", pause, |v| {
             v & (r::ST_DONE | r::ST_ERROR | r::ST_ABORTED) != 0
         })
         .await;
+        self.outputs(status_reg).await
+    }
+
+    /// The outputs of a command (status, sequence echo, ErrorID, error
+    /// source) as they are now, without waiting.
+    pub async fn outputs(&mut self, status_reg: u16) -> Ended {
         let w = self.read(status_reg, 5).await;
         Ended {
             status: w[0],
@@ -244,24 +322,24 @@ impl Plc {
         (e, words_text(&reply))
     }
 
+    /// Six `f32`s from twelve registers at `addr`.
+    async fn f32x6(&mut self, addr: u16) -> [f32; 6] {
+        let w = self.read(addr, 12).await;
+        let mut v = [0.0; 6];
+        for (i, x) in v.iter_mut().enumerate() {
+            *x = f32_of(&w[2 * i..]);
+        }
+        v
+    }
+
     /// The actual joints J1-J6 of the status mirror.
     pub async fn joints(&mut self) -> [f32; 6] {
-        let w = self.read(r::STATUS_JOINTS, 12).await;
-        let mut j = [0.0; 6];
-        for (i, v) in j.iter_mut().enumerate() {
-            *v = f32_of(&w[2 * i..]);
-        }
-        j
+        self.f32x6(r::STATUS_JOINTS).await
     }
 
     /// The actual TCP pose of the status mirror.
     pub async fn pose(&mut self) -> [f32; 6] {
-        let w = self.read(r::STATUS_POSE, 12).await;
-        let mut p = [0.0; 6];
-        for (i, v) in p.iter_mut().enumerate() {
-            *v = f32_of(&w[2 * i..]);
-        }
-        p
+        self.f32x6(r::STATUS_POSE).await
     }
 
     /// Waits for a valid, fresh status (the actual joints are known).
@@ -296,7 +374,11 @@ impl Plc {
     pub async fn fire_triggers(&mut self, entries: &[(usize, &str)]) -> u16 {
         let mut bits = 0;
         for (i, text) in entries {
-            self.write(r::trigger_text(*i), &text_words(text, 48)).await;
+            self.write(
+                r::trigger_text(*i),
+                &text_words(text, usize::from(r::TRIG_TEXT_REGS)),
+            )
+            .await;
             bits |= 1 << i;
         }
         self.write(r::TRIG_BITS, &[bits]).await;
@@ -373,5 +455,28 @@ impl Rig {
         drop(self.plc);
         self.gw.stop();
         self.sim.shutdown().await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_canned_robot_answers_messages_split_across_reads() {
+        let mut robot = CannedRobot::new();
+        assert!(robot.feed(b"ReadCur").is_empty());
+        let got = robot.feed(b"FSM,0,;SetBoxDO,2,1,;Read");
+        assert_eq!(
+            got,
+            [
+                (
+                    "ReadCurFSM,0,;".to_string(),
+                    "ReadCurFSM,OK,33,;".to_string()
+                ),
+                ("SetBoxDO,2,1,;".to_string(), "SetBoxDO,OK,;".to_string()),
+            ]
+        );
+        assert_eq!(robot.feed(b"EI,0,;").len(), 1);
     }
 }

@@ -12,7 +12,7 @@ use embassy_net::tcp::TcpSocket;
 use embassy_net::{Config, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
 use embassy_net_driver_channel as ch;
 use embassy_time::{with_timeout, Timer};
-use hans_e2e::canned_reply;
+use hans_e2e::{code, words_of_f32, CannedRobot};
 use hans_gateway::registers as r;
 
 const MTU: usize = 1514;
@@ -49,18 +49,15 @@ async fn robot(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
             Timer::after_millis(10).await;
             continue;
         }
-        let mut pending = String::new();
+        let mut canned = CannedRobot::new();
         let mut buf = [0u8; 512];
         loop {
             let n = match s.read(&mut buf).await {
                 Ok(0) | Err(_) => break,
                 Ok(n) => n,
             };
-            pending.push_str(&String::from_utf8_lossy(&buf[..n]));
-            while let Some(i) = pending.find(';') {
-                let msg: String = pending.drain(..=i).collect();
-                received.borrow_mut().push(msg.clone());
-                let reply = canned_reply(&msg);
+            for (msg, reply) in canned.feed(&buf[..n]) {
+                received.borrow_mut().push(msg);
                 let mut out = reply.as_bytes();
                 while !out.is_empty() {
                     match s.write(out).await {
@@ -128,7 +125,9 @@ async fn plc(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
     // SetBoxDO bit 2 = 1 on channel 0, sequence 3: inputs, then Execute.
     let b = r::channel_base(0);
     let a = (b + 1).to_be_bytes();
-    let regs: [u16; 7] = [21, 3, 0, 0x4000, 0, 0x3F80, 0];
+    let ([p0_hi, p0_lo], [p1_hi, p1_lo]) = (words_of_f32(2.0), words_of_f32(1.0));
+    // Command, sequence, reserved, P0, P1.
+    let regs: [u16; 7] = [code::SET_BOX_DO, 3, 0, p0_hi, p0_lo, p1_hi, p1_lo];
     let mut pdu = vec![0x10, a[0], a[1], 0, 7, 14];
     for v in regs {
         pdu.extend(v.to_be_bytes());

@@ -4,7 +4,9 @@
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
-use hans_e2e::{code, f32_of, i32_of, text_words, Plc, Rig, WAIT};
+use hans_e2e::{
+    code, f32_of, gateway_error, i32_of, text_words, GatewayError, Plc, Rig, SRC_ROBOT_FAIL, WAIT,
+};
 use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
 use hans_sim::{Config, Fault, FaultRule, Sim};
@@ -12,36 +14,6 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio_modbus::client::{Reader, Writer};
 use tokio_modbus::ExceptionCode;
-
-const LINK_LOST: i32 = 39601;
-const REPLY_TIMEOUT: i32 = 39503;
-const QUEUE_FULL: i32 = 39600;
-const WATCHDOG: i32 = 39602;
-const SRC_ROBOT_FAIL: u16 = 1;
-const SRC_GATEWAY: u16 = 3;
-
-async fn joints(plc: &mut Plc) -> [f32; 6] {
-    let w = plc.read(r::STATUS_JOINTS, 12).await;
-    let mut j = [0.0; 6];
-    for (i, v) in j.iter_mut().enumerate() {
-        *v = f32_of(&w[2 * i..]);
-    }
-    j
-}
-
-/// Starts a joint move of `delta` degrees on J1 at `vel` °/s on channel 0.
-async fn start_move(plc: &mut Plc, delta: f32, vel: f32, seq: u16) -> [f32; 6] {
-    // The status mirror has the actual joints once a round is done.
-    plc.wait_reg(r::STATUS_FLAGS, "valid status", |v| v & r::FLAG_VALID != 0)
-        .await;
-    plc.wait_reg(r::STATUS_AGE_MS, "status refreshed", |v| v < 1000)
-        .await;
-    let mut t = joints(plc).await;
-    t[0] += delta;
-    let p = [t[0], t[1], t[2], t[3], t[4], t[5], vel, 100.0, 0.0];
-    plc.command(0, code::MOVE_J_JOINTS, &p, seq).await;
-    t
-}
 
 #[tokio::test]
 async fn bring_up_from_power_off() {
@@ -85,7 +57,7 @@ async fn bring_up_from_power_off() {
 #[tokio::test]
 async fn a_move_is_done_when_the_robot_has_finished_it() {
     let mut rig = Rig::start(Config::ready()).await;
-    let target = start_move(&mut rig.plc, 10.0, 40.0, 7).await;
+    let target = rig.plc.start_move(0, 10.0, 40.0, 100.0, 7).await;
     let st = Plc::ch_status(0);
     let busy = rig.plc.read1(st).await;
     assert!(
@@ -126,7 +98,7 @@ async fn a_refusal_surfaces_as_error_with_its_code() {
         .only("WayPoint")
         .times(1),
     );
-    start_move(&mut rig.plc, 5.0, 40.0, 3).await;
+    rig.plc.start_move(0, 5.0, 40.0, 100.0, 3).await;
     let e = rig.plc.wait_end(Plc::ch_status(0)).await;
     assert_eq!(
         e.status & (r::ST_ERROR | r::ST_DONE | r::ST_BUSY),
@@ -146,7 +118,7 @@ async fn a_refusal_surfaces_as_error_with_its_code() {
 #[tokio::test]
 async fn robot_dropping_mid_motion_fails_the_command_and_nothing_is_resent() {
     let mut rig = Rig::start(Config::ready()).await;
-    start_move(&mut rig.plc, 90.0, 10.0, 1).await;
+    rig.plc.start_move(0, 90.0, 10.0, 100.0, 1).await;
     let st = Plc::ch_status(0);
     rig.plc
         .wait_reg(st, "active", |v| v & r::ST_ACTIVE != 0)
@@ -156,7 +128,7 @@ async fn robot_dropping_mid_motion_fails_the_command_and_nothing_is_resent() {
     let e = rig.plc.wait_end(st).await;
     assert_eq!(
         (e.error_id, e.error_source),
-        (LINK_LOST, SRC_GATEWAY),
+        gateway_error(GatewayError::LinkLost),
         "{e:?}"
     );
     // It reconnects by itself and says so.
@@ -166,7 +138,7 @@ async fn robot_dropping_mid_motion_fails_the_command_and_nothing_is_resent() {
     rig.plc.wait_link().await;
     assert_eq!(
         rig.plc.read1(r::STATUS_LINK_LAST_ERROR).await as i32,
-        LINK_LOST
+        GatewayError::LinkLost.code()
     );
     tokio::time::sleep(Duration::from_millis(300)).await;
     assert_eq!(rig.received("WayPoint").len(), 1, "the move was sent again");
@@ -189,7 +161,7 @@ async fn a_reply_timeout_fails_the_command_and_resets_the_link() {
     let e = rig.plc.run(1, code::SET_OVERRIDE, &[0.5], 9).await;
     assert_eq!(
         (e.error_id, e.error_source),
-        (REPLY_TIMEOUT, SRC_GATEWAY),
+        gateway_error(GatewayError::ReplyTimeout),
         "{e:?}"
     );
     assert!(t0.elapsed() >= Duration::from_millis(200));
@@ -224,7 +196,7 @@ async fn a_full_queue_refuses_at_once() {
     assert_eq!(errors, 0xFF00, "refused at once");
     let ids = plc.read(r::TRIG_ERROR_ID, 32).await;
     for i in 8..16 {
-        assert_eq!(i32_of(&ids[2 * i..]), QUEUE_FULL);
+        assert_eq!(i32_of(&ids[2 * i..]), GatewayError::QueueFull.code());
     }
     plc.wait_reg(r::TRIG_BUSY, "queue drained", |v| v == 0)
         .await;
@@ -269,7 +241,7 @@ async fn the_watchdog_stops_a_move_without_heartbeat() {
     let mut rig = Rig::start(Config::ready()).await;
     rig.plc.configure(&[(r::CONFIG_WATCHDOG_MS, 300)]).await;
     // With a heartbeat, a move runs to Done.
-    start_move(&mut rig.plc, 3.0, 30.0, 1).await;
+    rig.plc.start_move(0, 3.0, 30.0, 100.0, 1).await;
     let st = Plc::ch_status(0);
     let start = Instant::now();
     let mut beat = 0u16;
@@ -286,11 +258,11 @@ async fn the_watchdog_stops_a_move_without_heartbeat() {
     assert_eq!(e & r::ST_DONE, r::ST_DONE, "with heartbeat: {e:#x}");
     rig.plc.write(r::channel_base(0), &[0]).await;
     // Without one, the watchdog stops it.
-    start_move(&mut rig.plc, 90.0, 10.0, 2).await;
+    rig.plc.start_move(0, 90.0, 10.0, 100.0, 2).await;
     let e = rig.plc.wait_end(st).await;
     assert_eq!(
         (e.error_id, e.error_source),
-        (WATCHDOG, SRC_GATEWAY),
+        gateway_error(GatewayError::Watchdog),
         "{e:?}"
     );
     assert_eq!(rig.plc.read1(r::STATUS_WATCHDOG_TRIPS).await, 1);
@@ -316,7 +288,7 @@ async fn the_watchdog_stops_a_move_without_heartbeat() {
 #[tokio::test]
 async fn stop_aborts_a_running_move_from_the_other_channel() {
     let mut rig = Rig::start(Config::ready()).await;
-    start_move(&mut rig.plc, 90.0, 10.0, 5).await;
+    rig.plc.start_move(0, 90.0, 10.0, 100.0, 5).await;
     let st = Plc::ch_status(0);
     rig.plc
         .wait_reg(st, "active", |v| v & r::ST_ACTIVE != 0)
@@ -526,7 +498,10 @@ async fn raw_commands_reach_every_protocol_command() {
     assert_eq!(reply, "GrpReset,Fail,20018,busy,;");
     // Text the grammar cannot read is refused by the gateway.
     let (e, _) = rig.plc.raw(",,;", 14).await;
-    assert_eq!((e.error_id, e.error_source), (39501, SRC_GATEWAY));
+    assert_eq!(
+        (e.error_id, e.error_source),
+        gateway_error(GatewayError::BadParameter)
+    );
     assert!(rig.received("ReadRobotModel").len() == 1);
     rig.stop().await;
 }
@@ -558,12 +533,20 @@ async fn an_ok_reply_with_extra_values_is_success_where_values_are_unused() {
         .faults()
         .add(FaultRule::new(Fault::Garbage(b"ReadActPos,OK,1,2,;".to_vec())).only("ReadActPos"));
     let e = rig.plc.run(0, code::READ_ACT_POS, &[], 3).await;
-    assert_eq!((e.error_id, e.error_source), (39502, SRC_GATEWAY), "{e:?}");
+    assert_eq!(
+        (e.error_id, e.error_source),
+        gateway_error(GatewayError::BadReply),
+        "{e:?}"
+    );
     rig.sim.faults().clear();
     // And a reply naming another command is still a mismatch.
     rig.sim.faults().add(odd("SetBoxCO", "SetBoxDO,OK,;"));
     let e = rig.plc.run(0, code::SET_BOX_CO, &[1.0, 1.0], 4).await;
-    assert_eq!((e.error_id, e.error_source), (39505, SRC_GATEWAY), "{e:?}");
+    assert_eq!(
+        (e.error_id, e.error_source),
+        gateway_error(GatewayError::ReplyMismatch),
+        "{e:?}"
+    );
     rig.stop().await;
 }
 
@@ -576,7 +559,10 @@ async fn when_execute_falls_the_outcome_clears_and_the_echoes_stay() {
     let mut rig = Rig::start(Config::ready()).await;
     let b = r::channel_base(0);
     let e = rig.plc.run(0, 999, &[], 41).await;
-    assert_eq!((e.error_id, e.error_source), (39501, SRC_GATEWAY));
+    assert_eq!(
+        (e.error_id, e.error_source),
+        gateway_error(GatewayError::BadParameter)
+    );
     let w = rig.plc.read(b + r::CH_STATUS, 6).await;
     assert_eq!(
         w,
@@ -626,7 +612,7 @@ async fn a_trigger_entry_fires_on_its_bit() {
         .expect("transport")
         .expect("coil");
     let ids = rig.plc.read(r::TRIG_ERROR_ID + 10, 2).await;
-    assert_eq!(i32_of(&ids), 39603);
+    assert_eq!(i32_of(&ids), GatewayError::TriggerEmpty.code());
     assert_eq!(rig.plc.read1(r::TRIG_ERROR).await, 1 << 5);
     rig.stop().await;
 }
@@ -741,10 +727,10 @@ async fn the_datasheet_port_can_replace_status_polling() {
         rig.sim.received()
     );
     // A move still completes (its end is polled on the command port).
-    start_move(&mut rig.plc, 3.0, 30.0, 4).await;
+    rig.plc.start_move(0, 3.0, 30.0, 100.0, 4).await;
     let e = rig.plc.wait_end(Plc::ch_status(0)).await;
     assert!(e.done(), "{e:?}");
-    let j = joints(&mut rig.plc).await;
+    let j = rig.plc.joints().await;
     let s = rig.sim.state();
     assert!(
         (f64::from(j[0]) - s.act_joints[0]).abs() < 0.5,

@@ -4,13 +4,10 @@
 
 use std::time::{Duration, Instant};
 
-use hans_e2e::{code, Plc, Rig, WAIT};
+use hans_e2e::{code, gateway_error, GatewayError, Plc, Rig, SRC_ROBOT_FAIL, WAIT};
 use hans_gateway::registers as r;
 use hans_sim::{Config, Fault, FaultRule, FsmState};
 
-const QUEUE_FULL: i32 = 39600;
-const WATCHDOG: i32 = 39602;
-const SRC_GATEWAY: u16 = 3;
 const ENDED: u16 = r::ST_DONE | r::ST_ERROR | r::ST_ABORTED;
 
 /// Waits until the simulator's FSM is `want`.
@@ -22,7 +19,7 @@ async fn wait_fsm(rig: &Rig, want: FsmState) {
             "simulator never reached {want:?} (now {:?})",
             rig.sim.fsm()
         );
-        tokio::time::sleep(Duration::from_millis(5)).await;
+        tokio::time::sleep(hans_e2e::POLL_PAUSE).await;
     }
 }
 
@@ -169,7 +166,7 @@ async fn the_watchdog_stop_aborts_the_waiting_motions() {
     let e = rig.plc.wait_end(st).await;
     assert_eq!(
         (e.error_id, e.error_source),
-        (WATCHDOG, SRC_GATEWAY),
+        gateway_error(GatewayError::Watchdog),
         "{e:?}"
     );
     rig.plc
@@ -206,7 +203,10 @@ async fn stop_and_pause_get_through_a_full_queue_first() {
         .wait_reg(r::STATUS_QUEUE_USED, "seven waiting", |v| v == 7)
         .await;
     rig.plc
-        .write(r::trigger_text(8), &hans_e2e::text_words(&text(8), 48))
+        .write(
+            r::trigger_text(8),
+            &hans_e2e::text_words(&text(8), usize::from(r::TRIG_TEXT_REGS)),
+        )
         .await;
     rig.plc.write(r::TRIG_BITS, &[0x1FF]).await;
     assert_eq!(rig.plc.read1(r::STATUS_QUEUE_USED).await, 8, "queue full");
@@ -217,9 +217,13 @@ async fn stop_and_pause_get_through_a_full_queue_first() {
     let stop = rig.plc.wait_end(Plc::ch_status(1)).await;
     assert!(stop.done(), "stop: {stop:?}");
     let pause = rig.plc.wait_end(Plc::ch_status(0)).await;
-    assert_ne!(pause.error_id, QUEUE_FULL, "pause refused: {pause:?}");
+    assert_ne!(
+        pause.error_id,
+        GatewayError::QueueFull.code(),
+        "pause refused: {pause:?}"
+    );
     // Nothing moves, so the robot refuses the pause itself (its own code).
-    assert_eq!(pause.error_source, 1, "{pause:?}");
+    assert_eq!(pause.error_source, SRC_ROBOT_FAIL, "{pause:?}");
     let sent = rig.commands_received();
     let at = |name: &str| sent.iter().position(|m| m.starts_with(name));
     assert!(
