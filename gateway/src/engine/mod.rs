@@ -417,15 +417,15 @@ impl<'c, 'a> Engine<'c, 'a> {
                         // An OK the codec cannot type (extra values, as
                         // newer firmware may send): the robot accepted the
                         // command. Success where the gateway does not use
-                        // the values; typed checks stay where it does.
+                        // the values; typed checks stay where it does. The
+                        // name is the request's: any error but NameMismatch
+                        // comes after the codec matched it (aliases too).
                         Err(e)
                             if job.results == Results::None
                                 && !matches!(e, ParseError::NameMismatch { .. }) =>
                         {
                             match Reply::parse(text, UNTYPED) {
-                                Ok(Reply::Ok(Response::Unknown(raw)))
-                                    if same_command(raw.name(), req_name) =>
-                                {
+                                Ok(Reply::Ok(Response::Unknown(raw))) => {
                                     warn!(
                                         "{} #{}: reply values not as documented, accepted: {}",
                                         job.source.name(),
