@@ -214,7 +214,10 @@ impl<'c, 'a> Engine<'c, 'a> {
                 info!(
                     "robot link: the controller connected again; new connection replaces the old"
                 );
+                let peer = link.peer().map(|p| *p.ip());
                 self.ctx.with(|s| {
+                    // Maybe from another address: the DataSheet follows.
+                    s.robot_peer = peer;
                     let n = s.regs.get(r::STATUS_LINK_CONNECTS).wrapping_add(1);
                     s.regs.set(r::STATUS_LINK_CONNECTS, n);
                 });
@@ -343,6 +346,9 @@ impl<'c, 'a> Engine<'c, 'a> {
             }
             s.fail_queue(GatewayError::LinkLost);
             s.link_up = false;
+            // No controller is connected now (listen mode: the DataSheet
+            // follows the next one, from wherever it connects).
+            s.robot_peer = None;
             let order = s.config.word_order;
             status::invalidate(s.regs, order);
             s.status_time = None;
