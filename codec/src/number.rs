@@ -142,6 +142,10 @@ pub enum NumberError {
     /// The value does not fit (integer part over 19 digits, or an exponent
     /// that moves it out of range).
     OutOfRange,
+    /// From [`Decimal::parse_exact`] only: the number has more significant
+    /// fractional digits than a `Decimal` holds ([`Decimal::parse`] drops
+    /// them).
+    Inexact,
 }
 
 impl fmt::Display for NumberError {
@@ -149,6 +153,7 @@ impl fmt::Display for NumberError {
         match self {
             NumberError::Syntax => f.write_str("not a number"),
             NumberError::OutOfRange => f.write_str("number out of range"),
+            NumberError::Inexact => f.write_str("more digits than a Decimal holds"),
         }
     }
 }
@@ -343,14 +348,38 @@ impl Decimal {
         }
     }
 
+    /// Like [`Decimal::parse`], but a number whose digits do not all fit
+    /// (see the module's Precision section) is [`NumberError::Inexact`]
+    /// instead of being truncated: for tools that must say when a value
+    /// was not kept exactly.
+    pub fn parse_exact(text: &str) -> Result<Self, NumberError> {
+        match plain_prefix(text.as_bytes()) {
+            Some((d, [])) => Ok(d),
+            _ => match Self::lexed(text.as_bytes())? {
+                (d, true) => Ok(d),
+                (_, false) => Err(NumberError::Inexact),
+            },
+        }
+    }
+
     /// The grammar's path, for everything the fast path leaves.
     #[inline(never)]
     fn parse_general(text: &[u8]) -> Result<Self, NumberError> {
+        Self::lexed(text).map(|(d, _)| d)
+    }
+
+    /// The grammar's reading of `text`, and whether every digit was kept.
+    fn lexed(text: &[u8]) -> Result<(Self, bool), NumberError> {
         let lexed = syntax::whole(text).ok_or(NumberError::Syntax)?;
-        Self::from_lexed(&lexed)
+        Self::from_lexed_exactness(&lexed)
     }
 
     pub(crate) fn from_lexed(l: &Lexed<'_>) -> Result<Self, NumberError> {
+        Self::from_lexed_exactness(l).map(|(d, _)| d)
+    }
+
+    /// The value, and `false` if nonzero digits were dropped to fit it.
+    fn from_lexed_exactness(l: &Lexed<'_>) -> Result<(Self, bool), NumberError> {
         // Exponent: anything beyond four digits is out of range for us.
         let mut exp: i32 = 0;
         for &d in l.exp {
@@ -372,6 +401,7 @@ impl Decimal {
         }
         // Decimals written, before the exponent shifts them.
         let mut frac_kept: i32 = 0;
+        let mut exact = true;
         for &d in l.frac {
             match coeff
                 .checked_mul(10)
@@ -381,7 +411,10 @@ impl Decimal {
                     coeff = c;
                     frac_kept += 1;
                 }
-                _ => overflowed = true,
+                _ => {
+                    overflowed = true;
+                    exact &= d == b'0';
+                }
             }
         }
         // value = coeff × 10^(exp - frac_kept)
@@ -399,10 +432,12 @@ impl Decimal {
             if scale - i32::from(MAX_SCALE) > 19 {
                 return Err(NumberError::OutOfRange);
             }
-            coeff = div_pow10(coeff, 1).0;
+            let (q, dropped) = div_pow10(coeff, 1);
+            exact &= dropped == 0;
+            coeff = q;
             scale -= 1;
         }
-        Ok(Decimal::make(l.negative, coeff, scale as u8))
+        Ok((Decimal::make(l.negative, coeff, scale as u8), exact))
     }
 
     /// `true` when the number is written with a minus sign (also `-0.000`).
@@ -733,6 +768,39 @@ mod tests {
         assert_eq!(Decimal::parse("1e99999"), Err(NumberError::OutOfRange));
         assert_eq!(Decimal::parse("1e-40"), Err(NumberError::OutOfRange));
         assert_eq!(Decimal::parse("0e-40"), Ok(Decimal::ZERO));
+    }
+
+    #[test]
+    fn parse_exact_refuses_what_parse_truncates() {
+        // Kept exactly: both agree.
+        for t in [
+            "10.759",
+            "-0.000",
+            "1e-05",
+            "0.100000000000000000000000",
+            "0e-40",
+        ] {
+            assert_eq!(Decimal::parse_exact(t), Decimal::parse(t), "{t:?}");
+        }
+        // Digits dropped: parse truncates, parse_exact says so.
+        for (t, truncated) in [
+            ("1.23456789012345678901", "1.234567890123456789"),
+            ("0.0000000000000000015", "0.000000000000000001"),
+            ("123e-20", "0.000000000000000001"),
+        ] {
+            assert_eq!(
+                Decimal::parse(t).map(text),
+                Ok(text(Decimal::parse(truncated).unwrap_or(Decimal::ZERO))),
+                "{t:?}"
+            );
+            assert_eq!(Decimal::parse_exact(t), Err(NumberError::Inexact), "{t:?}");
+        }
+        // Other errors are the same.
+        assert_eq!(Decimal::parse_exact("x"), Err(NumberError::Syntax));
+        assert_eq!(
+            Decimal::parse_exact("1e99999"),
+            Err(NumberError::OutOfRange)
+        );
     }
 
     /// What the grammar makes of `b`: the length of the number at its start
