@@ -371,15 +371,11 @@ impl Decimal {
     /// The grammar's reading of `text`, and whether every digit was kept.
     fn lexed(text: &[u8]) -> Result<(Self, bool), NumberError> {
         let lexed = syntax::whole(text).ok_or(NumberError::Syntax)?;
-        Self::from_lexed_exactness(&lexed)
-    }
-
-    pub(crate) fn from_lexed(l: &Lexed<'_>) -> Result<Self, NumberError> {
-        Self::from_lexed_exactness(l).map(|(d, _)| d)
+        Self::from_lexed(&lexed)
     }
 
     /// The value, and `false` if nonzero digits were dropped to fit it.
-    fn from_lexed_exactness(l: &Lexed<'_>) -> Result<(Self, bool), NumberError> {
+    fn from_lexed(l: &Lexed<'_>) -> Result<(Self, bool), NumberError> {
         // Exponent: anything beyond four digits is out of range for us.
         let mut exp: i32 = 0;
         for &d in l.exp {
@@ -807,7 +803,10 @@ mod tests {
     /// and its value.
     fn by_grammar(b: &[u8]) -> Option<(usize, Result<Decimal, NumberError>)> {
         let (rest, lexed) = syntax::number(b).ok()?;
-        Some((b.len() - rest.len(), Decimal::from_lexed(&lexed)))
+        Some((
+            b.len() - rest.len(),
+            Decimal::from_lexed(&lexed).map(|(d, _)| d),
+        ))
     }
 
     /// Checks the fast path on `b` against the grammar: whenever it reads a
