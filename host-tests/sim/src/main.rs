@@ -15,6 +15,18 @@ use std::time::Duration;
 use clap::Parser;
 use hans_sim::{ClockMode, Config, FaultRule, Initial, Sim, Timing};
 
+/// Prints one status line. A closed stdout (its reader stopped reading) is
+/// no reason to stop serving, so a failed write is ignored where `println!`
+/// would panic.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        let _ = writeln!(out, $($arg)*);
+        let _ = out.flush();
+    }};
+}
+
 #[derive(Parser, Debug)]
 #[command(
     name = "hans-sim",
@@ -132,12 +144,12 @@ async fn run(args: Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    println!("hans-sim: command port listening on {}", sim.command_addr());
+    say!("hans-sim: command port listening on {}", sim.command_addr());
     for (i, a) in sim.datasheet_addrs().iter().enumerate() {
         let hz = [20, 10, 5].get(i).copied().unwrap_or(5);
-        println!("hans-sim: datasheet port ({hz} Hz) listening on {a}");
+        say!("hans-sim: datasheet port ({hz} Hz) listening on {a}");
     }
-    println!(
+    say!(
         "hans-sim: robot FSM {} ({})",
         sim.fsm().code(),
         sim.fsm().name().unwrap_or("?")
@@ -150,7 +162,7 @@ async fn run(args: Args) -> ExitCode {
         for _ in 0..3600 {
             match sim.connect_out(addr).await {
                 Ok(()) => {
-                    println!("hans-sim: client mode: connected to {addr}");
+                    say!("hans-sim: client mode: connected to {addr}");
                     connected = true;
                     break;
                 }
@@ -168,10 +180,8 @@ async fn run(args: Args) -> ExitCode {
             return ExitCode::FAILURE;
         }
     }
-    use std::io::Write;
-    let _ = std::io::stdout().flush();
     let _ = tokio::signal::ctrl_c().await;
-    println!("hans-sim: stopping");
+    say!("hans-sim: stopping");
     sim.shutdown().await;
     ExitCode::SUCCESS
 }
