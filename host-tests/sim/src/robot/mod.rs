@@ -1,9 +1,11 @@
 //! The simulated robot: state machine, motion, frames, I/O.
 //!
 //! Everything here is a function of simulated time (seconds since start,
-//! `f64`): every entry point first calls [`Robot::update`] to bring the
+//! `f64`): every entry point first calls `Robot::update` to bring the
 //! state to `now`, so the same commands at the same simulated times always
-//! give the same answers.
+//! give the same answers. Event times are sums of `f64` durations, so every
+//! comparison of `now` with one goes through `reached`, which allows for
+//! the rounding.
 //!
 //! # State machine
 //! The FSM state (`ReadCurFSM`, DataSheet `robotState`) is derived, in this
