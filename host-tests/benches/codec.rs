@@ -14,8 +14,8 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use hans_codec::datasheet::{DataSheet, Deframer};
-use hans_codec::{request, Command, CommandId, Decimal, Reply, ReplyExpect, Request, RobotId};
+use hans_codec::datasheet::{emit_header, DataSheet, Deframer, HEADER_LEN};
+use hans_codec::{Command, CommandId, Decimal, Reply, ReplyExpect, Request};
 
 const ACT_POS: &str = "ReadActPos,OK,10.759,0.000,37.828,0.000,37.828,0.000,400.581,76.115,\
 970.143,0.000,75.655,10.759,0.000,0.000,100.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,0.000,\
@@ -30,15 +30,19 @@ const SHEET_JSON: &[u8] = include_bytes!("../vectors/datasheet/standby.json");
 
 // ---------------------------------------------------------------- naive std baselines
 
-/// The reply split into owned strings, checked and converted with `f64`.
-fn naive_read_act_pos(text: &str) -> Option<Vec<f64>> {
-    let fields: Vec<String> = text
-        .trim()
+/// A message split into owned, trimmed fields (the final `,;` dropped).
+fn naive_fields(text: &str) -> Vec<String> {
+    text.trim()
         .trim_end_matches(';')
         .trim_end_matches(',')
         .split(',')
         .map(|f| f.trim().to_string())
-        .collect();
+        .collect()
+}
+
+/// The reply split into owned strings, checked and converted with `f64`.
+fn naive_read_act_pos(text: &str) -> Option<Vec<f64>> {
+    let fields = naive_fields(text);
     if fields.len() != 26 || fields[0] != "ReadActPos" || fields[1] != "OK" {
         return None;
     }
@@ -61,13 +65,7 @@ struct NaiveWayPoint {
 }
 
 fn naive_parse_way_point(text: &str) -> Option<NaiveWayPoint> {
-    let fields: Vec<String> = text
-        .trim()
-        .trim_end_matches(';')
-        .trim_end_matches(',')
-        .split(',')
-        .map(|f| f.trim().to_string())
-        .collect();
+    let fields = naive_fields(text);
     if fields.len() != 25 || fields[0] != "WayPoint" {
         return None;
     }
@@ -180,7 +178,10 @@ fn codec_parse_way_point(text: &str) -> Option<Request<'_>> {
     Request::parse(text).ok()
 }
 
-fn codec_datasheet(stream: &[&[u8]], deframer: &mut Deframer<8192>) -> usize {
+fn codec_datasheet(
+    stream: &[&[u8]],
+    deframer: &mut Deframer<{ DataSheet::MAX_JSON_LEN }>,
+) -> usize {
     let mut n = 0;
     for chunk in stream {
         deframer.feed(chunk, |item| {
@@ -296,30 +297,25 @@ fn way_point(c: &mut Criterion) {
     );
 
     // Formatting from typed values: f64s with format! against Decimals.
-    let typed = request::WayPoint {
-        rbt_id: RobotId(0),
-        ..wp.clone()
-    };
     compare(
         c,
         "format WayPoint request",
         "format WayPoint",
         3.0,
         || naive_format_way_point(black_box(&naive)),
-        || black_box(&typed).encode(&mut buf),
+        || black_box(&wp).encode(&mut buf),
     );
 }
 
 fn datasheet(c: &mut Criterion) {
     let payload: Vec<u8> = SHEET_JSON.to_vec();
-    let mut packet = b"LTBR".to_vec();
-    packet.extend_from_slice(&(12 + payload.len() as u32).to_le_bytes());
-    packet.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    let mut packet = vec![0u8; HEADER_LEN];
+    emit_header(payload.len(), &mut packet).expect("the payload fits a packet");
     packet.extend_from_slice(&payload);
     // As a socket delivers it: reads of 1460 bytes.
     let stream: Vec<&[u8]> = packet.chunks(1460).collect();
     assert!(!naive_datasheet(&stream).is_empty());
-    let mut deframer = Deframer::<8192>::new();
+    let mut deframer = Deframer::<{ DataSheet::MAX_JSON_LEN }>::new();
     assert_eq!(codec_datasheet(&stream, &mut deframer), 1);
 
     compare(
