@@ -9,6 +9,7 @@
 //! the line is not a valid message; `range_error`, `warnings` and
 //! `against_request` when they apply.
 
+use hans_codec::number::NumberError;
 use hans_codec::{CommandId, Decimal, Kind, RawMessage, Reply, ReplyExpect, Request, Visitor};
 
 use crate::json::{Json, Obj};
@@ -54,8 +55,8 @@ impl JsonFields {
             .enumerate()
             .filter_map(|(index, text)| {
                 let read = Decimal::parse(text).ok()?;
-                let (a, b) = (exact(text)?, exact(&read.to_string())?);
-                (a != b).then(|| Lossy {
+                let dropped = Decimal::parse_exact(text) == Err(NumberError::Inexact);
+                dropped.then(|| Lossy {
                     index,
                     text: text.to_string(),
                     read,
@@ -110,35 +111,6 @@ impl Visitor for JsonFields {
             self.put(&name, Json::Arr(items));
         }
     }
-}
-
-/// The exact value a number's text stands for, as (negative, significant
-/// digits, power of ten): `-0.0120` → `(true, "12", -3)`, `1.2e3` →
-/// `(false, "12", 2)`; zero has no digits. `None` if it is not a number.
-fn exact(text: &str) -> Option<(bool, String, i64)> {
-    let (negative, rest) = match text.as_bytes().first() {
-        Some(b'-') => (true, text.get(1..)?),
-        Some(b'+') => (false, text.get(1..)?),
-        _ => (false, text),
-    };
-    let (mantissa, exp) = match rest.find(['e', 'E']) {
-        Some(i) => (rest.get(..i)?, rest.get(i + 1..)?.parse::<i64>().ok()?),
-        None => (rest, 0),
-    };
-    let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
-    let all_digits = |s: &str| s.bytes().all(|b| b.is_ascii_digit());
-    if !all_digits(int) || !all_digits(frac) || int.len() + frac.len() == 0 {
-        return None;
-    }
-    let digits = format!("{int}{frac}");
-    let mut exp = exp.checked_sub(i64::try_from(frac.len()).ok()?)?;
-    let digits = digits.trim_start_matches('0');
-    let significant = digits.trim_end_matches('0');
-    exp = exp.checked_add(i64::try_from(digits.len() - significant.len()).ok()?)?;
-    if significant.is_empty() {
-        exp = 0;
-    }
-    Some((negative, significant.to_string(), exp))
 }
 
 /// Decodes a stream of lines, reading a reply against the request on the
@@ -424,30 +396,6 @@ mod tests {
         );
         let w = v["warnings"][0].as_str().unwrap();
         assert!(w.starts_with("joints (field 5)"), "{w}");
-    }
-
-    #[test]
-    fn exact_values_of_number_text() {
-        let e = |s| exact(s).unwrap();
-        assert_eq!(e("-0.0120"), (true, "12".into(), -3));
-        assert_eq!(e("+1.2e3"), (false, "12".into(), 2));
-        assert_eq!(e("1200"), (false, "12".into(), 2));
-        assert_eq!(e(".5"), e("5e-1"));
-        assert_eq!(e("5."), e("5"));
-        assert_eq!(e("0.000"), (false, String::new(), 0));
-        assert_ne!(e("-0"), e("0"));
-        for bad in [
-            "",
-            "-",
-            ".",
-            "1e",
-            "abc",
-            "1.2.3",
-            "0x10",
-            "1e99999999999999999999",
-        ] {
-            assert_eq!(exact(bad), None, "{bad}");
-        }
     }
 
     #[test]
