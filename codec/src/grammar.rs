@@ -139,7 +139,15 @@ pub(crate) mod syntax {
 
 use syntax::{is_filler, In};
 
-pub(crate) use syntax::is_space;
+/// `true` for the whitespace of the grammar (`ws`: space, tab, CR, LF): what
+/// the reader trims around fields and messages, and what the [`Framer`]
+/// skips between messages.
+///
+/// [`Framer`]: crate::Framer
+#[inline]
+pub fn is_space(b: u8) -> bool {
+    syntax::is_space(b)
+}
 
 /// The rest of `text` after the parser left `rest` of it.
 #[inline]

@@ -276,11 +276,12 @@ pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream) {
 }
 
 /// `true` when the first message of `data` (read between messages) is
-/// empty: a `;` with only whitespace (space, tab, CR, LF) before it.
+/// empty: a `;` with only the grammar's whitespace before it (the framer
+/// skips such messages; a controller answers them).
 /// Whitespace alone is not a message (line ends a terminal sends after `;`).
 fn starts_with_empty_message(data: &[u8]) -> bool {
     data.iter()
-        .find(|b| !matches!(b, b' ' | b'\t' | b'\r' | b'\n'))
+        .find(|&&b| !hans_codec::grammar::is_space(b))
         .is_some_and(|&b| b == b';')
 }
 
