@@ -16,9 +16,10 @@
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use embassy_executor::raw;
-use embassy_executor::Spawner;
+use embassy_executor::{raw, SpawnError, SpawnToken, Spawner};
 use static_cell::StaticCell;
+
+use crate::{fail, BoardError};
 
 /// Set when a task was woken since the last check.
 static PENDED: AtomicBool = AtomicBool::new(false);
@@ -30,11 +31,18 @@ fn pender(_context: *mut ()) {
     PENDED.store(true, Ordering::Release);
 }
 
-/// Starts the executor: `init` spawns the first tasks; never returns.
-pub fn run(init: impl FnOnce(Spawner)) -> ! {
+/// Starts the executor with its first task and never returns. `start` is
+/// that task's function (`#[embassy_executor::task] async fn start(spawner:
+/// Spawner)`), which spawns the others; if its pool is exhausted the board
+/// [`fail`]s with [`BoardError::Spawn`].
+pub fn run<S>(start: impl FnOnce(Spawner) -> Result<SpawnToken<S>, SpawnError>) -> ! {
     static EXECUTOR: StaticCell<raw::Executor> = StaticCell::new();
     let executor: &'static raw::Executor = EXECUTOR.init(raw::Executor::new(core::ptr::null_mut()));
-    init(executor.spawner());
+    let spawner = executor.spawner();
+    match start(spawner) {
+        Ok(task) => spawner.spawn(task),
+        Err(_) => fail(BoardError::Spawn),
+    }
     loop {
         // SAFETY: `poll` is only ever called from this loop, in thread mode,
         // never re-entrantly.

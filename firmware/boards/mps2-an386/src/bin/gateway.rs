@@ -14,10 +14,7 @@ use static_cell::ConstStaticCell;
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    board::executor::run(|spawner| match start(spawner) {
-        Ok(task) => spawner.spawn(task),
-        Err(_) => board::fail(board::BoardError::Spawn),
-    })
+    board::executor::run(start)
 }
 
 #[embassy_executor::task]

@@ -25,10 +25,7 @@ const TIMEOUT: Duration = Duration::from_secs(60);
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    board::executor::run(|spawner| match start(spawner) {
-        Ok(task) => spawner.spawn(task),
-        Err(_) => board::fail(board::BoardError::Spawn),
-    })
+    board::executor::run(start)
 }
 
 #[embassy_executor::task]
