@@ -104,26 +104,68 @@ impl Rig {
         }
     }
 
-    /// Ends the firmware through the diagnostics port and checks it exits 0.
-    fn finish(mut self) {
-        let report = request_line(self.qemu.ports.admin, "exit\n", Duration::from_secs(30))
-            .expect("diagnostics report");
-        println!("{}: {}", self.name, report.trim());
+    /// Ends the firmware through the diagnostics port, prints its log, stops
+    /// the simulator and checks how QEMU ended: `Exit` after the stack
+    /// report with status 0, `Panic` with status 1 and the panic in the log.
+    fn finish(mut self, end: End) {
+        let report = match end {
+            End::Exit => Some(
+                request_line(self.qemu.ports.admin, "exit\n", Duration::from_secs(30))
+                    .expect("diagnostics report"),
+            ),
+            // No answer comes: the firmware panics instead.
+            End::Panic => {
+                let mut admin =
+                    connect_retry(self.qemu.ports.admin, STEP).expect("diagnostics port");
+                std::io::Write::write_all(&mut admin, b"panic\n").expect("send the command");
+                None
+            }
+        };
+        if let Some(report) = &report {
+            println!("{}: {}", self.name, report.trim());
+        }
         let status = self.qemu.process().wait(Duration::from_secs(30));
-        println!(
-            "--- {} firmware log ---\n{}",
-            self.name,
-            self.qemu.log_text()
-        );
+        let log = self.qemu.log_text();
+        println!("--- {} firmware log ---\n{log}", self.name);
         if let Some(sim) = self.sim.take() {
             self.rt.block_on(sim.shutdown());
         }
-        assert!(report.starts_with("stack_used="), "report: {report}");
+        match end {
+            End::Exit => {
+                let report = report.unwrap_or_default();
+                assert!(report.starts_with("stack_used="), "report: {report}");
+            }
+            End::Panic => {
+                if !log.starts_with("(raw defmt") {
+                    assert!(log.contains("panic at"), "panic message in the log");
+                }
+            }
+        }
         assert_eq!(
             status.and_then(|s| s.code()),
-            Some(0),
-            "firmware exit status (semihosting)"
+            Some(end.status()),
+            "firmware exit status (semihosting) after {end:?}"
         );
+    }
+}
+
+/// How a test ends the firmware (the diagnostics port's commands).
+#[derive(Clone, Copy, Debug)]
+enum End {
+    /// `exit`: the stack report, then semihosting exit 0.
+    Exit,
+    /// `panic`: the panic handler logs it and exits with 1, the status a
+    /// failing firmware must show.
+    Panic,
+}
+
+impl End {
+    /// QEMU's exit status.
+    fn status(self) -> i32 {
+        match self {
+            End::Exit => 0,
+            End::Panic => 1,
+        }
     }
 }
 
@@ -319,7 +361,7 @@ fn plc_powers_on_moves_and_reads_status_through_the_firmware() {
     }
 
     drop(plc);
-    rig.finish();
+    rig.finish(End::Exit);
 }
 
 #[test]
@@ -382,7 +424,7 @@ fn firmware_reconnects_after_the_simulator_restarts() {
     );
 
     drop(plc);
-    rig.finish();
+    rig.finish(End::Exit);
 }
 
 extern "C" {
@@ -462,28 +504,13 @@ fn a_client_that_vanishes_mid_request_frees_its_session() {
 
     drop(clients);
     drop(newcomer);
-    rig.finish();
+    rig.finish(End::Exit);
 }
 
 #[test]
 fn a_panic_in_the_firmware_ends_qemu_with_status_1() {
-    let mut rig = Rig::start("gateway-panic");
-    let _ = rig.modbus(); // up and serving
-                          // The firmware panics instead of answering.
-    let mut admin = connect_retry(rig.qemu.ports.admin, STEP).expect("diagnostics port");
-    std::io::Write::write_all(&mut admin, b"panic\n").expect("send the command");
-    let status = rig.qemu.process().wait(Duration::from_secs(30));
-    let log = rig.qemu.log_text();
-    println!("--- gateway-panic firmware log ---\n{log}");
-    assert_eq!(
-        status.and_then(|s| s.code()),
-        Some(1),
-        "a panic must end QEMU with the failure status"
-    );
-    if !log.starts_with("(raw defmt") {
-        assert!(log.contains("panic at"), "panic message in the log");
-    }
-    if let Some(sim) = rig.sim.take() {
-        rig.rt.block_on(sim.shutdown());
-    }
+    let rig = Rig::start("gateway-panic");
+    // Up and serving; then the firmware panics instead of answering.
+    let _ = rig.modbus();
+    rig.finish(End::Panic);
 }
