@@ -307,6 +307,44 @@ mod tests {
     }
 
     #[test]
+    fn the_connection_follows_the_address_not_every_configuration_change() {
+        let mut storage = crate::RamStorage::new();
+        let mut regs = RegisterFile::new();
+        let ctx = Ctx::new(&mut storage, &mut regs);
+        let peer = |ip: [u8; 4]| Ipv4Addr::from(ip);
+        ctx.with(|s| {
+            s.config.status_source = StatusSource::DataSheet;
+            s.config.link_mode = LinkMode::Listen;
+            s.config.datasheet_port = 10004;
+        });
+        // Listen mode, no controller yet: nowhere to go.
+        assert_eq!(target(&ctx), None);
+        ctx.with(|s| s.robot_peer = Some(peer([127, 0, 0, 2])));
+        let first = Some(SocketAddrV4::new(peer([127, 0, 0, 2]), 10004));
+        assert_eq!(target(&ctx), first);
+        // Another applied setting (the poll period) keeps the connection.
+        ctx.with(|s| {
+            s.config.poll_ms = s.config.poll_ms.wrapping_add(10);
+            s.config_gen = s.config_gen.wrapping_add(1);
+        });
+        assert_eq!(target(&ctx), first);
+        // The controller reconnecting from elsewhere moves it.
+        ctx.with(|s| s.robot_peer = Some(peer([127, 0, 0, 3])));
+        assert_eq!(
+            target(&ctx),
+            Some(SocketAddrV4::new(peer([127, 0, 0, 3]), 10004))
+        );
+        // So does another port, and polling as the source ends it.
+        ctx.with(|s| s.config.datasheet_port = 10005);
+        assert_eq!(
+            target(&ctx),
+            Some(SocketAddrV4::new(peer([127, 0, 0, 3]), 10005))
+        );
+        ctx.with(|s| s.config.status_source = StatusSource::Polling);
+        assert_eq!(target(&ctx), None);
+    }
+
+    #[test]
     fn positions_and_io_go_where_the_poll_puts_them() {
         let mut regs = RegisterFile::new();
         let mut sheet = DataSheet::default();
