@@ -36,8 +36,8 @@ use core::convert::Infallible;
 use embassy_futures::select::{select3, Either3};
 use embassy_time::{Duration, Instant, Timer};
 use hans_codec::{
-    request, response, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request, Response,
-    RobotId,
+    request, response, Command, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request,
+    Response, RobotId,
 };
 
 pub use job::{ErrorSource, GatewayError, Outcome, Source};
@@ -72,6 +72,17 @@ struct Active {
     seen_moving: bool,
     /// The watchdog already acted on this motion.
     watchdog_fired: bool,
+}
+
+/// A command the gateway sends of its own accord, to the configured robot.
+#[derive(Clone, Copy)]
+enum Internal {
+    /// `GrpStop` (the watchdog's stop).
+    Stop,
+    /// `GrpInterrupt` (the watchdog's pause).
+    Pause,
+    /// `GrpReset` (the automatic reset after a motion error).
+    Reset,
 }
 
 /// What a polled reply gave the engine.
@@ -695,10 +706,7 @@ impl<'c, 'a> Engine<'c, 'a> {
         self.end_motion(a.source, outcome);
         if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
             info!("auto-reset: GrpReset after the motion error");
-            let reset = request::GrpReset {
-                rbt_id: self.robot(),
-            };
-            self.send_internal(link, reset.into()).await;
+            self.send_internal(link, Internal::Reset).await;
         }
     }
 
@@ -787,21 +795,25 @@ impl<'c, 'a> Engine<'c, 'a> {
         })
     }
 
-    /// The configured robot, as the codec's requests name it.
-    fn robot(&self) -> RobotId {
-        RobotId(i32::from(self.config.robot_id))
-    }
-
     /// Sends a command of the gateway's own (watchdog action, auto reset)
-    /// and reads its reply as that command's.
-    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, req: Request<'static>) {
-        // Moved into a block: the request (hundreds of bytes) is not kept
-        // in the future while the reply is awaited.
-        let (encoded, expect, name) = {
-            let req = req;
-            (req.encode(&mut self.buf), req.expect(), req.name())
+    /// to the configured robot and reads its reply as that command's.
+    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, cmd: Internal) {
+        /// Each command's own encoder, which the typed channels link anyway
+        /// (`Request::encode` would add every command's writer: ~4 KiB).
+        fn enc<'c, C: Command<'c>>(
+            c: C,
+            buf: &mut [u8],
+        ) -> (&'static str, Option<(usize, ReplyExpect)>) {
+            (C::ID.name(), c.encode(buf).ok().map(|n| (n, c.expect())))
+        }
+        let rbt_id = RobotId(i32::from(self.config.robot_id));
+        let buf = &mut self.buf;
+        let (name, encoded) = match cmd {
+            Internal::Stop => enc(request::GrpStop { rbt_id }, buf),
+            Internal::Pause => enc(request::GrpInterrupt { rbt_id }, buf),
+            Internal::Reset => enc(request::GrpReset { rbt_id }, buf),
         };
-        let Ok(len) = encoded else {
+        let Some((len, expect)) = encoded else {
             return;
         };
         let r = self
@@ -862,20 +874,14 @@ impl<'c, 'a> Engine<'c, 'a> {
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
                 // As a Stop: the motions waiting behind it are not sent.
                 self.ctx.with(|s| s.abort_queued_motions());
-                let stop = request::GrpStop {
-                    rbt_id: self.robot(),
-                };
-                self.send_internal(link, stop.into()).await;
+                self.send_internal(link, Internal::Stop).await;
             }
             WatchdogAction::Pause => {
                 self.active = None;
                 self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
                 // The robot holds the motion: nothing may start behind it.
                 self.ctx.with(|s| s.abort_queued_motions());
-                let pause = request::GrpInterrupt {
-                    rbt_id: self.robot(),
-                };
-                self.send_internal(link, pause.into()).await;
+                self.send_internal(link, Internal::Pause).await;
             }
         }
         true
