@@ -1,7 +1,7 @@
 //! Jobs: what a rising edge puts in the queue, where its outcome goes, and
 //! the queue itself ([`JobQueue`]).
 
-use hans_codec::{CommandId, Request};
+use hans_codec::{Command, CommandId, Request};
 
 use crate::config::WordOrder;
 use crate::registers::{self as r, RegisterFile};
@@ -229,10 +229,24 @@ impl Job {
     }
 }
 
-/// The codec's canonical text of `req`, if it fits the urgent lane.
+/// The codec's canonical text of an urgent request ([`is_urgent`]), if it
+/// fits the urgent lane. Each command's own encoder, which the typed
+/// channels link anyway (`Request::encode` would add every command's
+/// writer: ~4 KiB of flash).
 fn canonical<const N: usize>(req: &Request<'_>) -> Option<heapless::String<N>> {
     let mut buf = [0u8; URGENT_MSG_MAX];
-    let n = req.encode(&mut buf).ok()?;
+    let n = match req {
+        Request::GrpStop(c) => c.encode(&mut buf),
+        Request::GrpInterrupt(c) => c.encode(&mut buf),
+        Request::GrpContinue(c) => c.encode(&mut buf),
+        Request::GrpReset(c) => c.encode(&mut buf),
+        Request::GrpDisable(c) => c.encode(&mut buf),
+        Request::StopScript(c) => c.encode(&mut buf),
+        Request::PauseScript(c) => c.encode(&mut buf),
+        Request::ContinueScript(c) => c.encode(&mut buf),
+        _ => return None,
+    }
+    .ok()?;
     let text = core::str::from_utf8(buf.get(..n)?).ok()?;
     heapless::String::try_from(text).ok()
 }
@@ -508,6 +522,29 @@ mod tests {
         assert!(Job::from_text(Source::Raw, 1, "  ").is_err());
         // Unknown names pass through (newer firmware).
         assert!(Job::from_text(Source::Raw, 1, "ReadVersion,;").is_ok());
+    }
+
+    #[test]
+    fn every_urgent_command_has_a_short_canonical_form() {
+        // Each urgent command, written with blanks too long for the urgent
+        // lane, is queued there in the codec's canonical form.
+        let urgent: Vec<CommandId> = CommandId::ALL
+            .iter()
+            .copied()
+            .filter(|&id| is_urgent(id))
+            .collect();
+        assert_eq!(urgent.len(), 8);
+        for id in urgent {
+            let wide = format!("{},{:>30},;", id.name(), 0);
+            let j = Job::from_text(Source::Raw, 1, &wide).unwrap();
+            assert!(j.urgent, "{wide}");
+            assert!(j.text.len() <= URGENT_MSG_MAX, "{wide} -> {}", j.text);
+            assert!(j.text.starts_with(id.name()) && j.text.ends_with(";"));
+            assert!(!j.text.contains(' '), "{}", j.text);
+            let mut q = JobQueue::new();
+            q.push(j).unwrap();
+            assert!(q.has_urgent(), "{wide}");
+        }
     }
 
     fn job(source: Source, text: &str) -> Job {
