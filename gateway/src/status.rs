@@ -36,18 +36,9 @@ pub enum PollStep {
     Fsm,
     /// `ReadActPos`.
     ActPos,
-    /// `ReadBoxDI` bits 0-7.
-    BoxDi,
-    /// `ReadBoxDO` bits 0-7.
-    BoxDo,
-    /// `ReadBoxCI` bits 0-7.
-    BoxCi,
-    /// `ReadBoxCO` bits 0-7.
-    BoxCo,
-    /// `ReadEI` bits 0-2.
-    EndDi,
-    /// `ReadEO` bits 0-2.
-    EndDo,
+    /// The read of an I/O group: `ReadBoxDI`, `ReadBoxDO`, `ReadBoxCI`,
+    /// `ReadBoxCO` bits 0-7, `ReadEI`, `ReadEO` bits 0-2.
+    Io(Io),
 }
 
 impl PollStep {
@@ -56,12 +47,12 @@ impl PollStep {
         PollStep::RobotState,
         PollStep::Fsm,
         PollStep::ActPos,
-        PollStep::BoxDi,
-        PollStep::BoxDo,
-        PollStep::BoxCi,
-        PollStep::BoxCo,
-        PollStep::EndDi,
-        PollStep::EndDo,
+        PollStep::Io(Io::BoxDi),
+        PollStep::Io(Io::BoxDo),
+        PollStep::Io(Io::BoxCi),
+        PollStep::Io(Io::BoxCo),
+        PollStep::Io(Io::EndDi),
+        PollStep::Io(Io::EndDo),
     ];
 
     /// Writes the request into `out`; returns its length and the reply it
@@ -78,18 +69,18 @@ impl PollStep {
             PollStep::RobotState => enc(request::ReadRobotState { rbt_id: id }, out),
             PollStep::Fsm => enc(request::ReadCurFSM { rbt_id: id }, out),
             PollStep::ActPos => enc(request::ReadActPos { rbt_id: id }, out),
-            PollStep::BoxDi => enc(request::ReadBoxDI { bits: box8() }, out),
-            PollStep::BoxDo => enc(request::ReadBoxDO { bits: box8() }, out),
-            PollStep::BoxCi => enc(request::ReadBoxCI { bits: box8() }, out),
-            PollStep::BoxCo => enc(request::ReadBoxCO { bits: box8() }, out),
-            PollStep::EndDi => enc(
+            PollStep::Io(Io::BoxDi) => enc(request::ReadBoxDI { bits: box8() }, out),
+            PollStep::Io(Io::BoxDo) => enc(request::ReadBoxDO { bits: box8() }, out),
+            PollStep::Io(Io::BoxCi) => enc(request::ReadBoxCI { bits: box8() }, out),
+            PollStep::Io(Io::BoxCo) => enc(request::ReadBoxCO { bits: box8() }, out),
+            PollStep::Io(Io::EndDi) => enc(
                 request::ReadEI {
                     rbt_id: id,
                     bits: end3(),
                 },
                 out,
             ),
-            PollStep::EndDo => enc(
+            PollStep::Io(Io::EndDo) => enc(
                 request::ReadEO {
                     rbt_id: id,
                     bits: end3(),
@@ -99,26 +90,13 @@ impl PollStep {
         }
     }
 
-    /// The I/O group an I/O step reads.
-    fn io(self) -> Option<Io> {
-        match self {
-            PollStep::BoxDi => Some(Io::BoxDi),
-            PollStep::BoxDo => Some(Io::BoxDo),
-            PollStep::BoxCi => Some(Io::BoxCi),
-            PollStep::BoxCo => Some(Io::BoxCo),
-            PollStep::EndDi => Some(Io::EndDi),
-            PollStep::EndDo => Some(Io::EndDo),
-            _ => None,
-        }
-    }
-
     /// Copies a reply of this step into the registers. A `Fail` reply (the
     /// robot lacks that I/O, say) marks the value invalid.
     pub fn apply(self, reply: &Reply<'_>, regs: &mut RegisterFile, order: WordOrder) {
         match reply {
             Reply::Ok(resp) => apply_response(resp, regs, order),
             _ => {
-                if let Some(io) = self.io() {
+                if let PollStep::Io(io) = self {
                     regs.set_bits(r::STATUS_IO_VALID, io.valid_bit(), false);
                 }
             }
@@ -322,14 +300,14 @@ mod tests {
                 | r::FLAG_POWERED
                 | r::FLAG_BOX_CONNECTED
         );
-        let (n, exp) = PollStep::BoxDo.request(0, &mut buf).unwrap();
+        let (n, exp) = PollStep::Io(Io::BoxDo).request(0, &mut buf).unwrap();
         assert_eq!(&buf[..n], b"ReadBoxDO,0,1,2,3,4,5,6,7,;");
         let rep = Reply::parse("ReadBoxDO,OK,1,0,0,1,0,0,0,1,;", exp).unwrap();
-        PollStep::BoxDo.apply(&rep, &mut regs, WordOrder::HighFirst);
+        PollStep::Io(Io::BoxDo).apply(&rep, &mut regs, WordOrder::HighFirst);
         assert_eq!(regs.get(r::STATUS_BOX_DO), 0b1000_1001);
         assert_eq!(regs.get(r::STATUS_IO_VALID), 1 << 1);
         let rep = Reply::parse("ReadBoxDO,Fail,20009,;", exp).unwrap();
-        PollStep::BoxDo.apply(&rep, &mut regs, WordOrder::HighFirst);
+        PollStep::Io(Io::BoxDo).apply(&rep, &mut regs, WordOrder::HighFirst);
         assert_eq!(regs.get(r::STATUS_IO_VALID), 0);
         let (_, exp) = PollStep::ActPos.request(0, &mut buf).unwrap();
         let rep = Reply::parse(
