@@ -86,7 +86,7 @@ impl Range {
     }
 
     /// `true` when both are the same range, written the same; `const`, for
-    /// the range table the compiler builds (`catalogue::params`).
+    /// the range table the compiler builds (`catalogue::packing`).
     pub(crate) const fn same(&self, other: &Range) -> bool {
         match (self, other) {
             (Range::Int { min: a, max: b }, Range::Int { min: c, max: d }) => *a == *c && *b == *d,
@@ -141,7 +141,7 @@ pub(crate) const fn either(a: &str, b: &str) -> Range {
 /// writers pass this one byte around instead of the parameter's name (a
 /// pointer and a length at every one of ~1,200 call sites cost ~5 KiB of
 /// flash); the name is looked up only when an error is reported (see
-/// `catalogue::params`).
+/// `catalogue::packing`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Param(pub(crate) u8);
 

@@ -27,7 +27,7 @@ use crate::types::{Param, Range, Visitor};
 use crate::writer::{Check, Writer};
 use crate::ErrorCode;
 
-mod params;
+mod packing;
 mod quirks;
 mod table;
 
@@ -441,25 +441,9 @@ macro_rules! catalogue {
             pub const ALL: &'static [CommandId] = &[$(CommandId::$Cmd),*];
 
             /// The name written on the wire.
-            #[allow(clippy::indexing_slicing)]
             #[cfg_attr(not(target_os = "none"), inline)]
             pub const fn name(self) -> &'static str {
-                // One text and an end offset per command (2 bytes each),
-                // where a table of string references took 8.
-                let i = self as usize;
-                let (start, end) = match i {
-                    0 => (0, NAME_ENDS[0]),
-                    // `i` is a discriminant: below `NAME_ENDS.len()`.
-                    _ if i < NAME_ENDS.len() => (NAME_ENDS[i - 1], NAME_ENDS[i]),
-                    _ => (0, 0),
-                };
-                match WIRE_NAMES.split_at_checked(end as usize) {
-                    Some((head, _)) => match head.split_at_checked(start as usize) {
-                        Some((_, name)) => name,
-                        None => "",
-                    },
-                    None => "",
-                }
+                super::packing::wire_name(self as usize)
             }
 
             /// Other names accepted on input for this command.
@@ -474,106 +458,35 @@ macro_rules! catalogue {
 
             /// The command with this wire name or alias (exact letter case).
             pub fn from_name(name: &str) -> Option<CommandId> {
-                // A hash table built at compile time: one or two probes,
-                // where a binary search made eight comparisons (every
-                // message read looks its name up; see `host-tests/benches`).
-                let mut slot = super::name_hash(name.as_bytes());
-                for _ in 0..BY_HASH.len() {
-                    let key = usize::from(*BY_HASH.get(slot)?);
-                    let (k, id) = match CommandId::ALL.get(key) {
-                        Some(&id) => (id.name(), id),
-                        None => *ALIASES.get(key - CommandId::ALL.len())?,
-                    };
-                    if k == name {
-                        return Some(id);
-                    }
-                    slot = (slot + 1) % BY_HASH.len();
-                }
-                None
+                super::packing::command_named(name)
             }
         }
 
-        /// Every wire name, in [`CommandId::ALL`] order, run together.
-        const WIRE_NAMES: &str = concat!($($wire),*);
-
-        /// Where each wire name ends in [`WIRE_NAMES`]. The indexing runs
-        /// only in the compiler.
-        #[allow(clippy::indexing_slicing)]
-        const NAME_ENDS: [u16; CommandId::ALL.len()] = {
-            let lens = [$($wire.len()),*];
-            let mut ends = [0u16; CommandId::ALL.len()];
-            let mut total = 0;
-            let mut i = 0;
-            while i < lens.len() {
-                total += lens[i];
-                assert!(total <= u16::MAX as usize);
-                ends[i] = total as u16;
-                i += 1;
-            }
-            ends
-        };
+        /// Every wire name, in [`CommandId::ALL`] order. Read only by the
+        /// compiler (see `packing`).
+        pub(super) const WIRE_NAME_LIST: &[&str] = &[$($wire),*];
 
         /// Every parameter name of the table: each command's request
         /// parameters, then its reply's values. Read only by the compiler
-        /// (see `params`).
+        /// (see `packing`).
         pub(super) const PARAM_NAMES: &[&str] = &[$( $(stringify!($field),)* $(stringify!($rfield),)* )*];
 
         /// The range of each parameter of [`PARAM_NAMES`] that has one (none
-        /// for replies). Read only by the compiler (see `params`).
+        /// for replies). Read only by the compiler (see `packing`).
         pub(super) const PARAM_RANGES: &[Option<Range>] = &[$(
             $( range_entry!($($range)?), )*
             $( range_entry!(@reply $rfield), )*
         )*];
 
-        /// Where each command's parameters start in [`PARAM_NAMES`], and
-        /// where the last command's end.
-        #[allow(clippy::indexing_slicing)]
-        pub(super) const PARAM_STARTS: [u16; CommandId::ALL.len() + 1] = {
-            let counts = [$(
-                <[&str]>::len(&[$(stringify!($field)),*])
-                    + <[&str]>::len(&[$(stringify!($rfield)),*])
-            ),*];
-            let mut starts = [0u16; CommandId::ALL.len() + 1];
-            let mut i = 0;
-            while i < counts.len() {
-                // A `Param` is one byte, `u8::MAX` excluded.
-                assert!(counts[i] < u8::MAX as usize);
-                let next = starts[i] as usize + counts[i];
-                assert!(next <= u16::MAX as usize);
-                starts[i + 1] = next as u16;
-                i += 1;
-            }
-            starts
-        };
+        /// How many parameters (request and reply) each command has. Read
+        /// only by the compiler (see `packing`).
+        pub(super) const PARAM_COUNTS: &[usize] = &[$(
+            <[&str]>::len(&[$(stringify!($field)),*])
+                + <[&str]>::len(&[$(stringify!($rfield)),*])
+        ),*];
 
         /// Every alias with its command (a short list: most commands have none).
-        const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
-
-        /// Open addressing (linear probing) over the wire names, as indices
-        /// into [`CommandId::ALL`], and the aliases, as that length plus
-        /// their index into `ALIASES`; indexed by `name_hash`, `u8::MAX`
-        /// marks a free slot. The indexing runs only in the compiler.
-        #[allow(clippy::indexing_slicing)]
-        const BY_HASH: [u8; super::HASH_SLOTS] = {
-            const KEYS: usize = CommandId::ALL.len() + ALIASES.len();
-            assert!(KEYS < u8::MAX as usize && KEYS * 3 < super::HASH_SLOTS * 2);
-            let mut table = [u8::MAX; super::HASH_SLOTS];
-            let mut k = 0;
-            while k < KEYS {
-                let name = if k < CommandId::ALL.len() {
-                    CommandId::ALL[k].name()
-                } else {
-                    ALIASES[k - CommandId::ALL.len()].0
-                };
-                let mut slot = super::name_hash(name.as_bytes());
-                while table[slot] != u8::MAX {
-                    slot = (slot + 1) % super::HASH_SLOTS;
-                }
-                table[slot] = k as u8;
-                k += 1;
-            }
-            table
-        };
+        pub(super) const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
 
         impl core::fmt::Display for CommandId {
             fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -898,27 +811,6 @@ macro_rules! range_entry {
     };
 }
 use range_entry;
-
-/// Slots of the name table: a power of two, under two thirds full.
-const HASH_SLOTS: usize = 256;
-
-/// A slot of the name table for a name, from its length and three of its
-/// bytes (also run by the compiler to build the table). Cheap rather than
-/// strong: a collision costs one more probe, which compares lengths first.
-#[allow(clippy::indexing_slicing)]
-const fn name_hash(name: &[u8]) -> usize {
-    let n = name.len();
-    let h = match n {
-        0 => 0,
-        _ => {
-            (n as u32)
-                | (name[0] as u32) << 8
-                | (name[n / 2] as u32) << 16
-                | (name[n - 1] as u32) << 24
-        }
-    };
-    (h.wrapping_mul(0x9E37_79B1) >> 24) as usize % HASH_SLOTS
-}
 
 /// Visits the fields of an unknown message as texts named `0`, `1`, ...
 fn visit_raw(raw: &RawMessage<'_>, v: &mut dyn Visitor) {

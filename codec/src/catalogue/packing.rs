@@ -1,30 +1,219 @@
-//! The names and ranges of the table's parameters, packed for flash.
+//! How the command table is packed into flash: every byte-saving trick of
+//! the catalogue lives here, and nowhere else.
 //!
-//! Readers, writers and range checks identify a parameter by a [`Param`],
-//! its position in its command's entry (request parameters from 0, the
-//! reply's values after them). Its name is looked up here only when an
-//! error is reported, its range when a checking writer meets one of its
-//! values (`Request::validate`). Passing one byte instead of a
-//! `&'static str` at each of the table's ~1,200 call sites saves ~5 KiB of
-//! flash on Cortex-M; names and ranges then cost about 2.5 KiB here, and
-//! error texts are unchanged.
+//! ## What the table says, and where it ends up
 //!
-//! The compiler builds everything below from the table (`PARAM_NAMES`,
-//! `PARAM_RANGES`, `PARAM_STARTS`): each distinct name is stored once in
-//! [`POOL`] (141 of 480 are distinct), each distinct range once in
-//! [`RANGE_POOL`], each distinct (name, range) pair once in [`PAIRS`], and
-//! every parameter of every command is one byte in [`IDS`]. The lists the
-//! table gives are only read by the compiler and never reach flash.
+//! The table (`table.rs`) declares each command once. The `catalogue!`
+//! macro turns it into code (one struct, reader and writer per command) and
+//! into plain lists that only the compiler reads: every wire name
+//! (`WIRE_NAME_LIST`), every parameter's name (`PARAM_NAMES`) and range
+//! (`PARAM_RANGES`), how many parameters each command has
+//! (`PARAM_COUNTS`). The `const` code below builds the flash tables from
+//! those lists; the lists themselves never reach flash.
+//!
+//! * **Wire names**: one text with all names run together ([`WIRE_TEXT`])
+//!   and where each ends ([`NAME_ENDS`], 2 bytes per command, where a table
+//!   of string references took 8). [`CommandId::name`] slices the text.
+//! * **Name lookup**: an open-addressing hash table ([`BY_HASH`], one byte
+//!   per slot) over the names and aliases; one or two probes where a binary
+//!   search made eight comparisons (every message read looks its name up).
+//! * **Parameters**: readers, writers and range checks identify a parameter
+//!   by a [`Param`], one byte: its position in its command's entry (the
+//!   request's parameters from 0, the reply's values after them). Passing
+//!   that byte instead of a name (a pointer and a length) at each of the
+//!   table's ~1,200 call sites saves ~5 KiB of flash. The name is looked up
+//!   only to report an error, the range only when a checking writer meets a
+//!   value (`Request::validate`). Each distinct name is stored once
+//!   ([`POOL`]), each distinct range once ([`RANGE_POOL`]), each distinct
+//!   (name, range) pair once ([`PAIRS`]); every parameter of every command
+//!   is one byte in [`IDS`].
+//!
+//! ## Following a parameter from the table to its range check
+//!
+//! The table entry `SetOverride { rbt_id: RobotId = RBT, ratio: Decimal =
+//! num("0.01", "1") }` makes `ratio` parameter 1 of `SetOverride`.
+//! `Request::validate` runs the request's writer in checking mode; the writer
+//! hands each number with its `Param` to the check, which asks
+//! [`Param::range`]: `PARAM_STARTS[SetOverride] + 1` is the parameter's
+//! index in the table, [`IDS`] gives its pair, [`PAIRS`] its range's index in
+//! [`RANGE_POOL`]: `0.01..=1`. [`Param::name`] follows the same path to
+//! `"ratio"`. The tests at the end check both against the table's lists for
+//! every parameter of every command.
+//!
 //! Indexing in the `const fn`s runs only in the compiler, where an
 //! out-of-bounds index is a build error.
 #![allow(clippy::indexing_slicing)]
 
-use super::table::{PARAM_NAMES, PARAM_RANGES, PARAM_STARTS};
+use super::table::{ALIASES, PARAM_COUNTS, PARAM_NAMES, PARAM_RANGES, WIRE_NAME_LIST};
 use super::CommandId;
 use crate::types::{Param, Range};
 
+// ------------------------------------------------------------- wire names
+
+/// Commands in the table.
+const COMMANDS: usize = WIRE_NAME_LIST.len();
+
+/// The bytes of every wire name, run together.
+const WIRE_LEN: usize = {
+    let (mut n, mut i) = (0, 0);
+    while i < COMMANDS {
+        n += WIRE_NAME_LIST[i].len();
+        i += 1;
+    }
+    n
+};
+
+/// Every wire name, in [`CommandId::ALL`] order, run together.
+const WIRE_BYTES: [u8; WIRE_LEN] = {
+    let mut text = [0u8; WIRE_LEN];
+    let (mut at, mut i) = (0, 0);
+    while i < COMMANDS {
+        let name = WIRE_NAME_LIST[i].as_bytes();
+        let mut k = 0;
+        while k < name.len() {
+            text[at] = name[k];
+            at += 1;
+            k += 1;
+        }
+        i += 1;
+    }
+    text
+};
+
+/// [`WIRE_BYTES`] as text.
+const WIRE_TEXT: &str = match core::str::from_utf8(&WIRE_BYTES) {
+    Ok(s) => s,
+    Err(_) => panic!("wire names are ASCII"),
+};
+
+/// Where each wire name ends in [`WIRE_TEXT`].
+const NAME_ENDS: [u16; COMMANDS] = {
+    let mut ends = [0u16; COMMANDS];
+    let (mut total, mut i) = (0, 0);
+    while i < COMMANDS {
+        total += WIRE_NAME_LIST[i].len();
+        assert!(total <= u16::MAX as usize);
+        ends[i] = total as u16;
+        i += 1;
+    }
+    ends
+};
+
+/// The wire name of the command with discriminant `i` (`""` for none).
+#[cfg_attr(not(target_os = "none"), inline)]
+pub(super) const fn wire_name(i: usize) -> &'static str {
+    let (start, end) = match i {
+        0 => (0, NAME_ENDS[0]),
+        // `i` is a discriminant: below `NAME_ENDS.len()`.
+        _ if i < NAME_ENDS.len() => (NAME_ENDS[i - 1], NAME_ENDS[i]),
+        _ => (0, 0),
+    };
+    match WIRE_TEXT.split_at_checked(end as usize) {
+        Some((head, _)) => match head.split_at_checked(start as usize) {
+            Some((_, name)) => name,
+            None => "",
+        },
+        None => "",
+    }
+}
+
+// ------------------------------------------------------------- name lookup
+
+/// Names the hash table holds: wire names, then aliases.
+const KEYS: usize = COMMANDS + ALIASES.len();
+
+/// Slots of the name table: a power of two, under two thirds full.
+const HASH_SLOTS: usize = {
+    let mut slots = 64;
+    while KEYS * 3 >= slots * 2 {
+        slots *= 2;
+    }
+    slots
+};
+
+/// A slot of the name table for a name, from its length and three of its
+/// bytes (also run by the compiler to build the table). Cheap rather than
+/// strong: a collision costs one more probe, which compares lengths first.
+const fn name_hash(name: &[u8]) -> usize {
+    let n = name.len();
+    let h = match n {
+        0 => 0,
+        _ => {
+            (n as u32)
+                | (name[0] as u32) << 8
+                | (name[n / 2] as u32) << 16
+                | (name[n - 1] as u32) << 24
+        }
+    };
+    // The top bits of the product mix all of the input's.
+    (h.wrapping_mul(0x9E37_79B1) >> (32 - HASH_SLOTS.trailing_zeros())) as usize
+}
+
+/// The name of key `k`: a wire name, or an alias after them.
+const fn key_name(k: usize) -> &'static str {
+    if k < COMMANDS {
+        WIRE_NAME_LIST[k]
+    } else {
+        ALIASES[k - COMMANDS].0
+    }
+}
+
+/// Open addressing (linear probing) over the keys, as their index (wire
+/// names: the discriminant; aliases: [`COMMANDS`] plus their index into
+/// `ALIASES`); indexed by [`name_hash`], `u8::MAX` marks a free slot.
+static BY_HASH: [u8; HASH_SLOTS] = {
+    assert!(KEYS < u8::MAX as usize);
+    let mut table = [u8::MAX; HASH_SLOTS];
+    let mut k = 0;
+    while k < KEYS {
+        let mut slot = name_hash(key_name(k).as_bytes());
+        while table[slot] != u8::MAX {
+            slot = (slot + 1) % HASH_SLOTS;
+        }
+        table[slot] = k as u8;
+        k += 1;
+    }
+    table
+};
+
+/// The command with this wire name or alias (exact letter case).
+pub(super) fn command_named(name: &str) -> Option<CommandId> {
+    let mut slot = name_hash(name.as_bytes());
+    for _ in 0..HASH_SLOTS {
+        let key = usize::from(*BY_HASH.get(slot)?);
+        let (k, id) = match CommandId::ALL.get(key) {
+            Some(&id) => (id.name(), id),
+            None => *ALIASES.get(key - COMMANDS)?,
+        };
+        if k == name {
+            return Some(id);
+        }
+        slot = (slot + 1) % HASH_SLOTS;
+    }
+    None
+}
+
+// ------------------------------------------------------------- parameters
+
 /// Parameters in the whole table (every command's request and reply).
 const FIELDS: usize = PARAM_NAMES.len();
+
+/// Where each command's parameters start in the table's lists, and where
+/// the last command's end.
+const PARAM_STARTS: [u16; COMMANDS + 1] = {
+    let mut starts = [0u16; COMMANDS + 1];
+    let mut i = 0;
+    while i < COMMANDS {
+        // A `Param` is one byte, `u8::MAX` excluded.
+        assert!(PARAM_COUNTS[i] < u8::MAX as usize);
+        let next = starts[i] as usize + PARAM_COUNTS[i];
+        assert!(next <= u16::MAX as usize);
+        starts[i + 1] = next as u16;
+        i += 1;
+    }
+    assert!(starts[COMMANDS] as usize == FIELDS);
+    starts
+};
 
 /// `true` when two names are equal (`==` on `str` is not `const`).
 const fn same(a: &str, b: &str) -> bool {
@@ -240,10 +429,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn every_wire_name_is_as_in_the_table() {
+        for &id in CommandId::ALL {
+            assert_eq!(id.name(), WIRE_NAME_LIST[id as usize]);
+        }
+        assert_eq!(wire_name(COMMANDS), "");
+    }
+
+    #[test]
+    fn the_name_table_has_room() {
+        const { assert!(KEYS * 3 < HASH_SLOTS * 2) };
+        let used = BY_HASH.iter().filter(|&&k| k != u8::MAX).count();
+        assert_eq!(used, KEYS);
+    }
+
+    #[test]
     fn every_parameter_is_named_as_in_the_table() {
         let mut k = 0;
         for &id in CommandId::ALL {
             let (start, end) = (PARAM_STARTS[id as usize], PARAM_STARTS[id as usize + 1]);
+            assert_eq!(usize::from(end - start), PARAM_COUNTS[id as usize]);
             for p in 0..(end - start) {
                 let name = Param(p as u8).name(Some(id));
                 assert_eq!(name, PARAM_NAMES[k], "{id} parameter {p}");
@@ -278,6 +483,23 @@ mod tests {
         // Pairs pay off only while fewer than half the parameters are distinct.
         const { assert!(PAIR_IDS.1 < FIELDS / 2) };
         assert_eq!(Param::RAW.range(None), None);
+    }
+
+    #[test]
+    fn the_documented_path_from_name_to_range() {
+        // The example of the module's description.
+        let id = CommandId::SetOverride;
+        let k = usize::from(PARAM_STARTS[id as usize]) + 1;
+        assert_eq!(PARAM_NAMES[k], "ratio");
+        let [name, range] = PAIRS[usize::from(IDS[k])];
+        let name = usize::from(name);
+        assert_eq!(
+            &POOL[usize::from(OFFSETS[name])..usize::from(OFFSETS[name + 1])],
+            "ratio"
+        );
+        let range = RANGE_POOL[usize::from(range)].unwrap();
+        assert_eq!(range, crate::types::num("0.01", "1"));
+        assert_eq!(Param(1).range(Some(id)), Some(&range));
     }
 
     #[test]
