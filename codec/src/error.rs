@@ -180,6 +180,9 @@ pub enum EncodeError {
         /// The parameter, as named in the command table.
         param: &'static str,
     },
+    /// The command is not available at the protocol level written for
+    /// (`encode_at`); nothing was written.
+    Unsupported(crate::level::LevelError),
 }
 
 impl fmt::Display for EncodeError {
@@ -193,6 +196,7 @@ impl fmt::Display for EncodeError {
                 )
             }
             EncodeError::ListTooLong { param } => write!(f, "parameter {param}: list too long"),
+            EncodeError::Unsupported(e) => e.fmt(f),
         }
     }
 }

@@ -22,6 +22,7 @@
 
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::grammar::{self, Cursor, Kind, RawMessage};
+use crate::level::{LevelError, ProtocolLevel};
 use crate::number::Decimal;
 use crate::types::{Param, Range, Visitor};
 use crate::writer::{Check, Writer};
@@ -54,6 +55,20 @@ pub trait Command<'a>: Sized {
 
     /// Walks the parameters in wire order.
     fn visit(&self, v: &mut dyn Visitor);
+
+    /// Checks that controllers of `level` have this command (see
+    /// [`crate::level`]).
+    fn check_level(&self, level: ProtocolLevel) -> Result<(), LevelError> {
+        Self::ID.check_level(level)
+    }
+
+    /// [`Command::encode`] for a controller of `level`: a command that
+    /// level does not have is an [`EncodeError::Unsupported`], and nothing
+    /// is written.
+    fn encode_at(&self, level: ProtocolLevel, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        self.check_level(level).map_err(EncodeError::Unsupported)?;
+        self.encode(buf)
+    }
 }
 
 /// How a table struct reads and writes its fields (crate-internal).
@@ -420,20 +435,121 @@ impl<'a> Reply<'a> {
     }
 }
 
-/// Defines the whole catalogue from the table. See `table.rs`.
+/// Defines the whole catalogue from the table (see `table.rs`): the
+/// commands of the HR-TCP V1.0.0.3 document, and with the `v6` feature
+/// those the V6 document adds after them. The catalogue is generated once
+/// per feature set, so a build without `v6` has no trace of the V6
+/// commands (their names pass through as `Unknown`).
 macro_rules! catalogue {
+    (v5 { $($v5:tt)* } v6 { $($v6:tt)* }) => {
+        #[cfg(not(feature = "v6"))]
+        catalogue_items! { $($v5)* }
+        #[cfg(feature = "v6")]
+        catalogue_items! { $($v5)* $($v6)* }
+    };
+}
+use catalogue;
+
+/// The section a command is known by: the HR-TCP V1.0.0.3 document's if
+/// it has one, else the V6 document's.
+macro_rules! first_section {
+    ($s5:literal; $($s6:literal)?) => {
+        $s5
+    };
+    (; $s6:literal) => {
+        $s6
+    };
+}
+use first_section;
+
+/// An optional section of the table.
+macro_rules! maybe_section {
+    () => {
+        None
+    };
+    ($s:literal) => {
+        Some($s)
+    };
+}
+use maybe_section;
+
+/// A controller version of the table (`since "HR5.50.3"`), or the V5 level
+/// when none is given.
+macro_rules! level_of {
+    () => {
+        ProtocolLevel::V5
+    };
+    ($l:literal) => {
+        const { ProtocolLevel::lit($l) }
+    };
+}
+use level_of;
+
+/// An optional controller version of the table (`removed`, `changed`).
+macro_rules! maybe_level {
+    () => {
+        None
+    };
+    ($l:literal) => {
+        Some(const { ProtocolLevel::lit($l) })
+    };
+}
+use maybe_level;
+
+/// The `Message` impl of a success reply: generated from the table, or
+/// written by hand in `quirks` (`reply = by_hand`) for a reply whose shape
+/// the table cannot say.
+macro_rules! reply_message {
+    (by_hand; $($rest:tt)*) => {};
+    (; $Cmd:ident $(<$rlt:lifetime>)? [$( $(#[cfg($fcfg:meta)])? $field:ident ),*]
+        [$( $(#[cfg($rfcfg:meta)])? $rfield:ident ),*]) => {
+        impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
+            #[inline(always)]
+            fn blank() -> Self {
+                response::$Cmd { $( $(#[cfg($rfcfg)])? $rfield: Field::BLANK, )* }
+            }
+            #[inline]
+            #[allow(unused_variables, unused_mut, unused_assignments)]
+            fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
+                // The reply's values follow the request's parameters.
+                let mut i = <[&str]>::len(&[$( $(#[cfg($fcfg)])? stringify!($field) ),*]) as u8;
+                $( $(#[cfg($rfcfg)])? {
+                    Field::read_in(&mut self.$rfield, c, Param(i));
+                    i += 1;
+                } )*
+            }
+            #[inline(never)]
+            #[allow(unused_variables, unused_mut, unused_assignments)]
+            fn write_fields(&self, w: &mut Writer<'_>) {
+                let mut i = <[&str]>::len(&[$( $(#[cfg($fcfg)])? stringify!($field) ),*]) as u8;
+                $( $(#[cfg($rfcfg)])? {
+                    Field::write(&self.$rfield, w, Param(i));
+                    i += 1;
+                } )*
+            }
+        }
+    };
+}
+use reply_message;
+
+/// The catalogue of the commands it is given (see `catalogue!`).
+macro_rules! catalogue_items {
     ($(
         $(#[doc = $doc:literal])*
-        $Cmd:ident $(<$lt:lifetime>)? = $wire:literal $(| $alias:literal)* @ $section:literal
-            $(, len = $len:expr)? ;
-        { $( $(#[doc = $fdoc:literal])* $field:ident : $fty:ty $(= $range:expr)? ),* $(,)? }
-        => $(<$rlt:lifetime>)? { $( $(#[doc = $rdoc:literal])* $rfield:ident : $rty:ty ),* $(,)? }
+        $Cmd:ident $(<$lt:lifetime>)? = $wire:literal $(| $alias:literal)*
+            @ $(v5 $s5:literal)? $(v6 $s6:literal)?
+            $(, since $since:literal)? $(, removed $removed:literal)? $(, changed $changed:literal)?
+            $(, len = $len:expr)? $(, reply = $by_hand:ident)? ;
+        { $( $(#[doc = $fdoc:literal])* $(#[cfg($fcfg:meta)])?
+            $field:ident : $fty:ty $(= $range:expr)? ),* $(,)? }
+        => $(<$rlt:lifetime>)? { $( $(#[doc = $rdoc:literal])* $(#[cfg($rfcfg:meta)])?
+            $rfield:ident : $rty:ty ),* $(,)? }
     )*) => {
         /// Identifies a command of the catalogue.
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
         #[cfg_attr(feature = "defmt", derive(defmt::Format))]
         pub enum CommandId {
-            $( #[doc = concat!("`", $wire, "` (section ", $section, ").")] $Cmd, )*
+            $( #[doc = concat!("`", $wire, "` (section ", first_section!($($s5)?; $($s6)?), ").")] $Cmd, )*
         }
 
         impl CommandId {
@@ -451,9 +567,37 @@ macro_rules! catalogue {
                 ALIASES.iter().filter(move |(_, id)| *id == self).map(|(a, _)| *a)
             }
 
-            /// The section of the protocol document (`"4.10.5"`).
+            /// The section of the protocol document (`"4.10.5"`): of the
+            /// HR-TCP V1.0.0.3 document if the command is in it, else of the
+            /// V6 document.
             pub const fn section(self) -> &'static str {
-                match self { $(CommandId::$Cmd => $section,)* }
+                match self { $(CommandId::$Cmd => first_section!($($s5)?; $($s6)?),)* }
+            }
+
+            /// The section of the V6 document (V1.0.19.1), if the command is
+            /// in it (`MoveJ`, for one, is not).
+            pub const fn section_v6(self) -> Option<&'static str> {
+                match self { $(CommandId::$Cmd => maybe_section!($($s6)?),)* }
+            }
+
+            /// The first controller version that has the command
+            /// ([`ProtocolLevel::V5`] for the commands of the HR-TCP
+            /// V1.0.0.3 document).
+            pub const fn since(self) -> ProtocolLevel {
+                super::packing::since(self as usize)
+            }
+
+            /// The first controller version without the command, if the V6
+            /// document removes it.
+            pub const fn removed(self) -> Option<ProtocolLevel> {
+                super::packing::removed(self as usize)
+            }
+
+            /// The controller version that changed the command's parameters
+            /// or reply, if the V6 document names one (the table's entry says
+            /// what changed; the codec reads both forms).
+            pub const fn changed(self) -> Option<ProtocolLevel> {
+                match self { $(CommandId::$Cmd => maybe_level!($($changed)?),)* }
             }
 
             /// The command with this wire name or alias (exact letter case).
@@ -469,21 +613,32 @@ macro_rules! catalogue {
         /// Every parameter name of the table: each command's request
         /// parameters, then its reply's values. Read only by the compiler
         /// (see `packing`).
-        pub(super) const PARAM_NAMES: &[&str] = &[$( $(stringify!($field),)* $(stringify!($rfield),)* )*];
+        pub(super) const PARAM_NAMES: &[&str] = &[$(
+            $( $(#[cfg($fcfg)])? stringify!($field), )*
+            $( $(#[cfg($rfcfg)])? stringify!($rfield), )*
+        )*];
 
         /// The range of each parameter of [`PARAM_NAMES`] that has one (none
         /// for replies). Read only by the compiler (see `packing`).
         pub(super) const PARAM_RANGES: &[Option<Range>] = &[$(
-            $( range_entry!($($range)?), )*
-            $( range_entry!(@reply $rfield), )*
+            $( $(#[cfg($fcfg)])? range_entry!($($range)?), )*
+            $( $(#[cfg($rfcfg)])? range_entry!(@reply $rfield), )*
         )*];
 
         /// How many parameters (request and reply) each command has. Read
         /// only by the compiler (see `packing`).
         pub(super) const PARAM_COUNTS: &[usize] = &[$(
-            <[&str]>::len(&[$(stringify!($field)),*])
-                + <[&str]>::len(&[$(stringify!($rfield)),*])
+            <[&str]>::len(&[$( $(#[cfg($fcfg)])? stringify!($field) ),*])
+                + <[&str]>::len(&[$( $(#[cfg($rfcfg)])? stringify!($rfield) ),*])
         ),*];
+
+        /// The controller version that added each command. Read only by
+        /// the compiler (see `packing`).
+        pub(super) const SINCE_LIST: &[ProtocolLevel] = &[$(level_of!($($since)?)),*];
+
+        /// The controller version that removed each command, if any. Read
+        /// only by the compiler (see `packing`).
+        pub(super) const REMOVED_LIST: &[Option<ProtocolLevel>] = &[$(maybe_level!($($removed)?)),*];
 
         /// Every alias with its command (a short list: most commands have none).
         pub(super) const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
@@ -501,10 +656,11 @@ macro_rules! catalogue {
             $(
                 $(#[doc = $doc])*
                 #[doc = ""]
-                #[doc = concat!("Wire: `", $wire, "`, document section ", $section, ".")]
+                #[doc = concat!("Wire: `", $wire, "`", $(", HR-TCP V1.0.0.3 section ", $s5,)?
+                    $(", V6 document section ", $s6,)? ".")]
                 #[derive(Clone, Debug, Default, PartialEq)]
                 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-                pub struct $Cmd $(<$lt>)? { $( $(#[doc = $fdoc])* pub $field: $fty, )* }
+                pub struct $Cmd $(<$lt>)? { $( $(#[doc = $fdoc])* $(#[cfg($fcfg)])? pub $field: $fty, )* }
             )*
         }
 
@@ -513,10 +669,11 @@ macro_rules! catalogue {
             #[allow(unused_imports)]
             use super::*;
             $(
-                #[doc = concat!("Values of a `", $wire, ",OK,...,;` reply (section ", $section, ").")]
+                #[doc = concat!("Values of a `", $wire, ",OK,...,;` reply (section ",
+                    first_section!($($s5)?; $($s6)?), ").")]
                 #[derive(Clone, Debug, PartialEq)]
                 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-                pub struct $Cmd $(<$rlt>)? { $( $(#[doc = $rdoc])* pub $rfield: $rty, )* }
+                pub struct $Cmd $(<$rlt>)? { $( $(#[doc = $rdoc])* $(#[cfg($rfcfg)])? pub $rfield: $rty, )* }
             )*
         }
 
@@ -524,23 +681,29 @@ macro_rules! catalogue {
             impl<'a> Message<'a> for request::$Cmd $(<$lt>)? {
                 #[inline(always)]
                 fn blank() -> Self {
-                    request::$Cmd { $( $field: Field::BLANK, )* }
+                    request::$Cmd { $( $(#[cfg($fcfg)])? $field: Field::BLANK, )* }
                 }
                 #[inline]
                 #[allow(unused_variables, unused_mut, unused_assignments)]
                 fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
-                    let names: &[&str] = &[$(stringify!($field)),*];
+                    let names: &[&str] = &[$( $(#[cfg($fcfg)])? stringify!($field) ),*];
                     if names.is_empty() {
                         c.skip_stray_robot_id();
                     }
                     let mut i = 0;
-                    $( Field::read_in(&mut self.$field, c, Param(i)); i += 1; )*
+                    $( $(#[cfg($fcfg)])? {
+                        Field::read_in(&mut self.$field, c, Param(i));
+                        i += 1;
+                    } )*
                 }
                 #[inline(never)]
                 #[allow(unused_variables, unused_mut, unused_assignments)]
                 fn write_fields(&self, w: &mut Writer<'_>) {
                     let mut i = 0;
-                    $( Field::write(&self.$field, w, Param(i)); i += 1; )*
+                    $( $(#[cfg($fcfg)])? {
+                        Field::write(&self.$field, w, Param(i));
+                        i += 1;
+                    } )*
                 }
             }
 
@@ -572,7 +735,7 @@ macro_rules! catalogue {
 
                 #[allow(unused_variables)]
                 fn visit(&self, v: &mut dyn Visitor) {
-                    $( Field::visit(&self.$field, stringify!($field), v); )*
+                    $( $(#[cfg($fcfg)])? Field::visit(&self.$field, stringify!($field), v); )*
                 }
             }
 
@@ -582,25 +745,8 @@ macro_rules! catalogue {
                 }
             }
 
-            impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
-                #[inline(always)]
-                fn blank() -> Self {
-                    response::$Cmd { $( $rfield: Field::BLANK, )* }
-                }
-                #[inline]
-                #[allow(unused_variables, unused_mut, unused_assignments)]
-                fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
-                    // The reply's values follow the request's parameters.
-                    let mut i = <[&str]>::len(&[$(stringify!($field)),*]) as u8;
-                    $( Field::read_in(&mut self.$rfield, c, Param(i)); i += 1; )*
-                }
-                #[inline(never)]
-                #[allow(unused_variables, unused_mut, unused_assignments)]
-                fn write_fields(&self, w: &mut Writer<'_>) {
-                    let mut i = <[&str]>::len(&[$(stringify!($field)),*]) as u8;
-                    $( Field::write(&self.$rfield, w, Param(i)); i += 1; )*
-                }
-            }
+            reply_message! { $($by_hand)?; $Cmd $(<$rlt>)?
+                [$( $(#[cfg($fcfg)])? $field ),*] [$( $(#[cfg($rfcfg)])? $rfield ),*] }
 
             impl<'a> From<response::$Cmd $(<$rlt>)?> for Response<'a> {
                 fn from(r: response::$Cmd $(<$rlt>)?) -> Self {
@@ -680,6 +826,24 @@ macro_rules! catalogue {
             pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EncodeError> {
                 // One writer for all commands; each arm is a single call.
                 encode_with(self.command(), self.name(), false, buf, |w| self.write_fields(w))
+            }
+
+            /// Checks that controllers of `level` have this command (see
+            /// [`crate::level`]). Names this crate does not know pass: they
+            /// are sent as given.
+            pub fn check_level(&self, level: ProtocolLevel) -> Result<(), LevelError> {
+                match self.command() {
+                    Some(id) => id.check_level(level),
+                    None => Ok(()),
+                }
+            }
+
+            /// [`Request::encode`] for a controller of `level`: a command
+            /// that level does not have is an [`EncodeError::Unsupported`],
+            /// and nothing is written.
+            pub fn encode_at(&self, level: ProtocolLevel, buf: &mut [u8]) -> Result<usize, EncodeError> {
+                self.check_level(level).map_err(EncodeError::Unsupported)?;
+                self.encode(buf)
             }
 
             /// Writes the parameters. Out of line, so that each arm is one
@@ -788,14 +952,17 @@ macro_rules! catalogue {
             /// Walks the values in wire order.
             pub fn visit(&self, v: &mut dyn Visitor) {
                 match self {
-                    $( Response::$Cmd(_r) => { $( Field::visit(&_r.$rfield, stringify!($rfield), v); )* } )*
+                    $( Response::$Cmd(_r) => {
+                        $( $(#[cfg($rfcfg)])? Field::visit(&_r.$rfield, stringify!($rfield), v); )*
+                    } )*
                     Response::Unknown(raw) => visit_raw(raw, v),
                 }
             }
         }
     };
 }
-use catalogue;
+
+use catalogue_items;
 
 /// An entry of `PARAM_RANGES`: the range a table parameter declares after
 /// `=`, if any; a reply's values have none.

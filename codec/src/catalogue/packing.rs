@@ -27,6 +27,9 @@
 //!   ([`POOL`]), each distinct range once ([`RANGE_POOL`]), each distinct
 //!   (name, range) pair once ([`PAIRS`]); every parameter of every command
 //!   is one byte in [`IDS`].
+//! * **Protocol levels**: most commands are there since V5 and never
+//!   removed; only the others have an entry in [`EXCEPTIONS`] (the version
+//!   that added and removed each, as indices into [`LEVELS`]).
 //!
 //! ## Following a parameter from the table to its range check
 //!
@@ -45,7 +48,9 @@
 #![allow(clippy::indexing_slicing)]
 
 use super::table::{ALIASES, PARAM_COUNTS, PARAM_NAMES, PARAM_RANGES, WIRE_NAME_LIST};
+use super::table::{REMOVED_LIST, SINCE_LIST};
 use super::CommandId;
+use crate::level::ProtocolLevel;
 use crate::types::{Param, Range};
 
 // ------------------------------------------------------------- wire names
@@ -191,6 +196,140 @@ pub(super) fn command_named(name: &str) -> Option<CommandId> {
         slot = (slot + 1) % HASH_SLOTS;
     }
     None
+}
+
+// ------------------------------------------------------------- levels
+
+/// `true` when a command has the default levels: there since V5, never
+/// removed.
+const fn default_levels(i: usize) -> bool {
+    SINCE_LIST[i].same(&ProtocolLevel::V5) && REMOVED_LIST[i].is_none()
+}
+
+/// Commands whose levels are not the default.
+const EXCEPTIONS_LEN: usize = {
+    let (mut n, mut i) = (0, 0);
+    while i < COMMANDS {
+        if !default_levels(i) {
+            n += 1;
+        }
+        i += 1;
+    }
+    n
+};
+
+/// Marks "none" among level indices.
+const NO_LEVEL: u8 = u8::MAX;
+
+/// The index of `level` in `levels[..n]`, or `n` when it is not there.
+const fn level_index(levels: &[ProtocolLevel], n: usize, level: &ProtocolLevel) -> usize {
+    let mut k = 0;
+    while k < n {
+        if levels[k].same(level) {
+            return k;
+        }
+        k += 1;
+    }
+    n
+}
+
+/// The distinct versions of the table other than V5, and how many there
+/// are.
+const LEVEL_LIST: ([ProtocolLevel; 2 * EXCEPTIONS_LEN], usize) = {
+    let mut levels = [ProtocolLevel::V5; 2 * EXCEPTIONS_LEN];
+    let (mut n, mut i) = (0, 0);
+    while i < COMMANDS {
+        if !default_levels(i) {
+            let since = SINCE_LIST[i];
+            if !since.same(&ProtocolLevel::V5) && level_index(&levels, n, &since) == n {
+                levels[n] = since;
+                n += 1;
+            }
+            if let Some(r) = REMOVED_LIST[i] {
+                if level_index(&levels, n, &r) == n {
+                    levels[n] = r;
+                    n += 1;
+                }
+            }
+        }
+        i += 1;
+    }
+    (levels, n)
+};
+
+/// Each distinct version once (indexed by [`EXCEPTIONS`]).
+static LEVELS: [ProtocolLevel; LEVEL_LIST.1] = {
+    let mut levels = [ProtocolLevel::V5; LEVEL_LIST.1];
+    let mut k = 0;
+    while k < LEVEL_LIST.1 {
+        levels[k] = LEVEL_LIST.0[k];
+        k += 1;
+    }
+    levels
+};
+
+/// The commands whose levels are not the default, in discriminant order:
+/// the discriminant, the index of the version that added it in [`LEVELS`]
+/// ([`NO_LEVEL`] for V5) and of the version that removed it ([`NO_LEVEL`]
+/// for none). Most commands need no entry: three bytes each for the few
+/// that do, where a version per command took four.
+static EXCEPTIONS: [[u8; 3]; EXCEPTIONS_LEN] = {
+    let mut out = [[0u8; 3]; EXCEPTIONS_LEN];
+    let (mut n, mut i) = (0, 0);
+    while i < COMMANDS {
+        if !default_levels(i) {
+            assert!(i < u8::MAX as usize && LEVEL_LIST.1 < NO_LEVEL as usize);
+            let since = SINCE_LIST[i];
+            let s = if since.same(&ProtocolLevel::V5) {
+                NO_LEVEL
+            } else {
+                level_index(&LEVEL_LIST.0, LEVEL_LIST.1, &since) as u8
+            };
+            let r = match REMOVED_LIST[i] {
+                Some(r) => level_index(&LEVEL_LIST.0, LEVEL_LIST.1, &r) as u8,
+                None => NO_LEVEL,
+            };
+            out[n] = [i as u8, s, r];
+            n += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// The level indices (added, removed) of the command with discriminant `i`.
+const fn level_codes(i: usize) -> (u8, u8) {
+    let mut k = 0;
+    while k < EXCEPTIONS.len() {
+        let [cmd, s, r] = EXCEPTIONS[k];
+        if cmd as usize == i {
+            return (s, r);
+        }
+        k += 1;
+    }
+    (NO_LEVEL, NO_LEVEL)
+}
+
+/// The version at index `code` of [`LEVELS`], `None` for [`NO_LEVEL`].
+const fn level_at(code: u8) -> Option<ProtocolLevel> {
+    if (code as usize) < LEVELS.len() {
+        Some(LEVELS[code as usize])
+    } else {
+        None
+    }
+}
+
+/// The controller version that added the command with discriminant `i`.
+pub(super) const fn since(i: usize) -> ProtocolLevel {
+    match level_at(level_codes(i).0) {
+        Some(l) => l,
+        None => ProtocolLevel::V5,
+    }
+}
+
+/// The controller version that removed the command with discriminant `i`.
+pub(super) const fn removed(i: usize) -> Option<ProtocolLevel> {
+    level_at(level_codes(i).1)
 }
 
 // ------------------------------------------------------------- parameters
@@ -434,6 +573,15 @@ mod tests {
             assert_eq!(id.name(), WIRE_NAME_LIST[id as usize]);
         }
         assert_eq!(wire_name(COMMANDS), "");
+    }
+
+    #[test]
+    fn every_level_is_as_in_the_table() {
+        for &id in CommandId::ALL {
+            assert_eq!(id.since(), SINCE_LIST[id as usize], "{id}");
+            assert_eq!(id.removed(), REMOVED_LIST[id as usize], "{id}");
+        }
+        assert_eq!(CommandId::MoveJ.removed(), ProtocolLevel::parse("HR5.50.3"));
     }
 
     #[test]

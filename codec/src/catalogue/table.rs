@@ -1,20 +1,36 @@
-//! THE command table: every command of chapter 4 of HR-TCP V1.0.0.3, in
-//! document order, declared once.
+//! THE command table: every command of chapter 4 of HR-TCP V1.0.0.3 and,
+//! with the `v6` feature, every command the V6 document (V1.0.19.1) adds,
+//! each declared once, in document order.
 //!
 //! Entry syntax:
 //!
 //! ```text
 //! /// description
-//! Name<'a> = "WireName" | "Alias" @ "section", len = |r| <reply list length>;
+//! Name<'a> = "WireName" | "Alias" @ v5 "4.5.15" v6 "4.5.20",
+//!     since "HR5.50.3", removed "HR6.5.0", changed "HR6.3.3", len = |r| <reply list length>;
 //! { /// doc   param: Type = range, ... }      // request, wire order
 //! => <'a> { /// doc   value: Type, ... }      // success reply, wire order
 //! ```
+//!
+//! * `@ v5 ... v6 ...`: the command's section in the HR-TCP V1.0.0.3
+//!   document and in the V6 document (`v5` only: gone from the V6 document;
+//!   `v6` only: new in it).
+//! * `since`, `removed`, `changed`: the controller versions of the V6
+//!   document's revision table ([`ProtocolLevel`]); no `since` means the V5
+//!   level (the commands of HR-TCP V1.0.0.3, and those the revision table
+//!   gives for all controllers). What changed is said in the entry's doc.
+//! * `len`: for replies whose length depends on the request, that length.
+//! * `reply = by_hand`: the reply's reader and writer are written by hand
+//!   in `quirks` (a shape the table cannot say).
+//! * A parameter marked `#[cfg(feature = "v6")]` is one the V6 document adds
+//!   to a command of HR-TCP V1.0.0.3.
 //!
 //! Parameter names are snake_case versions of the document's (`nRbtID` →
 //! `rbt_id`); each doc line gives the document's name, unit and valid
 //! range. Ranges marked with `=` are checked by `validate()`, not by
 //! parsing: an out-of-range request still parses so that a controller (or
-//! the simulator) can answer it with `Fail,20006`.
+//! the simulator) can answer it with `Fail,20006`. Where the two documents
+//! give different ranges, the table has the union (each such case says so).
 //!
 //! Deviations from the document's signatures, each from `NOTES.md`:
 //! `ReadBoxAO` takes a channel list like `ReadBoxAI`; `SetMaxAcsRange` has
@@ -27,13 +43,16 @@
 //! `...Process`, accepted as an alias); `Base2UcsTcp` has 6 + 6 + 6 values
 //! (its signature lacks `dUcs_Ry`). `HRSetControlGoal`'s six distances may be
 //! omitted (the vendor SDK sends them only sometimes) and `ReadBoxInfo`
-//! replies with 6 or 8 values.
+//! replies with 6 or 8 values. The V6 document's own deviations are listed
+//! in `host-tests/vectors/v6/DEFECTS.md`.
 
-use super::{catalogue, encode_with, parse_request_as, Command, Message, ReplyExpect};
+use super::{catalogue, catalogue_items, first_section, level_of, maybe_level, maybe_section};
+use super::{encode_with, parse_request_as, reply_message, Command, Message, ReplyExpect};
 use super::{range_entry, read_known, request_head, validate_with, visit_raw};
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::fsm::FsmState;
 use crate::grammar::{Cursor, RawMessage};
+use crate::level::{LevelError, ProtocolLevel};
 use crate::number::Decimal;
 use crate::types::{
     above, at_least, either, int, num, CountedList, Field, Joints, Param, PointList, Pose, Range,
@@ -49,50 +68,51 @@ const FLAG: Range = int(0, 1);
 const BOX_BIT: Range = int(0, 7);
 
 catalogue! {
+v5 {
     // ---------------------------------------------------------------- 4.1
     /// Controller power off: stop, disable, cut 48 V (and optionally reboot).
-    OSCmd = "OSCmd" @ "4.1.1";
+    OSCmd = "OSCmd" @ v5 "4.1.1" v6 "4.1.1";
     {
         /// `nCmdType`: 1 = stop, disable, cut 48 V; 2 = the same, then restart the OS.
         cmd_type: i32 = int(1, 2),
     } => {}
 
     /// Connect to the electric box.
-    ConnectToBox = "ConnectToBox" @ "4.1.2";
+    ConnectToBox = "ConnectToBox" @ v5 "4.1.2" v6 "4.1.2";
     {} => {}
 
     /// Switch robot (48 V) power on.
-    Electrify = "Electrify" @ "4.1.3";
+    Electrify = "Electrify" @ v5 "4.1.3" v6 "4.1.3";
     {} => {}
 
     /// Switch robot (48 V) power off.
-    BlackOut = "BlackOut" @ "4.1.4";
+    BlackOut = "BlackOut" @ v5 "4.1.4" v6 "4.1.4";
     {} => {}
 
     /// Connect to the controller (starts the EtherCAT master).
-    StartMaster = "StartMaster" @ "4.1.5";
+    StartMaster = "StartMaster" @ v5 "4.1.5" v6 "4.1.5";
     {} => {}
 
     /// Disconnect from the controller (closes the master).
-    CloseMaster = "CloseMaster" @ "4.1.6";
+    CloseMaster = "CloseMaster" @ v5 "4.1.6" v6 "4.1.6";
     {} => {}
 
     /// Whether the robot is simulated.
-    IsSimulation = "IsSimulation" @ "4.1.7";
+    IsSimulation = "IsSimulation" @ v5 "4.1.7" v6 "4.1.7";
     {} => {
         /// `nSimulateRobot`: 0 = real robot, 1 = simulated.
         simulated: i32,
     }
 
     /// Whether the controller has finished starting.
-    ReadControllerState = "ReadControllerState" @ "4.1.8";
+    ReadControllerState = "ReadControllerState" @ v5 "4.1.8" v6 "4.1.8";
     {} => {
         /// `nStarted`: 0 = not started, 1 = started.
         started: i32,
     }
 
     /// The robot model.
-    ReadRobotModel = "ReadRobotModel" @ "4.1.9";
+    ReadRobotModel = "ReadRobotModel" @ v5 "4.1.9" v6 "4.1.10";
     {} => <'a> {
         /// `strModel`: model name, e.g. `5KG`.
         model: &'a str,
@@ -100,56 +120,56 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.2
     /// Enable the axis group (servo on). SDKs also send `GrpPowerOn`.
-    GrpEnable = "GrpEnable" | "GrpPowerOn" @ "4.2.1";
+    GrpEnable = "GrpEnable" | "GrpPowerOn" @ v5 "4.2.1" v6 "4.2.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Disable the axis group (servo off). SDKs also send `GrpPowerOff`.
-    GrpDisable = "GrpDisable" | "GrpPowerOff" @ "4.2.2";
+    GrpDisable = "GrpDisable" | "GrpPowerOff" @ v5 "4.2.2" v6 "4.2.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Reset (clear errors).
-    GrpReset = "GrpReset" @ "4.2.3";
+    GrpReset = "GrpReset" @ v5 "4.2.3" v6 "4.2.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Stop the motion.
-    GrpStop = "GrpStop" @ "4.2.4";
+    GrpStop = "GrpStop" @ v5 "4.2.4" v6 "4.2.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Pause the motion.
-    GrpInterrupt = "GrpInterrupt" @ "4.2.5";
+    GrpInterrupt = "GrpInterrupt" @ v5 "4.2.5" v6 "4.2.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Continue a paused motion.
-    GrpContinue = "GrpContinue" @ "4.2.6";
+    GrpContinue = "GrpContinue" @ v5 "4.2.6" v6 "4.2.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Close free drive.
-    GrpCloseFreeDriver = "GrpCloseFreeDriver" @ "4.2.7";
+    GrpCloseFreeDriver = "GrpCloseFreeDriver" @ v5 "4.2.7" v6 "4.2.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Open free drive (hand guiding).
-    GrpOpenFreeDriver = "GrpOpenFreeDriver" @ "4.2.8";
+    GrpOpenFreeDriver = "GrpOpenFreeDriver" @ v5 "4.2.8" v6 "4.2.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -157,7 +177,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.3
     /// Run a script function by name.
-    RunFunc<'a> = "RunFunc" @ "4.3.1";
+    RunFunc<'a> = "RunFunc" @ v5 "4.3.1" v6 "4.3.1";
     {
         /// `strFuncName`: the script function (as named on the teach pendant).
         func_name: &'a str,
@@ -169,24 +189,24 @@ catalogue! {
     }
 
     /// Run the compiled script's `Func_main`.
-    StartScript = "StartScript" @ "4.3.2";
+    StartScript = "StartScript" @ v5 "4.3.2" v6 "4.3.2";
     {} => {}
 
     /// Stop the running script.
-    StopScript = "StopScript" @ "4.3.3";
+    StopScript = "StopScript" @ v5 "4.3.3" v6 "4.3.3";
     {} => {}
 
     /// Pause the running script.
-    PauseScript = "PauseScript" @ "4.3.4";
+    PauseScript = "PauseScript" @ v5 "4.3.4" v6 "4.3.4";
     {} => {}
 
     /// Continue a paused script (`Fail,20018` when not paused).
-    ContinueScript = "ContinueScript" @ "4.3.5";
+    ContinueScript = "ContinueScript" @ v5 "4.3.5" v6 "4.3.5";
     {} => {}
 
     // ---------------------------------------------------------------- 4.4
     /// Electric box information.
-    ReadBoxInfo = "ReadBoxInfo" @ "4.4.1";
+    ReadBoxInfo = "ReadBoxInfo" @ v5 "4.4.1" v6 "4.4.1", changed "HR6.3.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -210,7 +230,7 @@ catalogue! {
     }
 
     /// Box control digital inputs (CI), 1-8 bits per request.
-    ReadBoxCI = "ReadBoxCI" @ "4.4.2", len = |r| r.bits.len();
+    ReadBoxCI = "ReadBoxCI" @ v5 "4.4.2" v6 "4.4.2", len = |r| r.bits.len();
     {
         /// `nBit0..7`: bit indices 0-7, one to eight of them.
         bits: heapless::Vec<i32, 8> = BOX_BIT,
@@ -220,7 +240,7 @@ catalogue! {
     }
 
     /// Box general digital inputs (DI), 1-8 bits per request.
-    ReadBoxDI = "ReadBoxDI" @ "4.4.3", len = |r| r.bits.len();
+    ReadBoxDI = "ReadBoxDI" @ v5 "4.4.3" v6 "4.4.3", len = |r| r.bits.len();
     {
         /// `nBit0..7`: bit indices 0-7, one to eight of them.
         bits: heapless::Vec<i32, 8> = BOX_BIT,
@@ -230,7 +250,7 @@ catalogue! {
     }
 
     /// Box control digital outputs (CO), 1-8 bits per request.
-    ReadBoxCO = "ReadBoxCO" @ "4.4.4", len = |r| r.bits.len();
+    ReadBoxCO = "ReadBoxCO" @ v5 "4.4.4" v6 "4.4.4", len = |r| r.bits.len();
     {
         /// `nBit0..7`: bit indices 0-7, one to eight of them.
         bits: heapless::Vec<i32, 8> = BOX_BIT,
@@ -240,7 +260,7 @@ catalogue! {
     }
 
     /// Box general digital outputs (DO), 1-8 bits per request.
-    ReadBoxDO = "ReadBoxDO" @ "4.4.5", len = |r| r.bits.len();
+    ReadBoxDO = "ReadBoxDO" @ v5 "4.4.5" v6 "4.4.5", len = |r| r.bits.len();
     {
         /// `nBit0..7`: bit indices 0-7, one to eight of them.
         bits: heapless::Vec<i32, 8> = BOX_BIT,
@@ -250,7 +270,7 @@ catalogue! {
     }
 
     /// Box analog inputs, one or two channels.
-    ReadBoxAI = "ReadBoxAI" @ "4.4.6", len = |r| r.channels.len();
+    ReadBoxAI = "ReadBoxAI" @ v5 "4.4.6" v6 "4.4.6", len = |r| r.channels.len();
     {
         /// `nBit0..1`: channels 0/1, one or two of them.
         channels: heapless::Vec<i32, 2> = FLAG,
@@ -261,7 +281,7 @@ catalogue! {
 
     /// Box analog outputs, one or two channels (read like `ReadBoxAI`, see
     /// `NOTES.md`).
-    ReadBoxAO = "ReadBoxAO" @ "4.4.7", len = |r| r.channels.len();
+    ReadBoxAO = "ReadBoxAO" @ v5 "4.4.7" v6 "4.4.7", len = |r| r.channels.len();
     {
         /// `nBit`: channels 0/1, one or two of them.
         channels: heapless::Vec<i32, 2> = FLAG,
@@ -271,7 +291,7 @@ catalogue! {
     }
 
     /// Set a box control digital output (CO).
-    SetBoxCO = "SetBoxCO" @ "4.4.8";
+    SetBoxCO = "SetBoxCO" @ v5 "4.4.8" v6 "4.4.8";
     {
         /// `nBit`: bit index 0-7.
         bit: i32 = BOX_BIT,
@@ -280,7 +300,7 @@ catalogue! {
     } => {}
 
     /// Set a box general digital output (DO).
-    SetBoxDO = "SetBoxDO" @ "4.4.9";
+    SetBoxDO = "SetBoxDO" @ v5 "4.4.9" v6 "4.4.9";
     {
         /// `nBit`: bit index 0-7.
         bit: i32 = BOX_BIT,
@@ -289,7 +309,7 @@ catalogue! {
     } => {}
 
     /// Set a box analog output's mode.
-    SetBoxAOMode = "SetBoxAOMode" @ "4.4.10";
+    SetBoxAOMode = "SetBoxAOMode" @ v5 "4.4.10" v6 "4.4.10";
     {
         /// `nBit`: channel 0/1.
         channel: i32 = FLAG,
@@ -298,7 +318,7 @@ catalogue! {
     } => {}
 
     /// Set a box analog output's value and mode.
-    SetBoxAO = "SetBoxAO" @ "4.4.11";
+    SetBoxAO = "SetBoxAO" @ v5 "4.4.11" v6 "4.4.11";
     {
         /// `nBit`: channel 0/1.
         channel: i32 = FLAG,
@@ -309,7 +329,7 @@ catalogue! {
     } => {}
 
     /// Set a tool-end digital output.
-    SetEndDO = "SetEndDO" @ "4.4.12";
+    SetEndDO = "SetEndDO" @ v5 "4.4.12" v6 "4.4.12", changed "HR6.5.14";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -320,7 +340,7 @@ catalogue! {
     } => {}
 
     /// Tool-end digital inputs, 1-3 bits per request.
-    ReadEI = "ReadEI" @ "4.4.13", len = |r| r.bits.len();
+    ReadEI = "ReadEI" @ v5 "4.4.13" v6 "4.4.13", len = |r| r.bits.len();
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -332,7 +352,7 @@ catalogue! {
     }
 
     /// Tool-end digital outputs, 1-3 bits per request.
-    ReadEO = "ReadEO" @ "4.4.14", len = |r| r.bits.len();
+    ReadEO = "ReadEO" @ v5 "4.4.14" v6 "4.4.14", len = |r| r.bits.len();
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -344,7 +364,7 @@ catalogue! {
     }
 
     /// A tool-end analog input.
-    ReadEAI = "ReadEAI" @ "4.4.15";
+    ReadEAI = "ReadEAI" @ v5 "4.4.15" v6 "4.4.15";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -357,7 +377,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.5
     /// Set the speed override (not while moving).
-    SetOverride = "SetOverride" @ "4.5.1";
+    SetOverride = "SetOverride" @ v5 "4.5.1" v6 "4.5.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -366,7 +386,7 @@ catalogue! {
     } => {}
 
     /// Switch tool-frame motion mode. SDKs also send `SetTCPMotion`.
-    SetToolMotion = "SetToolMotion" | "SetTCPMotion" @ "4.5.2";
+    SetToolMotion = "SetToolMotion" | "SetTCPMotion" @ v5 "4.5.2" v6 "4.5.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -375,7 +395,7 @@ catalogue! {
     } => {}
 
     /// Set the payload.
-    SetPayload = "SetPayload" @ "4.5.3";
+    SetPayload = "SetPayload" @ v5 "4.5.3" v6 "4.5.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -386,7 +406,7 @@ catalogue! {
     } => {}
 
     /// Set the joints' maximum velocities.
-    SetJointMaxVel = "SetJointMaxVel" @ "4.5.4";
+    SetJointMaxVel = "SetJointMaxVel" @ v5 "4.5.4" v6 "4.5.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -395,7 +415,7 @@ catalogue! {
     } => {}
 
     /// Set the joints' maximum accelerations.
-    SetJointMaxAcc = "SetJointMaxAcc" @ "4.5.5";
+    SetJointMaxAcc = "SetJointMaxAcc" @ v5 "4.5.5" v6 "4.5.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -404,7 +424,7 @@ catalogue! {
     } => {}
 
     /// Set the maximum linear velocity.
-    SetLinearMaxVel = "SetLinearMaxVel" @ "4.5.6";
+    SetLinearMaxVel = "SetLinearMaxVel" @ v5 "4.5.6" v6 "4.5.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -413,7 +433,7 @@ catalogue! {
     } => {}
 
     /// Set the maximum linear acceleration.
-    SetLinearMaxAcc = "SetLinearMaxAcc" @ "4.5.7";
+    SetLinearMaxAcc = "SetLinearMaxAcc" @ v5 "4.5.7" v6 "4.5.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -422,7 +442,7 @@ catalogue! {
     } => {}
 
     /// Set the joint-space limits.
-    SetMaxAcsRange = "SetMaxAcsRange" @ "4.5.8";
+    SetMaxAcsRange = "SetMaxAcsRange" @ v5 "4.5.8" v6 "4.5.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -433,7 +453,7 @@ catalogue! {
     } => {}
 
     /// Set the Cartesian-space limits.
-    SetMaxPcsRange = "SetMaxPcsRange" @ "4.5.9";
+    SetMaxPcsRange = "SetMaxPcsRange" @ v5 "4.5.9" v6 "4.5.9";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -446,7 +466,7 @@ catalogue! {
     } => {}
 
     /// The joints' maximum velocities.
-    ReadJointMaxVel = "ReadJointMaxVel" @ "4.5.10";
+    ReadJointMaxVel = "ReadJointMaxVel" @ v5 "4.5.10" v6 "4.5.15";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -456,7 +476,7 @@ catalogue! {
     }
 
     /// The joints' maximum accelerations.
-    ReadJointMaxAcc = "ReadJointMaxAcc" @ "4.5.11";
+    ReadJointMaxAcc = "ReadJointMaxAcc" @ v5 "4.5.11" v6 "4.5.16";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -466,7 +486,7 @@ catalogue! {
     }
 
     /// The joints' maximum jerks.
-    ReadJointMaxJerk = "ReadJointMaxJerk" @ "4.5.12";
+    ReadJointMaxJerk = "ReadJointMaxJerk" @ v5 "4.5.12" v6 "4.5.17";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -476,7 +496,7 @@ catalogue! {
     }
 
     /// Linear motion limits.
-    ReadLinearMaxVel = "ReadLinearMaxVel" @ "4.5.13";
+    ReadLinearMaxVel = "ReadLinearMaxVel" @ v5 "4.5.13" v6 "4.5.18";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -490,7 +510,7 @@ catalogue! {
     }
 
     /// Emergency-stop and safety-guard circuits.
-    ReadEmergencyInfo = "ReadEmergencyInfo" @ "4.5.14";
+    ReadEmergencyInfo = "ReadEmergencyInfo" @ v5 "4.5.14" v6 "4.5.19";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -506,7 +526,7 @@ catalogue! {
     }
 
     /// The robot's state flags; poll it to follow a motion (chapter 6).
-    ReadRobotState = "ReadRobotState" @ "4.5.15";
+    ReadRobotState = "ReadRobotState" @ v5 "4.5.15" v6 "4.5.20", changed "HR6.2.17";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -540,7 +560,7 @@ catalogue! {
     }
 
     /// The id of the way point being executed.
-    ReadCurWayPointID = "ReadCurWayPointID" @ "4.5.16";
+    ReadCurWayPointID = "ReadCurWayPointID" @ v5 "4.5.16" v6 "4.5.21";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -550,7 +570,7 @@ catalogue! {
     }
 
     /// Axis error codes.
-    ReadAxisErrorCode = "ReadAxisErrorCode" @ "4.5.17";
+    ReadAxisErrorCode = "ReadAxisErrorCode" @ v5 "4.5.17" v6 "4.5.22";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -562,7 +582,7 @@ catalogue! {
     }
 
     /// The FSM state.
-    ReadCurFSM = "ReadCurFSM" @ "4.5.18";
+    ReadCurFSM = "ReadCurFSM" @ v5 "4.5.18" v6 "4.5.23";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -573,7 +593,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.6
     /// Actual joint position, Cartesian pose, current TCP and UCS.
-    ReadActPos = "ReadActPos" @ "4.6.1";
+    ReadActPos = "ReadActPos" @ v5 "4.6.1" v6 "4.6.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -589,7 +609,7 @@ catalogue! {
     }
 
     /// Command joint position and Cartesian pose.
-    ReadCmdPos = "ReadCmdPos" @ "4.6.2";
+    ReadCmdPos = "ReadCmdPos" @ v5 "4.6.2" v6 "4.6.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -601,7 +621,7 @@ catalogue! {
     }
 
     /// Command joint velocities.
-    ReadCmdJointVel = "ReadCmdJointVel" @ "4.6.3";
+    ReadCmdJointVel = "ReadCmdJointVel" @ v5 "4.6.3" v6 "4.6.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -611,7 +631,7 @@ catalogue! {
     }
 
     /// Actual joint velocities.
-    ReadActJointVel = "ReadActJointVel" @ "4.6.4";
+    ReadActJointVel = "ReadActJointVel" @ v5 "4.6.4" v6 "4.6.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -621,7 +641,7 @@ catalogue! {
     }
 
     /// Command TCP velocity.
-    ReadCmdTcpVel = "ReadCmdTcpVel" @ "4.6.5";
+    ReadCmdTcpVel = "ReadCmdTcpVel" @ v5 "4.6.5" v6 "4.6.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -631,7 +651,7 @@ catalogue! {
     }
 
     /// Actual TCP velocity.
-    ReadActTcpVel = "ReadActTcpVel" @ "4.6.6";
+    ReadActTcpVel = "ReadActTcpVel" @ v5 "4.6.6" v6 "4.6.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -641,7 +661,7 @@ catalogue! {
     }
 
     /// Command joint currents.
-    ReadCmdJointCur = "ReadCmdJointCur" @ "4.6.7";
+    ReadCmdJointCur = "ReadCmdJointCur" @ v5 "4.6.7" v6 "4.6.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -651,7 +671,7 @@ catalogue! {
     }
 
     /// Actual joint currents.
-    ReadActJointCur = "ReadActJointCur" @ "4.6.8";
+    ReadActJointCur = "ReadActJointCur" @ v5 "4.6.8" v6 "4.6.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -661,7 +681,7 @@ catalogue! {
     }
 
     /// Combined XYZ speed of the TCP.
-    ReadTcpVelocity = "ReadTcpVelocity" @ "4.6.9";
+    ReadTcpVelocity = "ReadTcpVelocity" @ v5 "4.6.9" v6 "4.6.9";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -674,7 +694,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.7
     /// Quaternion to roll-pitch-yaw.
-    Quaternion2RPY = "Quaternion2RPY" @ "4.7.1";
+    Quaternion2RPY = "Quaternion2RPY" @ v5 "4.7.1" v6 "4.7.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -686,7 +706,7 @@ catalogue! {
     }
 
     /// Roll-pitch-yaw to quaternion.
-    RPY2Quaternion = "RPY2Quaternion" @ "4.7.2";
+    RPY2Quaternion = "RPY2Quaternion" @ v5 "4.7.2" v6 "4.7.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -698,7 +718,7 @@ catalogue! {
     }
 
     /// Inverse kinematics: pose in a TCP/UCS to joints. Also `PCS2ACS`.
-    GetInverseKin = "GetInverseKin" | "PCS2ACS" @ "4.7.3";
+    GetInverseKin = "GetInverseKin" | "PCS2ACS" @ v5 "4.7.3" v6 "4.7.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -716,7 +736,7 @@ catalogue! {
     }
 
     /// Forward kinematics: joints to a pose in a TCP/UCS. Also `ACS2PCS`.
-    GetForwardKin = "GetForwardKin" | "ACS2PCS" @ "4.7.4";
+    GetForwardKin = "GetForwardKin" | "ACS2PCS" @ v5 "4.7.4" v6 "4.7.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -732,7 +752,7 @@ catalogue! {
     }
 
     /// A base-frame pose expressed in a UCS and TCP.
-    Base2UcsTcp = "Base2UcsTcp" @ "4.7.5";
+    Base2UcsTcp = "Base2UcsTcp" @ v5 "4.7.5" v6 "4.7.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -748,7 +768,7 @@ catalogue! {
     }
 
     /// A pose in a UCS and TCP expressed in the base frame.
-    UcsTcp2Base = "UcsTcp2Base" @ "4.7.6";
+    UcsTcp2Base = "UcsTcp2Base" @ v5 "4.7.6" v6 "4.7.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -764,7 +784,7 @@ catalogue! {
     }
 
     /// Pose "addition": the second pose left-multiplies the first.
-    PoseAdd = "PoseAdd" @ "4.7.7";
+    PoseAdd = "PoseAdd" @ v5 "4.7.7" v6 "4.7.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -778,7 +798,7 @@ catalogue! {
     }
 
     /// Pose "subtraction", relative to the second pose.
-    PoseSub = "PoseSub" @ "4.7.8";
+    PoseSub = "PoseSub" @ v5 "4.7.8" v6 "4.7.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -792,7 +812,7 @@ catalogue! {
     }
 
     /// Frame transformation of two poses.
-    PoseTrans = "PoseTrans" @ "4.7.9";
+    PoseTrans = "PoseTrans" @ v5 "4.7.9" v6 "4.7.9";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -806,7 +826,7 @@ catalogue! {
     }
 
     /// Inverse of a pose.
-    PoseInverse = "PoseInverse" @ "4.7.10";
+    PoseInverse = "PoseInverse" @ v5 "4.7.10" v6 "4.7.10";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -818,7 +838,7 @@ catalogue! {
     }
 
     /// Distance and orientation difference between two poses.
-    PoseDist = "PoseDist" @ "4.7.11";
+    PoseDist = "PoseDist" @ v5 "4.7.11" v6 "4.7.11";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -834,7 +854,7 @@ catalogue! {
     }
 
     /// Linear interpolation between two poses.
-    PoseInterpolate = "PoseInterpolate" @ "4.7.12";
+    PoseInterpolate = "PoseInterpolate" @ v5 "4.7.12" v6 "4.7.12";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -851,7 +871,7 @@ catalogue! {
 
     /// A user frame from three points before and three after a rotation.
     /// Also `DefdFrame`.
-    PoseDefdFrame = "PoseDefdFrame" | "DefdFrame" @ "4.7.13";
+    PoseDefdFrame = "PoseDefdFrame" | "DefdFrame" @ v5 "4.7.13" v6 "4.7.13";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -874,7 +894,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.8
     /// Set the current tool frame (not saved).
-    SetCurTCP = "SetCurTCP" @ "4.8.1";
+    SetCurTCP = "SetCurTCP" @ v5 "4.8.1" v6 "4.8.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -883,7 +903,7 @@ catalogue! {
     } => {}
 
     /// Set the current user frame (not saved).
-    SetCurUCS = "SetCurUCS" @ "4.8.2";
+    SetCurUCS = "SetCurUCS" @ v5 "4.8.2" v6 "4.8.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -892,7 +912,7 @@ catalogue! {
     } => {}
 
     /// The current tool frame.
-    ReadCurTCP = "ReadCurTCP" @ "4.8.3";
+    ReadCurTCP = "ReadCurTCP" @ v5 "4.8.3" v6 "4.8.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -902,7 +922,7 @@ catalogue! {
     }
 
     /// The current user frame.
-    ReadCurUCS = "ReadCurUCS" @ "4.8.4";
+    ReadCurUCS = "ReadCurUCS" @ v5 "4.8.4" v6 "4.8.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -912,7 +932,7 @@ catalogue! {
     }
 
     /// Select a taught tool frame by name (`Fail,20029` if unknown).
-    SetTCPByName<'a> = "SetTCPByName" @ "4.8.5";
+    SetTCPByName<'a> = "SetTCPByName" @ v5 "4.8.5" v6 "4.8.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -921,7 +941,7 @@ catalogue! {
     } => {}
 
     /// Select a taught user frame by name (`Fail,20030` if unknown).
-    SetUCSByName<'a> = "SetUCSByName" @ "4.8.6";
+    SetUCSByName<'a> = "SetUCSByName" @ v5 "4.8.6" v6 "4.8.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -930,7 +950,7 @@ catalogue! {
     } => {}
 
     /// A taught tool frame by name.
-    ReadTCPByName<'a> = "ReadTCPByName" @ "4.8.7";
+    ReadTCPByName<'a> = "ReadTCPByName" @ v5 "4.8.7" v6 "4.8.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -942,7 +962,7 @@ catalogue! {
     }
 
     /// A taught user frame by name.
-    ReadUCSByName<'a> = "ReadUCSByName" @ "4.8.8";
+    ReadUCSByName<'a> = "ReadUCSByName" @ v5 "4.8.8" v6 "4.8.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -955,7 +975,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.9
     /// Switch force control on or off.
-    SetForceControlState = "SetForceControlState" @ "4.9.1";
+    SetForceControlState = "SetForceControlState" @ v5 "4.9.1" v6 "4.9.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -964,7 +984,7 @@ catalogue! {
     } => {}
 
     /// The force-control state.
-    ReadFTControlState = "ReadFTControlState" @ "4.9.2";
+    ReadFTControlState = "ReadFTControlState" @ v5 "4.9.2" v6 "4.9.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -974,7 +994,7 @@ catalogue! {
     }
 
     /// Use tool-frame directions for force control.
-    SetForceToolCoordinateMotion = "SetForceToolCoordinateMotion" @ "4.9.3";
+    SetForceToolCoordinateMotion = "SetForceToolCoordinateMotion" @ v5 "4.9.3" v6 "4.9.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -983,28 +1003,28 @@ catalogue! {
     } => {}
 
     /// Pause force control only.
-    GrpFCInterrupt = "GrpFCInterrupt" @ "4.9.4";
+    GrpFCInterrupt = "GrpFCInterrupt" @ v5 "4.9.4" v6 "4.9.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Continue force control only.
-    GrpFCContinue = "GrpFCContinue" @ "4.9.5";
+    GrpFCContinue = "GrpFCContinue" @ v5 "4.9.5" v6 "4.9.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Re-zero the force sensor.
-    SetForceZero = "SetForceZero" @ "4.9.6";
+    SetForceZero = "SetForceZero" @ v5 "4.9.6" v6 "4.9.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
     } => {}
 
     /// Maximum force-search velocities.
-    HRSetMaxSearchVelocities = "HRSetMaxSearchVelocities" @ "4.9.7";
+    HRSetMaxSearchVelocities = "HRSetMaxSearchVelocities" @ v5 "4.9.7" v6 "4.9.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1015,7 +1035,7 @@ catalogue! {
     } => {}
 
     /// Force-search degrees of freedom.
-    HRSetControlFreedom = "HRSetControlFreedom" @ "4.9.8";
+    HRSetControlFreedom = "HRSetControlFreedom" @ v5 "4.9.8" v6 "4.9.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1024,7 +1044,7 @@ catalogue! {
     } => {}
 
     /// Force-control strategy.
-    HRSetForceControlStrategy = "HRSetForceControlStrategy" @ "4.9.9";
+    HRSetForceControlStrategy = "HRSetForceControlStrategy" @ v5 "4.9.9" v6 "4.9.9";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1033,7 +1053,7 @@ catalogue! {
     } => {}
 
     /// Force sensor mounting pose relative to the flange.
-    SetFTPosition = "SetFTPosition" @ "4.9.10";
+    SetFTPosition = "SetFTPosition" @ v5 "4.9.10" v6 "4.9.10";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1042,7 +1062,7 @@ catalogue! {
     } => {}
 
     /// Force-search PID parameters.
-    HRSetPIDControlParams = "HRSetPIDControlParams" @ "4.9.11";
+    HRSetPIDControlParams = "HRSetPIDControlParams" @ v5 "4.9.11" v6 "4.9.11";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1051,7 +1071,7 @@ catalogue! {
     } => {}
 
     /// Inertia (mass) control parameters.
-    HRSetMassParams = "HRSetMassParams" @ "4.9.12";
+    HRSetMassParams = "HRSetMassParams" @ v5 "4.9.12" v6 "4.9.12";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1060,7 +1080,7 @@ catalogue! {
     } => {}
 
     /// Damping (b) control parameters.
-    HRSetDampParams = "HRSetDampParams" @ "4.9.13";
+    HRSetDampParams = "HRSetDampParams" @ v5 "4.9.13" v6 "4.9.13";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1069,7 +1089,7 @@ catalogue! {
     } => {}
 
     /// Stiffness (k) control parameters.
-    HRSetStiffParams = "HRSetStiffParams" @ "4.9.14";
+    HRSetStiffParams = "HRSetStiffParams" @ v5 "4.9.14" v6 "4.9.14";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1078,7 +1098,7 @@ catalogue! {
     } => {}
 
     /// Force-control target force (and unused target distances).
-    HRSetControlGoal = "HRSetControlGoal" @ "4.9.15";
+    HRSetControlGoal = "HRSetControlGoal" @ v5 "4.9.15" v6 "4.9.15";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1089,7 +1109,7 @@ catalogue! {
     } => {}
 
     /// Force limits beyond which the controller cuts power.
-    HRSetForceDataLimit = "HRSetForceDataLimit" @ "4.9.16";
+    HRSetForceDataLimit = "HRSetForceDataLimit" @ v5 "4.9.16" v6 "4.9.16", changed "HR6.3.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1100,7 +1120,7 @@ catalogue! {
     } => {}
 
     /// Force-control deformation range.
-    HRSetForceDistanceLimit = "HRSetForceDistanceLimit" @ "4.9.17";
+    HRSetForceDistanceLimit = "HRSetForceDistanceLimit" @ v5 "4.9.17" v6 "4.9.17";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1111,7 +1131,7 @@ catalogue! {
     } => {}
 
     /// Force-control free drive on or off.
-    SetForceFreeDriveMode = "SetForceFreeDriveMode" @ "4.9.18";
+    SetForceFreeDriveMode = "SetForceFreeDriveMode" @ v5 "4.9.18";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1120,7 +1140,7 @@ catalogue! {
     } => {}
 
     /// Calibrated force-sensor data.
-    ReadFTCabData = "ReadFTCabData" @ "4.9.19";
+    ReadFTCabData = "ReadFTCabData" @ v5 "4.9.19" v6 "4.9.19";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1131,7 +1151,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.10
     /// Relative joint move.
-    MoveRelJ = "MoveRelJ" @ "4.10.1";
+    MoveRelJ = "MoveRelJ" @ v5 "4.10.1" v6 "4.10.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1144,7 +1164,7 @@ catalogue! {
     } => {}
 
     /// Relative Cartesian move.
-    MoveRelL = "MoveRelL" @ "4.10.2";
+    MoveRelL = "MoveRelL" @ v5 "4.10.2" v6 "4.10.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1160,7 +1180,7 @@ catalogue! {
     } => {}
 
     /// Way-point relative move.
-    WayPointRel<'a> = "WayPointRel" @ "4.10.3";
+    WayPointRel<'a> = "WayPointRel" @ v5 "4.10.3" v6 "4.10.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1201,7 +1221,7 @@ catalogue! {
     } => {}
 
     /// Way-point move with explicit TCP and UCS values.
-    WayPointEx<'a> = "WayPointEx" @ "4.10.4";
+    WayPointEx<'a> = "WayPointEx" @ v5 "4.10.4" v6 "4.10.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1234,7 +1254,7 @@ catalogue! {
     } => {}
 
     /// Way-point move with taught TCP and UCS names: the everyday move.
-    WayPoint<'a> = "WayPoint" @ "4.10.5";
+    WayPoint<'a> = "WayPoint" @ v5 "4.10.5" v6 "4.10.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1267,7 +1287,7 @@ catalogue! {
     } => {}
 
     /// Way-point move that also blends into arcs without slowing down.
-    WayPoint2<'a> = "WayPoint2" @ "4.10.6";
+    WayPoint2<'a> = "WayPoint2" @ v5 "4.10.6" v6 "4.10.6";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1302,7 +1322,7 @@ catalogue! {
     } => {}
 
     /// Joint move (deprecated in the document; use `WayPoint`).
-    MoveJ<'a> = "MoveJ" @ "4.10.7";
+    MoveJ<'a> = "MoveJ" @ v5 "4.10.7", removed "HR5.50.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1333,7 +1353,7 @@ catalogue! {
     } => {}
 
     /// Linear move (deprecated in the document; use `WayPoint`).
-    MoveL<'a> = "MoveL" @ "4.10.8";
+    MoveL<'a> = "MoveL" @ v5 "4.10.8", removed "HR5.50.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1362,7 +1382,7 @@ catalogue! {
     } => {}
 
     /// Circular move (arc or full circles).
-    MoveC<'a> = "MoveC" @ "4.10.9";
+    MoveC<'a> = "MoveC" @ v5 "4.10.9" v6 "4.10.7";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1393,7 +1413,7 @@ catalogue! {
     } => {}
 
     /// Zig-zag move.
-    MoveZ<'a> = "MoveZ" @ "4.10.10";
+    MoveZ<'a> = "MoveZ" @ v5 "4.10.10" v6 "4.10.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1432,7 +1452,7 @@ catalogue! {
     } => {}
 
     /// Elliptical move through five taught points.
-    MoveE<'a> = "MoveE" @ "4.10.11";
+    MoveE<'a> = "MoveE" @ v5 "4.10.11" v6 "4.10.9", removed "HR6.5.0", changed "HR6.4.8";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1469,7 +1489,7 @@ catalogue! {
     /// Archimedean spiral from a 1 mm radius. Written in the order of the
     /// document's example and the vendor SDK; the signature's order (names
     /// before the velocity) is accepted on input.
-    MoveS<'a> = "MoveS" @ "4.10.12";
+    MoveS<'a> = "MoveS" @ v5 "4.10.12" v6 "4.10.10";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1493,7 +1513,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.11
     /// Start a joint path.
-    StartPushMovePath<'a> = "StartPushMovePath" @ "4.11.1";
+    StartPushMovePath<'a> = "StartPushMovePath" @ v5 "4.11.1" v6 "4.11.12", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1506,7 +1526,7 @@ catalogue! {
     } => {}
 
     /// Add a joint point to a path (usually more than 4).
-    PushMovePathJ<'a> = "PushMovePathJ" @ "4.11.2";
+    PushMovePathJ<'a> = "PushMovePathJ" @ v5 "4.11.2" v6 "4.11.13", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1517,7 +1537,7 @@ catalogue! {
     } => {}
 
     /// End a joint path and start computing it.
-    EndPushMovePath<'a> = "EndPushMovePath" @ "4.11.3";
+    EndPushMovePath<'a> = "EndPushMovePath" @ v5 "4.11.3" v6 "4.11.14", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1526,7 +1546,7 @@ catalogue! {
     } => {}
 
     /// Run a joint path. SDKs also send `MovePathJ`.
-    MovePath<'a> = "MovePath" | "MovePathJ" @ "4.11.4";
+    MovePath<'a> = "MovePath" | "MovePathJ" @ v5 "4.11.4" v6 "4.11.15";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1535,7 +1555,7 @@ catalogue! {
     } => {}
 
     /// The state of a path.
-    ReadMovePathState<'a> = "ReadMovePathState" @ "4.11.5";
+    ReadMovePathState<'a> = "ReadMovePathState" @ v5 "4.11.5" v6 "4.11.16", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1547,7 +1567,7 @@ catalogue! {
     }
 
     /// Rename a path.
-    UpdateMovePathName<'a> = "UpdateMovePathName" @ "4.11.6";
+    UpdateMovePathName<'a> = "UpdateMovePathName" @ v5 "4.11.6" v6 "4.11.17", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1558,7 +1578,7 @@ catalogue! {
     } => {}
 
     /// Delete a path.
-    DelMovePath<'a> = "DelMovePath" @ "4.11.7";
+    DelMovePath<'a> = "DelMovePath" @ v5 "4.11.7" v6 "4.11.18", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1568,7 +1588,7 @@ catalogue! {
 
     /// Progress of a `MovePathL` run. The heading calls it
     /// `ReadSoftMotionProcess`, accepted as an alias.
-    ReadSoftMotionProgress = "ReadSoftMotionProgress" | "ReadSoftMotionProcess" @ "4.11.8";
+    ReadSoftMotionProgress = "ReadSoftMotionProgress" | "ReadSoftMotionProcess" @ v5 "4.11.8" v6 "4.11.19";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1580,7 +1600,7 @@ catalogue! {
     }
 
     /// Start a Cartesian path.
-    InitMovePathL<'a> = "InitMovePathL" @ "4.11.9";
+    InitMovePathL<'a> = "InitMovePathL" @ v5 "4.11.9" v6 "4.11.20", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1599,7 +1619,7 @@ catalogue! {
     } => {}
 
     /// Add a Cartesian point to a path (usually more than 4).
-    PushMovePathL<'a> = "PushMovePathL" @ "4.11.10";
+    PushMovePathL<'a> = "PushMovePathL" @ v5 "4.11.10" v6 "4.11.21", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1610,7 +1630,7 @@ catalogue! {
     } => {}
 
     /// Add many points to a path in one message.
-    PushMovePaths<'a> = "PushMovePaths" @ "4.11.11";
+    PushMovePaths<'a> = "PushMovePaths" @ v5 "4.11.11" v6 "4.11.22", removed "HR6.5.0";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1623,7 +1643,7 @@ catalogue! {
     } => {}
 
     /// Run a Cartesian path (computes 2-4 s, then moves).
-    MovePathL<'a> = "MovePathL" @ "4.11.12";
+    MovePathL<'a> = "MovePathL" @ v5 "4.11.12" v6 "4.11.9", changed "HR6.3.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1632,7 +1652,7 @@ catalogue! {
     } => {}
 
     /// Speed ratio of a running `MovePath`.
-    SetMovePathOverride = "SetMovePathOverride" @ "4.11.13";
+    SetMovePathOverride = "SetMovePathOverride" @ v5 "4.11.13" v6 "4.11.23";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1642,7 +1662,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.12
     /// Start online (servo) control.
-    StartServo = "StartServo" @ "4.12.1";
+    StartServo = "StartServo" @ v5 "4.12.1" v6 "4.12.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1653,7 +1673,7 @@ catalogue! {
     } => {}
 
     /// Stream a joint target.
-    PushServoJ = "PushServoJ" @ "4.12.2";
+    PushServoJ = "PushServoJ" @ v5 "4.12.2" v6 "4.12.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1662,7 +1682,7 @@ catalogue! {
     } => {}
 
     /// Stream a Cartesian target.
-    PushServoP = "PushServoP" @ "4.12.3";
+    PushServoP = "PushServoP" @ v5 "4.12.3" v6 "4.12.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1676,7 +1696,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.13
     /// Relative tracking parameters.
-    SetMoveTraceParams = "SetMoveTraceParams" @ "4.13.1";
+    SetMoveTraceParams = "SetMoveTraceParams" @ v5 "4.13.1" v6 "4.13.1";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1691,7 +1711,7 @@ catalogue! {
     } => {}
 
     /// Relative tracking sensor parameters (`y = dK·x + dB`).
-    SetMoveTraceInitParams = "SetMoveTraceInitParams" @ "4.13.2";
+    SetMoveTraceInitParams = "SetMoveTraceInitParams" @ v5 "4.13.2" v6 "4.13.2";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1706,7 +1726,7 @@ catalogue! {
     } => {}
 
     /// Relative tracking search direction.
-    SetMoveTraceUcs = "SetMoveTraceUcs" @ "4.13.3";
+    SetMoveTraceUcs = "SetMoveTraceUcs" @ v5 "4.13.3" v6 "4.13.3";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1715,7 +1735,7 @@ catalogue! {
     } => {}
 
     /// Conveyor tracking on or off.
-    SetTrackingState = "SetTrackingState" @ "4.13.4";
+    SetTrackingState = "SetTrackingState" @ v5 "4.13.4" v6 "4.13.4";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1725,7 +1745,7 @@ catalogue! {
 
     // ---------------------------------------------------------------- 4.14
     /// Run a plug-in app command.
-    HRAppCmd<'a> = "HRAppCmd" @ "4.14.1";
+    HRAppCmd<'a> = "HRAppCmd" @ v5 "4.14.1" v6 "4.15.1";
     {
         /// `HRAppName`: the plug-in app.
         app: &'a str,
@@ -1734,7 +1754,7 @@ catalogue! {
     } => {}
 
     /// Write registers of the tool-flange Modbus slave (EtherCAT end I/O).
-    WriteHoldingRegisters = "WriteHoldingRegisters" @ "4.14.2";
+    WriteHoldingRegisters = "WriteHoldingRegisters" @ v5 "4.14.2" v6 "4.15.2", changed "HR5.50.5";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1749,7 +1769,7 @@ catalogue! {
     } => {}
 
     /// Read registers of the tool-flange Modbus slave (EtherCAT end I/O).
-    ReadHoldingRegisters = "ReadHoldingRegisters" @ "4.14.3", len = |r| usize::try_from(r.count).unwrap_or(0);
+    ReadHoldingRegisters = "ReadHoldingRegisters" @ v5 "4.14.3" v6 "4.15.3", changed "HR5.50.5", len = |r| usize::try_from(r.count).unwrap_or(0);
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1766,6 +1786,11 @@ catalogue! {
         values: heapless::Vec<i32, 12>,
     }
 }
+v6 {
+}
+}
 
-// The table must cover the whole of chapter 4.
+// The table must cover the whole of chapter 4 of HR-TCP V1.0.0.3, and with
+// `v6` every command the V6 document adds.
+#[cfg(not(feature = "v6"))]
 const _: () = assert!(CommandId::ALL.len() == 139);

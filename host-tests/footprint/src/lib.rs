@@ -15,7 +15,7 @@
 use core::hint::black_box;
 use core::ptr::{read_volatile, write_volatile};
 
-use hans_codec::{ErrorCode, Failure, Framer, RawMessage, Reply, Request, Response};
+use hans_codec::{ErrorCode, Failure, Framer, ProtocolLevel, RawMessage, Reply, Request, Response};
 
 /// Where the bytes come from (RAM the program never writes).
 const RX: usize = 0x2010_0000;
@@ -71,7 +71,10 @@ pub fn client_round(framer: &mut Framer<BUF>, rx: &mut [u8; BUF], tx: &mut [u8; 
         return;
     };
     let request: Request<'_> = black_box(Request::Unknown(raw));
-    if let Ok(n) = request.encode(tx) {
+    // Written for the controller's protocol level, as a client configured
+    // with one does: the level check of every command is linked.
+    let level = ProtocolLevel::new(selector(), selector(), selector());
+    if let Ok(n) = request.encode_at(level, tx) {
         output_bytes(tx.get(..n).unwrap_or(&[]));
     }
     let expect = request.expect();
