@@ -1,14 +1,13 @@
 //! The entry point for boards (feature `embassy-net`).
 //!
 //! A board does three things: build its `embassy_net::Stack` (and spawn the
-//! stack's runner), pick a [`Storage`] (flash, or [`RamStorage`] where there
+//! stack's runner), pick a [`Storage`] (flash, or [`NoStorage`] where there
 //! is none), and run [`run`] from one task:
 //!
 //! ```text
 //! #[embassy_executor::task]
 //! async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
-//!     static STORAGE: static_cell::StaticCell<hans_gateway::RamStorage> = static_cell::StaticCell::new();
-//!     let storage = STORAGE.init(hans_gateway::RamStorage::new());
+//!     let storage = hans_gateway::NoStorage;
 //!     let options = hans_gateway::Options::default(); // Modbus on port 502
 //!     match hans_gateway::board::run(stack, storage, options).await {}
 //! }
@@ -16,7 +15,8 @@
 //! ```
 //!
 //! Everything the gateway needs (sockets, buffers, queue, register map)
-//! lives inside the future of [`run`], so the task's static storage holds it:
+//! lives inside the future of [`run`] (the storage too: it is moved in), so
+//! the task's static storage holds it:
 //! no other statics, no allocator. Its size is printed by
 //! `core::mem::size_of_val` of the future if you need it; see the crate
 //! docs for the RAM budget.
@@ -29,12 +29,13 @@
 
 use core::convert::Infallible;
 
-use crate::config::Storage;
+use crate::clock::SystemClock;
 use crate::gateway::{Options, MAX_SESSIONS};
 use crate::net::embassy::EmbassyNet;
+use crate::storage::Storage;
 
 #[allow(unused_imports)]
-use crate::config::RamStorage;
+use crate::storage::NoStorage;
 
 /// TCP sockets the gateway uses: the Modbus sessions, two for the robot
 /// link and one for the DataSheet.
@@ -42,11 +43,11 @@ pub const SOCKETS: usize = MAX_SESSIONS + 3;
 
 /// Runs the gateway on the board's network stack until the future is
 /// dropped (it never returns).
-pub async fn run(
+pub async fn run<S: Storage>(
     stack: embassy_net::Stack<'_>,
-    storage: &mut dyn Storage,
+    storage: S,
     options: Options,
 ) -> Infallible {
     let net = EmbassyNet::new(stack);
-    crate::gateway::run(&net, storage, options).await
+    crate::gateway::run(&net, &SystemClock, storage, options).await
 }

@@ -16,40 +16,74 @@ use std::string::String;
 use std::sync::mpsc;
 use std::thread;
 
-use crate::config::{RamStorage, Storage, StorageError};
+use crate::clock::SystemClock;
 use crate::gateway::{Options, RobotOverride};
 use crate::net::tokio::TokioNet;
+use crate::storage::{Image, NoStorage, Storage, StorageError, IMAGE_LEN};
 
-/// Storage in a file, replaced atomically on save (write, then rename).
+/// Storage in a file, replaced atomically on save: the image is written to
+/// `FILE.tmp` and fsynced, renamed over `FILE`, and the directory fsynced,
+/// so that a power cut leaves the old file or the new one. The file work
+/// runs on tokio's blocking pool: the gateway's thread goes on serving
+/// while the disk syncs.
 pub struct FileStorage {
     path: PathBuf,
+    data: std::vec::Vec<u8>,
 }
 
 impl FileStorage {
     /// Storage at `path` (created on the first save).
     pub fn new(path: impl Into<PathBuf>) -> Self {
-        FileStorage { path: path.into() }
+        FileStorage {
+            path: path.into(),
+            data: std::vec::Vec::new(),
+        }
+    }
+
+    /// Writes `image` to the file, durably (see the type's documentation).
+    pub fn write_durably(path: &std::path::Path, image: &[u8]) -> io::Result<()> {
+        use std::io::Write;
+        let mut tmp = std::ffi::OsString::from(path.as_os_str());
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(image)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)?;
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => std::path::Path::new("."),
+        };
+        std::fs::File::open(dir)?.sync_all()
     }
 }
 
 impl Storage for FileStorage {
-    fn load(&mut self, buf: &mut [u8]) -> Result<usize, StorageError> {
-        match std::fs::read(&self.path) {
-            Ok(data) => {
-                let dst = buf.get_mut(..data.len()).ok_or(StorageError::TooLarge)?;
-                dst.copy_from_slice(&data);
-                Ok(data.len())
-            }
-            Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(0),
-            Err(_) => Err(StorageError::Io),
-        }
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        self.data = match std::fs::read(&self.path) {
+            Ok(data) => data,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => std::vec::Vec::new(),
+            Err(_) => return Err(StorageError::Io),
+        };
+        Ok(&self.data)
     }
 
-    fn save(&mut self, image: &[u8]) -> Result<(), StorageError> {
-        let mut tmp = self.path.clone().into_os_string();
-        tmp.push(".tmp");
-        std::fs::write(&tmp, image).map_err(|_| StorageError::Io)?;
-        std::fs::rename(&tmp, &self.path).map_err(|_| StorageError::Io)
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        let path = self.path.clone();
+        let mut buf = std::vec![0u8; IMAGE_LEN];
+        let n = image.write(&mut buf)?;
+        buf.truncate(n);
+        let image = buf;
+        let done = tokio::task::spawn_blocking(move || FileStorage::write_durably(&path, &image));
+        match done.await {
+            Ok(Ok(())) => Ok(()),
+            Ok(Err(e)) => {
+                log::warn!("config: cannot write {}: {e}", self.path.display());
+                Err(StorageError::Io)
+            }
+            Err(_) => Err(StorageError::Io),
+        }
     }
 }
 
@@ -194,21 +228,22 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             (None, None) => None,
         },
     };
-    let mut file;
-    let mut ram;
-    let storage: &mut dyn Storage = match &opts.config_file {
+    let _ = ready.send(Ok((modbus, robot)));
+    let clock = SystemClock;
+    match &opts.config_file {
         Some(p) => {
-            file = FileStorage::new(p.clone());
-            &mut file
+            let storage = FileStorage::new(p.clone());
+            tokio::select! {
+                _ = crate::gateway::run(&net, &clock, storage, options) => {}
+                _ = stop => {}
+            }
         }
         None => {
-            ram = RamStorage::new();
-            &mut ram
+            let storage = NoStorage;
+            tokio::select! {
+                _ = crate::gateway::run(&net, &clock, storage, options) => {}
+                _ = stop => {}
+            }
         }
-    };
-    let _ = ready.send(Ok((modbus, robot)));
-    tokio::select! {
-        _ = crate::gateway::run(&net, storage, options) => {}
-        _ = stop => {}
     }
 }

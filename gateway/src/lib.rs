@@ -15,31 +15,32 @@
 //! ## Where things are
 //! | module | what |
 //! |---|---|
+//! | [`state`] | the typed state: robot status, link, inputs, handshakes, queue, configuration |
+//! | [`registers`] | the Modbus register map, a view of the state (`map`: addresses; `view`: encode / decode) |
+//! | [`job`] | typed jobs: channel command codes, RAW and trigger texts, urgent commands, the queue |
+//! | [`engine`] | the rules in time: PLC events, motion completion, watchdog, bring-up, status polls |
+//! | [`hub`] | the shared state and the signals between the tasks |
 //! | [`link`] | robot link: connect or listen, one request in flight, framing, reply timeout |
 //! | [`modbus`] | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
-//! | [`registers`] | the register map: addresses, types, access |
-//! | [`engine`] | command channels, PLCopen handshake, FIFO queue, motion completion, watchdog |
-//! | [`status`] | status mirror: polling the command port |
-//! | [`datasheet`] | status mirror: the DataSheet port |
-//! | [`config`] | configuration, its registers, [`Storage`] |
+//! | [`datasheet`] | the status from the DataSheet port |
+//! | [`config`] | the configuration and the table of its settings |
+//! | [`storage`] | the stored image, the storage task, RAM and flash storage |
+//! | [`clock`] | time: embassy-time on boards and Linux, a virtual clock in tests |
 //! | [`net`] | the socket interface and its adapters |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
-//!
-//! Triggers (the stored command table) are register texts turned into jobs
-//! by the same path as RAW commands (`gateway.rs`, [`engine::job`]).
+//! | [`testkit`] | a virtual world for tests: clock, network, robot, PLC (feature `testkit`) |
 //!
 //! ## Bounds
 //! Every buffer and queue is fixed: [`MAX_SESSIONS`] Modbus clients,
-//! [`engine::job::QUEUE_DEPTH`] queued commands (more end in Error 39600)
-//! plus [`engine::job::URGENT_DEPTH`] urgent ones (one per source: never
-//! full),
+//! [`job::QUEUE_DEPTH`] queued commands (more end in Error 39600)
+//! plus [`job::URGENT_DEPTH`] urgent ones (one per source: never full),
 //! RAW requests of 256 characters and replies of 512 (longer replies are
 //! cut and flagged), robot replies up to [`link::REPLY_MAX`] bytes (longer:
 //! Error 39502), Modbus ADUs of 260 bytes, DataSheet packets up to
 //! [`datasheet::PAYLOAD_MAX`] bytes (longer ones are dropped and logged).
 //!
 //! Time limits: a robot connect [`link::CONNECT_TIMEOUT`] (the
-//! DataSheet connection too), a bring-up step [`engine::fsm::STATE_TIMEOUT`]
+//! DataSheet connection too), a bring-up step [`engine::bringup::STATE_TIMEOUT`]
 //! (Error 39607), a DataSheet connection without data
 //! [`datasheet::SILENCE_TIMEOUT`], a silent Modbus client
 //! [`modbus::IDLE_TIMEOUT`], and a robot reply the configured
@@ -58,12 +59,16 @@
 //! * `std` (default): tokio adapter, `log` output, embassy-time's std driver.
 //! * `embassy-net`: the embassy-net adapter and [`board`].
 //! * `defmt`: log through defmt.
+//! * `flash`: [`storage::flash::FlashStorage`] (sequential-storage over a
+//!   `NorFlash`).
+//! * `testkit`: [`testkit`], the virtual world of the tests, simulations
+//!   and fuzz targets (needs `std`).
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 #![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
-#[cfg(feature = "std")]
+#[cfg(any(feature = "std", feature = "testkit"))]
 extern crate std;
 
 #[macro_use]
@@ -71,17 +76,26 @@ mod fmt;
 
 #[cfg(feature = "embassy-net")]
 pub mod board;
+pub mod clock;
 pub mod config;
 pub mod datasheet;
 pub mod engine;
+pub mod error;
 mod gateway;
 #[cfg(feature = "std")]
 pub mod host;
+pub mod hub;
+pub mod job;
 pub mod link;
 pub mod modbus;
 pub mod net;
 pub mod registers;
-pub mod status;
+pub mod state;
+pub mod storage;
+#[cfg(any(test, feature = "testkit"))]
+pub mod testkit;
 
-pub use config::{Config, RamStorage, Storage, StorageError};
-pub use gateway::{run, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF, VERSION};
+pub use clock::{Clock, SystemClock};
+pub use config::Config;
+pub use gateway::{run, Gateway, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF};
+pub use storage::{NoStorage, Storage, StorageError};

@@ -12,7 +12,9 @@
 
 use core::net::SocketAddrV4;
 
-use embassy_time::{with_deadline, Duration, Instant, TimeoutError};
+use embassy_time::{Duration, Instant};
+
+use crate::clock::{with_deadline, with_timeout, Clock, TimeoutError};
 use hans_codec::{FrameError, Framer};
 
 use crate::net::{NetError, Socket};
@@ -65,7 +67,6 @@ pub struct Link<S: Socket> {
     framer: Framer<REPLY_MAX>,
     rx: [u8; 256],
     reply: [u8; REPLY_MAX],
-    reply_len: usize,
 }
 
 impl<S: Socket> Link<S> {
@@ -78,7 +79,6 @@ impl<S: Socket> Link<S> {
             framer: Framer::new(),
             rx: [0; 256],
             reply: [0; REPLY_MAX],
-            reply_len: 0,
         }
     }
 
@@ -93,17 +93,21 @@ impl<S: Socket> Link<S> {
     }
 
     fn sock(&mut self) -> &mut S {
-        let i = self.cur % 2;
-        &mut self.socks[i]
+        let [a, b] = &mut self.socks;
+        if self.cur.is_multiple_of(2) {
+            a
+        } else {
+            b
+        }
     }
 
     /// One attempt to bring the link up: a connect bounded by
     /// [`CONNECT_TIMEOUT`], or an accept that waits as long as it is polled.
-    pub async fn establish(&mut self, target: Target) -> Result<(), NetError> {
+    pub async fn establish<C: Clock>(&mut self, target: Target, clock: &C) -> Result<(), NetError> {
         match target {
             Target::None => core::future::pending().await,
             Target::Connect(addr) => {
-                match embassy_time::with_timeout(CONNECT_TIMEOUT, self.sock().connect(addr)).await {
+                match with_timeout(clock, CONNECT_TIMEOUT, self.sock().connect(addr)).await {
                     Ok(Ok(())) => {}
                     Ok(Err(e)) => return Err(e),
                     Err(TimeoutError) => {
@@ -154,7 +158,12 @@ impl<S: Socket> Link<S> {
 
     /// Sends one request and waits for its reply until `deadline`. The
     /// reply text (with its `;`) is valid until the next call.
-    pub async fn transact(&mut self, request: &[u8], deadline: Instant) -> Result<&str, LinkError> {
+    pub async fn transact<C: Clock>(
+        &mut self,
+        request: &[u8],
+        deadline: Instant,
+        clock: &C,
+    ) -> Result<&str, LinkError> {
         if !self.up {
             return Err(LinkError::Lost(NetError::NotConnected));
         }
@@ -162,7 +171,7 @@ impl<S: Socket> Link<S> {
         if let Err(e) = self.sock().write_all(request).await {
             return Err(LinkError::Lost(e));
         }
-        let len = self.read_reply(deadline).await?;
+        let len = self.read_reply(deadline, clock).await?;
         self.reply
             .get(..len)
             .and_then(|b| core::str::from_utf8(b).ok())
@@ -172,10 +181,17 @@ impl<S: Socket> Link<S> {
             }))
     }
 
-    async fn read_reply(&mut self, deadline: Instant) -> Result<usize, LinkError> {
+    async fn read_reply<C: Clock>(
+        &mut self,
+        deadline: Instant,
+        clock: &C,
+    ) -> Result<usize, LinkError> {
         loop {
             let i = self.cur % 2;
-            let n = match with_deadline(deadline, self.socks[i].read(&mut self.rx)).await {
+            let Some(sock) = self.socks.get_mut(i) else {
+                return Err(LinkError::Lost(NetError::NotConnected));
+            };
+            let n = match with_deadline(clock, deadline, sock.read(&mut self.rx)).await {
                 Err(TimeoutError) => return Err(LinkError::Timeout),
                 Ok(Err(e)) => return Err(LinkError::Lost(e)),
                 Ok(Ok(0)) => return Err(LinkError::Lost(NetError::Reset)),
@@ -194,7 +210,6 @@ impl<S: Socket> Link<S> {
                         // The framer never yields more than REPLY_MAX bytes.
                         if let Some(dst) = dst {
                             dst.copy_from_slice(b);
-                            self.reply_len = b.len();
                             return Ok(b.len());
                         }
                         return Err(LinkError::BadFrame(FrameError::TooLong { len: b.len() }));
@@ -206,7 +221,7 @@ impl<S: Socket> Link<S> {
 
     /// Waits while no request is in flight: returns when the connection is
     /// lost or, with `listen_port`, replaced by a new one. Cancel-safe.
-    pub async fn idle(&mut self, listen_port: Option<u16>) -> IdleEvent {
+    pub async fn idle<C: Clock>(&mut self, listen_port: Option<u16>, clock: &C) -> IdleEvent {
         let cur = self.cur % 2;
         let (a, b) = self.socks.split_at_mut(1);
         let (current, spare) = match (a.first_mut(), b.first_mut()) {
@@ -232,7 +247,7 @@ impl<S: Socket> Link<S> {
                     if spare.accept(port).await.is_ok() {
                         return;
                     }
-                    embassy_time::Timer::after_millis(100).await;
+                    clock.sleep(Duration::from_millis(100)).await;
                 },
                 None => core::future::pending().await,
             }

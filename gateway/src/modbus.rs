@@ -27,15 +27,70 @@
 
 use core::convert::Infallible;
 
-use embassy_time::{with_timeout, Duration, Timer};
+use embassy_time::Duration;
 use modbus_core::tcp::{server::encode_response, Header, ResponseAdu};
 use modbus_core::{
     Data, Exception, ExceptionResponse, FunctionCode, Request, Response, ResponsePdu,
 };
 
-use crate::gateway::{Ctx, WriteError};
+use crate::clock::{with_timeout, Clock};
 use crate::net::Socket;
-use crate::registers::{self as r, RegisterFile};
+use crate::registers::{self as r, AccessError, WriteError};
+
+/// What the server serves: a register map (the gateway's is
+/// [`crate::hub::PlcPort`]; tests may serve another).
+///
+/// Requests are handled at once, without awaiting, except a write that
+/// started something slow (a configuration save): its answer waits for
+/// [`Registers::settle`]. So a session holds no request buffers across an
+/// await but its frame and its reply.
+// The futures are deliberately not `Send` (single-threaded executors).
+#[allow(async_fn_in_trait)]
+pub trait Registers {
+    /// Reads `out.len()` registers from `start`.
+    fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError>;
+    /// Writes `values` from `start`: all or nothing. `Ok(Some(p))`: stored,
+    /// but the answer waits for [`Self::settle`]`(p)`.
+    fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError>;
+    /// Waits for what a write started, and gives the write's result.
+    async fn settle(&self, pending: Pending) -> Result<(), WriteError>;
+    /// A client connected (`true`) or left; returns how many are connected.
+    fn session(&self, opened: bool) -> u16;
+}
+
+/// What a write started that its answer waits for (for the gateway: a
+/// configuration command).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Pending(pub u16);
+
+/// The answer to a write that waits for [`Registers::settle`]: what it
+/// will be if the write succeeds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Deferred {
+    hdr: Header,
+    fc: u8,
+    ok: DeferredOk,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum DeferredOk {
+    /// FC 5 and 6: the request's address and value, echoed.
+    Echo([u8; 4]),
+    /// FC 15 and 16: address and quantity.
+    Count(u16, u16),
+    /// FC 23: the registers to read after the write.
+    ReadBack(u16, u16),
+}
+
+/// How a request is answered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Answer {
+    /// The reply is in the output buffer: its length.
+    Now(usize),
+    /// The reply waits for the write's pending work: see [`finish`].
+    After(Pending, Deferred),
+}
 
 /// Longest ADU: 7-byte MBAP header + 253-byte PDU.
 pub const MAX_ADU: usize = 260;
@@ -45,18 +100,19 @@ const EXCEPTION_ADU: usize = 9;
 pub const IDLE_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// Serves Modbus clients on `port`, one after the other, forever.
-pub(crate) async fn session<S: Socket>(ctx: &Ctx<'_>, mut sock: S, port: u16) -> Infallible {
+pub async fn session<S: Socket, C: Clock, R: Registers>(
+    regs: &R,
+    clock: &C,
+    mut sock: S,
+    port: u16,
+) -> Infallible {
     loop {
         if sock.accept(port).await.is_err() {
-            Timer::after_millis(500).await;
+            clock.sleep(Duration::from_millis(500)).await;
             continue;
         }
         let peer = sock.remote();
-        let n = ctx.with(|s| {
-            s.sessions += 1;
-            s.regs.set(r::STATUS_SESSIONS, s.sessions);
-            s.sessions
-        });
+        let n = regs.session(true);
         match peer {
             Some(p) => {
                 let [a, b, c, d] = p.ip().octets();
@@ -72,18 +128,16 @@ pub(crate) async fn session<S: Socket>(ctx: &Ctx<'_>, mut sock: S, port: u16) ->
             }
             None => info!("modbus: client connected ({} now)", n),
         }
-        serve(ctx, &mut sock).await;
+        serve(regs, clock, &mut sock).await;
         sock.close().await;
-        let n = ctx.with(|s| {
-            s.sessions = s.sessions.saturating_sub(1);
-            s.regs.set(r::STATUS_SESSIONS, s.sessions);
-            s.sessions
-        });
+        let n = regs.session(false);
         info!("modbus: client disconnected ({} left)", n);
     }
 }
 
-async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
+/// Serves one client until it leaves, falls silent or sends what is not
+/// Modbus TCP.
+pub async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C, sock: &mut S) {
     let mut buf = [0u8; MAX_ADU];
     let mut out = [0u8; MAX_ADU];
     let mut len = 0usize;
@@ -107,7 +161,8 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
                     if len < 8 {
                         8
                     } else {
-                        let Some(n) = oversized(sock, &buf, len, 6 + length, &mut out).await else {
+                        let Some(n) = oversized(clock, sock, &buf, len, 6 + length, &mut out).await
+                        else {
                             return;
                         };
                         if sock.write_all(out.get(..n).unwrap_or(&[])).await.is_err() {
@@ -126,7 +181,7 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
             let Some(free) = buf.get_mut(len..) else {
                 return;
             };
-            match with_timeout(IDLE_TIMEOUT, sock.read(free)).await {
+            match with_timeout(clock, IDLE_TIMEOUT, sock.read(free)).await {
                 Ok(Ok(0)) | Ok(Err(_)) => return,
                 Err(_) => {
                     info!("modbus: client idle, closing");
@@ -139,7 +194,11 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
         let Some(adu) = buf.get(..need) else {
             return;
         };
-        let reply = handle(ctx, adu, &mut out);
+        let reply = match handle(regs, adu, &mut out) {
+            Some(Answer::Now(n)) => Some(n),
+            Some(Answer::After(p, d)) => finish(regs, p, d, &mut out).await,
+            None => None,
+        };
         if let Some(n) = reply {
             if sock.write_all(out.get(..n).unwrap_or(&[])).await.is_err() {
                 return;
@@ -155,7 +214,8 @@ async fn serve<S: Socket>(ctx: &Ctx<'_>, sock: &mut S) {
 /// the stream without keeping it and writes the exception reply into
 /// `out` (03, or 01 for a function code not [`served`]). `None` when the client
 /// went away or fell silent.
-async fn oversized<S: Socket>(
+async fn oversized<S: Socket, C: Clock>(
+    clock: &C,
     sock: &mut S,
     head: &[u8; MAX_ADU],
     have: usize,
@@ -168,7 +228,7 @@ async fn oversized<S: Socket>(
     let mut left = total.saturating_sub(have);
     while left > 0 {
         let room = sink.get_mut(..left.min(64))?;
-        match with_timeout(IDLE_TIMEOUT, sock.read(room)).await {
+        match with_timeout(clock, IDLE_TIMEOUT, sock.read(room)).await {
             Ok(Ok(n)) if n > 0 => left = left.saturating_sub(n),
             _ => return None,
         }
@@ -227,7 +287,7 @@ fn exception(e: WriteError) -> Exception {
 }
 
 /// Answers one complete ADU; `None` if nothing can be answered.
-pub(crate) fn handle(ctx: &Ctx<'_>, adu: &[u8], out: &mut [u8]) -> Option<usize> {
+pub fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Option<Answer> {
     let pdu_len = adu.len().checked_sub(7)?;
     let frame = modbus_core::tcp::extract_frame(adu, pdu_len).ok()??;
     let hdr = Header {
@@ -242,19 +302,71 @@ pub(crate) fn handle(ctx: &Ctx<'_>, adu: &[u8], out: &mut [u8]) -> Option<usize>
             Err(Exception::IllegalFunction)
         }
         Err(_) => Err(Exception::IllegalDataValue),
-        Ok(req) => execute(ctx, req, pdu, &mut data),
+        Ok(req) => execute(regs, req, pdu, &mut data),
     };
     match result {
-        Ok(resp) => encode_response(
+        Ok(Executed::Done(resp)) => encode_response(
             ResponseAdu {
                 hdr,
                 pdu: ResponsePdu(Ok(resp)),
             },
             out,
         )
-        .ok(),
-        Err(e) => exception_reply(hdr, fc, e, out),
+        .ok()
+        .map(Answer::Now),
+        Ok(Executed::Pending(p, ok)) => Some(Answer::After(p, Deferred { hdr, fc, ok })),
+        Err(e) => exception_reply(hdr, fc, e, out).map(Answer::Now),
     }
+}
+
+/// Waits for a write's pending work, then writes its answer into `out`.
+pub async fn finish<R: Registers>(
+    regs: &R,
+    p: Pending,
+    d: Deferred,
+    out: &mut [u8],
+) -> Option<usize> {
+    if let Err(e) = regs.settle(p).await {
+        return exception_reply(d.hdr, d.fc, exception(e), out);
+    }
+    let mut data = [0u8; 252];
+    let mut words = [0u16; 125];
+    let resp = match d.ok {
+        DeferredOk::Echo(echo) => {
+            let dst = data.get_mut(..4)?;
+            dst.copy_from_slice(&echo);
+            match d.fc {
+                5 => Response::Custom(FunctionCode::WriteSingleCoil, dst),
+                _ => Response::WriteSingleRegister(be16(&echo, 0), be16(&echo, 2)),
+            }
+        }
+        DeferredOk::Count(addr, qty) => match d.fc {
+            15 => Response::WriteMultipleCoils(addr, qty),
+            _ => Response::WriteMultipleRegisters(addr, qty),
+        },
+        DeferredOk::ReadBack(addr, qty) => {
+            let w = words.get_mut(..usize::from(qty))?;
+            if regs.read(addr, w).is_err() {
+                return exception_reply(d.hdr, d.fc, Exception::IllegalDataAddress, out);
+            }
+            Response::ReadWriteMultipleRegisters(Data::from_words(w, &mut data).ok()?)
+        }
+    };
+    encode_response(
+        ResponseAdu {
+            hdr: d.hdr,
+            pdu: ResponsePdu(Ok(resp)),
+        },
+        out,
+    )
+    .ok()
+}
+
+/// A request executed: its response, or the write's pending work and what
+/// the response will be.
+enum Executed<'d> {
+    Done(Response<'d>),
+    Pending(Pending, DeferredOk),
 }
 
 fn be16(b: &[u8], at: usize) -> u16 {
@@ -267,7 +379,12 @@ fn be16(b: &[u8], at: usize) -> u16 {
 /// Reads `qty` bits from `addr` packed as the reply wants them (bit `i` in
 /// bit `i % 8` of byte `i / 8`) into `packed`; returns the bytes used.
 /// Packs straight from the registers: no array of 2000 `bool`s.
-fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, packed: &mut [u8]) -> Result<usize, Exception> {
+fn read_bits<R: Registers>(
+    regs: &R,
+    addr: u16,
+    qty: u16,
+    packed: &mut [u8],
+) -> Result<usize, Exception> {
     if !(1..=2000).contains(&qty) {
         return Err(Exception::IllegalDataValue);
     }
@@ -276,12 +393,12 @@ fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, packed: &mut [u8]) -> Result<us
         return Err(Exception::IllegalDataAddress);
     }
     let first_reg = addr / 16;
-    let regs = (last / 16) as u16 - first_reg + 1;
+    let count = (last / 16) as u16 - first_reg + 1;
     let mut words = [0u16; 126];
     let w = words
-        .get_mut(..usize::from(regs))
+        .get_mut(..usize::from(count))
         .ok_or(Exception::IllegalDataAddress)?;
-    ctx.read(first_reg, w)
+    regs.read(first_reg, w)
         .map_err(|_| Exception::IllegalDataAddress)?;
     let bytes = usize::from(qty).div_ceil(8);
     let out = packed
@@ -304,24 +421,24 @@ fn read_bits(ctx: &Ctx<'_>, addr: u16, qty: u16, packed: &mut [u8]) -> Result<us
 }
 
 /// Writes `qty` bits from `addr`, taking bit `i` from `bit(i)`.
-fn write_bits(
-    ctx: &Ctx<'_>,
+fn write_bits<R: Registers>(
+    regs: &R,
     addr: u16,
     qty: u16,
     bit: impl Fn(usize) -> bool,
-) -> Result<(), Exception> {
+) -> Result<Option<Pending>, Exception> {
     let last = u32::from(addr) + u32::from(qty) - 1;
     if last > 0xFFFF {
         return Err(Exception::IllegalDataAddress);
     }
     let first_reg = addr / 16;
-    let regs = (last / 16) as u16 - first_reg + 1;
-    RegisterFile::check(first_reg, regs, true).map_err(|_| Exception::IllegalDataAddress)?;
+    let count = (last / 16) as u16 - first_reg + 1;
+    r::check(first_reg, count, true).map_err(|_| Exception::IllegalDataAddress)?;
     let mut words = [0u16; 124];
     let w = words
-        .get_mut(..usize::from(regs))
+        .get_mut(..usize::from(count))
         .ok_or(Exception::IllegalDataAddress)?;
-    ctx.read(first_reg, w)
+    regs.read(first_reg, w)
         .map_err(|_| Exception::IllegalDataAddress)?;
     for i in 0..usize::from(qty) {
         let b = usize::from(addr) + i;
@@ -333,22 +450,23 @@ fn write_bits(
             }
         }
     }
-    ctx.write(first_reg, w).map_err(exception)
+    regs.write(first_reg, w).map_err(exception)
 }
 
-fn execute<'d>(
-    ctx: &Ctx<'_>,
+fn execute<'d, R: Registers>(
+    regs: &R,
     req: Request<'_>,
     pdu: &[u8],
     data: &'d mut [u8; 252],
-) -> Result<Response<'d>, Exception> {
+) -> Result<Executed<'d>, Exception> {
+    use Executed::Done;
     let mut words = [0u16; 125];
     match req {
         Request::ReadCoils(addr, qty) | Request::ReadDiscreteInputs(addr, qty) => {
             // Byte count, then the packed bits (the standard reply, written
             // here so that no array of 2000 bools is needed).
             let (count, bits) = data.split_at_mut(1);
-            let n = read_bits(ctx, addr, qty, bits)?;
+            let n = read_bits(regs, addr, qty, bits)?;
             if let Some(c) = count.first_mut() {
                 *c = n as u8;
             }
@@ -357,7 +475,7 @@ fn execute<'d>(
                 _ => FunctionCode::ReadDiscreteInputs,
             };
             let d = data.get(..1 + n).ok_or(Exception::ServerDeviceFailure)?;
-            Ok(Response::Custom(fc, d))
+            Ok(Done(Response::Custom(fc, d)))
         }
         Request::ReadHoldingRegisters(addr, qty) | Request::ReadInputRegisters(addr, qty) => {
             if !(1..=125).contains(&qty) {
@@ -366,26 +484,35 @@ fn execute<'d>(
             let w = words
                 .get_mut(..usize::from(qty))
                 .ok_or(Exception::IllegalDataValue)?;
-            ctx.read(addr, w)
+            regs.read(addr, w)
                 .map_err(|_| Exception::IllegalDataAddress)?;
             let d = Data::from_words(w, data).map_err(|_| Exception::ServerDeviceFailure)?;
-            Ok(match req {
+            Ok(Done(match req {
                 Request::ReadHoldingRegisters(..) => Response::ReadHoldingRegisters(d),
                 _ => Response::ReadInputRegisters(d),
-            })
+            }))
         }
         Request::WriteSingleCoil(addr, on) => {
-            write_bits(ctx, addr, 1, |_| on)?;
+            let pending = write_bits(regs, addr, 1, |_| on)?;
             // modbus-core 0.2 encodes this response without the value; the
             // standard answer echoes the request.
             let echo = pdu.get(1..5).ok_or(Exception::IllegalDataValue)?;
+            if let Some(p) = pending {
+                let mut e = [0u8; 4];
+                e.copy_from_slice(echo);
+                return Ok(Executed::Pending(p, DeferredOk::Echo(e)));
+            }
             let d = data.get_mut(..4).ok_or(Exception::ServerDeviceFailure)?;
             d.copy_from_slice(echo);
-            Ok(Response::Custom(FunctionCode::WriteSingleCoil, d))
+            Ok(Done(Response::Custom(FunctionCode::WriteSingleCoil, d)))
         }
         Request::WriteSingleRegister(addr, value) => {
-            ctx.write(addr, &[value]).map_err(exception)?;
-            Ok(Response::WriteSingleRegister(addr, value))
+            if let Some(p) = regs.write(addr, &[value]).map_err(exception)? {
+                let [a, b] = addr.to_be_bytes();
+                let [c, d] = value.to_be_bytes();
+                return Ok(Executed::Pending(p, DeferredOk::Echo([a, b, c, d])));
+            }
+            Ok(Done(Response::WriteSingleRegister(addr, value)))
         }
         Request::WriteMultipleCoils(addr, coils) => {
             let qty = be16(pdu, 3);
@@ -396,8 +523,10 @@ fn execute<'d>(
             {
                 return Err(Exception::IllegalDataValue);
             }
-            write_bits(ctx, addr, qty, |i| coils.get(i).unwrap_or(false))?;
-            Ok(Response::WriteMultipleCoils(addr, qty))
+            if let Some(p) = write_bits(regs, addr, qty, |i| coils.get(i).unwrap_or(false))? {
+                return Ok(Executed::Pending(p, DeferredOk::Count(addr, qty)));
+            }
+            Ok(Done(Response::WriteMultipleCoils(addr, qty)))
         }
         Request::WriteMultipleRegisters(addr, values) => {
             let qty = be16(pdu, 3);
@@ -412,8 +541,10 @@ fn execute<'d>(
             for (i, slot) in w.iter_mut().enumerate() {
                 *slot = values.get(i).ok_or(Exception::IllegalDataValue)?;
             }
-            ctx.write(addr, w).map_err(exception)?;
-            Ok(Response::WriteMultipleRegisters(addr, qty))
+            if let Some(p) = regs.write(addr, w).map_err(exception)? {
+                return Ok(Executed::Pending(p, DeferredOk::Count(addr, qty)));
+            }
+            Ok(Done(Response::WriteMultipleRegisters(addr, qty)))
         }
         Request::ReadWriteMultipleRegisters(raddr, rqty, waddr, values) => {
             let wqty = be16(pdu, 7);
@@ -425,7 +556,7 @@ fn execute<'d>(
             {
                 return Err(Exception::IllegalDataValue);
             }
-            RegisterFile::check(raddr, rqty, false).map_err(|_| Exception::IllegalDataAddress)?;
+            r::check(raddr, rqty, false).map_err(|_| Exception::IllegalDataAddress)?;
             let mut wv = [0u16; 121];
             let wv = wv
                 .get_mut(..usize::from(wqty))
@@ -433,14 +564,16 @@ fn execute<'d>(
             for (i, slot) in wv.iter_mut().enumerate() {
                 *slot = values.get(i).ok_or(Exception::IllegalDataValue)?;
             }
-            ctx.write(waddr, wv).map_err(exception)?;
+            if let Some(p) = regs.write(waddr, wv).map_err(exception)? {
+                return Ok(Executed::Pending(p, DeferredOk::ReadBack(raddr, rqty)));
+            }
             let w = words
                 .get_mut(..usize::from(rqty))
                 .ok_or(Exception::IllegalDataValue)?;
-            ctx.read(raddr, w)
+            regs.read(raddr, w)
                 .map_err(|_| Exception::IllegalDataAddress)?;
             let d = Data::from_words(w, data).map_err(|_| Exception::ServerDeviceFailure)?;
-            Ok(Response::ReadWriteMultipleRegisters(d))
+            Ok(Done(Response::ReadWriteMultipleRegisters(d)))
         }
         Request::Custom(..) => Err(Exception::IllegalFunction),
     }
@@ -449,21 +582,43 @@ fn execute<'d>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::RamStorage;
-    use crate::gateway::Options;
 
-    fn answer(ctx: &Ctx<'_>, adu: &[u8]) -> Vec<u8> {
+    /// The register map of a fresh gateway, without its tasks.
+    struct Map(crate::hub::Hub);
+
+    impl Registers for Map {
+        fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError> {
+            self.0
+                .read_registers(start, out, embassy_time::Instant::from_ticks(0))
+        }
+        fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError> {
+            self.0
+                .write_registers(start, values, embassy_time::Instant::from_ticks(0))
+                .map(|c| c.map(Pending))
+        }
+        async fn settle(&self, p: Pending) -> Result<(), WriteError> {
+            self.0.config_command(p.0).await
+        }
+        fn session(&self, opened: bool) -> u16 {
+            self.0.session(opened)
+        }
+    }
+
+    fn answer(map: &Map, adu: &[u8]) -> Vec<u8> {
         let mut out = [0u8; MAX_ADU];
-        let n = handle(ctx, adu, &mut out).expect("an answer");
+        let n = match handle(map, adu, &mut out).expect("an answer") {
+            Answer::Now(n) => n,
+            Answer::After(..) => panic!("no configuration command here"),
+        };
         out[..n].to_vec()
     }
 
     #[test]
     fn exceptions_for_bad_requests() {
-        let mut st = RamStorage::new();
-        let mut regs = RegisterFile::new();
-        let ctx = Ctx::new(&mut st, &mut regs);
-        ctx.load(&Options::default());
+        let ctx = Map(crate::hub::Hub::new(crate::state::Model::new(
+            crate::Config::default(),
+            crate::Config::default(),
+        )));
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 2, 1, 0x2B]),
             [0, 1, 0, 0, 0, 3, 1, 0xAB, 1]
@@ -478,12 +633,13 @@ mod tests {
         );
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]),
-            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 0]
+            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 1]
         );
-        // FC 1: bits 0-11 of register 0 (version 0x0100: bit 8), packed.
+        // FC 1: bits 0-11 of register 0 (version 0x0101: bits 0 and 8),
+        // packed.
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
-            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x00, 0x01]
+            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x01, 0x01]
         );
         // FC 2 from bit 4, 796 bits (up to register 49): 100 bytes; bit 4
         // of the reply is bit 8 of register 0.

@@ -8,8 +8,8 @@ use std::process::{Child, Command, Output, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use hans_gateway::config::{encode_image, IMAGE_LEN};
-use hans_gateway::registers::RegisterFile;
+use hans_gateway::state::Text;
+use hans_gateway::storage::{image, IMAGE_LEN};
 use hans_gateway::Config;
 
 const BIN: &str = env!("CARGO_BIN_EXE_hans-gateway");
@@ -94,9 +94,9 @@ fn robot_on_the_command_line_overrides_a_saved_one_and_says_so() {
         robot_port: 4321,
         ..Config::default()
     };
-    let mut image = [0u8; IMAGE_LEN];
-    encode_image(&saved, &RegisterFile::new(), &mut image);
-    std::fs::write(&path, image).expect("write the config file");
+    let mut bytes = [0u8; IMAGE_LEN];
+    image::encode(&saved, &[Text::EMPTY; 16], &mut bytes).expect("room for the image");
+    std::fs::write(&path, bytes).expect("write the config file");
     let child = Command::new(BIN)
         .args([
             "--config",

@@ -1,126 +1,91 @@
 //! The command engine: the only user of the robot link.
 //!
-//! * Jobs leave the FIFO queue one at a time; one request is in flight.
-//! * A motion command is Done when the robot has finished it (chapter 6):
-//!   `ReadRobotState` is polled every [`MOTION_POLL`] until moving ends
-//!   (plus blending done / in position if configured), then the FSM must
-//!   agree ([`fsm::motion_under_way`]) and `ReadActPos` refreshes the
-//!   position registers, so that they are final at Done; Error when the
-//!   robot refuses it or reports an error, emergency stop or safety guard.
-//! * Urgent commands (stop, pause, continue, reset, disable: see
-//!   [`job::is_urgent`]) go out before every ordinary command waiting.
-//! * While a motion runs, other commands still go out in queue order, but a
-//!   motion at the head of the queue waits for the running one to finish
-//!   (the robot takes one motion at a time). A successful `GrpStop` (or the
-//!   watchdog's stop or pause) ends the running motion's command and every
-//!   motion still waiting in the queue in CommandAborted (MC_Stop).
-//! * After the `OK` of a bring-up step (`ConnectToBox`, `Electrify`,
-//!   `StartMaster`, `GrpEnable`) the job is parked until `ReadCurFSM` shows
-//!   the step's state ([`fsm::StepWait`]), then goes on with its next
-//!   message or is Done; meanwhile only urgent commands are sent.
-//! * Between commands the engine polls the status (see [`crate::status`]).
-//! * The PLC watchdog: while a motion runs, the heartbeat register must
-//!   change at least every configured period, else the configured action
-//!   is sent and reported.
-//! * A reply timeout ends the command in Error and resets the link; when
-//!   the link drops, every queued and running command ends in Error (link
-//!   lost) and nothing is re-sent. Reconnects back off from
-//!   [`MIN_BACKOFF`] to [`MAX_BACKOFF`].
+//! Its rules live in the submodules, each testable alone:
+//! [`plc`] (what the PLC's writes do), [`motion`] (when a motion is Done),
+//! [`watchdog`], [`bringup`] (Power on, Enable), [`poll`] (the status
+//! reads). This module runs them in time: one step at a time, chosen by
+//! [`Engine::choose`] in a fixed priority order:
+//!
+//! 1. the link is down: bring it up (connect, listen, or wait out the
+//!    backoff of [`MIN_BACKOFF`] doubling to [`MAX_BACKOFF`]);
+//! 2. the watchdog expired during a motion: act;
+//! 3. a job may go: send it (urgent jobs first; while a motion runs a
+//!    motion at the head of the queue waits; while a bring-up step waits
+//!    for its state only urgent jobs go);
+//! 4. the motion poll is due ([`motion::MOTION_POLL`]);
+//! 5. the bring-up poll is due ([`bringup::STATE_POLL`]);
+//! 6. the status round has a read left (one round per `CFG_POLL_MS`);
+//! 7. else wait for the earliest deadline, a wake from the PLC side, or a
+//!    link event (lost, or a new controller connection in listen mode).
+//!
+//! One request is in flight at a time. A reply timeout ends the command in
+//! Error and resets the link; when the link drops, every queued and running
+//! command ends in Error (link lost) and nothing is re-sent.
 
-pub mod commands;
-pub mod fsm;
-pub mod job;
+pub mod bringup;
+pub mod motion;
+pub mod plc;
+pub mod poll;
+pub mod watchdog;
 
 use core::convert::Infallible;
 
-use embassy_futures::select::{select3, Either3};
-use embassy_time::{Duration, Instant, Timer};
-use hans_codec::{
-    request, response, Command, CommandId, FsmState, ParseError, Reply, ReplyExpect, Request,
-    Response, RobotId,
-};
+use embassy_futures::select::{select, select3, Either3};
+use embassy_time::{Duration, Instant};
+use hans_codec::{response, CommandId, FsmState, ParseError, Reply, Response};
 
-pub use job::{ErrorSource, GatewayError, Outcome, Source};
+pub use crate::error::{ErrorSource, GatewayError, Outcome};
 
-use crate::config::{Config, LinkMode, WatchdogAction, WordOrder};
-use crate::gateway::{millis, Ctx};
+use crate::clock::{millis, Clock};
+use crate::config::{Config, LinkMode, StatusSource, WatchdogAction};
+use crate::hub::Hub;
+use crate::job::{Gate, Job, JobKind, Message, Source, Urgent};
 use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
-use crate::registers as r;
-use crate::status::{self, LinkState, PollStep};
-use fsm::{StepWait, Verdict};
-use job::{Gate, Job, Results};
+use crate::state::LinkState;
+use bringup::{StepWait, Verdict};
+use motion::{Judgement, Motion, MOTION_POLL};
+use poll::{PollStep, UNTYPED};
 
-/// Poll period of `ReadRobotState` while a motion runs.
-pub const MOTION_POLL: Duration = Duration::from_millis(10);
 /// First reconnect delay.
 pub const MIN_BACKOFF: Duration = Duration::from_millis(200);
 /// Longest reconnect delay.
 pub const MAX_BACKOFF: Duration = Duration::from_secs(5);
-
-/// A reply read without a type: any name, the values as sent.
-const UNTYPED: ReplyExpect = ReplyExpect {
-    command: None,
-    count: None,
-};
-
-struct Active {
-    source: Source,
-    since: Instant,
-    /// Start of the grace period: acceptance, or the last `GrpContinue`.
-    grace_from: Instant,
-    seen_moving: bool,
-    /// The watchdog already acted on this motion.
-    watchdog_fired: bool,
-}
-
-/// A command the gateway sends of its own accord, to the configured robot.
-#[derive(Clone, Copy)]
-enum Internal {
-    /// `GrpStop` (the watchdog's stop).
-    Stop,
-    /// `GrpInterrupt` (the watchdog's pause).
-    Pause,
-    /// `GrpReset` (the automatic reset after a motion error).
-    Reset,
-}
-
-/// What a polled reply gave the engine.
-enum Polled {
-    /// Nothing it needs (the registers may have been updated).
-    Nothing,
-    /// `ReadRobotState`.
-    State(response::ReadRobotState),
-    /// `ReadCurFSM`.
-    Fsm(FsmState),
-    /// The code of a reply to the gateway's own command (0 = OK).
-    Code(i32),
-}
+/// Room for one request: a RAW text and the longest typed command.
+const MSG_BUF: usize = 320;
 
 /// A job between two messages, or after its last one, waiting for the
 /// state its last bring-up step leads to.
 struct Pending {
     job: Job,
-    /// Byte offset in `job.text` of the next message to send.
-    next: usize,
+    /// The next message to send.
+    next: u8,
     wait: StepWait,
     deadline: Instant,
 }
 
-struct Engine<'c, 'a> {
-    ctx: &'c Ctx<'a>,
-    config: Config,
-    config_gen: u32,
-    target: Target,
-    active: Option<Active>,
-    pending: Option<Pending>,
-    next_state_poll: Instant,
-    backoff: Duration,
-    retry_at: Instant,
-    next_tick: Instant,
-    round: Option<usize>,
-    next_motion_poll: Instant,
-    buf: [u8; 160],
+/// What the engine does next (see the module documentation for the order).
+enum Step {
+    BringUp,
+    Watchdog,
+    Job(Gate),
+    MotionPoll,
+    BringUpPoll,
+    StatusPoll(PollStep),
+    Wait(Instant),
+}
+
+/// The link was lost (already handled: every command ended, backoff set).
+struct Lost;
+
+/// What a status read gave the engine.
+enum Polled {
+    /// Nothing it needs (the status may have been updated).
+    Nothing,
+    /// `ReadRobotState`.
+    State(response::ReadRobotState),
+    /// `ReadCurFSM`.
+    Fsm(FsmState),
 }
 
 fn target_of(c: &Config) -> Target {
@@ -131,92 +96,164 @@ fn target_of(c: &Config) -> Target {
     }
 }
 
+/// `true` if reply name `a` answers request name `b`: the same name, or
+/// two names (aliases) of one known command.
+fn same_command(a: &str, b: &str) -> bool {
+    a == b || CommandId::from_name(a).is_some_and(|id| CommandId::from_name(b) == Some(id))
+}
+
 /// Runs the engine forever on a link over sockets `a` and `b` (built here,
 /// in place: the link holds kilobytes of buffers).
-pub(crate) async fn run<S: Socket>(ctx: &Ctx<'_>, a: S, b: S) -> Infallible {
+pub(crate) async fn run<S: Socket, C: Clock>(hub: &Hub, clock: &C, a: S, b: S) -> Infallible {
     let mut link = Link::new(a, b);
-    let (config, config_gen) = ctx.with(|s| (s.config, s.config_gen));
-    let now = Instant::now();
+    let (config, generation) = hub.with(|m| (m.config.active, m.config.generation));
+    let now = clock.now();
     let mut e = Engine {
-        ctx,
+        hub,
+        clock,
         config,
-        config_gen,
+        generation,
         target: target_of(&config),
-        active: None,
+        motion: None,
         pending: None,
-        next_state_poll: now,
-        backoff: MIN_BACKOFF,
-        retry_at: now,
-        next_tick: now,
         round: None,
+        next_tick: now,
         next_motion_poll: now,
-        buf: [0; 160],
+        next_state_poll: now,
+        retry_at: now,
+        backoff: MIN_BACKOFF,
+        buf: [0; MSG_BUF],
     };
     loop {
         e.step(&mut link).await;
     }
 }
 
-impl<'c, 'a> Engine<'c, 'a> {
-    fn set_link_state(&self, st: LinkState) {
-        self.ctx
-            .with(|s| s.regs.set(r::STATUS_LINK_STATE, st as u16));
-    }
+/// The engine's own state (the shared state is the hub's model).
+pub(crate) struct Engine<'a, C: Clock> {
+    hub: &'a Hub,
+    clock: &'a C,
+    config: Config,
+    generation: u32,
+    target: Target,
+    motion: Option<Motion>,
+    pending: Option<Pending>,
+    /// The next read of the status round, while a round is under way.
+    round: Option<usize>,
+    next_tick: Instant,
+    next_motion_poll: Instant,
+    next_state_poll: Instant,
+    retry_at: Instant,
+    backoff: Duration,
+    buf: [u8; MSG_BUF],
+}
 
+impl<C: Clock> Engine<'_, C> {
     async fn step<S: Socket>(&mut self, link: &mut Link<S>) {
         self.follow_config(link).await;
-        let now = Instant::now();
-        if now >= self.next_tick {
-            self.next_tick = now + millis(self.config.poll_ms);
-            self.ctx.with(|s| {
-                let hb = s.regs.get(r::STATUS_HEARTBEAT).wrapping_add(1);
-                s.regs.set(r::STATUS_HEARTBEAT, hb);
-            });
-            if link.is_up()
-                && self.round.is_none()
-                && self.config.status_source == crate::config::StatusSource::Polling
-            {
-                self.round = Some(0);
+        let now = self.clock.now();
+        self.tick(link.is_up(), now);
+        match self.choose(link.is_up(), now) {
+            Step::BringUp => self.bring_up(link).await,
+            Step::Watchdog => self.watchdog(link).await,
+            Step::Job(gate) => {
+                let job = self.hub.with(|m| {
+                    let job = m.queue.take(gate)?;
+                    m.set_running(job.source);
+                    Some(job)
+                });
+                if let Some(job) = job {
+                    self.run_job(link, job, 0).await;
+                }
+            }
+            Step::MotionPoll => self.poll_motion(link).await,
+            Step::BringUpPoll => self.poll_bringup(link).await,
+            Step::StatusPoll(step) => self.poll_status(link, step).await,
+            Step::Wait(until) => self.wait(link, until).await,
+        }
+    }
+
+    /// The gateway's heartbeat, and the start of a status round, every
+    /// poll period.
+    fn tick(&mut self, link_up: bool, now: Instant) {
+        if now < self.next_tick {
+            return;
+        }
+        self.next_tick = now + millis(self.config.poll_ms);
+        self.hub.with(|m| m.ticks = m.ticks.wrapping_add(1));
+        if link_up && self.round.is_none() && self.config.status_source == StatusSource::Polling {
+            self.round = Some(0);
+        }
+    }
+
+    /// The next step, in the priority order of the module documentation.
+    fn choose(&mut self, link_up: bool, now: Instant) -> Step {
+        if !link_up {
+            return Step::BringUp;
+        }
+        let period = self.config.watchdog_ms;
+        let last_beat = self.hub.with(|m| m.plc.last_beat);
+        if let Some(mo) = &self.motion {
+            if watchdog::expired(mo, last_beat, period, now) {
+                return Step::Watchdog;
             }
         }
-        if !link.is_up() {
-            self.bring_up(link).await;
-            return;
+        let gate = if self.pending.is_some() {
+            Gate::UrgentOnly
+        } else if self.motion.is_some() {
+            Gate::MotionRunning
+        } else {
+            Gate::Open
+        };
+        if self.hub.with(|m| m.queue.can_take(gate)) {
+            return Step::Job(gate);
         }
-        if self.check_watchdog(link, now).await {
-            return;
-        }
-        if let Some(job) = self.take_job() {
-            self.run_job(link, job).await;
-            return;
-        }
-        if self.active.is_some() && now >= self.next_motion_poll {
-            self.poll_motion(link).await;
-            return;
+        if self.motion.is_some() && now >= self.next_motion_poll {
+            return Step::MotionPoll;
         }
         if self.pending.is_some() && now >= self.next_state_poll {
-            self.poll_pending(link).await;
-            return;
+            return Step::BringUpPoll;
         }
-        if let Some(i) = self.round {
-            self.poll_status(link, i).await;
-            return;
+        if let Some(step) = self.round.and_then(|i| PollStep::ROUND.get(i)) {
+            return Step::StatusPoll(*step);
         }
         let mut due = self.next_tick;
-        if self.active.is_some() {
+        if self.motion.is_some() {
             due = due.min(self.next_motion_poll);
         }
         if self.pending.is_some() {
             due = due.min(self.next_state_poll);
         }
-        if let Some(w) = self.watchdog_due() {
+        if let Some(w) = self
+            .motion
+            .as_ref()
+            .and_then(|mo| watchdog::deadline(mo, last_beat, period))
+        {
             due = due.min(w);
         }
+        Step::Wait(due)
+    }
+
+    fn set_link_state(&self, st: LinkState) {
+        self.hub.with(|m| m.link.state = st);
+    }
+
+    fn end(&self, source: Source, outcome: Outcome) {
+        self.hub.with(|m| m.finish(source, outcome));
+    }
+
+    fn deadline(&self) -> Instant {
+        self.clock.now() + millis(self.config.reply_timeout_ms)
+    }
+
+    /// Nothing to do until `until`, a wake, or a link event.
+    async fn wait<S: Socket>(&mut self, link: &mut Link<S>, until: Instant) {
         let listen = match self.target {
             Target::Listen(p) => Some(p),
             _ => None,
         };
-        match select3(link.idle(listen), self.ctx.wake.wait(), Timer::at(due)).await {
+        let idle = link.idle(listen, self.clock);
+        match select3(idle, self.hub.wake.wait(), self.clock.sleep_until(until)).await {
             Either3::First(IdleEvent::Lost(e)) => {
                 warn!("robot link: {}", e.as_str());
                 self.link_lost(link, GatewayError::LinkLost).await;
@@ -226,11 +263,10 @@ impl<'c, 'a> Engine<'c, 'a> {
                     "robot link: the controller connected again; new connection replaces the old"
                 );
                 let peer = link.peer().map(|p| *p.ip());
-                self.ctx.with(|s| {
+                self.hub.with(|m| {
                     // Maybe from another address: the DataSheet follows.
-                    s.robot_peer = peer;
-                    let n = s.regs.get(r::STATUS_LINK_CONNECTS).wrapping_add(1);
-                    s.regs.set(r::STATUS_LINK_CONNECTS, n);
+                    m.link.peer = peer;
+                    m.link.connects = m.link.connects.wrapping_add(1);
                 });
             }
             _ => {}
@@ -240,11 +276,11 @@ impl<'c, 'a> Engine<'c, 'a> {
     /// Picks up a changed configuration; a changed robot address drops the
     /// link.
     async fn follow_config<S: Socket>(&mut self, link: &mut Link<S>) {
-        let (config, gen) = self.ctx.with(|s| (s.config, s.config_gen));
-        if gen == self.config_gen {
+        let (config, generation) = self.hub.with(|m| (m.config.active, m.config.generation));
+        if generation == self.generation {
             return;
         }
-        self.config_gen = gen;
+        self.generation = generation;
         self.config = config;
         let target = target_of(&config);
         if target != self.target {
@@ -255,34 +291,31 @@ impl<'c, 'a> Engine<'c, 'a> {
             link.close_all().await;
             self.target = target;
             self.backoff = MIN_BACKOFF;
-            self.retry_at = Instant::now();
+            self.retry_at = self.clock.now();
         }
     }
 
+    /// The link is down: connect, listen, or wait out the backoff.
     async fn bring_up<S: Socket>(&mut self, link: &mut Link<S>) {
-        self.ctx.with(|s| s.fail_queue(GatewayError::NotConnected));
-        let now = Instant::now();
+        self.hub.with(|m| m.fail_queue(GatewayError::NotConnected));
+        let now = self.clock.now();
+        let wake = &self.hub.wake;
         match self.target {
             Target::None => {
                 self.set_link_state(LinkState::Down);
-                let _ = embassy_futures::select::select(
-                    self.ctx.wake.wait(),
-                    Timer::at(self.next_tick),
-                )
-                .await;
+                select(wake.wait(), self.clock.sleep_until(self.next_tick)).await;
             }
             Target::Connect(addr) => {
                 if now < self.retry_at {
                     self.set_link_state(LinkState::Down);
                     let due = self.retry_at.min(self.next_tick);
-                    let _ =
-                        embassy_futures::select::select(self.ctx.wake.wait(), Timer::at(due)).await;
+                    select(wake.wait(), self.clock.sleep_until(due)).await;
                     return;
                 }
                 self.set_link_state(LinkState::Connecting);
                 // Bounded by CONNECT_TIMEOUT; awaited whole so that slow
                 // connects are not cut by the poll tick.
-                match link.establish(Target::Connect(addr)).await {
+                match link.establish(Target::Connect(addr), self.clock).await {
                     Ok(()) => self.on_connected(link),
                     Err(e) => {
                         debug!("robot link: connect failed: {}", e.as_str());
@@ -292,18 +325,13 @@ impl<'c, 'a> Engine<'c, 'a> {
             }
             Target::Listen(port) => {
                 self.set_link_state(LinkState::Listening);
-                match select3(
-                    link.establish(Target::Listen(port)),
-                    self.ctx.wake.wait(),
-                    Timer::at(self.next_tick),
-                )
-                .await
-                {
+                let accept = link.establish(Target::Listen(port), self.clock);
+                match select3(accept, wake.wait(), self.clock.sleep_until(self.next_tick)).await {
                     Either3::First(Ok(())) => self.on_connected(link),
                     Either3::First(Err(e)) => {
                         warn!("robot link: listen failed: {}", e.as_str());
                         self.backoff_after(GatewayError::ConnectFailed);
-                        Timer::at(self.retry_at).await;
+                        self.clock.sleep_until(self.retry_at).await;
                     }
                     _ => {}
                 }
@@ -312,11 +340,11 @@ impl<'c, 'a> Engine<'c, 'a> {
     }
 
     fn backoff_after(&mut self, e: GatewayError) {
-        self.retry_at = Instant::now() + self.backoff;
+        self.retry_at = self.clock.now() + self.backoff;
         self.backoff = (self.backoff * 2).min(MAX_BACKOFF);
-        self.ctx.with(|s| {
-            s.regs.set(r::STATUS_LINK_STATE, LinkState::Down as u16);
-            s.regs.set(r::STATUS_LINK_LAST_ERROR, e.code() as u16);
+        self.hub.with(|m| {
+            m.link.state = LinkState::Down;
+            m.link.last_error = Some(e);
         });
     }
 
@@ -329,183 +357,96 @@ impl<'c, 'a> Engine<'c, 'a> {
             info!("robot link: up");
         }
         let peer = link.peer().map(|p| *p.ip());
-        self.ctx.with(|s| {
-            s.link_up = true;
-            s.robot_peer = peer;
-            s.regs
-                .set(r::STATUS_LINK_STATE, LinkState::Connected as u16);
-            let n = s.regs.get(r::STATUS_LINK_CONNECTS).wrapping_add(1);
-            s.regs.set(r::STATUS_LINK_CONNECTS, n);
+        self.hub.with(|m| {
+            m.link.state = LinkState::Connected;
+            m.link.peer = peer;
+            m.link.connects = m.link.connects.wrapping_add(1);
         });
-        if self.config.status_source == crate::config::StatusSource::Polling {
+        if self.config.status_source == StatusSource::Polling {
             self.round = Some(0);
         }
     }
 
-    /// The link is gone: every queued and running command ends in Error.
-    async fn link_lost<S: Socket>(&mut self, link: &mut Link<S>, e: GatewayError) {
-        let active = self.active.take();
-        let pending = self.pending.take().map(|p| p.job.source);
+    /// The link is gone: every queued and running command ends in Error
+    /// 39601, the status becomes unknown, the link backs off (`cause` shows
+    /// in `LINK_LAST_ERROR`).
+    async fn link_lost<S: Socket>(&mut self, link: &mut Link<S>, cause: GatewayError) {
+        let motion = self.motion.take();
+        let pending = self.pending.take();
         self.round = None;
-        self.ctx.with(|s| {
-            if let Some(a) = &active {
-                s.finish(a.source, Outcome::gateway(GatewayError::LinkLost));
-                s.regs.set(r::STATUS_ACTIVE_MOTION, 0);
+        self.hub.with(|m| {
+            let lost = Outcome::gateway(GatewayError::LinkLost);
+            if let Some(mo) = motion {
+                m.finish(mo.source, lost);
             }
-            if let Some(source) = pending {
-                s.finish(source, Outcome::gateway(GatewayError::LinkLost));
+            if let Some(p) = pending {
+                m.finish(p.job.source, lost);
             }
-            s.fail_queue(GatewayError::LinkLost);
-            s.link_up = false;
+            m.fail_queue(GatewayError::LinkLost);
             // No controller is connected now (listen mode: the DataSheet
             // follows the next one, from wherever it connects).
-            s.robot_peer = None;
-            let order = s.config.word_order;
-            status::invalidate(s.regs, order);
-            s.status_time = None;
-            s.regs.set_bits(r::STATUS_WATCHDOG, 1, false);
+            m.link.peer = None;
+            m.robot.invalidate();
         });
         link.close().await;
-        warn!("robot link: lost ({}), reconnecting", e.as_str());
-        self.backoff_after(e);
+        warn!("robot link: lost ({}), reconnecting", cause.as_str());
+        self.backoff_after(cause);
     }
 
-    /// Takes the next job that may go now.
-    fn take_job(&mut self) -> Option<Job> {
-        let gate = if self.pending.is_some() {
-            Gate::UrgentOnly
-        } else if self.active.is_some() {
-            Gate::MotionRunning
-        } else {
-            Gate::Open
-        };
-        self.ctx.with(|s| {
-            let job = s.queue.take(gate)?;
-            job.source.set_dequeued(s.regs);
-            s.update_queue_reg();
-            Some(job)
-        })
+    /// Sends `self.buf[..len]` and waits for its reply: the reply text, or
+    /// why there is none: [`GatewayError::BadReply`] for a frame that
+    /// cannot be read (the link stays), [`GatewayError::ReplyTimeout`] or
+    /// [`GatewayError::LinkLost`] (the caller resets the link).
+    async fn transact<'l, S: Socket>(
+        &mut self,
+        link: &'l mut Link<S>,
+        len: usize,
+    ) -> Result<&'l str, GatewayError> {
+        let deadline = self.deadline();
+        let msg = self.buf.get(..len).unwrap_or(&[]);
+        link.transact(msg, deadline, self.clock)
+            .await
+            .map_err(|e| match e {
+                LinkError::BadFrame(_) => GatewayError::BadReply,
+                LinkError::Timeout => GatewayError::ReplyTimeout,
+                LinkError::Lost(_) => GatewayError::LinkLost,
+            })
     }
 
-    fn deadline(&self) -> Instant {
-        Instant::now() + millis(self.config.reply_timeout_ms)
-    }
-
-    /// Sends a job's messages in turn and ends it (or starts its motion).
-    async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job) {
-        self.run_job_from(link, job, 0).await;
-    }
-
-    /// Sends a job's messages from byte offset `from` in turn and ends it
-    /// (or starts its motion). After a bring-up step's `OK` the job is
-    /// parked until the FSM shows the step's state ([`Self::poll_pending`]).
-    async fn run_job_from<S: Socket>(&mut self, link: &mut Link<S>, job: Job, from: usize) {
+    /// Sends a job's messages from `from` in turn and ends it (or starts its
+    /// motion). After a bring-up step's `OK` the job waits until the FSM
+    /// shows the step's state ([`Self::poll_bringup`]).
+    async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job, from: u8) {
+        let source = job.source;
         let mut last = None;
-        let mut next = from;
-        let mut park = None;
-        for msg in job.text.get(from..).unwrap_or("").split_inclusive(';') {
-            next += msg.len();
+        for step in from..job.steps() {
+            let Some(msg) = job.encode(step, &mut self.buf) else {
+                self.end(source, Outcome::gateway(GatewayError::BadParameter));
+                return;
+            };
             info!(
-                "{} #{}: send {}",
-                job.source.name(),
-                job.source.index(),
-                msg
+                "{} {}: send {}",
+                source.name(),
+                source.index(),
+                core::str::from_utf8(self.buf.get(..msg.len).unwrap_or(&[])).unwrap_or("?")
             );
-            let req = Request::parse(msg).ok();
-            let expect = req.as_ref().map(|q| q.expect()).unwrap_or(UNTYPED);
-            last = req.as_ref().and_then(|q| q.command());
-            let req_name = req.as_ref().map(|q| q.name()).unwrap_or("");
-            let deadline = self.deadline();
-            let outcome = match link.transact(msg.as_bytes(), deadline).await {
-                Err(LinkError::Timeout) => {
-                    self.end(job.source, Outcome::gateway(GatewayError::ReplyTimeout));
-                    self.link_lost(link, GatewayError::ReplyTimeout).await;
-                    return;
-                }
-                Err(LinkError::Lost(_)) => {
-                    self.end(job.source, Outcome::gateway(GatewayError::LinkLost));
-                    self.link_lost(link, GatewayError::LinkLost).await;
-                    return;
-                }
-                Err(LinkError::BadFrame(_)) => Some(Outcome::gateway(GatewayError::BadReply)),
-                Ok(text) => {
-                    let order = self.config.word_order;
-                    let parsed = match Reply::parse(text, expect) {
-                        // An OK the codec cannot type (extra values, as
-                        // newer firmware may send): the robot accepted the
-                        // command. Success where the gateway does not use
-                        // the values; typed checks stay where it does. The
-                        // name is the request's: any error but NameMismatch
-                        // comes after the codec matched it (aliases too).
-                        Err(e)
-                            if job.results == Results::None
-                                && !matches!(e, ParseError::NameMismatch { .. }) =>
-                        {
-                            match Reply::parse(text, UNTYPED) {
-                                Ok(Reply::Ok(Response::Unknown(raw))) => {
-                                    warn!(
-                                        "{} #{}: reply values not as documented, accepted: {}",
-                                        job.source.name(),
-                                        job.source.index(),
-                                        text
-                                    );
-                                    Ok(Reply::Ok(Response::Unknown(raw)))
-                                }
-                                _ => Err(e),
-                            }
-                        }
-                        p => p,
+            last = msg.id;
+            let outcome = match self.transact(link, msg.len).await {
+                Ok(text) => self.on_reply(&job, &msg, text),
+                Err(GatewayError::BadReply) => Some(Outcome::gateway(GatewayError::BadReply)),
+                Err(cause) => {
+                    let own = match cause {
+                        GatewayError::ReplyTimeout => cause,
+                        _ => GatewayError::LinkLost,
                     };
-                    self.ctx.with(|s| {
-                        if job.source == Source::Raw {
-                            let b = text.as_bytes();
-                            s.regs.set_text(r::RAW_REPLY, r::RAW_REPLY_REGS, b);
-                            s.regs.set(r::RAW_REPLY_LEN, b.len() as u16);
-                            let cut = b.len() > 2 * r::RAW_REPLY_REGS as usize;
-                            s.regs.set(r::RAW_REPLY_TRUNCATED, u16::from(cut));
-                        }
-                        match &parsed {
-                            Ok(Reply::Ok(Response::Unknown(raw)))
-                                if !same_command(raw.name(), req_name) =>
-                            {
-                                Some(Outcome::gateway(GatewayError::ReplyMismatch))
-                            }
-                            Ok(Reply::Ok(resp)) => {
-                                status::apply_response(resp, s.regs, order);
-                                if let (
-                                    Results::ActPos,
-                                    Response::ReadActPos(p),
-                                    Source::Channel(i),
-                                ) = (job.results, resp, job.source)
-                                {
-                                    let b = r::channel_base(usize::from(i)) + r::CH_RESULTS;
-                                    let all =
-                                        p.joints.iter().chain(&p.pose).chain(&p.tcp).chain(&p.ucs);
-                                    for (k, v) in all.enumerate() {
-                                        s.regs.set_f32(b + 2 * k as u16, v.to_f32(), order);
-                                    }
-                                }
-                                if let Some(Request::SetOverride(o)) = &req {
-                                    s.regs.set_f32(r::STATUS_OVERRIDE, o.ratio.to_f32(), order);
-                                }
-                                None
-                            }
-                            Ok(Reply::Fail(f)) => {
-                                Some(Outcome::Error(ErrorSource::RobotFail, f.code.code()))
-                            }
-                            Ok(Reply::ErrorCmd(_)) => {
-                                Some(Outcome::gateway(GatewayError::BadReply))
-                            }
-                            Err(ParseError::NameMismatch { .. }) => {
-                                Some(Outcome::gateway(GatewayError::ReplyMismatch))
-                            }
-                            Err(_) => Some(Outcome::gateway(GatewayError::BadReply)),
-                        }
-                    })
+                    warn!("{} {}: {}", source.name(), source.index(), own.as_str());
+                    self.end(source, Outcome::gateway(own));
+                    self.link_lost(link, cause).await;
+                    return;
                 }
             };
             if let Some(outcome) = outcome {
-                self.end(job.source, outcome);
+                self.end(source, outcome);
                 if outcome == Outcome::gateway(GatewayError::ReplyMismatch) {
                     // Replies no longer match requests: start afresh.
                     self.link_lost(link, GatewayError::ReplyMismatch).await;
@@ -513,244 +454,238 @@ impl<'c, 'a> Engine<'c, 'a> {
                 return;
             }
             if let Some(wait) = last.and_then(StepWait::after) {
-                park = Some(wait);
-                break;
+                debug!(
+                    "{} {}: waiting for {}",
+                    source.name(),
+                    source.index(),
+                    wait.as_str()
+                );
+                let now = self.clock.now();
+                self.pending = Some(Pending {
+                    job,
+                    next: step + 1,
+                    wait,
+                    deadline: now + bringup::STATE_TIMEOUT,
+                });
+                self.next_state_poll = now + bringup::STATE_POLL;
+                return;
             }
         }
-        let now = Instant::now();
-        if let Some(wait) = park {
-            debug!(
-                "{} #{}: waiting for {}",
-                job.source.name(),
-                job.source.index(),
-                wait.as_str()
-            );
-            self.pending = Some(Pending {
-                job,
-                next,
-                wait,
-                deadline: now + fsm::STATE_TIMEOUT,
-            });
-            self.next_state_poll = now + fsm::STATE_POLL;
-            return;
-        }
-        if job.motion {
-            self.ctx.with(|s| {
-                job.source.set_active(s.regs, true);
-                s.regs.set(r::STATUS_ACTIVE_MOTION, job.source.code());
-            });
-            self.active = Some(Active {
-                source: job.source,
-                since: now,
-                grace_from: now,
-                seen_moving: false,
-                watchdog_fired: false,
-            });
+        let now = self.clock.now();
+        if job.is_motion() {
+            self.hub.with(|m| m.set_moving(source));
+            self.motion = Some(Motion::new(source, now));
             self.next_motion_poll = now + MOTION_POLL;
             return;
         }
         if last == Some(CommandId::GrpContinue) {
-            // The motion starts again: its moving flag lags as at the
-            // start, so the grace period starts again too.
-            if let Some(a) = self.active.as_mut() {
-                a.grace_from = now;
-                a.seen_moving = false;
+            if let Some(mo) = self.motion.as_mut() {
+                mo.restarted(now);
             }
         }
         if last == Some(CommandId::GrpStop) {
             // MC_Stop: the running motion and every motion still waiting
             // end in CommandAborted; waiting non-motion commands go on.
-            if let Some(a) = self.active.take() {
-                self.end_motion(a.source, Outcome::Aborted);
-            }
-            self.ctx.with(|s| s.abort_queued_motions());
+            let stopped = self.motion.take();
+            self.hub.with(|m| {
+                if let Some(mo) = stopped {
+                    m.finish(mo.source, Outcome::Aborted);
+                }
+                m.abort_queued_motions();
+            });
         }
-        self.end(job.source, Outcome::Done);
+        self.end(source, Outcome::Done);
     }
 
-    fn end(&self, source: Source, outcome: Outcome) {
-        self.ctx.with(|s| s.finish(source, outcome));
-    }
-
-    fn end_motion(&self, source: Source, outcome: Outcome) {
-        self.ctx.with(|s| {
-            s.finish(source, outcome);
-            s.regs.set(r::STATUS_ACTIVE_MOTION, 0);
-            s.regs.set_bits(r::STATUS_WATCHDOG, 1, false);
-        });
-    }
-
-    /// Sends the request in `self.buf[..len]` and hands its reply to `f`.
-    /// `Err(())` when the link was lost (already handled), `Ok(None)` when
-    /// the reply could not be read. One instance for every caller (`f` is
-    /// a trait object): this runs on small boards.
-    async fn poll<S: Socket>(
-        &mut self,
-        link: &mut Link<S>,
-        len: usize,
-        expect: ReplyExpect,
-        what: &str,
-        f: &mut dyn FnMut(&Reply<'_>, &mut crate::gateway::Shared<'_>, WordOrder) -> Polled,
-    ) -> Result<Option<Polled>, ()> {
-        let deadline = self.deadline();
-        let order = self.config.word_order;
-        let ctx = self.ctx;
-        let msg = self.buf.get(..len).unwrap_or(&[]);
-        let err = match link.transact(msg, deadline).await {
-            Err(LinkError::Timeout) => GatewayError::ReplyTimeout,
-            Err(LinkError::Lost(_)) => GatewayError::LinkLost,
-            Err(LinkError::BadFrame(_)) => return Ok(None),
-            Ok(text) => {
-                return match Reply::parse(text, expect) {
-                    Ok(reply) => Ok(Some(ctx.with(|s| f(&reply, s, order)))),
-                    Err(_) => {
-                        debug!("{}: unreadable reply", what);
-                        Ok(None)
+    /// Reads the reply `text` to message `msg` of `job`: `None` when the
+    /// robot accepted it (the job goes on), else how the job ends.
+    fn on_reply(&self, job: &Job, msg: &Message, text: &str) -> Option<Outcome> {
+        let parsed = match Reply::parse(text, msg.expect) {
+            // An OK the codec cannot type (extra values, as newer firmware
+            // may send): the robot accepted the command. Success where the
+            // gateway does not use the values; typed checks stay where it
+            // does. Any error but NameMismatch comes after the codec matched
+            // the name (aliases too).
+            Err(e) if !job.fills_results() && !matches!(e, ParseError::NameMismatch { .. }) => {
+                match Reply::parse(text, UNTYPED) {
+                    Ok(Reply::Ok(Response::Unknown(raw))) => {
+                        warn!(
+                            "{} {}: reply values not as documented, accepted: {}",
+                            job.source.name(),
+                            job.source.index(),
+                            text
+                        );
+                        Ok(Reply::Ok(Response::Unknown(raw)))
                     }
+                    _ => Err(e),
                 }
             }
+            p => p,
         };
-        warn!("{}: {}", what, err.as_str());
-        self.link_lost(link, err).await;
-        Err(())
+        let req_name = match &job.kind {
+            JobKind::Text(t) => t.name(),
+            _ => msg.id.map_or("", CommandId::name),
+        };
+        self.hub.with(|m| {
+            if job.source == Source::Raw {
+                m.raw.set_reply(text.as_bytes());
+            }
+            match &parsed {
+                Ok(Reply::Ok(Response::Unknown(raw))) if !same_command(raw.name(), req_name) => {
+                    Some(Outcome::gateway(GatewayError::ReplyMismatch))
+                }
+                Ok(Reply::Ok(resp)) => {
+                    m.robot.apply_response(resp);
+                    if let (true, Response::ReadActPos(p), Source::Channel(i)) =
+                        (job.fills_results(), resp, job.source)
+                    {
+                        if let Some(ch) = m.channels.get_mut(usize::from(i)) {
+                            let mut r = [0f32; crate::state::inputs::RESULTS];
+                            let all = p.joints.iter().chain(&p.pose).chain(&p.tcp).chain(&p.ucs);
+                            for (slot, v) in r.iter_mut().zip(all) {
+                                *slot = v.to_f32();
+                            }
+                            ch.results = Some(r);
+                        }
+                    }
+                    let ratio = match &job.kind {
+                        JobKind::Command(crate::job::Command::SetOverride(r)) => Some(*r),
+                        JobKind::Text(t) => t.override_ratio,
+                        _ => None,
+                    };
+                    if let Some(r) = ratio {
+                        m.robot.override_ratio = Some(r.to_f32());
+                    }
+                    None
+                }
+                Ok(Reply::Fail(f)) => Some(Outcome::Error(ErrorSource::RobotFail, f.code.code())),
+                Ok(Reply::ErrorCmd(_)) => Some(Outcome::gateway(GatewayError::BadReply)),
+                Err(ParseError::NameMismatch { .. }) => {
+                    Some(Outcome::gateway(GatewayError::ReplyMismatch))
+                }
+                Err(_) => Some(Outcome::gateway(GatewayError::BadReply)),
+            }
+        })
     }
 
-    /// Sends the request of `step` and copies its reply into the registers
-    /// ([`PollStep::apply`]). As [`Self::poll`]; the reply comes back as
-    /// [`Polled::State`] or [`Polled::Fsm`] where the engine needs it.
-    /// `Ok(None)` also if the request could not be written (it fits
-    /// `buf`, so that does not happen).
+    /// Sends the request of `step` and copies its reply into the status.
     async fn poll_step<S: Socket>(
         &mut self,
         link: &mut Link<S>,
         step: PollStep,
-        what: &str,
-    ) -> Result<Option<Polled>, ()> {
-        let Some((len, expect)) = step.request(self.config.robot_id, &mut self.buf) else {
-            return Ok(None);
+    ) -> Result<Polled, Lost> {
+        let Some(msg) = step.request(self.config.robot_id, &mut self.buf) else {
+            return Ok(Polled::Nothing);
         };
-        self.poll(link, len, expect, what, &mut |reply, s, order| {
-            step.apply(reply, s.regs, order);
-            match reply {
-                Reply::Ok(Response::ReadRobotState(rs)) => Polled::State(rs.clone()),
-                Reply::Ok(Response::ReadCurFSM(f)) => Polled::Fsm(f.state),
-                _ => Polled::Nothing,
+        match self.transact(link, msg.len).await {
+            Ok(text) => {
+                let Ok(reply) = Reply::parse(text, msg.expect) else {
+                    debug!("status: unreadable reply");
+                    return Ok(Polled::Nothing);
+                };
+                self.hub.with(|m| step.apply(&reply, &mut m.robot));
+                Ok(match reply {
+                    Reply::Ok(Response::ReadRobotState(rs)) => Polled::State(rs),
+                    Reply::Ok(Response::ReadCurFSM(f)) => Polled::Fsm(f.state),
+                    _ => Polled::Nothing,
+                })
             }
-        })
-        .await
+            Err(GatewayError::BadReply) => Ok(Polled::Nothing),
+            Err(cause) => {
+                warn!("status: {}", cause.as_str());
+                self.link_lost(link, cause).await;
+                Err(Lost)
+            }
+        }
     }
 
-    /// One request of the status round.
-    async fn poll_status<S: Socket>(&mut self, link: &mut Link<S>, i: usize) {
-        let Some(step) = PollStep::ROUND.get(i).copied() else {
-            self.round = None;
-            return;
-        };
-        if self.poll_step(link, step, "status").await.is_err() {
+    /// One read of the status round.
+    async fn poll_status<S: Socket>(&mut self, link: &mut Link<S>, step: PollStep) {
+        if self.poll_step(link, step).await.is_err() {
             return;
         }
-        if i + 1 >= PollStep::ROUND.len() {
+        let i = self.round.unwrap_or(0) + 1;
+        if i >= PollStep::ROUND.len() {
             self.round = None;
-            self.ctx.with(|s| s.status_time = Some(Instant::now()));
+            let now = self.clock.now();
+            self.hub.with(|m| m.robot.updated = Some(now));
         } else {
-            self.round = Some(i + 1);
+            self.round = Some(i);
         }
     }
 
     /// `ReadRobotState` while a motion runs: decides Done or Error.
     async fn poll_motion<S: Socket>(&mut self, link: &mut Link<S>) {
-        self.next_motion_poll = Instant::now() + MOTION_POLL;
-        let state = self.poll_step(link, PollStep::RobotState, "motion").await;
-        let Ok(Some(Polled::State(rs))) = state else {
+        self.next_motion_poll = self.clock.now() + MOTION_POLL;
+        let Ok(Polled::State(rs)) = self.poll_step(link, PollStep::RobotState).await else {
             return;
         };
-        let Some(a) = self.active.as_mut() else {
+        let now = self.clock.now();
+        let Some(mo) = self.motion.as_mut() else {
             return;
         };
-        let now = Instant::now();
-        let outcome = if rs.error != 0 {
-            Some(match rs.error_code {
-                0 => Outcome::gateway(GatewayError::RobotErrorNoCode),
-                c => Outcome::Error(ErrorSource::RobotMotion, c),
-            })
-        } else if rs.emergency_stop != 0 {
-            Some(Outcome::gateway(GatewayError::EmergencyStop))
-        } else if rs.safety_guard != 0 {
-            Some(Outcome::gateway(GatewayError::SafetyGuard))
-        } else if rs.moving != 0 {
-            a.seen_moving = true;
-            None
-        } else if rs.paused != 0 {
-            None
-        } else if a.seen_moving
-            || now.saturating_duration_since(a.grace_from) >= millis(self.config.start_grace_ms)
-        {
-            let blend_ok = !self.config.wait_blending_done || rs.blending_done != 0;
-            let pos_ok = !self.config.wait_in_position || rs.in_position != 0;
-            (blend_ok && pos_ok).then_some(Outcome::Done)
-        } else {
-            None
+        let outcome = match mo.judge(&rs, &self.config, now) {
+            Judgement::Running => return,
+            Judgement::Failed(o) => o,
+            Judgement::FlagsEnded => match self.confirm_done(link).await {
+                Ok(true) => Outcome::Done,
+                Ok(false) | Err(Lost) => return,
+            },
         };
-        let Some(outcome) = outcome else {
+        let Some(mo) = self.motion.take() else {
             return;
         };
-        if outcome == Outcome::Done {
-            match self.confirm_done(link).await {
-                Ok(true) => {}
-                Ok(false) | Err(()) => return,
-            }
-        }
-        let Some(a) = self.active.take() else {
-            return;
-        };
-        self.end_motion(a.source, outcome);
+        self.end(mo.source, outcome);
         if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
             info!("auto-reset: GrpReset after the motion error");
-            self.send_internal(link, Internal::Reset).await;
+            self.send_internal(link, Urgent::Reset).await;
         }
     }
 
     /// The flags say the motion has ended. Done only if the FSM agrees (it
     /// changes at once, the moving flag ~50 ms late, e.g. after
-    /// `GrpContinue`), and once the position registers show where the
-    /// robot stopped (`ReadActPos`), so that Done means they are final.
-    /// `Ok(false)`: not yet (polled again), also when an urgent command
-    /// waits (it goes first); `Err(())`: the link was lost.
-    async fn confirm_done<S: Socket>(&mut self, link: &mut Link<S>) -> Result<bool, ()> {
-        if self.ctx.with(|s| s.queue.has_urgent()) {
+    /// `GrpContinue`), and once the position is read (`ReadActPos`), so
+    /// that Done means ACT_JOINTS and ACT_POSE are final. `Ok(false)`: not
+    /// yet (polled again), also when an urgent command waits (it goes
+    /// first).
+    async fn confirm_done<S: Socket>(&mut self, link: &mut Link<S>) -> Result<bool, Lost> {
+        if self.hub.with(|m| m.queue.has_urgent()) {
             return Ok(false);
         }
-        if let Some(state) = self.read_fsm(link).await? {
-            if fsm::motion_under_way(state) {
-                if let Some(a) = self.active.as_mut() {
-                    a.seen_moving = true;
+        if let Polled::Fsm(state) = self.poll_step(link, PollStep::Fsm).await? {
+            if bringup::motion_under_way(state) {
+                if let Some(mo) = self.motion.as_mut() {
+                    mo.still_under_way();
                 }
                 return Ok(false);
             }
         }
-        if self.ctx.with(|s| s.queue.has_urgent()) {
+        if self.hub.with(|m| m.queue.has_urgent()) {
             return Ok(false);
         }
-        // A refused or unreadable reply leaves the registers as they are;
-        // the motion is Done all the same (the robot said so twice).
-        self.poll_step(link, PollStep::ActPos, "position").await?;
+        // A refused or unreadable reply leaves the position as it is; the
+        // motion is Done all the same (the robot said so twice).
+        self.poll_step(link, PollStep::ActPos).await?;
         Ok(true)
     }
 
-    /// `ReadCurFSM` for a job parked after a bring-up step: goes on with
+    /// `ReadCurFSM` for a job waiting after a bring-up step: goes on with
     /// the job once the step's state is reached, ends it in Error at a
-    /// fault state or after [`fsm::STATE_TIMEOUT`].
-    async fn poll_pending<S: Socket>(&mut self, link: &mut Link<S>) {
-        self.next_state_poll = Instant::now() + fsm::STATE_POLL;
-        let Ok(state) = self.read_fsm(link).await else {
+    /// fault state or after [`bringup::STATE_TIMEOUT`].
+    async fn poll_bringup<S: Socket>(&mut self, link: &mut Link<S>) {
+        self.next_state_poll = self.clock.now() + bringup::STATE_POLL;
+        let Ok(polled) = self.poll_step(link, PollStep::Fsm).await else {
             return;
         };
         let Some(p) = self.pending.as_ref() else {
             return;
         };
-        let verdict = state.map_or(Verdict::Wait, |s| p.wait.verdict(s));
+        let verdict = match polled {
+            Polled::Fsm(s) => p.wait.verdict(s),
+            _ => Verdict::Wait,
+        };
         let verdict = match verdict {
-            Verdict::Wait if Instant::now() >= p.deadline => {
+            Verdict::Wait if self.clock.now() >= p.deadline => {
                 Verdict::Failed(GatewayError::StateNotReached)
             }
             v => v,
@@ -760,21 +695,17 @@ impl<'c, 'a> Engine<'c, 'a> {
             Verdict::Reached => {
                 // FSM_STATE shows the new state; make ROBOT_FLAGS agree
                 // before the job goes on (or is Done).
-                if self
-                    .poll_step(link, PollStep::RobotState, "state")
-                    .await
-                    .is_err()
-                {
+                if self.poll_step(link, PollStep::RobotState).await.is_err() {
                     return;
                 }
                 if let Some(p) = self.pending.take() {
-                    self.run_job_from(link, p.job, p.next).await;
+                    self.run_job(link, p.job, p.next).await;
                 }
             }
             Verdict::Failed(e) => {
                 if let Some(p) = self.pending.take() {
                     warn!(
-                        "{} #{}: {} not reached",
+                        "{} {}: {} not reached",
                         p.job.source.name(),
                         p.job.source.index(),
                         p.wait.as_str()
@@ -785,121 +716,56 @@ impl<'c, 'a> Engine<'c, 'a> {
         }
     }
 
-    /// `ReadCurFSM` (also copied into `FSM_STATE`); `Ok(None)` when the
-    /// robot refused it or the reply could not be read.
-    async fn read_fsm<S: Socket>(&mut self, link: &mut Link<S>) -> Result<Option<FsmState>, ()> {
-        let r = self.poll_step(link, PollStep::Fsm, "fsm").await?;
-        Ok(match r {
-            Some(Polled::Fsm(state)) => Some(state),
-            _ => None,
-        })
-    }
-
-    /// Sends a command of the gateway's own (watchdog action, auto reset)
-    /// to the configured robot and reads its reply as that command's.
-    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, cmd: Internal) {
-        /// Each command's own encoder, which the typed channels link anyway
-        /// (`Request::encode` would add every command's writer: ~4 KiB).
-        fn enc<'c, C: Command<'c>>(
-            c: C,
-            buf: &mut [u8],
-        ) -> (&'static str, Option<(usize, ReplyExpect)>) {
-            (C::ID.name(), c.encode(buf).ok().map(|n| (n, c.expect())))
-        }
-        let rbt_id = RobotId(i32::from(self.config.robot_id));
-        let buf = &mut self.buf;
-        let (name, encoded) = match cmd {
-            Internal::Stop => enc(request::GrpStop { rbt_id }, buf),
-            Internal::Pause => enc(request::GrpInterrupt { rbt_id }, buf),
-            Internal::Reset => enc(request::GrpReset { rbt_id }, buf),
-        };
-        let Some((len, expect)) = encoded else {
+    /// Sends a command of the gateway's own (the watchdog's action, the
+    /// automatic reset) to the configured robot; its reply is only logged.
+    async fn send_internal<S: Socket>(&mut self, link: &mut Link<S>, cmd: Urgent) {
+        let Some(msg) = cmd.encode(self.config.robot_id, &mut self.buf) else {
             return;
         };
-        let r = self
-            .poll(link, len, expect, name, &mut |reply, _, _| {
-                Polled::Code(match reply {
-                    Reply::Ok(_) => 0,
-                    Reply::Fail(f) => f.code.code(),
-                    Reply::ErrorCmd(_) => GatewayError::BadReply.code(),
-                })
-            })
-            .await;
-        match r {
-            Ok(Some(Polled::Code(0))) => info!("{}: sent, ok", name),
-            Ok(Some(Polled::Code(code))) => warn!("{}: refused, code {}", name, code),
-            Ok(_) => warn!("{}: unreadable reply", name),
-            Err(()) => {}
+        let name = cmd.id().name();
+        match self.transact(link, msg.len).await {
+            Ok(text) => match Reply::parse(text, msg.expect) {
+                Ok(Reply::Ok(_)) => info!("{}: sent, ok", name),
+                Ok(Reply::Fail(f)) => warn!("{}: refused, code {}", name, f.code.code()),
+                _ => warn!("{}: unreadable reply", name),
+            },
+            Err(GatewayError::BadReply) => warn!("{}: unreadable reply", name),
+            Err(cause) => {
+                warn!("{}: {}", name, cause.as_str());
+                self.link_lost(link, cause).await;
+            }
         }
     }
 
-    /// Checks the PLC heartbeat while a motion runs. `true` if it acted.
-    async fn check_watchdog<S: Socket>(&mut self, link: &mut Link<S>, now: Instant) -> bool {
-        let Some(a) = &self.active else {
-            return false;
+    /// The watchdog expired during the running motion: trip, then act.
+    async fn watchdog<S: Socket>(&mut self, link: &mut Link<S>) {
+        let Some(mo) = self.motion.as_mut() else {
+            return;
         };
-        if self.config.watchdog_ms == 0 || a.watchdog_fired {
-            return false;
-        }
-        let period = millis(self.config.watchdog_ms);
-        let since = a.since;
-        let source = a.source;
-        let expired = self.ctx.with(|s| {
-            s.regs.set_bits(r::STATUS_WATCHDOG, 1, true);
-            let last = s.last_beat.max(since);
-            now.saturating_duration_since(last) > period
-        });
-        if !expired {
-            return false;
-        }
-        let action = self.config.watchdog_action;
         warn!(
             "watchdog: PLC heartbeat unchanged for {} ms during a motion",
             self.config.watchdog_ms
         );
-        self.ctx.with(|s| {
-            s.regs.set_bits(r::STATUS_WATCHDOG, 2, true);
-            let n = s.regs.get(r::STATUS_WATCHDOG_TRIPS).wrapping_add(1);
-            s.regs.set(r::STATUS_WATCHDOG_TRIPS, n);
+        self.hub.with(|m| {
+            m.plc.watchdog_tripped = true;
+            m.plc.watchdog_trips = m.plc.watchdog_trips.wrapping_add(1);
         });
-        match action {
+        let urgent = match self.config.watchdog_action {
             WatchdogAction::ReportOnly => {
-                if let Some(a) = self.active.as_mut() {
-                    a.watchdog_fired = true;
-                }
-                return false;
+                mo.watchdog_fired = true;
+                return;
             }
-            WatchdogAction::Stop => {
-                self.active = None;
-                self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
-                // As a Stop: the motions waiting behind it are not sent.
-                self.ctx.with(|s| s.abort_queued_motions());
-                self.send_internal(link, Internal::Stop).await;
-            }
-            WatchdogAction::Pause => {
-                self.active = None;
-                self.end_motion(source, Outcome::gateway(GatewayError::Watchdog));
-                // The robot holds the motion: nothing may start behind it.
-                self.ctx.with(|s| s.abort_queued_motions());
-                self.send_internal(link, Internal::Pause).await;
-            }
-        }
-        true
+            WatchdogAction::Stop => Urgent::Stop,
+            WatchdogAction::Pause => Urgent::Pause,
+        };
+        let source = mo.source;
+        self.motion = None;
+        self.hub.with(|m| {
+            m.finish(source, Outcome::gateway(GatewayError::Watchdog));
+            // As a Stop: the motions waiting behind it are not sent (and
+            // nothing may start behind a held motion).
+            m.abort_queued_motions();
+        });
+        self.send_internal(link, urgent).await;
     }
-
-    /// The next instant the watchdog could expire.
-    fn watchdog_due(&self) -> Option<Instant> {
-        let a = self.active.as_ref()?;
-        if self.config.watchdog_ms == 0 || a.watchdog_fired {
-            return None;
-        }
-        let last = self.ctx.with(|s| s.last_beat).max(a.since);
-        Some(last + millis(self.config.watchdog_ms) + Duration::from_millis(1))
-    }
-}
-
-/// `true` if reply name `a` answers request name `b`: the same name, or
-/// two names (aliases) of one known command.
-fn same_command(a: &str, b: &str) -> bool {
-    a == b || CommandId::from_name(a).is_some_and(|id| CommandId::from_name(b) == Some(id))
 }

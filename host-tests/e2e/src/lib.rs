@@ -12,7 +12,7 @@ use hans_gateway::registers as r;
 use hans_sim::Sim;
 use tokio_modbus::client::{Context, Reader, Writer};
 
-pub use hans_gateway::engine::commands::code;
+pub use hans_gateway::job::command::code;
 pub use hans_gateway::engine::{ErrorSource, GatewayError};
 
 /// Longest wait for anything in these tests (generous: the machine is

@@ -115,7 +115,7 @@ async fn plc(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
         .expect("connect to the gateway's Modbus port");
     assert_eq!(
         read_reg(&mut s, 1, r::STATUS_VERSION).await,
-        hans_gateway::VERSION
+        hans_gateway::registers::MAP_VERSION
     );
     let mut tid = 2;
     while read_reg(&mut s, tid, r::STATUS_LINK_STATE).await != 3 {
@@ -179,7 +179,7 @@ fn gateway_over_two_embassy_net_stacks() {
         let (stack_a, mut net_a) = embassy_net::new(dev_a, config(GW_IP), &mut res_a, 1);
         let (stack_b, mut net_b) = embassy_net::new(dev_b, config(PEER_IP), &mut res_b, 2);
 
-        let mut storage = hans_gateway::RamStorage::new();
+        let storage = hans_gateway::storage::NoStorage;
         let options = hans_gateway::Options {
             modbus_port: 502,
             defaults: hans_gateway::Config {
@@ -195,7 +195,7 @@ fn gateway_over_two_embassy_net_stacks() {
             net_b.run(),
             join(bridge(tx_a, rx_b), bridge(tx_b, rx_a)),
             robot(stack_b, &received),
-            hans_gateway::board::run(stack_a, &mut storage, options),
+            hans_gateway::board::run(stack_a, storage, options),
         );
         let test = with_timeout(
             embassy_time::Duration::from_secs(30),

@@ -19,7 +19,7 @@ use tokio_modbus::ExceptionCode;
 async fn bring_up_from_power_off() {
     let mut rig = Rig::start(Config::default()).await;
     let plc = &mut rig.plc;
-    assert_eq!(plc.read1(r::STATUS_VERSION).await, hans_gateway::VERSION);
+    assert_eq!(plc.read1(r::STATUS_VERSION).await, hans_gateway::registers::MAP_VERSION);
     let e = plc.run(0, code::POWER_ON, &[], 1).await;
     assert!(e.done(), "power on: {e:?}");
     let e = plc.run(0, code::ENABLE, &[], 2).await;
@@ -219,7 +219,7 @@ async fn two_modbus_clients_at_once() {
         let start = Instant::now();
         while start.elapsed() < Duration::from_millis(500) {
             let w = hmi.read(r::STATUS_VERSION, 50).await;
-            assert_eq!(w[0], hans_gateway::VERSION);
+            assert_eq!(w[0], hans_gateway::registers::MAP_VERSION);
             reads += 1;
         }
         reads
@@ -369,7 +369,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     tokio::time::sleep(Duration::from_millis(50)).await;
     assert_eq!(
         raw_frame(&mut s, &[1, 3, 0, 0, 0, 1]).await,
-        [3, 2, 0x01, 0x00]
+        [3, 2, 0x01, 0x01]
     );
     // FC 5 echoes the request.
     let coil = 16 * r::CONTROL_HEARTBEAT;
@@ -391,11 +391,11 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     // ... and the others go on.
     assert_eq!(
         raw_frame(&mut s, &[0, 10, 0, 0, 0, 6, 1, 4, 0, 0, 0, 1]).await,
-        [4, 2, 0x01, 0x00]
+        [4, 2, 0x01, 0x01]
     );
     assert_eq!(
         rig.plc.read1(r::STATUS_VERSION).await,
-        hans_gateway::VERSION
+        hans_gateway::registers::MAP_VERSION
     );
     // tokio-modbus sees the same exceptions.
     let e = rig
@@ -465,7 +465,7 @@ async fn an_oversized_write_gets_exception_03_and_the_connection_stays() {
     // The same connection goes on.
     assert_eq!(
         raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]).await,
-        [3, 2, 0x01, 0x00]
+        [3, 2, 0x01, 0x01]
     );
     rig.stop().await;
 }

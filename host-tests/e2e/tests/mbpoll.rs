@@ -18,7 +18,7 @@ fn map_env() -> Vec<(&'static str, String)> {
     let v = |x: u16| x.to_string();
     vec![
         ("STATUS_VERSION", v(r::STATUS_VERSION)),
-        ("VERSION", v(hans_gateway::VERSION)),
+        ("VERSION", v(hans_gateway::registers::MAP_VERSION)),
         ("STATUS_LINK_STATE", v(r::STATUS_LINK_STATE)),
         ("CH0", v(ch0 + r::CH_CONTROL)),
         ("CH0_PARAMS", v(ch0 + r::CH_PARAMS)),

@@ -1,115 +1,213 @@
-//! Persistent storage of the gateway configuration in the last flash sector.
+//! The configuration's flash: sectors 12-15 of the STM32F767's second bank,
+//! as an async `NorFlash` for the gateway's power-fail-safe storage
+//! (`hans_gateway::storage::flash::FlashStorage`, sequential-storage).
 //!
-//! Layout of sector 11 (0x081C_0000, 256 KiB, excluded from the program by
-//! `memory.x`):
+//! Why the second bank: erasing a sector takes hundreds of milliseconds
+//! (16 KiB: ~250 ms typical), and while the flash erases or programs, a
+//! read of the same bank (every instruction fetch) stalls the CPU. With the
+//! flash in dual-bank mode (option bit nDBANK = 0) the program runs from
+//! bank 1 while bank 2 erases: the CPU goes on, and this driver yields to
+//! the executor while the flash is busy. So a save never stops the robot
+//! link, the watchdog or the Modbus sessions for more than one program
+//! step of [`YIELD_EVERY`] words (~1 ms).
 //!
-//! | offset | size | content                                           |
-//! |--------|------|---------------------------------------------------|
-//! | 0      | 4    | magic `HGWF`                                      |
-//! | 4      | 4    | image length `n`, little-endian                   |
-//! | 8      | n    | the image (the gateway checks its own CRC)        |
-//! | 8 + n  | pad  | `0xFF` up to the flash write granularity          |
+//! Why its own driver: embassy-stm32 0.6 has no async flash for the F7
+//! (its blocking driver spins until an erase ends); the register sequence
+//! (RM0410, 3.3.x) is short.
 //!
-//! An erased sector (all `0xFF`) or a wrong magic reads as "nothing stored".
-//! Saving erases the sector and writes the record: erasing 256 KiB takes
-//! about 1-2 s on this part, during which the CPU stalls on instruction
-//! fetches (single-bank flash). Saves happen only on an explicit PLC command,
-//! so that pause is accepted; a power loss in it leaves an erased or partial
-//! record, which reads back as "nothing stored" or fails the gateway's CRC,
-//! and the defaults apply.
+//! Layout in dual-bank mode: bank 1 = 0x0800_0000-0x080F_FFFF (the
+//! program: `memory.x` gives it 1 MiB), bank 2 = 0x0810_0000-0x081F_FFFF;
+//! bank 2 starts with four 16 KiB sectors (12-15, SNB 0x10-0x13), the
+//! smallest of the part, which this store uses (64 KiB). In single-bank
+//! mode (the factory default) the same addresses belong to 256 KiB sectors
+//! shared with nothing else, but erasing them would stall the CPU for 1-2 s:
+//! [`is_dual_bank`] tells, and the board then keeps the configuration in RAM
+//! and says so (see the README).
 
-use embassy_stm32::flash::{Blocking, Flash, WRITE_SIZE};
-use hans_gateway::{Storage, StorageError};
+use core::ptr;
 
-/// Offset of the configuration sector from the start of flash.
-pub const SECTOR_OFFSET: u32 = 0x001C_0000;
-/// Size of the configuration sector.
-pub const SECTOR_SIZE: u32 = 256 * 1024;
+use embassy_stm32::pac;
+use embassy_time::Timer;
+use embedded_storage_async::nor_flash::{
+    ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+};
 
-const MAGIC: [u8; 4] = *b"HGWF";
-const HEADER: usize = 8;
-/// Largest image accepted; the gateway's image is far smaller.
-pub const MAX_IMAGE: usize = 2048;
+/// Start of the store: sector 12, the first of bank 2.
+pub const BASE: u32 = 0x0810_0000;
+/// Sectors 12-15.
+pub const SECTORS: u32 = 4;
+/// Size of each.
+pub const SECTOR_SIZE: u32 = 16 * 1024;
+/// SNB of sector 12 in dual-bank mode (bit 4 selects bank 2).
+const FIRST_SNB: u8 = 0x10;
+/// Words programmed between two yields to the executor.
+pub const YIELD_EVERY: usize = 64;
+
+/// `true` when the flash is in dual-bank mode (nDBANK = 0).
+pub fn is_dual_bank() -> bool {
+    !pac::FLASH.optcr().read().n_dbank()
+}
 
 /// Why a flash operation failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
-pub enum StoreError {
-    /// The flash controller reported an error.
-    Flash,
-    /// The image is larger than [`MAX_IMAGE`] or the caller's buffer.
-    TooLarge,
+pub enum FlashError {
+    /// Outside the store, or not word aligned.
+    Bounds,
+    /// The flash controller reported an error (programming sequence,
+    /// alignment, parallelism, write protection).
+    Controller,
 }
 
-/// The configuration record in flash.
-pub struct FlashStore {
-    flash: Flash<'static, Blocking>,
-}
-
-impl FlashStore {
-    /// Wraps the flash driver.
-    pub fn new(flash: Flash<'static, Blocking>) -> Self {
-        FlashStore { flash }
-    }
-
-    /// Copies the stored image into `buf`; 0 when nothing is stored.
-    pub fn load(&mut self, buf: &mut [u8]) -> Result<usize, StoreError> {
-        let mut header = [0u8; HEADER];
-        self.flash
-            .blocking_read(SECTOR_OFFSET, &mut header)
-            .map_err(|_| StoreError::Flash)?;
-        if header[..4] != MAGIC {
-            return Ok(0);
+impl NorFlashError for FlashError {
+    fn kind(&self) -> NorFlashErrorKind {
+        match self {
+            FlashError::Bounds => NorFlashErrorKind::OutOfBounds,
+            FlashError::Controller => NorFlashErrorKind::Other,
         }
-        let len = u32::from_le_bytes([header[4], header[5], header[6], header[7]]) as usize;
-        if len > MAX_IMAGE {
-            return Ok(0);
-        }
-        let dst = buf.get_mut(..len).ok_or(StoreError::TooLarge)?;
-        self.flash
-            .blocking_read(SECTOR_OFFSET + HEADER as u32, dst)
-            .map_err(|_| StoreError::Flash)?;
-        Ok(len)
-    }
-
-    /// Replaces the stored image (erase, then write).
-    pub fn save(&mut self, image: &[u8]) -> Result<(), StoreError> {
-        if image.len() > MAX_IMAGE {
-            return Err(StoreError::TooLarge);
-        }
-        // One buffer for header + image + padding, written in one call
-        // (flash is programmed in WRITE_SIZE units).
-        const CAP: usize = (HEADER + MAX_IMAGE).next_multiple_of(WRITE_SIZE);
-        let mut record = [0xffu8; CAP];
-        record[..4].copy_from_slice(&MAGIC);
-        record[4..HEADER].copy_from_slice(&(image.len() as u32).to_le_bytes());
-        record[HEADER..HEADER + image.len()].copy_from_slice(image);
-        let len = (HEADER + image.len()).next_multiple_of(WRITE_SIZE);
-
-        self.flash
-            .blocking_erase(SECTOR_OFFSET, SECTOR_OFFSET + SECTOR_SIZE)
-            .map_err(|_| StoreError::Flash)?;
-        self.flash
-            .blocking_write(SECTOR_OFFSET, &record[..len])
-            .map_err(|_| StoreError::Flash)
     }
 }
 
-impl Storage for FlashStore {
-    fn load(&mut self, buf: &mut [u8]) -> Result<usize, StorageError> {
-        FlashStore::load(self, buf).map_err(|e| match e {
-            StoreError::Flash => StorageError::Io,
-            StoreError::TooLarge => StorageError::TooLarge,
-        })
+/// Sectors 12-15 of bank 2; offsets count from [`BASE`].
+pub struct Bank2 {
+    /// The flash peripheral, owned so that nothing else programs it.
+    _flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
+}
+
+impl Bank2 {
+    /// Takes the flash peripheral. Only use it in dual-bank mode.
+    pub fn new(flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>) -> Self {
+        Bank2 { _flash: flash }
     }
 
-    fn save(&mut self, image: &[u8]) -> Result<(), StorageError> {
-        defmt::info!(
-            "config: saving {=usize} bytes to flash (erases sector 11)",
-            image.len()
-        );
-        FlashStore::save(self, image).map_err(|e| match e {
-            StoreError::Flash => StorageError::Io,
-            StoreError::TooLarge => StorageError::TooLarge,
-        })
+    fn check(offset: u32, len: usize, align: u32) -> Result<(), FlashError> {
+        let end = offset as usize + len;
+        if offset % align != 0 || end > (SECTORS * SECTOR_SIZE) as usize {
+            return Err(FlashError::Bounds);
+        }
+        Ok(())
+    }
+
+    fn unlock() {
+        if pac::FLASH.cr().read().lock() {
+            pac::FLASH.keyr().write_value(0x4567_0123);
+            pac::FLASH.keyr().write_value(0xCDEF_89AB);
+        }
+    }
+
+    fn lock() {
+        pac::FLASH.cr().modify(|w| w.set_lock(true));
+    }
+
+    /// The error bits of the last operation (and clears them).
+    fn take_errors() -> Result<(), FlashError> {
+        let sr = pac::FLASH.sr().read();
+        // Write-1-to-clear: writing back what was read clears them.
+        pac::FLASH.sr().write_value(sr);
+        if sr.erserr() || sr.pgperr() || sr.pgaerr() || sr.wrperr() || sr.operr() {
+            Err(FlashError::Controller)
+        } else {
+            Ok(())
+        }
+    }
+
+    fn busy() -> bool {
+        pac::FLASH.sr().read().bsy()
+    }
+
+    /// Waits while busy, yielding: for erases, which take hundreds of ms.
+    async fn idle() {
+        while Self::busy() {
+            Timer::after_millis(1).await;
+        }
+    }
+}
+
+impl ErrorType for Bank2 {
+    type Error = FlashError;
+}
+
+impl ReadNorFlash for Bank2 {
+    const READ_SIZE: usize = 1;
+
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FlashError> {
+        Self::check(offset, bytes.len(), 1)?;
+        // Bank 2 is idle whenever this runs (every write and erase of this
+        // driver waits for the end of its operation): a plain read.
+        let src = (BASE + offset) as *const u8;
+        for (i, b) in bytes.iter_mut().enumerate() {
+            // SAFETY: `offset + i` is inside the store (checked above), which
+            // is memory-mapped flash, readable at any time.
+            *b = unsafe { ptr::read_volatile(src.add(i)) };
+        }
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        (SECTORS * SECTOR_SIZE) as usize
+    }
+}
+
+impl NorFlash for Bank2 {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = SECTOR_SIZE as usize;
+
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), FlashError> {
+        Self::check(from, to.saturating_sub(from) as usize, SECTOR_SIZE)?;
+        if to % SECTOR_SIZE != 0 || to < from {
+            return Err(FlashError::Bounds);
+        }
+        for sector in from / SECTOR_SIZE..to / SECTOR_SIZE {
+            Self::idle().await;
+            Self::unlock();
+            let _ = Self::take_errors();
+            pac::FLASH.cr().modify(|w| {
+                w.set_ser(true);
+                w.set_snb(FIRST_SNB + sector as u8);
+                w.set_psize(pac::flash::vals::Psize::PSIZE32);
+            });
+            pac::FLASH.cr().modify(|w| w.set_strt(true));
+            // Bank 2 erases; bank 1 (this program) runs on.
+            Self::idle().await;
+            pac::FLASH.cr().modify(|w| w.set_ser(false));
+            let result = Self::take_errors();
+            Self::lock();
+            result?;
+        }
+        Ok(())
+    }
+
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), FlashError> {
+        Self::check(offset, bytes.len(), 4)?;
+        if bytes.len() % 4 != 0 {
+            return Err(FlashError::Bounds);
+        }
+        Self::idle().await;
+        Self::unlock();
+        let _ = Self::take_errors();
+        pac::FLASH.cr().modify(|w| {
+            w.set_pg(true);
+            w.set_psize(pac::flash::vals::Psize::PSIZE32);
+        });
+        let mut result = Ok(());
+        for (i, word) in bytes.chunks_exact(4).enumerate() {
+            let v = u32::from_le_bytes([word[0], word[1], word[2], word[3]]);
+            let dst = (BASE + offset + 4 * i as u32) as *mut u32;
+            // SAFETY: a word-aligned address inside the store (checked
+            // above), with PG set: the flash controller programs it.
+            unsafe { ptr::write_volatile(dst, v) };
+            core::sync::atomic::fence(core::sync::atomic::Ordering::SeqCst);
+            // One word programs in ~16-100 µs: spin, then yield now and then.
+            while Self::busy() {}
+            result = Self::take_errors();
+            if result.is_err() {
+                break;
+            }
+            if i % YIELD_EVERY == YIELD_EVERY - 1 {
+                embassy_futures::yield_now().await;
+            }
+        }
+        pac::FLASH.cr().modify(|w| w.set_pg(false));
+        Self::lock();
+        result
     }
 }

@@ -14,8 +14,9 @@
 //!   `HANS_GW_NET` (see build.rs), e.g. `HANS_GW_NET=10.20.30.2/24,10.20.30.1`
 //!   or `HANS_GW_NET=dhcp` with `--features dhcp`.
 //! * The gateway configuration (robot address, ...) is set by the PLC
-//!   through the configuration registers and kept in the last flash sector
-//!   (see `flash_store`).
+//!   through the configuration registers and kept in the first four
+//!   sectors of flash bank 2, power-fail safe, written while the program
+//!   runs on (see `flash_store`; needs the flash in dual-bank mode).
 #![no_std]
 #![no_main]
 
@@ -25,7 +26,6 @@ use defmt_rtt as _;
 use embassy_executor::Spawner;
 use embassy_net::{Ipv4Address, Ipv4Cidr, StackResources, StaticConfigV4};
 use embassy_stm32::eth::{Ethernet, GenericPhy, PacketQueue, Sma};
-use embassy_stm32::flash::Flash;
 use embassy_stm32::peripherals::{ETH, ETH_SMA, RNG};
 use embassy_stm32::rng::Rng;
 use embassy_stm32::time::Hertz;
@@ -33,7 +33,8 @@ use embassy_stm32::{bind_interrupts, eth, rng};
 use panic_probe as _;
 use static_cell::ConstStaticCell;
 
-use flash_store::FlashStore;
+use hans_gateway::storage::flash::FlashStorage;
+use hans_gateway::storage::{Image, NoStorage, Storage, StorageError};
 
 bind_interrupts!(struct Irqs {
     ETH => eth::InterruptHandler;
@@ -146,12 +147,23 @@ async fn main(spawner: Spawner) {
         Err(_) => defmt::panic!("net task already spawned"),
     }
 
-    let storage = FlashStore::new(Flash::new_blocking(p.FLASH));
+    let mut storage = if flash_store::is_dual_bank() {
+        let range = 0..flash_store::SECTORS * flash_store::SECTOR_SIZE;
+        match FlashStorage::new(flash_store::Bank2::new(p.FLASH), range) {
+            Ok(f) => BoardStorage::Flash(f),
+            Err(_) => defmt::panic!("the configuration range is not whole sectors"),
+        }
+    } else {
+        defmt::error!(
+            "flash in single-bank mode: the configuration is NOT saved (CONFIG_RESULT 3); set nDBANK = 0 (firmware/README.md)"
+        );
+        BoardStorage::Ram(NoStorage)
+    };
     stack.wait_config_up().await;
     if let Some(config) = stack.config_v4() {
         defmt::info!("network up: {}", config.address);
     }
-    run_gateway(stack, storage).await
+    run_gateway(stack, &mut storage).await
 }
 
 #[embassy_executor::task]
@@ -159,10 +171,39 @@ async fn net_task(mut runner: embassy_net::Runner<'static, Device>) -> ! {
     runner.run().await
 }
 
-async fn run_gateway(stack: embassy_net::Stack<'static>, mut storage: FlashStore) -> ! {
+async fn run_gateway(stack: embassy_net::Stack<'static>, storage: &mut BoardStorage) -> ! {
+    // By reference: the storage (3 KiB of buffer) stays where main built it,
+    // instead of a copy in every future it is passed through.
     // The robot address and the other settings come from flash (written by
     // the PLC through the configuration registers); until then the link
     // stays down (robot address 0.0.0.0).
     let options = hans_gateway::Options::default();
-    match hans_gateway::board::run(stack, &mut storage, options).await {}
+    match hans_gateway::board::run(stack, storage, options).await {}
+}
+
+/// The configuration's storage: bank 2 of the flash, or none when the flash
+/// is in single-bank mode (erasing would stall the board for seconds).
+enum BoardStorage {
+    Flash(FlashStorage<flash_store::Bank2>),
+    Ram(NoStorage),
+}
+
+impl Storage for BoardStorage {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        match self {
+            BoardStorage::Flash(f) => f.load().await,
+            BoardStorage::Ram(r) => r.load().await,
+        }
+    }
+
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        match self {
+            BoardStorage::Flash(f) => f.save(image).await,
+            BoardStorage::Ram(r) => r.save(image).await,
+        }
+    }
+
+    fn is_persistent(&self) -> bool {
+        matches!(self, BoardStorage::Flash(_))
+    }
 }

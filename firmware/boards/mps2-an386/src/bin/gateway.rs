@@ -9,8 +9,7 @@
 
 use board_mps2_an386 as board;
 use embassy_executor::Spawner;
-use hans_gateway::{Config, Options, RamStorage};
-use static_cell::ConstStaticCell;
+use hans_gateway::{Config, Options, NoStorage};
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
@@ -39,8 +38,7 @@ async fn start(spawner: Spawner) {
 
 #[embassy_executor::task]
 async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
-    static STORAGE: ConstStaticCell<RamStorage> = ConstStaticCell::new(RamStorage::new());
-    let storage = STORAGE.take();
+    let storage = NoStorage;
     // Only what differs from the library's defaults (Modbus on 502, no
     // override), so new options need no change here.
     let options = Options {

@@ -14,7 +14,7 @@
 use embassy_time::Duration;
 use hans_codec::{CommandId, FsmState};
 
-use super::job::GatewayError;
+use crate::error::GatewayError;
 
 /// Period of `ReadCurFSM` while a bring-up step waits for its state.
 pub const STATE_POLL: Duration = Duration::from_millis(50);

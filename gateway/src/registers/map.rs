@@ -1,4 +1,5 @@
 //! The register map: every address the PLC sees, declared once.
+//! (The values are the model's: [`super::view`] encodes and decodes them.)
 //!
 //! `REGISTERS.md` (beside `Cargo.toml`) documents this map for PLC
 //! programmers; a test compares its table with [`TABLE`] row by row.
@@ -19,8 +20,6 @@
 //! * `i32`: two's complement in two registers, same word order as `f32`.
 //! * `text`: ASCII, two characters per register, first character in the
 //!   high byte; ends at the first NUL byte or at the end of the area.
-
-use crate::config::WordOrder;
 
 /// Who may write a register.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,8 +75,15 @@ pub struct Area {
     pub ty: Type,
 }
 
+/// The register map's version in `VERSION`: `major × 256 + minor`. The
+/// minor number grows when the map gains registers or a documented detail
+/// changes (1.1: RESULTS read NaN until a command gives them; urgent RAW and
+/// trigger texts go out in their canonical form); the major number when a
+/// PLC program written for the old map would break.
+pub const MAP_VERSION: u16 = 0x0101;
+
 // ----------------------------------------------------------------- status
-/// Gateway version, `major × 256 + minor`.
+/// The register map's version ([`MAP_VERSION`]).
 pub const STATUS_VERSION: u16 = 0;
 /// Incremented by the gateway every poll period (wraps), robot or not.
 pub const STATUS_HEARTBEAT: u16 = 1;
@@ -256,18 +262,7 @@ pub const CH_RESULTS: u16 = 66;
 /// Number of `f32` results.
 pub const CH_RESULT_COUNT: usize = 24;
 
-/// Status bit: the command is queued or running.
-pub const ST_BUSY: u16 = 1 << 0;
-/// Status bit: the command finished successfully.
-pub const ST_DONE: u16 = 1 << 1;
-/// Status bit: the command failed; see ErrorID and error source.
-pub const ST_ERROR: u16 = 1 << 2;
-/// Status bit: the command was aborted by another command (`GrpStop`).
-pub const ST_ABORTED: u16 = 1 << 3;
-/// Status bit: its motion is running on the robot.
-pub const ST_ACTIVE: u16 = 1 << 4;
-/// Status bit: waiting in the queue.
-pub const ST_QUEUED: u16 = 1 << 5;
+pub use crate::state::handshake::{ST_ABORTED, ST_ACTIVE, ST_BUSY, ST_DONE, ST_ERROR, ST_QUEUED};
 
 /// First address of command channel `i`.
 pub const fn channel_base(i: usize) -> u16 {
@@ -601,134 +596,22 @@ pub enum AccessError {
     IllegalAddress,
 }
 
-/// The register values: one flat array indexed by address.
-pub struct RegisterFile {
-    words: [u16; MAP_LEN],
-}
-
-impl Default for RegisterFile {
-    fn default() -> Self {
-        Self::new()
+/// Checks that `count` registers from `start` are mapped (and writable if
+/// `write`).
+pub fn check(start: u16, count: u16, write: bool) -> Result<(), AccessError> {
+    let end = u32::from(start) + u32::from(count);
+    if end > MAP_LEN as u32 {
+        return Err(AccessError::IllegalAddress);
     }
-}
-
-impl RegisterFile {
-    /// All registers zero.
-    pub const fn new() -> Self {
-        RegisterFile {
-            words: [0; MAP_LEN],
-        }
-    }
-
-    /// Checks that `count` registers from `start` are mapped (and writable
-    /// if `write`).
-    pub fn check(start: u16, count: u16, write: bool) -> Result<(), AccessError> {
-        let end = u32::from(start) + u32::from(count);
-        if end > MAP_LEN as u32 {
+    let mut addr = u32::from(start);
+    while addr < end {
+        let a = area_of(addr as u16).ok_or(AccessError::IllegalAddress)?;
+        if write && a.access != Access::Rw {
             return Err(AccessError::IllegalAddress);
         }
-        let mut addr = u32::from(start);
-        while addr < end {
-            let a = area_of(addr as u16).ok_or(AccessError::IllegalAddress)?;
-            if write && a.access != Access::Rw {
-                return Err(AccessError::IllegalAddress);
-            }
-            addr = u32::from(a.start) + u32::from(a.len);
-        }
-        Ok(())
+        addr = u32::from(a.start) + u32::from(a.len);
     }
-
-    /// One register (0 for addresses outside the array).
-    pub fn get(&self, addr: u16) -> u16 {
-        self.words.get(usize::from(addr)).copied().unwrap_or(0)
-    }
-
-    /// Sets one register (ignored outside the array).
-    pub fn set(&mut self, addr: u16, v: u16) {
-        if let Some(w) = self.words.get_mut(usize::from(addr)) {
-            *w = v;
-        }
-    }
-
-    /// Sets or clears `mask` in register `addr`.
-    pub fn set_bits(&mut self, addr: u16, mask: u16, on: bool) {
-        let v = self.get(addr);
-        self.set(addr, if on { v | mask } else { v & !mask });
-    }
-
-    /// A run of registers (`None` if it leaves the array).
-    pub fn slice(&self, start: u16, count: u16) -> Option<&[u16]> {
-        let s = usize::from(start);
-        self.words.get(s..s + usize::from(count))
-    }
-
-    /// Writes a 32-bit value as two registers in `order`.
-    pub fn set_u32(&mut self, addr: u16, v: u32, order: WordOrder) {
-        let (hi, lo) = ((v >> 16) as u16, v as u16);
-        let (first, second) = match order {
-            WordOrder::HighFirst => (hi, lo),
-            WordOrder::LowFirst => (lo, hi),
-        };
-        self.set(addr, first);
-        self.set(addr.wrapping_add(1), second);
-    }
-
-    /// Reads a 32-bit value from two registers in `order`.
-    pub fn get_u32(&self, addr: u16, order: WordOrder) -> u32 {
-        let (a, b) = (self.get(addr), self.get(addr.wrapping_add(1)));
-        let (hi, lo) = match order {
-            WordOrder::HighFirst => (a, b),
-            WordOrder::LowFirst => (b, a),
-        };
-        (u32::from(hi) << 16) | u32::from(lo)
-    }
-
-    /// Writes an `f32`. Zero is always written as +0.0: the controller
-    /// sends `-0.000`, and some HMIs show negative zero as "-0".
-    pub fn set_f32(&mut self, addr: u16, v: f32, order: WordOrder) {
-        let v = if v == 0.0 { 0.0 } else { v };
-        self.set_u32(addr, v.to_bits(), order);
-    }
-
-    /// Reads an `f32`.
-    pub fn get_f32(&self, addr: u16, order: WordOrder) -> f32 {
-        f32::from_bits(self.get_u32(addr, order))
-    }
-
-    /// Writes an `i32`.
-    pub fn set_i32(&mut self, addr: u16, v: i32, order: WordOrder) {
-        self.set_u32(addr, v as u32, order);
-    }
-
-    /// Writes `text` into `regs` registers from `addr`, two characters per
-    /// register, padding with NUL; text beyond the area is cut.
-    pub fn set_text(&mut self, addr: u16, regs: u16, text: &[u8]) {
-        for i in 0..regs {
-            let at = |k: usize| text.get(k).copied().unwrap_or(0);
-            let k = usize::from(i) * 2;
-            self.set(addr + i, (u16::from(at(k)) << 8) | u16::from(at(k + 1)));
-        }
-    }
-
-    /// Reads text from `regs` registers at `addr` into `out` up to the first
-    /// NUL; returns its length.
-    pub fn get_text(&self, addr: u16, regs: u16, out: &mut [u8]) -> usize {
-        let mut n = 0;
-        for i in 0..regs {
-            let w = self.get(addr + i);
-            for b in [(w >> 8) as u8, w as u8] {
-                if b == 0 {
-                    return n;
-                }
-                match out.get_mut(n) {
-                    Some(slot) => *slot = b,
-                    None => return n,
-                }
-                n += 1;
-            }
-        }
-        n
-    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -753,46 +636,16 @@ mod tests {
     fn area_lookup_and_access_checks() {
         assert_eq!(area_of(STATUS_JOINTS + 11).unwrap().name, "ACT_JOINTS");
         assert!(area_of(50).is_none());
-        assert!(RegisterFile::check(0, 50, false).is_ok());
-        assert_eq!(
-            RegisterFile::check(0, 51, false),
-            Err(AccessError::IllegalAddress)
-        );
-        assert_eq!(
-            RegisterFile::check(0, 1, true),
-            Err(AccessError::IllegalAddress)
-        );
-        assert!(RegisterFile::check(CONFIG_ROBOT_IP, CONFIG_LEN, true).is_ok());
+        assert!(check(0, 50, false).is_ok());
+        assert_eq!(check(0, 51, false), Err(AccessError::IllegalAddress));
+        assert_eq!(check(0, 1, true), Err(AccessError::IllegalAddress));
+        assert!(check(CONFIG_ROBOT_IP, CONFIG_LEN, true).is_ok());
         // A channel's inputs are one writable block, its whole extent readable.
-        assert!(RegisterFile::check(channel_base(1), CH_STATUS, true).is_ok());
-        assert!(RegisterFile::check(channel_base(1), CH_STATUS + 1, true).is_err());
-        assert!(RegisterFile::check(channel_base(1), CH_RESULTS + 48, false).is_ok());
-        assert!(
-            RegisterFile::check(RAW_CONTROL, RAW_REPLY + RAW_REPLY_REGS - RAW_CONTROL, false)
-                .is_ok()
-        );
-        assert!(RegisterFile::check(TRIG_BITS, TRIG_ERROR_SOURCE + 16 - TRIG_BITS, false).is_ok());
-        assert!(RegisterFile::check(u16::MAX, 1, false).is_err());
-    }
-
-    #[test]
-    fn floats_texts_and_word_order() {
-        let mut r = RegisterFile::new();
-        r.set_f32(STATUS_OVERRIDE, 1.5, WordOrder::HighFirst);
-        assert_eq!(r.slice(STATUS_OVERRIDE, 2).unwrap(), &[0x3FC0, 0x0000]);
-        r.set_f32(STATUS_OVERRIDE, 1.5, WordOrder::LowFirst);
-        assert_eq!(r.slice(STATUS_OVERRIDE, 2).unwrap(), &[0x0000, 0x3FC0]);
-        assert_eq!(r.get_f32(STATUS_OVERRIDE, WordOrder::LowFirst), 1.5);
-        r.set_f32(STATUS_OVERRIDE, -0.0, WordOrder::HighFirst);
-        assert_eq!(r.slice(STATUS_OVERRIDE, 2).unwrap(), &[0, 0], "+0.0");
-        r.set_i32(STATUS_ERROR_CODE, -2, WordOrder::HighFirst);
-        assert_eq!(r.slice(STATUS_ERROR_CODE, 2).unwrap(), &[0xFFFF, 0xFFFE]);
-        r.set_text(RAW_REQUEST, 3, b"ABC");
-        assert_eq!(r.slice(RAW_REQUEST, 3).unwrap(), &[0x4142, 0x4300, 0]);
-        let mut out = [0u8; 8];
-        assert_eq!(r.get_text(RAW_REQUEST, 3, &mut out), 3);
-        assert_eq!(&out[..3], b"ABC");
-        let mut small = [0u8; 2];
-        assert_eq!(r.get_text(RAW_REQUEST, 3, &mut small), 2);
+        assert!(check(channel_base(1), CH_STATUS, true).is_ok());
+        assert!(check(channel_base(1), CH_STATUS + 1, true).is_err());
+        assert!(check(channel_base(1), CH_RESULTS + 48, false).is_ok());
+        assert!(check(RAW_CONTROL, RAW_REPLY + RAW_REPLY_REGS - RAW_CONTROL, false).is_ok());
+        assert!(check(TRIG_BITS, TRIG_ERROR_SOURCE + 16 - TRIG_BITS, false).is_ok());
+        assert!(check(u16::MAX, 1, false).is_err());
     }
 }

@@ -1,0 +1,55 @@
+//! The PLC watchdog: while a motion runs and `CFG_WATCHDOG_MS` > 0, the PLC
+//! must change `PLC_HEARTBEAT` at least that often.
+//!
+//! The period counts from the later of the last heartbeat change and the
+//! motion's start. When it expires, the engine sets the trip bit, counts the
+//! trip and does `CFG_WATCHDOG_ACTION`:
+//!
+//! * 0, report only: nothing else. The motion is **not** stopped and its
+//!   command runs to its end (Done, as any motion); the watchdog does not
+//!   act on it again.
+//! * 1, stop: `GrpStop`; the motion's command ends in Error 39602 and the
+//!   motions waiting in the queue in CommandAborted (as a Stop).
+//! * 2, pause: `GrpInterrupt`; the same outcomes (nothing may start behind
+//!   a held motion).
+
+use embassy_time::{Duration, Instant};
+
+use super::motion::Motion;
+use crate::clock::millis;
+
+/// The instant the watchdog expires for `motion`, if it watches it
+/// (`period_ms` > 0 and it has not acted on it yet).
+pub fn deadline(motion: &Motion, last_beat: Instant, period_ms: u16) -> Option<Instant> {
+    if period_ms == 0 || motion.watchdog_fired {
+        return None;
+    }
+    // Strictly more than the period must pass.
+    Some(last_beat.max(motion.since) + millis(period_ms) + Duration::from_ticks(1))
+}
+
+/// `true` when the watchdog expired at `now`.
+pub fn expired(motion: &Motion, last_beat: Instant, period_ms: u16, now: Instant) -> bool {
+    deadline(motion, last_beat, period_ms).is_some_and(|d| now >= d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::job::Source;
+
+    #[test]
+    fn the_period_counts_from_the_later_of_beat_and_start() {
+        let at = Instant::from_millis;
+        let mut m = Motion::new(Source::Channel(0), at(1000));
+        // A beat long before the motion: counted from the start.
+        assert!(!expired(&m, at(0), 500, at(1500)));
+        assert!(expired(&m, at(0), 500, at(1501)));
+        // A beat during the motion moves it.
+        assert!(!expired(&m, at(1400), 500, at(1800)));
+        // Off, or already acted: never.
+        assert!(!expired(&m, at(0), 0, at(99_999)));
+        m.watchdog_fired = true;
+        assert_eq!(deadline(&m, at(0), 500), None);
+    }
+}

@@ -1,0 +1,174 @@
+//! The hub: the typed state every task reads, and the signals they send
+//! each other.
+//!
+//! The gateway is a handful of futures on one executor (one embassy task on
+//! a board, one thread on Linux): the engine (owner of the robot link), the
+//! Modbus sessions, the DataSheet reader and the storage task. They share
+//! the [`Model`] behind a blocking mutex that is never held across an
+//! await, and talk through typed signals:
+//!
+//! | from | to | what |
+//! |---|---|---|
+//! | a session (a PLC write) | engine | [`Hub::wake`]: a job was queued, the configuration changed |
+//! | a session (`CONFIG_COMMAND` 1) | storage task | `save_request`, answered by `save_done` ([`SaveOutcome`]) |
+//!
+//! Views: [`Hub::read_registers`] (Modbus) encodes registers from the
+//! model; other views call [`Hub::with`] and read the typed values.
+
+use core::cell::RefCell;
+
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embassy_sync::signal::Signal;
+use embassy_time::Instant;
+
+use crate::clock::Clock;
+use crate::config::ConfigResult;
+use crate::engine::plc::{self, ConfigStep};
+use crate::modbus::{Pending, Registers};
+use crate::registers::{view, AccessError, WriteError};
+use crate::state::Model;
+use crate::storage::SaveOutcome;
+
+/// Shared state and signals (see the module documentation).
+pub struct Hub {
+    model: Mutex<NoopRawMutex, RefCell<Model>>,
+    /// Wakes the engine: a job was queued, the configuration was applied.
+    pub(crate) wake: Signal<NoopRawMutex, ()>,
+    /// Asks the storage task to save the configuration and trigger table.
+    pub(crate) save_request: Signal<NoopRawMutex, ()>,
+    /// The storage task's answer to `save_request`.
+    pub(crate) save_done: Signal<NoopRawMutex, SaveOutcome>,
+    /// One configuration command at a time (they wait for their save).
+    config_lock: embassy_sync::mutex::Mutex<NoopRawMutex, ()>,
+}
+
+impl Hub {
+    /// A hub around `model`.
+    pub fn new(model: Model) -> Self {
+        Hub {
+            model: Mutex::new(RefCell::new(model)),
+            wake: Signal::new(),
+            save_request: Signal::new(),
+            save_done: Signal::new(),
+            config_lock: embassy_sync::mutex::Mutex::new(()),
+        }
+    }
+
+    /// Runs `f` on the state. Never call it from inside `f`.
+    pub fn with<R>(&self, f: impl FnOnce(&mut Model) -> R) -> R {
+        self.model.lock(|m| f(&mut m.borrow_mut()))
+    }
+
+    /// Reads registers for a PLC (exception 02 if any is unmapped).
+    pub fn read_registers(
+        &self,
+        start: u16,
+        out: &mut [u16],
+        now: Instant,
+    ) -> Result<(), AccessError> {
+        self.with(|m| view::read_into(m, start, out, now))
+    }
+
+    /// Writes registers for a PLC: stores the values (all or nothing) and
+    /// acts on the edges and the heartbeat at once, so that the answer to
+    /// the write comes after Busy is visible. A configuration command
+    /// written with them is returned: the caller runs it
+    /// ([`Self::config_command`]) before answering.
+    pub fn write_registers(
+        &self,
+        start: u16,
+        values: &[u16],
+        now: Instant,
+    ) -> Result<Option<u16>, WriteError> {
+        let (queued, command) = self.with(|m| {
+            let ev = view::write(m, start, values)?;
+            Ok::<_, WriteError>((plc::apply(m, &ev, now), ev.config_command))
+        })?;
+        if queued {
+            self.wake.signal(());
+        }
+        Ok(command)
+    }
+
+    /// `CONFIG_COMMAND` `cmd` (1-3): apply (and save, waiting for the
+    /// storage task), discard, or defaults.
+    pub async fn config_command(&self, cmd: u16) -> Result<(), WriteError> {
+        let _one_at_a_time = self.config_lock.lock().await;
+        match self.with(|m| plc::config_command(m, cmd)) {
+            ConfigStep::Done => Ok(()),
+            ConfigStep::Invalid(_) => Err(WriteError::Value),
+            ConfigStep::Save => {
+                // The engine follows the new configuration at once.
+                self.wake.signal(());
+                self.save_done.reset();
+                self.save_request.signal(());
+                let outcome = self.save_done.wait().await;
+                self.with(|m| {
+                    let c = &mut m.config;
+                    c.result = match outcome {
+                        SaveOutcome::Saved => {
+                            c.saves = c.saves.wrapping_add(1);
+                            info!("config: saved");
+                            ConfigResult::Ok
+                        }
+                        SaveOutcome::NotPersistent => {
+                            warn!("config: applied, not saved: no persistent storage (lost at restart)");
+                            ConfigResult::NotSaved
+                        }
+                        SaveOutcome::Failed(_) => {
+                            warn!("config: applied, but saving failed");
+                            ConfigResult::SaveFailed
+                        }
+                    };
+                    match outcome {
+                        SaveOutcome::Failed(_) => Err(WriteError::Device),
+                        _ => Ok(()),
+                    }
+                })
+            }
+        }
+    }
+
+    /// A Modbus client connected (`+1`) or left (`-1`); returns how many
+    /// are connected now.
+    pub fn session(&self, opened: bool) -> u16 {
+        self.with(|m| {
+            m.sessions = if opened {
+                m.sessions.saturating_add(1)
+            } else {
+                m.sessions.saturating_sub(1)
+            };
+            m.sessions
+        })
+    }
+}
+
+/// The register map the Modbus sessions serve: the hub's model, read and
+/// written at the clock's time.
+pub struct PlcPort<'a, C: Clock> {
+    /// The state.
+    pub hub: &'a Hub,
+    /// The time.
+    pub clock: &'a C,
+}
+
+impl<C: Clock> Registers for PlcPort<'_, C> {
+    fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError> {
+        self.hub.read_registers(start, out, self.clock.now())
+    }
+
+    fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError> {
+        self.hub
+            .write_registers(start, values, self.clock.now())
+            .map(|c| c.map(Pending))
+    }
+
+    async fn settle(&self, p: Pending) -> Result<(), WriteError> {
+        self.hub.config_command(p.0).await
+    }
+
+    fn session(&self, opened: bool) -> u16 {
+        self.hub.session(opened)
+    }
+}

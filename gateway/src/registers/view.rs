@@ -1,0 +1,511 @@
+//! The registers as a view of the [`Model`]: [`read`] encodes, [`write`]
+//! decodes.
+//!
+//! Encodings (REGISTERS.md, "Value types"): `f32` and `i32` in two
+//! registers in the configured word order (applied here, once: the model
+//! holds numbers, not words); zero as +0.0; unknown values NaN
+//! (`0x7FC0 0x0000`); texts two characters per register, the first in the
+//! high byte.
+
+use embassy_time::Instant;
+
+use super::map::{self as r, AccessError};
+use crate::config::WordOrder;
+use crate::error::Outcome;
+use crate::job::Source;
+use crate::state::handshake::{source_code, Handshake};
+use crate::state::inputs::{PARAMS, RESULTS};
+use crate::state::{Io, Model, RobotFlags};
+
+/// Why a write was refused (maps to a Modbus exception).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum WriteError {
+    /// An address is unmapped or read-only: exception 02, nothing written.
+    Address,
+    /// A value is refused: exception 03.
+    Value,
+    /// The device failed (a save): exception 04.
+    Device,
+}
+
+impl From<AccessError> for WriteError {
+    fn from(_: AccessError) -> Self {
+        WriteError::Address
+    }
+}
+
+/// An edge of an Execute bit or a trigger bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Edge {
+    /// From 0 to 1: fire.
+    Rose(Source),
+    /// From 1 to 0: let go of the outputs.
+    Fell(Source),
+}
+
+/// What a write asked for, besides storing values: applied in this order.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct PlcEvents {
+    /// `PLC_HEARTBEAT` changed.
+    pub heartbeat: bool,
+    /// Execute and trigger edges: channels, RAW, then trigger bits in order.
+    pub edges: heapless::Vec<Edge, { r::CHANNELS + 1 + r::TRIGGERS }>,
+    /// `CONFIG_COMMAND` 1-3 was written (0 does nothing).
+    pub config_command: Option<u16>,
+}
+
+fn halves(v: u32, order: WordOrder) -> [u16; 2] {
+    let (hi, lo) = ((v >> 16) as u16, v as u16);
+    match order {
+        WordOrder::HighFirst => [hi, lo],
+        WordOrder::LowFirst => [lo, hi],
+    }
+}
+
+fn join(w: [u16; 2], order: WordOrder) -> u32 {
+    let [a, b] = w;
+    let (hi, lo) = match order {
+        WordOrder::HighFirst => (a, b),
+        WordOrder::LowFirst => (b, a),
+    };
+    (u32::from(hi) << 16) | u32::from(lo)
+}
+
+/// Register `half` (0, 1) of a 32-bit value.
+fn half(v: u32, half: u16, order: WordOrder) -> u16 {
+    halves(v, order)[usize::from(half & 1)]
+}
+
+/// A value the gateway reports: zero as +0.0 (the controller sends
+/// `-0.000`), unknown as NaN.
+fn status_f32(v: Option<f32>) -> u32 {
+    match v {
+        // -0.0 too.
+        Some(x) => {
+            if x == 0.0 {
+                0
+            } else {
+                x.to_bits()
+            }
+        }
+        None => f32::NAN.to_bits(),
+    }
+}
+
+/// Element `i` of six status values.
+fn six(v: Option<[f32; 6]>, i: u16) -> u32 {
+    status_f32(v.and_then(|a| a.get(usize::from(i)).copied()))
+}
+
+fn flag_bits(f: Option<RobotFlags>) -> u16 {
+    let Some(f) = f else { return 0 };
+    let b = |on: bool, bit: u16| if on { bit } else { 0 };
+    b(f.moving, r::FLAG_MOVING)
+        | b(f.enabled, r::FLAG_ENABLED)
+        | b(f.error, r::FLAG_ERROR)
+        | b(f.paused, r::FLAG_PAUSED)
+        | b(f.emergency_stop, r::FLAG_EMERGENCY_STOP)
+        | b(f.safety_guard, r::FLAG_SAFETY_GUARD)
+        | b(f.powered, r::FLAG_POWERED)
+        | b(f.box_connected, r::FLAG_BOX_CONNECTED)
+        | b(f.blending_done, r::FLAG_BLENDING_DONE)
+        | b(f.in_position, r::FLAG_IN_POSITION)
+        | b(f.brake_released, r::FLAG_BRAKE_RELEASED)
+        | r::FLAG_VALID
+}
+
+/// The outputs of a handshake from `base` (status, sequence echo, ErrorID,
+/// error source, command echo), for channels and RAW.
+fn handshake_word(h: &Handshake, off: u16, order: WordOrder) -> u16 {
+    let (id, src) = h.error();
+    match off {
+        0 => h.status_bits(),
+        1 => h.seq_echo,
+        2 | 3 => half(id as u32, off - 2, order),
+        4 => src,
+        5 => h.command_echo,
+        _ => 0,
+    }
+}
+
+/// One register as the PLC reads it (0 for unmapped addresses; the caller
+/// checks the access first).
+pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
+    let order = m.config.active.word_order;
+    let robot = &m.robot;
+    let in_area = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
+    if let Some(o) = in_area(r::STATUS_JOINTS, 12) {
+        return half(six(robot.joints, o / 2), o, order);
+    }
+    if let Some(o) = in_area(r::STATUS_POSE, 12) {
+        return half(six(robot.pose, o / 2), o, order);
+    }
+    if let Some(o) = in_area(r::STATUS_BOX_DI, 6) {
+        let io = Io::ALL.get(usize::from(o)).and_then(|&g| robot.io(g));
+        return io.unwrap_or(0);
+    }
+    if let Some(o) = in_area(r::CONFIG_ROBOT_IP, r::CONFIG_LEN) {
+        return m.config.edit.get(usize::from(o)).copied().unwrap_or(0);
+    }
+    for (i, ch) in m.channels.iter().enumerate() {
+        let Some(o) = in_area(r::channel_base(i), r::CH_RESULTS + 2 * RESULTS as u16) else {
+            continue;
+        };
+        let inp = &ch.inputs;
+        return match o {
+            r::CH_CONTROL => inp.control,
+            r::CH_COMMAND => inp.code,
+            r::CH_SEQUENCE => inp.seq,
+            r::CH_RESERVED => inp.reserved,
+            o if o < r::CH_TEXT1 => {
+                let k = usize::from((o - r::CH_PARAMS) / 2);
+                let v = inp.params.get(k).copied().unwrap_or(0.0);
+                half(v.to_bits(), o - r::CH_PARAMS, order)
+            }
+            o if o < r::CH_TEXT2 => inp.text1.word(usize::from(o - r::CH_TEXT1)),
+            o if o < r::CH_STATUS => inp.text2.word(usize::from(o - r::CH_TEXT2)),
+            o if o < r::CH_RESULTS => handshake_word(&ch.handshake, o - r::CH_STATUS, order),
+            o => {
+                let k = usize::from((o - r::CH_RESULTS) / 2);
+                let v = ch.results.and_then(|res| res.get(k).copied());
+                half(status_f32(v), o - r::CH_RESULTS, order)
+            }
+        };
+    }
+    if let Some(o) = in_area(r::RAW_REQUEST, r::RAW_REQUEST_REGS) {
+        return m.raw.request.word(usize::from(o));
+    }
+    if let Some(o) = in_area(r::RAW_STATUS, r::RAW_REPLY_LEN - r::RAW_STATUS) {
+        return handshake_word(&m.raw.handshake, o, order);
+    }
+    if let Some(o) = in_area(r::RAW_REPLY, r::RAW_REPLY_REGS) {
+        return m.raw.reply.word(usize::from(o));
+    }
+    if let Some(o) = in_area(r::TRIG_ERROR_ID, 2 * r::TRIGGERS as u16) {
+        let h = m.triggers.handshakes.get(usize::from(o / 2));
+        let id = h.map_or(0, |h| h.error().0);
+        return half(id as u32, o, order);
+    }
+    if let Some(o) = in_area(r::TRIG_ERROR_SOURCE, r::TRIGGERS as u16) {
+        let h = m.triggers.handshakes.get(usize::from(o));
+        return h.map_or(0, |h| source_code(h.outcome()));
+    }
+    if addr >= r::TRIG_TEXT_BASE {
+        let i = usize::from((addr - r::TRIG_TEXT_BASE) / r::TRIG_TEXT_STRIDE);
+        let o = usize::from((addr - r::TRIG_TEXT_BASE) % r::TRIG_TEXT_STRIDE);
+        return m.triggers.entries.get(i).map_or(0, |e| e.word(o));
+    }
+    match addr {
+        r::STATUS_VERSION => r::MAP_VERSION,
+        r::STATUS_HEARTBEAT => m.ticks,
+        r::STATUS_AGE_MS => m
+            .status_age_ms(now)
+            .and_then(|ms| u16::try_from(ms).ok())
+            .unwrap_or(u16::MAX),
+        r::STATUS_LINK_STATE => m.link.state as u16,
+        r::STATUS_LINK_CONNECTS => m.link.connects,
+        r::STATUS_LINK_LAST_ERROR => m.link.last_error.map_or(0, |e| e.code() as u16),
+        r::STATUS_FSM => robot
+            .fsm
+            .and_then(|s| u16::try_from(i32::from(s)).ok())
+            .unwrap_or(u16::MAX),
+        r::STATUS_FLAGS => flag_bits(robot.flags),
+        a if a == r::STATUS_ERROR_CODE || a == r::STATUS_ERROR_CODE + 1 => {
+            half(robot.error_code as u32, a - r::STATUS_ERROR_CODE, order)
+        }
+        r::STATUS_ERROR_AXIS => robot.error_axis,
+        r::STATUS_SOURCE => m.config.active.status_source as u16,
+        a if a == r::STATUS_OVERRIDE || a == r::STATUS_OVERRIDE + 1 => half(
+            status_f32(robot.override_ratio),
+            a - r::STATUS_OVERRIDE,
+            order,
+        ),
+        r::STATUS_IO_VALID => Io::ALL
+            .iter()
+            .enumerate()
+            .filter(|(_, &g)| robot.io(g).is_some())
+            .fold(0, |acc, (i, _)| acc | (1 << i)),
+        r::STATUS_QUEUE_USED => m.queue.len() as u16,
+        r::STATUS_SESSIONS => m.sessions,
+        r::STATUS_WATCHDOG => {
+            u16::from(m.watchdog_armed()) | (u16::from(m.plc.watchdog_tripped) << 1)
+        }
+        r::STATUS_WATCHDOG_TRIPS => m.plc.watchdog_trips,
+        r::STATUS_ACTIVE_MOTION => m.active_motion.map_or(0, Source::code),
+        r::CONTROL_HEARTBEAT => m.plc.heartbeat,
+        r::CONTROL_CONFIG_COMMAND => 0,
+        r::CONTROL_CONFIG_RESULT => m.config.result as u16,
+        r::CONTROL_CONFIG_BAD_ADDR => m.config.bad_addr,
+        r::CONTROL_SAVES => m.config.saves,
+        r::RAW_CONTROL => m.raw.control,
+        r::RAW_SEQUENCE => m.raw.seq,
+        r::RAW_REPLY_LEN => m.raw.reply_len,
+        r::RAW_REPLY_TRUNCATED => u16::from(m.raw.reply_truncated()),
+        r::TRIG_BITS => m.triggers.bits,
+        r::TRIG_BUSY | r::TRIG_DONE | r::TRIG_ERROR | r::TRIG_ABORTED => {
+            trigger_bits(m, |h| match addr {
+                r::TRIG_BUSY => h.is_busy(),
+                r::TRIG_DONE => h.outcome() == Some(Outcome::Done),
+                r::TRIG_ERROR => matches!(h.outcome(), Some(Outcome::Error(..))),
+                _ => h.outcome() == Some(Outcome::Aborted),
+            })
+        }
+        _ => 0,
+    }
+}
+
+fn trigger_bits(m: &Model, f: impl Fn(&Handshake) -> bool) -> u16 {
+    m.triggers
+        .handshakes
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| f(h))
+        .fold(0, |acc, (i, _)| acc | (1 << i))
+}
+
+/// Reads `out.len()` registers from `start` (exception 02 if any of them is
+/// unmapped).
+pub fn read_into(m: &Model, start: u16, out: &mut [u16], now: Instant) -> Result<(), AccessError> {
+    let count = u16::try_from(out.len()).map_err(|_| AccessError::IllegalAddress)?;
+    r::check(start, count, false)?;
+    for (a, o) in (start..).zip(out.iter_mut()) {
+        *o = read(m, a, now);
+    }
+    Ok(())
+}
+
+/// Stores a write of `values` from `start` in the model (all or nothing:
+/// unmapped or read-only addresses refuse the whole write, and so does a
+/// `CONFIG_COMMAND` above 3) and returns what it asks for. The events are
+/// for [`crate::engine::plc`] to act on.
+pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, WriteError> {
+    let count = u16::try_from(values.len()).map_err(|_| WriteError::Value)?;
+    r::check(start, count, true)?;
+    let mut ev = PlcEvents::default();
+    if let Some(o) = r::CONTROL_CONFIG_COMMAND.checked_sub(start) {
+        if let Some(&cmd) = values.get(usize::from(o)) {
+            if cmd > 3 {
+                return Err(WriteError::Value);
+            }
+            ev.config_command = (cmd != 0).then_some(cmd);
+        }
+    }
+    let order = m.config.active.word_order;
+    let old_exec = [
+        m.channels[0].inputs.execute(),
+        m.channels[1].inputs.execute(),
+        m.raw.execute(),
+    ];
+    let old_bits = m.triggers.bits;
+    let old_beat = m.plc.heartbeat;
+    for (addr, &v) in (start..).zip(values) {
+        store(m, addr, v, order);
+    }
+    ev.heartbeat = m.plc.heartbeat != old_beat;
+    let new_exec = [
+        m.channels[0].inputs.execute(),
+        m.channels[1].inputs.execute(),
+        m.raw.execute(),
+    ];
+    let sources = [Source::Channel(0), Source::Channel(1), Source::Raw];
+    for ((old, new), source) in old_exec.into_iter().zip(new_exec).zip(sources) {
+        edge(&mut ev, source, old, new);
+    }
+    for i in 0..r::TRIGGERS as u8 {
+        let bit = |b: u16| b & (1 << i) != 0;
+        edge(
+            &mut ev,
+            Source::Trigger(i),
+            bit(old_bits),
+            bit(m.triggers.bits),
+        );
+    }
+    Ok(ev)
+}
+
+fn edge(ev: &mut PlcEvents, source: Source, old: bool, new: bool) {
+    let e = match (old, new) {
+        (false, true) => Edge::Rose(source),
+        (true, false) => Edge::Fell(source),
+        _ => return,
+    };
+    // One per source: always room.
+    let _ = ev.edges.push(e);
+}
+
+/// Replaces half `h` of the 32-bit value `v`.
+fn with_half(v: u32, h: u16, w: u16, order: WordOrder) -> u32 {
+    let mut words = halves(v, order);
+    if let Some(slot) = words.get_mut(usize::from(h & 1)) {
+        *slot = w;
+    }
+    join(words, order)
+}
+
+/// Stores one writable register (the access was checked).
+fn store(m: &mut Model, addr: u16, v: u16, order: WordOrder) {
+    let in_area = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
+    if let Some(o) = in_area(r::CONFIG_ROBOT_IP, r::CONFIG_LEN) {
+        if let Some(w) = m.config.edit.get_mut(usize::from(o)) {
+            *w = v;
+        }
+        return;
+    }
+    for (i, ch) in m.channels.iter_mut().enumerate() {
+        let Some(o) = in_area(r::channel_base(i), r::CH_STATUS) else {
+            continue;
+        };
+        let inp = &mut ch.inputs;
+        match o {
+            r::CH_CONTROL => inp.control = v,
+            r::CH_COMMAND => inp.code = v,
+            r::CH_SEQUENCE => inp.seq = v,
+            r::CH_RESERVED => inp.reserved = v,
+            o if o < r::CH_PARAMS + 2 * PARAMS as u16 => {
+                let k = usize::from((o - r::CH_PARAMS) / 2);
+                if let Some(p) = inp.params.get_mut(k) {
+                    *p = f32::from_bits(with_half(p.to_bits(), o - r::CH_PARAMS, v, order));
+                }
+            }
+            o if o < r::CH_TEXT2 => inp.text1.set_word(usize::from(o - r::CH_TEXT1), v),
+            o => inp.text2.set_word(usize::from(o - r::CH_TEXT2), v),
+        }
+        return;
+    }
+    if let Some(o) = in_area(r::RAW_REQUEST, r::RAW_REQUEST_REGS) {
+        m.raw.request.set_word(usize::from(o), v);
+        return;
+    }
+    if addr >= r::TRIG_TEXT_BASE {
+        let i = usize::from((addr - r::TRIG_TEXT_BASE) / r::TRIG_TEXT_STRIDE);
+        let o = usize::from((addr - r::TRIG_TEXT_BASE) % r::TRIG_TEXT_STRIDE);
+        if let Some(e) = m.triggers.entries.get_mut(i) {
+            e.set_word(o, v);
+        }
+        return;
+    }
+    match addr {
+        r::CONTROL_HEARTBEAT => m.plc.heartbeat = v,
+        r::RAW_CONTROL => m.raw.control = v,
+        r::RAW_SEQUENCE => m.raw.seq = v,
+        r::TRIG_BITS => m.triggers.bits = v,
+        // CONFIG_COMMAND is an event, not a value (it reads 0).
+        _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::error::{ErrorSource, GatewayError};
+    use crate::state::Phase;
+
+    fn model() -> Model {
+        Model::new(Config::default(), Config::default())
+    }
+
+    fn now() -> Instant {
+        Instant::from_millis(1000)
+    }
+
+    #[test]
+    fn unknown_values_read_nan_and_zero_is_positive() {
+        let mut m = model();
+        assert_eq!(read(&m, r::STATUS_JOINTS, now()), 0x7FC0);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 1, now()), 0);
+        assert_eq!(read(&m, r::STATUS_FSM, now()), 0xFFFF);
+        assert_eq!(read(&m, r::STATUS_AGE_MS, now()), 0xFFFF);
+        m.robot.joints = Some([-0.0, 1.5, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(read(&m, r::STATUS_JOINTS, now()), 0);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 2, now()), 0x3FC0);
+        // The word order is applied when reading: nothing is re-encoded.
+        m.config.active.word_order = WordOrder::LowFirst;
+        assert_eq!(read(&m, r::STATUS_JOINTS + 2, now()), 0);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 3, now()), 0x3FC0);
+        m.robot.updated = Some(Instant::from_millis(750));
+        assert_eq!(read(&m, r::STATUS_AGE_MS, now()), 250);
+        assert_eq!(read(&m, r::STATUS_VERSION, now()), r::MAP_VERSION);
+    }
+
+    #[test]
+    fn a_write_is_stored_then_its_edges_reported() {
+        let mut m = model();
+        let base = r::channel_base(0);
+        // One FC 16 over control, code, sequence, reserved and P0 = 420.0.
+        let ev = write(&mut m, base, &[1, 12, 7, 0, 0x43D2, 0]).unwrap();
+        assert_eq!(ev.edges.as_slice(), [Edge::Rose(Source::Channel(0))]);
+        let inp = &m.channels[0].inputs;
+        assert_eq!((inp.code, inp.seq, inp.params[0]), (12, 7, 420.0));
+        let ev = write(&mut m, base, &[0]).unwrap();
+        assert_eq!(ev.edges.as_slice(), [Edge::Fell(Source::Channel(0))]);
+        // Half a float: the other half stays.
+        write(&mut m, base + r::CH_PARAMS + 1, &[0x8000]).unwrap();
+        assert_eq!(m.channels[0].inputs.params[0], f32::from_bits(0x43D2_8000));
+        // Trigger bits rise in bit order; the heartbeat is an event.
+        let ev = write(&mut m, r::TRIG_BITS, &[0b1010_0000_0000_0001]).unwrap();
+        let rose: Vec<Edge> = ev.edges.to_vec();
+        assert_eq!(
+            rose,
+            [
+                Edge::Rose(Source::Trigger(0)),
+                Edge::Rose(Source::Trigger(13)),
+                Edge::Rose(Source::Trigger(15))
+            ]
+        );
+        assert!(write(&mut m, r::CONTROL_HEARTBEAT, &[5]).unwrap().heartbeat);
+        assert!(!write(&mut m, r::CONTROL_HEARTBEAT, &[5]).unwrap().heartbeat);
+    }
+
+    #[test]
+    fn refused_writes_change_nothing() {
+        let mut m = model();
+        // Read-only status inside the range: exception 02, inputs untouched.
+        let base = r::channel_base(1);
+        assert_eq!(
+            write(&mut m, base + r::CH_TEXT2, &[0x4142; 17]),
+            Err(WriteError::Address)
+        );
+        assert!(m.channels[1].inputs.text2.is_empty());
+        // CONFIG_COMMAND 4: exception 03, the heartbeat before it untouched.
+        assert_eq!(
+            write(&mut m, r::CONTROL_HEARTBEAT, &[9, 4]),
+            Err(WriteError::Value)
+        );
+        assert_eq!(m.plc.heartbeat, 0);
+        let ev = write(&mut m, r::CONTROL_HEARTBEAT, &[9, 1]).unwrap();
+        assert_eq!(ev.config_command, Some(1));
+        assert_eq!(read(&m, r::CONTROL_CONFIG_COMMAND, now()), 0);
+    }
+
+    #[test]
+    fn handshakes_read_as_status_words() {
+        let mut m = model();
+        m.start(Source::Raw, 4, 0);
+        assert_eq!(read(&m, r::RAW_STATUS, now()), r::ST_BUSY | r::ST_QUEUED);
+        assert_eq!(read(&m, r::RAW_SEQ_ECHO, now()), 4);
+        m.finish(Source::Raw, Outcome::Error(ErrorSource::RobotFail, 20018));
+        assert_eq!(read(&m, r::RAW_ERROR_ID + 1, now()), 20018);
+        assert_eq!(read(&m, r::RAW_ERROR_SOURCE, now()), 1);
+        m.start(Source::Trigger(2), 0, 0);
+        m.finish(
+            Source::Trigger(5),
+            Outcome::gateway(GatewayError::TriggerEmpty),
+        );
+        assert_eq!(read(&m, r::TRIG_BUSY, now()), 1 << 2);
+        assert_eq!(read(&m, r::TRIG_ERROR, now()), 1 << 5);
+        assert_eq!(
+            read(&m, r::TRIG_ERROR_ID + 11, now()),
+            (39603u32 & 0xFFFF) as u16
+        );
+        assert_eq!(read(&m, r::TRIG_ERROR_SOURCE + 5, now()), 3);
+        assert_eq!(m.triggers.handshakes[2].phase, Phase::Queued);
+        // Results read NaN until a command gives them.
+        let res = r::channel_base(0) + r::CH_RESULTS;
+        assert_eq!(read(&m, res, now()), 0x7FC0);
+        m.channels[0].results = Some([2.0; RESULTS]);
+        assert_eq!(read(&m, res, now()), 0x4000);
+    }
+}

@@ -1,0 +1,154 @@
+//! The PLCopen handshake of one source (a channel, RAW, a trigger entry):
+//! Busy while its command is queued or runs, then exactly one of Done,
+//! Error or CommandAborted until the PLC lets go of Execute (or fires the
+//! next command).
+
+use crate::error::{ErrorSource, Outcome};
+
+/// Where a source's command is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Phase {
+    /// Nothing to show (never fired, or the outputs were cleared).
+    #[default]
+    Idle,
+    /// Busy, waiting in the queue.
+    Queued,
+    /// Busy: being sent, or waiting for a bring-up step's state.
+    Running,
+    /// Busy: its motion runs on the robot.
+    Moving,
+    /// Ended: how.
+    Ended(Outcome),
+}
+
+/// A source's handshake outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Handshake {
+    /// Where its command is.
+    pub phase: Phase,
+    /// The sequence number latched at the rising edge.
+    pub seq_echo: u16,
+    /// The command code latched at the rising edge (channels).
+    pub command_echo: u16,
+}
+
+/// Status bit: the command is queued or running.
+pub const ST_BUSY: u16 = 1 << 0;
+/// Status bit: the command finished successfully.
+pub const ST_DONE: u16 = 1 << 1;
+/// Status bit: the command failed; see ErrorID and error source.
+pub const ST_ERROR: u16 = 1 << 2;
+/// Status bit: the command was aborted by another command (`GrpStop`).
+pub const ST_ABORTED: u16 = 1 << 3;
+/// Status bit: its motion is running on the robot.
+pub const ST_ACTIVE: u16 = 1 << 4;
+/// Status bit: waiting in the queue.
+pub const ST_QUEUED: u16 = 1 << 5;
+
+impl Handshake {
+    /// Busy: queued, being sent, or its motion runs.
+    pub fn is_busy(&self) -> bool {
+        matches!(self.phase, Phase::Queued | Phase::Running | Phase::Moving)
+    }
+
+    /// The outcome, once ended.
+    pub fn outcome(&self) -> Option<Outcome> {
+        match self.phase {
+            Phase::Ended(o) => Some(o),
+            _ => None,
+        }
+    }
+
+    /// The status bits (`CHn_STATUS`, `RAW_STATUS`).
+    pub fn status_bits(&self) -> u16 {
+        match self.phase {
+            Phase::Idle => 0,
+            Phase::Queued => ST_BUSY | ST_QUEUED,
+            Phase::Running => ST_BUSY,
+            Phase::Moving => ST_BUSY | ST_ACTIVE,
+            Phase::Ended(Outcome::Done) => ST_DONE,
+            Phase::Ended(Outcome::Error(..)) => ST_ERROR,
+            Phase::Ended(Outcome::Aborted) => ST_ABORTED,
+        }
+    }
+
+    /// ErrorID and error source (0, 0 unless Error).
+    pub fn error(&self) -> (i32, u16) {
+        match self.phase {
+            Phase::Ended(Outcome::Error(source, id)) => (id, source as u16),
+            _ => (0, 0),
+        }
+    }
+
+    /// A rising edge started a command: Busy and Queued, echoes latched.
+    pub fn start(&mut self, seq: u16, command: u16) {
+        *self = Handshake {
+            phase: Phase::Queued,
+            seq_echo: seq,
+            command_echo: command,
+        };
+    }
+
+    /// The command ended.
+    pub fn finish(&mut self, outcome: Outcome) {
+        self.phase = Phase::Ended(outcome);
+    }
+
+    /// Execute fell: the outcome clears (not while Busy: a command that
+    /// still runs shows its outcome until the next rising edge). The echoes
+    /// stay.
+    pub fn release(&mut self) {
+        if !self.is_busy() {
+            self.phase = Phase::Idle;
+        }
+    }
+}
+
+/// The error source of an outcome, for views (0 unless Error).
+pub fn source_code(o: Option<Outcome>) -> u16 {
+    match o {
+        Some(Outcome::Error(s, _)) => s as u16,
+        _ => 0,
+    }
+}
+
+impl ErrorSource {
+    /// A short name for views.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ErrorSource::RobotFail => "robot refused",
+            ErrorSource::RobotMotion => "robot error during the motion",
+            ErrorSource::Gateway => "gateway",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::GatewayError;
+
+    #[test]
+    fn outputs_follow_the_handshake() {
+        let mut h = Handshake::default();
+        h.start(7, 3);
+        assert!(h.is_busy());
+        assert_eq!(h.status_bits(), ST_BUSY | ST_QUEUED);
+        h.phase = Phase::Moving;
+        assert_eq!(h.status_bits(), ST_BUSY | ST_ACTIVE);
+        // Execute falls while Busy: nothing changes.
+        h.release();
+        assert!(h.is_busy());
+        h.finish(Outcome::Error(ErrorSource::RobotFail, 20018));
+        assert_eq!(h.status_bits(), ST_ERROR);
+        assert_eq!(h.error(), (20018, 1));
+        assert_eq!(h.seq_echo, 7);
+        h.release();
+        assert_eq!((h.status_bits(), h.error(), h.seq_echo), (0, (0, 0), 7));
+        h.start(8, 3);
+        h.finish(Outcome::gateway(GatewayError::QueueFull));
+        assert_eq!(h.error(), (39600, 3));
+    }
+}

@@ -1,0 +1,136 @@
+//! Where the configuration and the trigger table are kept.
+//!
+//! The stored image ([`image`]) holds the applied configuration and the
+//! sixteen trigger entries, with a CRC. It is written by the storage task
+//! ([`task`]), one of the gateway's futures, so that a save never stops the
+//! robot link, the watchdog or the Modbus sessions: the medium is driven
+//! through async calls that yield between flash operations.
+//!
+//! Implementations:
+//! * [`NoStorage`]: no persistence (the QEMU board, the host without
+//!   `--config`); a configuration applied with it is "applied, not saved".
+//! * [`flash::FlashStorage`] (feature `flash`): a power-fail-safe map in
+//!   NOR flash (sequential-storage over embedded-storage-async's
+//!   `NorFlash`). A power cut at any moment of a save leaves the old or the
+//!   new image.
+//! * `FileStorage` in [`crate::host`] (feature `std`): a file, replaced
+//!   atomically (write, fsync, rename, fsync the directory).
+
+#[cfg(feature = "flash")]
+pub mod flash;
+pub mod image;
+
+use core::convert::Infallible;
+
+pub use image::{ImageError, IMAGE_LEN};
+
+/// Why storage failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StorageError {
+    /// The medium reported an error.
+    Io,
+    /// The image does not fit the medium or the buffer.
+    TooLarge,
+}
+
+/// Something that writes an image: the storage task's view of the current
+/// configuration and trigger table. A medium calls it to fill its own
+/// buffer, so the image exists once, where the medium needs it.
+pub trait Image {
+    /// Writes the image into `out` (at least [`IMAGE_LEN`] bytes) and
+    /// returns its length.
+    fn write(&self, out: &mut [u8]) -> Result<usize, StorageError>;
+}
+
+/// A medium for the stored image. Calls are rare (at start, and on each
+/// apply); they must not block the executor for more than a few
+/// milliseconds at a time: yield (await) between slow operations.
+// The futures are deliberately not `Send` (single-threaded executors).
+#[allow(async_fn_in_trait)]
+pub trait Storage {
+    /// The stored image, empty when nothing is stored (valid until the
+    /// next call).
+    async fn load(&mut self) -> Result<&[u8], StorageError>;
+
+    /// Replaces the stored image with the one `image` writes.
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError>;
+
+    /// `true` if a saved image survives a restart (file, flash). A
+    /// configuration applied with a storage that does not is reported as
+    /// "applied, not saved" (`CONFIG_RESULT` 3).
+    fn is_persistent(&self) -> bool {
+        true
+    }
+}
+
+impl<S: Storage> Storage for &mut S {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        (**self).load().await
+    }
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        (**self).save(image).await
+    }
+    fn is_persistent(&self) -> bool {
+        (**self).is_persistent()
+    }
+}
+
+/// No persistent storage: boards without it (the QEMU board) and the host
+/// binary without `--config`. A configuration applied with it is reported
+/// as "applied, not saved" (`CONFIG_RESULT` 3) and lost at restart;
+/// nothing is kept, not even in RAM (nothing would read it back).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoStorage;
+
+impl Storage for NoStorage {
+    fn is_persistent(&self) -> bool {
+        false
+    }
+
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        Ok(&[])
+    }
+
+    async fn save(&mut self, _image: &dyn Image) -> Result<(), StorageError> {
+        Ok(())
+    }
+}
+
+/// The image of the hub's configuration and trigger table as they are.
+struct Current<'a>(&'a crate::hub::Hub);
+
+impl Image for Current<'_> {
+    fn write(&self, out: &mut [u8]) -> Result<usize, StorageError> {
+        self.0
+            .with(|m| image::encode(&m.config.active, &m.triggers.entries, out))
+    }
+}
+
+/// The storage task: waits for save requests, has the medium write the
+/// image of the configuration and trigger table as they are now, and
+/// reports the result. One save at a time (the hub serializes requests).
+pub(crate) async fn task<S: Storage>(hub: &crate::hub::Hub, storage: &mut S) -> Infallible {
+    loop {
+        hub.save_request.wait().await;
+        let result = storage.save(&Current(hub)).await;
+        let result = match (result, storage.is_persistent()) {
+            (Ok(()), true) => SaveOutcome::Saved,
+            (Ok(()), false) => SaveOutcome::NotPersistent,
+            (Err(e), _) => SaveOutcome::Failed(e),
+        };
+        hub.save_done.signal(result);
+    }
+}
+
+/// How a save went.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SaveOutcome {
+    /// Saved to persistent storage.
+    Saved,
+    /// Kept in RAM only: lost at restart.
+    NotPersistent,
+    /// The medium failed.
+    Failed(StorageError),
+}
