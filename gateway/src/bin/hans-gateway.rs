@@ -1,137 +1,258 @@
 //! `hans-gateway`: the gateway on Linux.
 //!
 //! ```text
-//! hans-gateway --robot HOST:PORT --modbus-listen HOST:PORT [--config FILE]
+//! hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE]
 //! hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE]
+//! hans-gateway --config FILE --modbus-listen HOST:PORT
 //! hans-gateway --help | --version
 //! ```
 //!
-//! See [`HELP`] (printed by `--help`) for the options, the configuration
-//! file and the exit status.
+//! The command line is read by clap; `--help` prints the options, the
+//! configuration file and the exit status ([`AFTER_HELP`]).
 
-use std::net::{SocketAddr, SocketAddrV4, ToSocketAddrs};
+use std::fmt;
+use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, SocketAddrV4, ToSocketAddrs};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use clap::error::ErrorKind;
+use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
 use hans_gateway::host::{HostOptions, RunningGateway};
+use hans_gateway::registers::MAP_VERSION;
 
-const USAGE: &str = "usage: hans-gateway (--robot HOST:PORT | --robot-listen HOST:PORT) \
---modbus-listen HOST:PORT [--config FILE]
+/// The robot controller's command port, used when `--robot` names none.
+const ROBOT_PORT: u16 = 10003;
+
+/// The forms of the command line, in `--help` and after every usage error
+/// (lines after the first are indented under clap's `Usage: `).
+const USAGE: &str = "\
+hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE]
+       hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE]
+       hans-gateway --config FILE --modbus-listen HOST:PORT
        hans-gateway --help | --version";
 
-/// The text of `--help`.
-const HELP: &str = "\
-hans-gateway: Modbus TCP (PLC) to Hans / Huayan Elfin robot controller gateway
-
-Usage:
-  hans-gateway --robot HOST:PORT --modbus-listen HOST:PORT [--config FILE]
-  hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE]
-  hans-gateway --config FILE --modbus-listen HOST:PORT
-  hans-gateway --help | --version
-
-Options:
-  --modbus-listen HOST:PORT  Address of the Modbus TCP server for the PLC (required;
-                             port 0 picks a free one; 502 needs privileges).
-  --robot HOST:PORT          Connect to the controller's command port (usually 10003).
-  --robot-listen HOST:PORT   Wait for the controller to connect instead (its client mode).
-  --config FILE              Keep the configuration and the trigger table in FILE: read at
-                             start, written when the PLC writes 1 to CONFIG_COMMAND.
-                             Without it they live in RAM: the PLC's CONFIG_COMMAND 1
-                             applies them but reports CONFIG_RESULT 3 (not saved).
-  -h, --help                 Print this help and exit.
-  -V, --version              Print the version and exit.
-
+/// What `--help` says after the options.
+const AFTER_HELP: &str = "\
 The configuration file holds the CFG_* registers (robot address and port, link mode,
 listen port, poll period, reply timeout, word order, watchdog, motion policy, start grace,
 auto reset, status source, DataSheet port, robot id) and the sixteen trigger entries, in a
 checked binary image (magic HGW1, CRC-32); a damaged file is ignored (defaults are used and
 the log says so). --robot or --robot-listen override the robot setting saved in the file
 for this run (a warning in the log says so); the other saved settings are kept. One of
---robot, --robot-listen or --config is needed.
+--robot, --robot-listen or --config FILE is needed.
+
+HOST is an IPv4 address or a host name. A name is resolved once, at start, to its first
+IPv4 address (the gateway speaks IPv4 only); the log shows the address used.
 
 The register map for PLC programmers is REGISTERS.md beside the crate's Cargo.toml.
 Logs go to stderr (RUST_LOG=debug for more). SIGINT or SIGTERM stops the gateway.
 
 Exit status:
   0  --help or --version
-  1  the gateway could not start (an address cannot be bound)
-  2  bad command line
-";
+  1  the gateway could not start (a host name does not resolve to an IPv4 address,
+     an address cannot be bound)
+  2  bad command line";
 
-fn resolve(s: &str) -> Result<SocketAddrV4, String> {
-    let addrs = s.to_socket_addrs().map_err(|e| format!("{s}: {e}"))?;
-    addrs
-        .filter_map(|a| match a {
-            SocketAddr::V4(a) => Some(a),
-            SocketAddr::V6(_) => None,
-        })
-        .next()
-        .ok_or_else(|| format!("{s}: no IPv4 address"))
+/// The command line.
+#[derive(Parser, Debug)]
+#[command(
+    name = "hans-gateway",
+    about = "hans-gateway: Modbus TCP (PLC) to Hans / Huayan Elfin robot controller gateway",
+    override_usage = USAGE,
+    after_help = AFTER_HELP,
+    disable_help_flag = true,
+    disable_version_flag = true
+)]
+struct Cli {
+    /// Address of the Modbus TCP server for the PLC (required;
+    /// port 0 picks a free one; 502 needs privileges).
+    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    #[arg(required = true, verbatim_doc_comment)]
+    modbus_listen: Endpoint,
+    /// Connect to the controller's command port
+    /// (PORT defaults to 10003).
+    #[arg(long, value_name = "HOST[:PORT]", value_parser = robot_endpoint)]
+    #[arg(conflicts_with = "robot_listen", verbatim_doc_comment)]
+    robot: Option<Endpoint>,
+    /// Wait for the controller to connect instead (its client mode).
+    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    #[arg(verbatim_doc_comment)]
+    robot_listen: Option<Endpoint>,
+    /// Keep the configuration and the trigger table in FILE: read at
+    /// start, written when the PLC writes 1 to CONFIG_COMMAND.
+    /// Without it they live in RAM: the PLC's CONFIG_COMMAND 1
+    /// applies them but reports CONFIG_RESULT 3 (not saved).
+    #[arg(long, value_name = "FILE", verbatim_doc_comment)]
+    config: Option<PathBuf>,
+    /// Print this help and exit.
+    #[arg(short, long, action = ArgAction::HelpLong, verbatim_doc_comment)]
+    help: Option<bool>,
+    /// Print the version (and the register map's) and exit.
+    #[arg(short = 'V', long, action = ArgAction::Version, verbatim_doc_comment)]
+    version: Option<bool>,
 }
 
-/// What the command line asks for.
-enum Action {
-    Run(HostOptions),
-    Help,
-    Version,
+/// `HOST:PORT` as given: checked for form by clap, resolved at start.
+#[derive(Clone, Debug)]
+struct Endpoint {
+    host: String,
+    port: u16,
 }
 
-fn parse(args: &[String]) -> Result<Action, String> {
-    let mut robot = None;
-    let mut robot_listen = None;
-    let mut modbus = None;
-    let mut config = None;
-    let mut it = args.iter();
-    while let Some(a) = it.next() {
-        let mut value = || it.next().ok_or_else(|| format!("{a} needs a value"));
-        match a.as_str() {
-            "--robot" => robot = Some(resolve(value()?)?),
-            "--robot-listen" => robot_listen = Some(resolve(value()?)?),
-            "--modbus-listen" => modbus = Some(resolve(value()?)?),
-            "--config" => config = Some(PathBuf::from(value()?)),
-            "-h" | "--help" => return Ok(Action::Help),
-            "-V" | "--version" => return Ok(Action::Version),
-            other => return Err(format!("unknown argument {other}")),
+impl fmt::Display for Endpoint {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.host, self.port)
+    }
+}
+
+impl Endpoint {
+    /// `HOST:PORT`, or `HOST` alone when there is a `default_port`. Only the
+    /// form is checked here: a name that does not resolve is not a bad
+    /// command line (see [`Endpoint::resolve`]).
+    fn parse(s: &str, default_port: Option<u16>) -> Result<Endpoint, String> {
+        const IPV6: &str = "IPv6 addresses are not supported (the gateway speaks IPv4)";
+        if let Ok(addr) = s.parse::<SocketAddr>() {
+            return match addr {
+                SocketAddr::V4(a) => Ok(Endpoint {
+                    host: a.ip().to_string(),
+                    port: a.port(),
+                }),
+                SocketAddr::V6(_) => Err(IPV6.into()),
+            };
         }
+        if s.starts_with('[') || s.parse::<Ipv6Addr>().is_ok() {
+            return Err(IPV6.into());
+        }
+        let (host, port) = match (s.rsplit_once(':'), default_port) {
+            (Some((host, port)), _) => {
+                let port = port
+                    .parse()
+                    .map_err(|_| format!("{port:?} is not a port number (0 to 65535)"))?;
+                (host, port)
+            }
+            (None, Some(port)) => (s, port),
+            (None, None) => return Err("a port is needed: HOST:PORT".into()),
+        };
+        if host.is_empty() || host.contains(':') || host.contains(char::is_whitespace) {
+            return Err(format!("{host:?} is not a host name or an IPv4 address"));
+        }
+        Ok(Endpoint {
+            host: host.to_string(),
+            port,
+        })
     }
-    if robot.is_some() && robot_listen.is_some() {
-        return Err("--robot and --robot-listen exclude each other".into());
+
+    /// The IPv4 address to use: the host itself if it is one, else the first
+    /// IPv4 address the system's resolver gives for the name.
+    fn resolve(&self) -> Result<SocketAddrV4, String> {
+        if let Ok(ip) = self.host.parse::<Ipv4Addr>() {
+            return Ok(SocketAddrV4::new(ip, self.port));
+        }
+        let addrs = (self.host.as_str(), self.port)
+            .to_socket_addrs()
+            .map_err(|e| format!("cannot resolve the host name {:?}: {e}", self.host))?;
+        addrs
+            .filter_map(|a| match a {
+                SocketAddr::V4(a) => Some(a),
+                SocketAddr::V6(_) => None,
+            })
+            .next()
+            .ok_or_else(|| format!("the host name {:?} has no IPv4 address", self.host))
     }
-    let modbus = modbus.ok_or("--modbus-listen is required")?;
-    if robot.is_none() && robot_listen.is_none() && config.is_none() {
-        return Err("no robot given (--robot, --robot-listen or a --config that has one)".into());
+}
+
+fn robot_endpoint(s: &str) -> Result<Endpoint, String> {
+    Endpoint::parse(s, Some(ROBOT_PORT))
+}
+
+fn listen_endpoint(s: &str) -> Result<Endpoint, String> {
+    Endpoint::parse(s, None)
+}
+
+/// `0.1.0 (register map 1.1)`: the gateway's version, and the register
+/// map's that the VERSION register holds (major × 256 + minor).
+fn version() -> String {
+    format!(
+        "{} (register map {}.{})",
+        env!("CARGO_PKG_VERSION"),
+        MAP_VERSION >> 8,
+        MAP_VERSION & 0xFF
+    )
+}
+
+/// The command line's definition with its version, which is built at run
+/// time from the map version and so goes on here rather than in the derive
+/// attribute (clap takes a `&'static str`: the string is leaked, once per
+/// run).
+fn command() -> clap::Command {
+    let version: &'static str = version().leak();
+    Cli::command().version(version)
+}
+
+/// Reads the command line. `--help` and `--version` print to stdout and
+/// exit 0; a bad command line prints the reason and the usage to stderr and
+/// exits 2 (clap's conventions, kept for the rule clap cannot express).
+fn command_line() -> Cli {
+    let mut cmd = command();
+    let matches = cmd.get_matches_mut();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut cmd).exit());
+    if cli.robot.is_none() && cli.robot_listen.is_none() && cli.config.is_none() {
+        cmd.error(
+            ErrorKind::MissingRequiredArgument,
+            "no robot given: one of --robot, --robot-listen or --config (a file that has one) is needed",
+        )
+        .exit();
     }
-    Ok(Action::Run(HostOptions {
-        modbus_listen: modbus,
-        robot,
-        robot_listen,
-        config_file: config,
+    cli
+}
+
+/// Resolves the addresses of the command line (host names too).
+fn host_options(cli: Cli) -> Result<HostOptions, String> {
+    let resolve = |option: &str, e: &Endpoint| -> Result<SocketAddrV4, String> {
+        let addr = e
+            .resolve()
+            .map_err(|why| format!("--{option} {e}: {why}"))?;
+        if e.host.parse::<Ipv4Addr>().is_err() {
+            log::info!("--{option} {e} resolves to {addr}");
+        }
+        Ok(addr)
+    };
+    Ok(HostOptions {
+        modbus_listen: resolve("modbus-listen", &cli.modbus_listen)?,
+        robot: cli
+            .robot
+            .as_ref()
+            .map(|e| resolve("robot", e))
+            .transpose()?,
+        robot_listen: cli
+            .robot_listen
+            .as_ref()
+            .map(|e| resolve("robot-listen", e))
+            .transpose()?,
+        config_file: cli.config,
         defaults: hans_gateway::Config::default(),
-    }))
+    })
 }
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let opts = match parse(&args) {
-        Ok(Action::Run(o)) => o,
-        Ok(Action::Help) => {
-            print!("{HELP}");
-            return ExitCode::SUCCESS;
-        }
-        Ok(Action::Version) => {
-            println!("hans-gateway {}", env!("CARGO_PKG_VERSION"));
-            return ExitCode::SUCCESS;
-        }
-        Err(e) => {
-            eprintln!("hans-gateway: {e}");
-            eprintln!("{USAGE}");
-            eprintln!("Try 'hans-gateway --help' for more.");
-            return ExitCode::from(2);
-        }
-    };
+    let cli = command_line();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
         .format_timestamp_millis()
         .init();
+    // A name that does not resolve is an environment the gateway cannot
+    // start in (DNS not up yet, a missing hosts entry), like a port that
+    // cannot be bound: status 1, which a supervisor may retry; the command
+    // line itself was well formed.
+    let opts = match host_options(cli) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("hans-gateway: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(a) = opts.robot {
+        log::info!("robot controller at {a}");
+    }
     let gw = match RunningGateway::start(opts) {
         Ok(g) => g,
         Err(e) => {
@@ -147,5 +268,62 @@ fn main() -> ExitCode {
     // are closed by the OS).
     loop {
         std::thread::park();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot(s: &str) -> Result<(String, u16), String> {
+        robot_endpoint(s).map(|e| (e.host, e.port))
+    }
+
+    #[test]
+    fn robot_takes_a_name_or_an_ipv4_address_with_or_without_a_port() {
+        let ok = |h: &str, p| Ok((h.to_string(), p));
+        assert_eq!(robot("robot.local"), ok("robot.local", 10003));
+        assert_eq!(robot("robot.local:4000"), ok("robot.local", 4000));
+        assert_eq!(robot("localhost:0"), ok("localhost", 0));
+        assert_eq!(robot("192.168.0.10"), ok("192.168.0.10", 10003));
+        assert_eq!(robot("192.168.0.10:10003"), ok("192.168.0.10", 10003));
+    }
+
+    #[test]
+    fn malformed_addresses_are_refused_with_the_reason() {
+        for (s, why) in [
+            ("robot.local:", "not a port number"),
+            ("robot.local:65536", "not a port number"),
+            (":10003", "not a host name"),
+            ("two words:10003", "not a host name"),
+            ("[::1]:10003", "IPv6"),
+            ("::1", "IPv6"),
+            ("[::1]", "IPv6"),
+        ] {
+            let err = robot(s).expect_err(s);
+            assert!(err.contains(why), "{s}: {err}");
+        }
+        let err = listen_endpoint("0.0.0.0").expect_err("no port");
+        assert!(err.contains("a port is needed"), "{err}");
+    }
+
+    #[test]
+    fn an_ipv4_address_needs_no_resolver_and_localhost_resolves_to_ipv4() {
+        let e = robot_endpoint("10.1.2.3").expect("form");
+        assert_eq!(
+            e.resolve(),
+            Ok(SocketAddrV4::new(Ipv4Addr::new(10, 1, 2, 3), 10003))
+        );
+        let e = robot_endpoint("localhost").expect("form");
+        let addr = e.resolve().expect("localhost resolves");
+        assert!(addr.ip().is_loopback(), "{addr}");
+        assert_eq!(addr.port(), 10003);
+    }
+
+    /// clap's own consistency checks of the definition (names, groups,
+    /// conflicts), which it otherwise runs only in debug builds at parse time.
+    #[test]
+    fn the_command_definition_is_consistent() {
+        command().debug_assert();
     }
 }
