@@ -3,18 +3,20 @@
 //! * [`Qemu`] starts `scripts/qemu-run.sh` under `timeout`, so QEMU dies within
 //!   a fixed time even if this process is killed; dropping it stops QEMU.
 //! * [`Process`] does the same for any host program (the robot simulator).
-//! * [`modbus::Client`] is a minimal blocking Modbus TCP client with timeouts.
+//! * [`Plc`] is a blocking Modbus TCP session (tokio-modbus's client, every
+//!   request bounded by a timeout), as a PLC drives the gateway.
 //! * [`free_port`] picks an unused port on 127.0.0.1.
 //!
 //! Every socket here binds or connects to 127.0.0.1 only.
 
-pub mod modbus;
-
+use std::future::Future;
 use std::io::{self, Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
+
+use tokio_modbus::client::{Context, Reader, Writer};
 
 /// The loopback address every test socket uses.
 pub const LOOPBACK: Ipv4Addr = Ipv4Addr::LOCALHOST;
@@ -275,4 +277,130 @@ pub fn request_line(port: u16, line: &str, limit: Duration) -> io::Result<String
         }
         std::thread::sleep(Duration::from_millis(300));
     }
+}
+
+/// A PLC's Modbus TCP session: tokio-modbus's client on a socket opened here
+/// (so a test can also misuse the socket: half a request, a reset), driven
+/// by a runtime of its own so that tests stay plain blocking code. Every
+/// request waits at most the timeout given at start; a timeout is a
+/// transport error (`io::ErrorKind::TimedOut`), as in tokio-modbus's own
+/// blocking client. Exceptions come back as tokio-modbus's
+/// `Ok(Err(ExceptionCode))`.
+pub struct Plc {
+    // Fields drop in order: the client (and its socket handle) before the
+    // runtime that drives it.
+    ctx: Context,
+    rt: tokio::runtime::Runtime,
+    /// A second handle of the same socket.
+    socket: TcpStream,
+    timeout: Duration,
+}
+
+impl Plc {
+    /// Takes a connected stream; every request then waits at most `timeout`.
+    pub fn new(stream: TcpStream, timeout: Duration) -> io::Result<Plc> {
+        stream.set_nodelay(true)?;
+        let socket = stream.try_clone()?;
+        // Non-blocking, as tokio needs (the flag is shared by both handles;
+        // `into_socket` puts it back).
+        stream.set_nonblocking(true)?;
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_io()
+            .enable_time()
+            .build()?;
+        let ctx = {
+            let _in_runtime = rt.enter();
+            tokio_modbus::client::tcp::attach(tokio::net::TcpStream::from_std(stream)?)
+        };
+        Ok(Plc {
+            ctx,
+            rt,
+            socket,
+            timeout,
+        })
+    }
+
+    /// Ends the Modbus client and returns the socket, still open and in
+    /// blocking mode, for a test to send bytes of its own or reset it.
+    pub fn into_socket(self) -> io::Result<TcpStream> {
+        let Plc {
+            ctx, rt, socket, ..
+        } = self;
+        // Closes the client's handle only: `socket` keeps the connection.
+        drop(ctx);
+        drop(rt);
+        socket.set_nonblocking(false)?;
+        Ok(socket)
+    }
+
+    /// Runs one request on the runtime, bounded by `limit`.
+    fn block<T>(
+        rt: &tokio::runtime::Runtime,
+        limit: Duration,
+        request: impl Future<Output = tokio_modbus::Result<T>>,
+    ) -> tokio_modbus::Result<T> {
+        rt.block_on(async {
+            match tokio::time::timeout(limit, request).await {
+                Ok(answer) => answer,
+                Err(elapsed) => Err(io::Error::new(io::ErrorKind::TimedOut, elapsed).into()),
+            }
+        })
+    }
+
+    /// FC 3: read holding registers.
+    pub fn read_holding_registers(
+        &mut self,
+        addr: u16,
+        count: u16,
+    ) -> tokio_modbus::Result<Vec<u16>> {
+        let request = self.ctx.read_holding_registers(addr, count);
+        Self::block(&self.rt, self.timeout, request)
+    }
+
+    /// FC 4: read input registers.
+    pub fn read_input_registers(
+        &mut self,
+        addr: u16,
+        count: u16,
+    ) -> tokio_modbus::Result<Vec<u16>> {
+        let request = self.ctx.read_input_registers(addr, count);
+        Self::block(&self.rt, self.timeout, request)
+    }
+
+    /// FC 6: write one register.
+    pub fn write_single_register(&mut self, addr: u16, value: u16) -> tokio_modbus::Result<()> {
+        let request = self.ctx.write_single_register(addr, value);
+        Self::block(&self.rt, self.timeout, request)
+    }
+
+    /// FC 16: write consecutive registers.
+    pub fn write_multiple_registers(
+        &mut self,
+        addr: u16,
+        values: &[u16],
+    ) -> tokio_modbus::Result<()> {
+        let request = self.ctx.write_multiple_registers(addr, values);
+        Self::block(&self.rt, self.timeout, request)
+    }
+}
+
+/// The answer of a request that must succeed; panics naming `what` and the
+/// transport error or the Modbus exception.
+pub fn must<T>(answer: tokio_modbus::Result<T>, what: &str) -> T {
+    match answer {
+        Ok(Ok(v)) => v,
+        Ok(Err(exception)) => panic!("{what}: Modbus exception {exception:?}"),
+        Err(e) => panic!("{what}: {e}"),
+    }
+}
+
+/// Two registers holding an f32, high word first (the gateway's default).
+pub fn f32_from_words(hi: u16, lo: u16) -> f32 {
+    f32::from_bits((u32::from(hi) << 16) | u32::from(lo))
+}
+
+/// An f32 as two registers, high word first.
+pub fn f32_to_words(v: f32) -> [u16; 2] {
+    let bits = v.to_bits();
+    [(bits >> 16) as u16, bits as u16]
 }

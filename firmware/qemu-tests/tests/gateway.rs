@@ -11,8 +11,10 @@ use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
 
 use hans_sim::{Config as SimConfig, Sim, Timing};
-use qemu_tests::modbus::{f32_from_words, f32_to_words, Client, Error};
-use qemu_tests::{connect_retry, firmware_elf, request_line, Ports, Qemu};
+use qemu_tests::{
+    connect_retry, f32_from_words, f32_to_words, firmware_elf, must, request_line, Plc, Ports, Qemu,
+};
+use tokio_modbus::ExceptionCode;
 
 // Status block.
 const STATUS_LINK_STATE: u16 = 3;
@@ -87,12 +89,12 @@ impl Rig {
     /// A Modbus session that has answered one request (the guest may not be
     /// listening yet, or all its sessions may be busy: then QEMU accepts and
     /// closes at once, and we try again).
-    fn modbus(&self) -> Client {
+    fn modbus(&self) -> Plc {
         let start = Instant::now();
         loop {
             let stream = connect_retry(self.qemu.ports.modbus, STEP).expect("connect to :502");
-            let mut client = Client::new(stream, Duration::from_secs(5)).expect("socket options");
-            if client.read_holding(0, 1).is_ok() {
+            let mut client = Plc::new(stream, Duration::from_secs(5)).expect("Modbus client");
+            if let Ok(Ok(_)) = client.read_holding_registers(0, 1) {
                 return client;
             }
             assert!(
@@ -223,7 +225,7 @@ fn wait_for<T>(what: &str, limit: Duration, mut f: impl FnMut() -> Option<T>) ->
 
 /// Waits until the firmware is connected to the robot and has polled its
 /// status at least once.
-fn wait_for_robot(plc: &mut Client) {
+fn wait_for_robot(plc: &mut Plc) {
     wait_for("the robot link and a first status", STEP, || {
         let s = status(plc);
         let up = s[usize::from(STATUS_LINK_STATE)] == LINK_CONNECTED
@@ -232,41 +234,47 @@ fn wait_for_robot(plc: &mut Client) {
     });
 }
 
-fn status(client: &mut Client) -> Vec<u16> {
-    client
-        .read_input(0, STATUS_LEN)
-        .expect("read the status block")
+fn status(client: &mut Plc) -> Vec<u16> {
+    must(
+        client.read_input_registers(0, STATUS_LEN),
+        "read the status block",
+    )
 }
 
 /// Runs one command on channel 0 the PLCopen way: parameters, command,
 /// sequence, Execute rising edge, wait for Done or Error with our sequence,
 /// Execute low. Returns the channel status bits.
-fn execute(client: &mut Client, code: u16, seq: u16, params: &[f32]) -> u16 {
+fn execute(client: &mut Plc, code: u16, seq: u16, params: &[f32]) -> u16 {
     let mut words = Vec::new();
     for p in params {
         words.extend_from_slice(&f32_to_words(*p));
     }
     if !words.is_empty() {
-        client
-            .write_registers(CH0 + CH_PARAMS, &words)
-            .expect("write parameters");
+        must(
+            client.write_multiple_registers(CH0 + CH_PARAMS, &words),
+            "write parameters",
+        );
     }
-    client
-        .write_register(CH0 + CH_CONTROL, 0)
-        .expect("Execute low");
-    client
-        .write_registers(CH0 + CH_COMMAND, &[code, seq])
-        .expect("command and sequence");
-    client.write_register(CH0 + CH_CONTROL, 1).expect("Execute");
+    must(
+        client.write_single_register(CH0 + CH_CONTROL, 0),
+        "Execute low",
+    );
+    must(
+        client.write_multiple_registers(CH0 + CH_COMMAND, &[code, seq]),
+        "command and sequence",
+    );
+    must(client.write_single_register(CH0 + CH_CONTROL, 1), "Execute");
     let st = wait_for(&format!("command {code} to finish"), STEP, || {
-        let r = client
-            .read_holding(CH0 + CH_STATUS, 2)
-            .expect("read channel status");
+        let r = must(
+            client.read_holding_registers(CH0 + CH_STATUS, 2),
+            "read channel status",
+        );
         (r[1] == seq && r[0] & (ST_DONE | ST_ERROR) != 0).then_some(r[0])
     });
-    client
-        .write_register(CH0 + CH_CONTROL, 0)
-        .expect("Execute low");
+    must(
+        client.write_single_register(CH0 + CH_CONTROL, 0),
+        "Execute low",
+    );
     st
 }
 
@@ -465,7 +473,7 @@ fn a_client_that_vanishes_mid_request_frees_its_session() {
     let rig = Rig::start("gateway-abrupt-client");
 
     // Take every session the firmware has.
-    let mut clients: Vec<Client> = (0..MAX_SESSIONS).map(|_| rig.modbus()).collect();
+    let mut clients: Vec<Plc> = (0..MAX_SESSIONS).map(|_| rig.modbus()).collect();
     let sessions = wait_for("all sessions to be counted", STEP, || {
         let s = status(&mut clients[0])[usize::from(STATUS_SESSIONS)];
         (usize::from(s) == MAX_SESSIONS).then_some(s)
@@ -474,8 +482,7 @@ fn a_client_that_vanishes_mid_request_frees_its_session() {
 
     // One of them sends half a request and is reset.
     let victim = clients.pop().expect("a client");
-    let stream = victim.stream().try_clone().expect("clone stream");
-    drop(victim);
+    let stream = victim.into_socket().expect("the victim's socket");
     use std::io::Write;
     (&stream)
         .write_all(&[0x00, 0x07, 0x00, 0x00, 0x00])
@@ -492,13 +499,15 @@ fn a_client_that_vanishes_mid_request_frees_its_session() {
     );
     // The others were not disturbed.
     for c in clients.iter_mut() {
-        c.read_holding(0, 2)
-            .expect("surviving session still served");
+        must(
+            c.read_holding_registers(0, 2),
+            "surviving session still served",
+        );
     }
     // And the firmware refuses nothing it should not: an exception for an
     // unmapped address is a Modbus answer, not a dropped connection.
-    match newcomer.read_holding(9000, 1) {
-        Err(Error::Exception(2)) => {}
+    match newcomer.read_holding_registers(9000, 1) {
+        Ok(Err(ExceptionCode::IllegalDataAddress)) => {}
         other => panic!("expected exception 2 for an unmapped address, got {other:?}"),
     }
 
