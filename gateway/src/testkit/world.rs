@@ -1,0 +1,372 @@
+//! The world: a gateway, a robot controller and PLCs on a simulated network
+//! in virtual time, run by a deterministic executor.
+//!
+//! The gateway is the real one ([`Gateway::run`], the future a board runs):
+//! its engine, Modbus sessions, DataSheet reader and storage task run on
+//! [`SimNet`] and [`VirtualClock`]. The executor polls that one future
+//! whenever it was woken; when nothing is left to do now, time jumps to the
+//! next timer of the gateway or the robot. Nothing sleeps, and the same
+//! inputs give the same run.
+
+use core::cell::{Cell, RefCell};
+use core::convert::Infallible;
+use core::future::Future;
+use core::net::{Ipv4Addr, SocketAddrV4};
+use core::pin::Pin;
+use core::task::{Context, Poll, Waker};
+use std::boxed::Box;
+use std::rc::Rc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::task::Wake;
+use std::vec::Vec;
+
+use embassy_time::{Duration, Instant};
+
+use super::clock::VirtualClock;
+use super::net::SimNet;
+use super::plc::{pdu, Answer, Plc};
+use super::robot::SimRobot;
+use crate::config::{Config, LinkMode};
+use crate::gateway::{Gateway, Options};
+use crate::state::Model;
+use crate::storage::{Image, Storage, StorageError, IMAGE_LEN};
+
+/// The gateway's address.
+pub const GATEWAY_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 1);
+/// The robot controller's address.
+pub const ROBOT_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 2);
+/// The robot's command port.
+pub const ROBOT_PORT: u16 = 10003;
+/// The gateway's Modbus port.
+pub const MODBUS_PORT: u16 = 502;
+
+/// Storage in memory that outlives a gateway (a restart keeps it), and can
+/// be made to fail.
+#[derive(Clone, Default)]
+pub struct MemStorage {
+    /// The stored image.
+    pub data: Rc<RefCell<Vec<u8>>>,
+    /// Saves fail while set.
+    pub fail: Rc<Cell<bool>>,
+    copy: Vec<u8>,
+}
+
+impl Storage for MemStorage {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        self.copy = self.data.borrow().clone();
+        Ok(&self.copy)
+    }
+
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        if self.fail.get() {
+            return Err(StorageError::Io);
+        }
+        let mut buf = std::vec![0u8; IMAGE_LEN];
+        let n = image.write(&mut buf)?;
+        buf.truncate(n);
+        *self.data.borrow_mut() = buf;
+        Ok(())
+    }
+}
+
+/// How to build a world.
+#[derive(Clone)]
+pub struct WorldConfig {
+    /// Seed of the robot's random faults.
+    pub seed: u64,
+    /// The robot connects to the gateway (listen mode) instead.
+    pub listen_mode: bool,
+    /// The gateway's start configuration (the robot address is set here).
+    pub config: Config,
+    /// Number of PLC connections.
+    pub plcs: usize,
+    /// The storage (it survives [`World::restart`]).
+    pub storage: MemStorage,
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        WorldConfig {
+            seed: 1,
+            listen_mode: false,
+            config: Config::default(),
+            plcs: 1,
+            storage: MemStorage::default(),
+        }
+    }
+}
+
+struct Flag(AtomicBool);
+
+impl Wake for Flag {
+    fn wake(self: Arc<Self>) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+    fn wake_by_ref(self: &Arc<Self>) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+}
+
+/// A gateway, a robot and PLCs in virtual time.
+pub struct World {
+    /// Virtual time.
+    pub clock: Rc<VirtualClock>,
+    /// The network.
+    pub net: SimNet,
+    /// The gateway (its state: `gateway.hub()`).
+    pub gateway: Rc<Gateway>,
+    fut: Pin<Box<dyn Future<Output = Infallible>>>,
+    flag: Arc<Flag>,
+    waker: Waker,
+    /// The robot controller.
+    pub robot: SimRobot,
+    /// The PLCs (`plcs[i]` connected from 10.0.0.(10 + i)).
+    pub plcs: Vec<Plc>,
+    /// How it was built.
+    pub config: WorldConfig,
+    /// Gateway polls so far (a measure of work).
+    pub polls: u64,
+}
+
+/// The longest a PLC waits for an answer before the test fails.
+pub const ANSWER_LIMIT: Duration = Duration::from_secs(30);
+
+impl World {
+    /// A world: the gateway started, the robot listening (or connecting),
+    /// the PLCs connected. Nothing has run yet.
+    pub fn new(config: WorldConfig) -> Self {
+        let clock = Rc::new(VirtualClock::new());
+        let net = SimNet::new(GATEWAY_IP);
+        let robot_addr = SocketAddrV4::new(ROBOT_IP, ROBOT_PORT);
+        let mut robot = SimRobot::new(&net, robot_addr, config.seed);
+        let mut defaults = config.config;
+        if config.listen_mode {
+            defaults.link_mode = LinkMode::Listen;
+            robot.connect_to_gateway(defaults.listen_port);
+        } else if defaults.robot_ip.is_unspecified() {
+            defaults.robot_ip = ROBOT_IP;
+            defaults.robot_port = ROBOT_PORT;
+        }
+        let opts = Options {
+            modbus_port: MODBUS_PORT,
+            defaults,
+            robot_override: None,
+        };
+        let flag = Arc::new(Flag(AtomicBool::new(true)));
+        let waker = Waker::from(flag.clone());
+        let gateway = Rc::new(Gateway::new(opts));
+        let fut = Self::spawn(&clock, &net, &gateway, config.storage.clone());
+        let mut w = World {
+            clock,
+            net,
+            gateway,
+            fut,
+            flag,
+            waker,
+            robot,
+            plcs: Vec::new(),
+            config,
+            polls: 0,
+        };
+        w.settle();
+        for i in 0..w.config.plcs {
+            let from = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 10 + i as u8), 50000 + i as u16);
+            if let Some(s) = w.net.connect(from, MODBUS_PORT) {
+                w.plcs.push(Plc::new(s));
+            }
+        }
+        w.settle();
+        w
+    }
+
+    fn spawn(
+        clock: &Rc<VirtualClock>,
+        net: &SimNet,
+        gateway: &Rc<Gateway>,
+        storage: MemStorage,
+    ) -> Pin<Box<dyn Future<Output = Infallible>>> {
+        let (c, n, g) = (clock.clone(), net.clone(), gateway.clone());
+        Box::pin(async move { g.run(&n, &*c, storage).await })
+    }
+
+    /// The gateway powered off and on again: a new gateway on the same
+    /// storage (a power cut). PLCs connect again.
+    pub fn restart(&mut self) {
+        let opts = Options {
+            modbus_port: MODBUS_PORT,
+            defaults: self.gateway.hub().with(|m| m.config.factory),
+            robot_override: None,
+        };
+        self.robot.drop_connections();
+        for p in self.plcs.iter_mut() {
+            p.close();
+        }
+        self.gateway = Rc::new(Gateway::new(opts));
+        self.fut = Self::spawn(
+            &self.clock,
+            &self.net,
+            &self.gateway,
+            self.config.storage.clone(),
+        );
+        self.flag.0.store(true, Ordering::Relaxed);
+        self.settle();
+        let n = self.plcs.len();
+        self.plcs.clear();
+        for i in 0..n {
+            let from = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 10 + i as u8), 51000 + i as u16);
+            if let Some(s) = self.net.connect(from, MODBUS_PORT) {
+                self.plcs.push(Plc::new(s));
+            }
+        }
+        self.settle();
+    }
+
+    /// The current instant.
+    pub fn now(&self) -> Instant {
+        use crate::clock::Clock;
+        self.clock.now()
+    }
+
+    /// Runs `f` on the gateway's state.
+    pub fn model<R>(&self, f: impl FnOnce(&mut Model) -> R) -> R {
+        self.gateway.hub().with(f)
+    }
+
+    /// Polls the gateway until it has nothing left to do now.
+    pub fn settle(&mut self) {
+        let mut n = 0u32;
+        while self.flag.0.swap(false, Ordering::Relaxed) {
+            let mut cx = Context::from_waker(&self.waker);
+            if let Poll::Ready(never) = self.fut.as_mut().poll(&mut cx) {
+                match never {}
+            }
+            self.polls += 1;
+            n += 1;
+            assert!(
+                n < 100_000,
+                "the gateway never goes idle at {:?}",
+                self.now()
+            );
+        }
+    }
+
+    /// Everything due now: the gateway and the robot take turns until
+    /// neither has anything left to do at this instant.
+    pub fn catch_up(&mut self) {
+        loop {
+            self.settle();
+            let now = self.now();
+            if !self.robot.step(now) {
+                return;
+            }
+        }
+    }
+
+    /// One turn: everything due now ([`Self::catch_up`]), then time moves
+    /// to the next event of the gateway or the robot not after `limit`.
+    /// `false` when nothing happens until `limit` (time is then at `limit`,
+    /// and what was due then is done).
+    pub fn turn(&mut self, limit: Instant) -> bool {
+        self.catch_up();
+        let now = self.now();
+        let next = [self.clock.next_deadline(), self.robot.next_wakeup()]
+            .into_iter()
+            .flatten()
+            .filter(|t| *t > now)
+            .min();
+        match next {
+            Some(t) if t <= limit => {
+                self.clock.advance_to(t);
+                true
+            }
+            _ => {
+                if limit > now {
+                    self.clock.advance_to(limit);
+                }
+                self.catch_up();
+                false
+            }
+        }
+    }
+
+    /// Runs until `t`.
+    pub fn run_until(&mut self, t: Instant) {
+        while self.turn(t) {}
+    }
+
+    /// Runs for `d`.
+    pub fn run_for(&mut self, d: Duration) {
+        let t = self.now() + d;
+        self.run_until(t);
+    }
+
+    /// Runs until `cond` holds (checked after every turn), at most `limit`
+    /// long; `true` if it held.
+    pub fn run_until_cond(
+        &mut self,
+        limit: Duration,
+        mut cond: impl FnMut(&mut World) -> bool,
+    ) -> bool {
+        let end = self.now() + limit;
+        loop {
+            if cond(self) {
+                return true;
+            }
+            if self.now() >= end {
+                return false;
+            }
+            self.turn(end);
+        }
+    }
+
+    /// PLC `i` sends `pdu` and waits for the answer (the world runs
+    /// meanwhile). Panics if none comes within [`ANSWER_LIMIT`].
+    pub fn request(&mut self, i: usize, pdu: &[u8]) -> Answer {
+        // What is due now happens before the request arrives.
+        self.catch_up();
+        let tid = self.plcs[i].send(pdu);
+        let end = self.now() + ANSWER_LIMIT;
+        loop {
+            self.catch_up();
+            if let Some(a) = self.plcs[i].answer(tid) {
+                return a;
+            }
+            assert!(
+                self.turn(end),
+                "PLC {i}: no answer to {pdu:?} within {ANSWER_LIMIT:?}"
+            );
+        }
+    }
+
+    /// Reads `n` registers from `addr` (PLC 0).
+    pub fn read(&mut self, addr: u16, n: u16) -> Result<Vec<u16>, u8> {
+        match self.request(0, &pdu::read(addr, n)) {
+            Answer::Pdu(p) => Ok(pdu::registers(&p)),
+            Answer::Exception(e) => Err(e),
+        }
+    }
+
+    /// Reads one register (PLC 0); panics on an exception.
+    pub fn reg(&mut self, addr: u16) -> u16 {
+        match self.read(addr, 1) {
+            Ok(v) => v[0],
+            Err(e) => panic!("reading {addr}: exception {e}"),
+        }
+    }
+
+    /// Writes registers from `addr` (PLC 0).
+    pub fn write(&mut self, addr: u16, values: &[u16]) -> Result<(), u8> {
+        match self.request(0, &pdu::write(addr, values)) {
+            Answer::Pdu(_) => Ok(()),
+            Answer::Exception(e) => Err(e),
+        }
+    }
+
+    /// Writes registers and panics on an exception.
+    pub fn set(&mut self, addr: u16, values: &[u16]) {
+        if let Err(e) = self.write(addr, values) {
+            panic!("writing {addr}: exception {e}");
+        }
+    }
+}
