@@ -26,6 +26,8 @@ pub enum Expected {
     AtMost(u16),
     /// Exactly this many list elements (as the request asked for).
     Exactly(u16),
+    /// A whole number of groups of this many values.
+    MultipleOf(u16),
 }
 
 /// What came instead.
@@ -101,6 +103,7 @@ impl fmt::Display for Expected {
             Expected::AtLeast(n) => write!(f, "at least {n} values"),
             Expected::AtMost(n) => write!(f, "at most {n} values"),
             Expected::Exactly(n) => write!(f, "exactly {n} values"),
+            Expected::MultipleOf(n) => write!(f, "a multiple of {n} values"),
         }
     }
 }
@@ -231,7 +234,14 @@ impl fmt::Display for RangeError {
 enum_with_unknown! {
     /// An error code from a `Fail` reply, or one of the client-side codes
     /// the official SDKs use. Codes not listed survive as
-    /// [`ErrorCode::Unknown`]; the vendor's full table is not public.
+    /// [`ErrorCode::Unknown`]; the vendor's full table
+    /// ("HuayanRobot_ErrorCode.docx") is not public. The names are those the
+    /// documents and SDKs give, or infer; [`ErrorCode::text`] is the
+    /// controller's own text where the V6 document prints it, and a
+    /// controller at `HR5.50.3` or later explains any code itself
+    /// (`GetErrorCodeStr`). The V6 document also uses 20016
+    /// (`ReadPointByName`), 20022 (`RunFunc`) and 20046 (a path computation
+    /// error) without saying what they are.
     pub enum ErrorCode {
     /// 10000: short-circuit error.
     ShortCircuit = 10000,
@@ -271,5 +281,59 @@ enum_with_unknown! {
     ConnectFailed = 39504,
     /// 39505 (client side): the reply names another command than the request.
     ReplyNameMismatch = 39505,
+    }
+}
+
+impl ErrorCode {
+    /// The text a controller gives for this code, as the V6 document
+    /// prints it in its examples (`20018`: `command forbidden in this
+    /// state`; the text of `GetErrorCodeStr` and of failure replies), or
+    /// for the client-side codes the vendor SDK's description. `None` for
+    /// codes without one: ask the controller (`GetErrorCodeStr`).
+    pub fn text(self) -> Option<&'static str> {
+        Some(match self {
+            ErrorCode::ShortCircuit => "Short circuit error",
+            ErrorCode::ParameterError => "command parameters error",
+            ErrorCode::FormatError => "command format error",
+            ErrorCode::IoNotExist => "IO not exist",
+            ErrorCode::StateRefused => "command forbidden in this state",
+            ErrorCode::TcpNameNotExist => "TCP not exist",
+            ErrorCode::UcsNameNotExist => "UCS not exist",
+            ErrorCode::ScriptNoSuchFunction => "Script has no such function",
+            ErrorCode::RobotStopping => "Robot in stopping state",
+            ErrorCode::NotInForceControl => "Robot not in force control state",
+            ErrorCode::ToolIoTypeError => "EndIO type Error",
+            ErrorCode::NotConnected => "not connected to the robot",
+            ErrorCode::BadInputParameter => "parameter error in the command",
+            ErrorCode::BadReply => "parameter error in the reply",
+            ErrorCode::SocketError => "socket error (timeout, receive failure)",
+            ErrorCode::ConnectFailed => "connecting to the robot failed",
+            ErrorCode::ReplyNameMismatch => "the reply names another command",
+            _ => return None,
+        })
+    }
+}
+
+/// Code 0: no error (the value of an error field when all is well).
+impl Default for ErrorCode {
+    fn default() -> Self {
+        ErrorCode::Unknown(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texts_are_the_documents() {
+        assert_eq!(
+            ErrorCode::from(20018).text(),
+            Some("command forbidden in this state")
+        );
+        assert_eq!(ErrorCode::from(10000).text(), Some("Short circuit error"));
+        assert_eq!(ErrorCode::from(20042).text(), None);
+        assert_eq!(ErrorCode::from(20016).text(), None);
+        assert_eq!(ErrorCode::from(20016), ErrorCode::Unknown(20016));
     }
 }

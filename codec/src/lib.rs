@@ -21,6 +21,8 @@
 //! | [`error`] | [`ParseError`], [`EncodeError`], [`RangeError`], [`ErrorCode`] |
 //! | [`fsm`] | [`FsmState`] |
 //! | [`datasheet`] | DataSheet header, deframer and JSON payload |
+//! | [`level`] | protocol levels: which controller versions have which command |
+//! | `path` | (feature `v6`) the path types of the V6 document |
 //!
 //! ## Example: send a way point, read the reply
 //! ```
@@ -92,6 +94,8 @@ pub mod fsm;
 pub mod grammar;
 pub mod level;
 pub mod number;
+#[cfg(feature = "v6")]
+pub mod path;
 pub mod types;
 pub mod writer;
 
@@ -105,4 +109,6 @@ pub use fsm::FsmState;
 pub use grammar::{Kind, RawMessage};
 pub use level::{LevelError, ProtocolLevel};
 pub use number::Decimal;
-pub use types::{CountedList, Joints, PointList, Pose, Range, RobotId, TextList, Visitor};
+pub use types::{
+    CountedList, FreeText, Joints, PointList, Pose, Range, RobotId, TextList, ValueGroups, Visitor,
+};

@@ -12,6 +12,8 @@
 //! | [`CountedList`] | count + count values | `WriteHoldingRegisters` data |
 //! | [`PointList`] | count + 6 × count values | `PushMovePaths` points, borrowed |
 //! | [`TextList`] | 0.. (rest of message) | `RunFunc` / `HRAppCmd` parameters, borrowed |
+//! | [`ValueGroups`] | N × groups (rest of message) | `PushPathPoints` points, calibration samples, borrowed |
+//! | [`FreeText`] | the rest of the message, commas included | `GetErrorCodeStr`'s text, borrowed |
 //!
 //! Lenient reading: an empty numeric field reads as 0 (the document sends
 //! unused parameters as 0 and the Java SDK sends them empty).
@@ -696,6 +698,190 @@ impl<'a> Field<'a> for PointList<'a> {
         v.begin_list(name);
         self.iter().for_each(|p| p.visit("", v));
         v.end_list();
+    }
+}
+
+/// Numbers taking the rest of the message in groups of `N`, without a count
+/// field, borrowed from the message (`PushPathPoints`: six values per point;
+/// `SetFTCalibration`: twelve per sample; `MovePathJOL`: nineteen per
+/// point). At least one group; every value is checked when the message is
+/// read.
+#[derive(Clone, Copy)]
+pub struct ValueGroups<'a, const N: usize>(ListRepr<'a, [Decimal; N]>);
+
+impl<'a, const N: usize> ValueGroups<'a, N> {
+    /// A list to send, from the caller's groups.
+    pub const fn new(groups: &'a [[Decimal; N]]) -> Self {
+        ValueGroups(ListRepr::Slice(groups))
+    }
+
+    /// The number of groups.
+    pub fn len(&self) -> usize {
+        match self.0 {
+            ListRepr::Wire { count, .. } => usize::from(count),
+            ListRepr::Slice(s) => s.len(),
+        }
+    }
+
+    /// `true` when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The groups.
+    pub fn iter(&self) -> impl Iterator<Item = [Decimal; N]> + 'a {
+        let (wire, slice) = match self.0 {
+            ListRepr::Wire { text, count } => {
+                let mut values = Fields::of(text).map(|f| match f {
+                    "" => Decimal::ZERO,
+                    t => Decimal::parse(t).unwrap_or(Decimal::ZERO),
+                });
+                let groups = core::iter::from_fn(move || {
+                    let mut g = [Decimal::ZERO; N];
+                    for slot in g.iter_mut() {
+                        *slot = values.next()?;
+                    }
+                    Some(g)
+                })
+                .take(usize::from(count));
+                (Some(groups), None)
+            }
+            ListRepr::Slice(s) => (None, Some(s.iter().copied())),
+        };
+        wire.into_iter()
+            .flatten()
+            .chain(slice.into_iter().flatten())
+    }
+}
+
+impl<const N: usize> Default for ValueGroups<'_, N> {
+    fn default() -> Self {
+        ValueGroups(ListRepr::Slice(&[]))
+    }
+}
+
+impl<const N: usize> fmt::Debug for ValueGroups<'_, N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_list().entries(self.iter()).finish()
+    }
+}
+
+impl<const N: usize> PartialEq for ValueGroups<'_, N> {
+    fn eq(&self, other: &Self) -> bool {
+        self.len() == other.len() && self.iter().eq(other.iter())
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl<const N: usize> defmt::Format for ValueGroups<'_, N> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "{=usize} groups of {=usize}", self.len(), N);
+    }
+}
+
+impl<'a, const N: usize> Field<'a> for ValueGroups<'a, N> {
+    const BLANK: Self = ValueGroups(ListRepr::Slice(&[]));
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
+        let got = c.remaining();
+        let n = u16::try_from(N).unwrap_or(u16::MAX);
+        if got == 0 {
+            c.fail(param, Expected::AtLeast(n), Got::End);
+            return ValueGroups::default();
+        }
+        if !got.is_multiple_of(n) {
+            c.fail(param, Expected::MultipleOf(n), Got::Count(got));
+            return ValueGroups::default();
+        }
+        // Check every value now, so that iterating later cannot meet garbage.
+        let mut probe = c.clone();
+        while !probe.at_end() {
+            read_num(&mut probe, param);
+        }
+        if let Err(e) = probe.finish() {
+            c.record(e);
+            return ValueGroups::default();
+        }
+        let (text, _) = rest_text(c, param);
+        ValueGroups(ListRepr::Wire {
+            text,
+            count: got / n,
+        })
+    }
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        if self.is_empty() {
+            w.fail_list_too_long(param);
+        }
+        self.iter().for_each(|g| g.write(w, param))
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.begin_list(name);
+        self.iter().for_each(|g| g.visit("", v));
+        v.end_list();
+    }
+}
+
+/// A text taking the rest of the message, commas included, borrowed
+/// (`GetErrorCodeStr`'s reply: the controller's own explanation of an
+/// error code, which may contain commas). Trimmed at its ends; empty when
+/// the message ends first. Written as read (an empty text as one empty
+/// field).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FreeText<'a>(&'a str);
+
+impl<'a> FreeText<'a> {
+    /// A text to send: printable ASCII without `;` and without spaces at
+    /// its ends (checked when written).
+    pub const fn new(text: &'a str) -> Self {
+        FreeText(text)
+    }
+
+    /// The text.
+    pub const fn as_str(&self) -> &'a str {
+        self.0
+    }
+}
+
+impl fmt::Display for FreeText<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
+impl<'a> Field<'a> for FreeText<'a> {
+    const BLANK: Self = FreeText("");
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
+        let (text, _) = rest_text(c, param);
+        FreeText(crate::grammar::trim(text))
+    }
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        let t = self.0;
+        let ok = t.bytes().all(|b| (0x20..0x7f).contains(&b) && b != b';')
+            && !t.starts_with(' ')
+            && !t.ends_with(' ');
+        if ok {
+            // An empty text is one empty field, as an empty name is.
+            w.raw_field(t);
+        } else {
+            w.fail_invalid_text(param);
+        }
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.text(name, self.0)
+    }
+}
+
+/// An error code as a parameter (`GetErrorCodeStr` request, path states).
+impl<'a> Field<'a> for crate::error::ErrorCode {
+    const BLANK: Self = crate::error::ErrorCode::Unknown(0);
+    fn read(c: &mut Cursor<'_, 'a>, param: Param) -> Self {
+        Self::from(read_int(c, param))
+    }
+    fn write(&self, w: &mut Writer<'_>, param: Param) {
+        w.int_at(self.code(), param)
+    }
+    fn visit(&self, name: &str, v: &mut dyn Visitor) {
+        v.int(name, self.code())
     }
 }
 

@@ -177,6 +177,11 @@ impl<'b> Writer<'b> {
         }
     }
 
+    /// A text parameter the grammar cannot carry.
+    pub(crate) fn fail_invalid_text(&mut self, param: Param) {
+        self.fail_at(param, |param| EncodeError::InvalidText { param })
+    }
+
     /// A list parameter with more elements than its count field can say.
     pub(crate) fn fail_list_too_long(&mut self, param: Param) {
         self.fail_at(param, |param| EncodeError::ListTooLong { param })

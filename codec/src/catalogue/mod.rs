@@ -496,11 +496,15 @@ macro_rules! maybe_level {
 }
 use maybe_level;
 
-/// The `Message` impl of a success reply: generated from the table, or
-/// written by hand in `quirks` (`reply = by_hand`) for a reply whose shape
-/// the table cannot say.
+/// The `Message` impl of a success reply: generated from the table, or,
+/// with `v6`, written by hand in `quirks` (`reply = by_hand`) for a reply
+/// whose V6 form the table cannot say (without `v6` the table's reader of
+/// the HR-TCP V1.0.0.3 form is used: the V6 form's code is not linked).
 macro_rules! reply_message {
-    (by_hand; $($rest:tt)*) => {};
+    (by_hand; $($rest:tt)*) => {
+        #[cfg(not(feature = "v6"))]
+        reply_message! { ; $($rest)* }
+    };
     (; $Cmd:ident $(<$rlt:lifetime>)? [$( $(#[cfg($fcfg:meta)])? $field:ident ),*]
         [$( $(#[cfg($rfcfg:meta)])? $rfield:ident ),*]) => {
         impl<'a> Message<'a> for response::$Cmd $(<$rlt>)? {
@@ -536,7 +540,7 @@ use reply_message;
 macro_rules! catalogue_items {
     ($(
         $(#[doc = $doc:literal])*
-        $Cmd:ident $(<$lt:lifetime>)? = $wire:literal $(| $alias:literal)*
+        $Cmd:ident $(<$lt:lifetime>)? = $wire:literal $(| $(#[cfg($acfg:meta)])? $alias:literal)*
             @ $(v5 $s5:literal)? $(v6 $s6:literal)?
             $(, since $since:literal)? $(, removed $removed:literal)? $(, changed $changed:literal)?
             $(, len = $len:expr)? $(, reply = $by_hand:ident)? ;
@@ -572,6 +576,12 @@ macro_rules! catalogue_items {
             /// V6 document.
             pub const fn section(self) -> &'static str {
                 match self { $(CommandId::$Cmd => first_section!($($s5)?; $($s6)?),)* }
+            }
+
+            /// The section of the HR-TCP V1.0.0.3 document, if the command is
+            /// in it.
+            pub const fn section_v5(self) -> Option<&'static str> {
+                match self { $(CommandId::$Cmd => maybe_section!($($s5)?),)* }
             }
 
             /// The section of the V6 document (V1.0.19.1), if the command is
@@ -641,7 +651,9 @@ macro_rules! catalogue_items {
         pub(super) const REMOVED_LIST: &[Option<ProtocolLevel>] = &[$(maybe_level!($($removed)?)),*];
 
         /// Every alias with its command (a short list: most commands have none).
-        pub(super) const ALIASES: &[(&str, CommandId)] = &[ $( $( ($alias, CommandId::$Cmd), )* )* ];
+        pub(super) const ALIASES: &[(&str, CommandId)] = &[
+            $( $( $(#[cfg($acfg)])? ($alias, CommandId::$Cmd), )* )*
+        ];
 
         impl core::fmt::Display for CommandId {
             fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -990,7 +1002,9 @@ fn visit_raw(raw: &RawMessage<'_>, v: &mut dyn Visitor) {
 impl CommandId {
     /// `true` for commands that start a motion whose end is observed by
     /// polling `ReadRobotState` (chapter 6): the moves of section 4.10 and
-    /// the path moves `MovePath` and `MovePathL`.
+    /// the path moves `MovePath` and `MovePathL` (with `v6` also the V6
+    /// document's jogs, `MoveJTo`/`MoveLTo`/`MoveAlignToZ`, `MovePathJ`,
+    /// `MovePathJOL`, `SpeedJ` and `SpeedL`).
     pub fn is_motion(self) -> bool {
         use CommandId as C;
         matches!(
@@ -1009,7 +1023,33 @@ impl CommandId {
                 | C::MoveS
                 | C::MovePath
                 | C::MovePathL
+        ) || self.is_v6_motion()
+    }
+
+    /// The motions of the V6 document: jogs, hold-to-move, path and
+    /// velocity moves.
+    #[cfg(feature = "v6")]
+    fn is_v6_motion(self) -> bool {
+        use CommandId as C;
+        matches!(
+            self,
+            C::MoveAlignToZ
+                | C::MoveJTo
+                | C::MoveLTo
+                | C::ShortJogJ
+                | C::ShortJogL
+                | C::LongJogJ
+                | C::LongJogL
+                | C::MovePathJ
+                | C::MovePathJOL
+                | C::SpeedJ
+                | C::SpeedL
         )
+    }
+
+    #[cfg(not(feature = "v6"))]
+    fn is_v6_motion(self) -> bool {
+        false
     }
 }
 

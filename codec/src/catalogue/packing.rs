@@ -490,7 +490,7 @@ const FIRST_RANGE: [u16; FIELDS] = firsts::<1>();
 /// ranges ("none" is one of them).
 const RANGES: ([u8; FIELDS], usize) = classes(&FIRST_RANGE);
 
-/// The distinct ranges (a `static`: one copy, referenced by errors).
+/// The distinct ranges (a `static`: one copy).
 static RANGE_POOL: [Option<Range>; RANGES.1] = {
     let mut pool = [None; RANGES.1];
     let mut i = 0;
@@ -646,7 +646,7 @@ mod tests {
             "ratio"
         );
         let range = RANGE_POOL[usize::from(range)].unwrap();
-        assert_eq!(range, crate::types::num("0.01", "1"));
+        assert!(range.same(&crate::types::num("0.01", "1")));
         assert_eq!(Param(1).range(Some(id)), Some(&range));
     }
 

@@ -18,10 +18,28 @@
 //! * `MoveJ`: the signature has 23 fields; the document's examples send 24,
 //!   with a move type (always 0) after the radius, as `WayPoint` does. The
 //!   extra field is dropped.
+//!
+//! And one reply whose shape the table cannot say, read and written by hand
+//! with the `v6` feature (`reply = by_hand` in the table; without `v6` the
+//! table's reader, of HR-TCP V1.0.0.3's form only, is used):
+//!
+//! * `ReadBoxAO`: HR-TCP V1.0.0.3 replies one value per channel asked for,
+//!   the V6 document (and the vendor SDK) the mode and the value of each.
+//!   Against its request (`n` channels) `n` values are the first form and
+//!   `2n` the second; without a request 4 values are the second form and 1
+//!   or 2 the first. Written back in the form read.
 
 use super::{CommandId, QUIRK_FIELDS};
 use crate::grammar::RawMessage;
 use crate::number::Decimal;
+#[cfg(feature = "v6")]
+use {
+    super::{response, Message},
+    crate::error::{Expected, Got},
+    crate::grammar::Cursor,
+    crate::types::{Field, Param},
+    crate::writer::Writer,
+};
 
 type Scratch<'a> = heapless::Vec<&'a str, QUIRK_FIELDS>;
 
@@ -92,4 +110,59 @@ fn move_j<'a>(raw: &RawMessage<'a>, out: &mut Scratch<'a>) -> bool {
         0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 19, 20, 21, 22, 23,
     ];
     raw.len() == 24 && collect(raw, out) && permute(out, &DROP_MOVE_TYPE)
+}
+
+/// The reply's fields after the request's one parameter (`channels`).
+#[cfg(feature = "v6")]
+const AO_VALUES: Param = Param(1);
+#[cfg(feature = "v6")]
+const AO_MODES: Param = Param(2);
+
+#[cfg(feature = "v6")]
+impl<'a> Message<'a> for response::ReadBoxAO {
+    fn blank() -> Self {
+        response::ReadBoxAO {
+            values: heapless::Vec::new(),
+            modes: None,
+        }
+    }
+
+    fn read_in(&mut self, c: &mut Cursor<'_, 'a>) {
+        let got = c.remaining();
+        let pairs = match c.expected_len() {
+            Some(n) => n > 0 && u32::from(got) == 2 * u32::from(n),
+            None => got == 4,
+        };
+        if !pairs {
+            self.values.read_in(c, AO_VALUES);
+            return;
+        }
+        if got > 4 {
+            c.fail(AO_VALUES, Expected::AtMost(4), Got::Count(got));
+            return;
+        }
+        let mut modes = heapless::Vec::new();
+        while !c.at_end() {
+            let mode = i32::read(c, AO_MODES);
+            let value = Decimal::read(c, AO_VALUES);
+            // At most two pairs: checked above.
+            let _ = self.values.push(value);
+            let _ = modes.push(mode);
+        }
+        self.modes = Some(modes);
+    }
+
+    fn write_fields(&self, w: &mut Writer<'_>) {
+        if let Some(modes) = &self.modes {
+            if modes.len() != self.values.len() {
+                w.fail_list_too_long(AO_MODES);
+            }
+            for (m, v) in modes.iter().zip(&self.values) {
+                m.write(w, AO_MODES);
+                v.write(w, AO_VALUES);
+            }
+            return;
+        }
+        self.values.write(w, AO_VALUES);
+    }
 }

@@ -49,15 +49,21 @@
 use super::{catalogue, catalogue_items, first_section, level_of, maybe_level, maybe_section};
 use super::{encode_with, parse_request_as, reply_message, Command, Message, ReplyExpect};
 use super::{range_entry, read_known, request_head, validate_with, visit_raw};
+#[cfg(feature = "v6")]
+use crate::error::ErrorCode;
 use crate::error::{EncodeError, ParseError, RangeError};
 use crate::fsm::FsmState;
 use crate::grammar::{Cursor, RawMessage};
 use crate::level::{LevelError, ProtocolLevel};
 use crate::number::Decimal;
+#[cfg(feature = "v6")]
+use crate::path::{CartesianPath, PathReply};
 use crate::types::{
     above, at_least, either, int, num, CountedList, Field, Joints, Param, PointList, Pose, Range,
     RobotId, TextList, Visitor,
 };
+#[cfg(feature = "v6")]
+use crate::types::{FreeText, ValueGroups};
 use crate::writer::Writer;
 
 /// `nRbtID`: 0-5.
@@ -280,14 +286,21 @@ v5 {
     }
 
     /// Box analog outputs, one or two channels (read like `ReadBoxAI`, see
-    /// `NOTES.md`).
-    ReadBoxAO = "ReadBoxAO" @ v5 "4.4.7" v6 "4.4.7", len = |r| r.channels.len();
+    /// `NOTES.md`). HR-TCP V1.0.0.3's example replies one value per
+    /// channel; the V6 document's, and the vendor SDK, the mode and the value
+    /// of each channel (`ReadBoxAO,0,1,;` → `ReadBoxAO,OK,1,2.000,2,8.000,;`).
+    /// With `v6` both are read (`quirks`); without, only the first.
+    ReadBoxAO = "ReadBoxAO" @ v5 "4.4.7" v6 "4.4.7", len = |r| r.channels.len(), reply = by_hand;
     {
         /// `nBit`: channels 0/1, one or two of them.
         channels: heapless::Vec<i32, 2> = FLAG,
     } => {
         /// `dVal`: one value per channel [mA or V, 0-20].
         values: heapless::Vec<Decimal, 2>,
+        /// `nType`: the mode of each channel, 1 = voltage, 2 = current; in
+        /// replies of the V6 form only.
+        #[cfg(feature = "v6")]
+        modes: Option<heapless::Vec<i32, 2>>,
     }
 
     /// Set a box control digital output (CO).
@@ -403,6 +416,10 @@ v5 {
         mass: Decimal = at_least("0"),
         /// `dX, dY, dZ`: centre-of-mass offset \[mm\], each >= 0.
         center: [Decimal; 3] = at_least("0"),
+        /// `bUpdateDB` (V6 document, may be omitted = 1): 1 = set mass and
+        /// centre of mass, 3 = set the mass only; both saved.
+        #[cfg(feature = "v6")]
+        update_db: Option<i32> = either("1", "3"),
     } => {}
 
     /// Set the joints' maximum velocities.
@@ -1545,8 +1562,10 @@ v5 {
         track: &'a str,
     } => {}
 
-    /// Run a joint path. SDKs also send `MovePathJ`.
-    MovePath<'a> = "MovePath" | "MovePathJ" @ v5 "4.11.4" v6 "4.11.15";
+    /// Run a joint path. SDKs also send `MovePathJ`, read as this command
+    /// without the `v6` feature; with it, `MovePathJ` is the V6 document's
+    /// own command (paths of `InitPath`).
+    MovePath<'a> = "MovePath" | #[cfg(not(feature = "v6"))] "MovePathJ" @ v5 "4.11.4" v6 "4.11.15";
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
@@ -1758,8 +1777,9 @@ v5 {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `nSlaveID`: 0/1.
-        slave: i32 = FLAG,
+        /// `nSlaveID`: 0/1 in HR-TCP V1.0.0.3, 1-255 from `HR5.50.5` (the
+        /// V6 document): 0-255.
+        slave: i32 = int(0, 255),
         /// `nFunction`: Modbus function code, > 0 (16 writes registers).
         function: i32 = int(1, 255),
         /// `nRegAddr`: first register address.
@@ -1773,8 +1793,9 @@ v5 {
     {
         /// `nRbtID`: robot id, 0-5.
         rbt_id: RobotId = RBT,
-        /// `nSlaveID`: 0/1.
-        slave: i32 = FLAG,
+        /// `nSlaveID`: 0/1 in HR-TCP V1.0.0.3, 1-255 from `HR5.50.5` (the
+        /// V6 document): 0-255.
+        slave: i32 = int(0, 255),
         /// `nFunction`: Modbus function code, > 0 (3 reads holding registers).
         function: i32 = int(1, 255),
         /// `nRegAddr`: first register address.
@@ -1787,10 +1808,915 @@ v5 {
     }
 }
 v6 {
+    // ================================================================
+    // The V6 document's additions (feature `v6`), in its order. Versions
+    // from its revision table; "All" there is the V5 level (no `since`).
+    // ---------------------------------------------------------------- 4.1
+    /// The controller's own text for an error code (it only ever replies
+    /// OK; unknown codes get a text such as `unkown error`).
+    GetErrorCodeStr = "GetErrorCodeStr" @ v6 "4.1.9", since "HR5.50.3";
+    {
+        /// `nErrorCode`: the code to explain.
+        code: ErrorCode,
+    } => <'a> {
+        /// `strErrorMsg`: the explanation, commas included.
+        text: FreeText<'a>,
+    }
+
+    /// The controller's software package version (`6.3.6.20240305`; its
+    /// first three numbers are the controller's [`ProtocolLevel`]).
+    PackageVersion = "PackageVersion" @ v6 "4.1.11", since "HR6.2.17";
+    {} => <'a> {
+        /// `strPackageVer`: the version.
+        version: &'a str,
+    }
+
+    /// The fast command port, which serves the commands marked as fast
+    /// (state reads) beside port 10003.
+    ReadFastCmdPort = "ReadFastCmdPort" @ v6 "4.1.12", since "HR6.5.1";
+    {} => {
+        /// The port number (10001 in the document's example).
+        port: i32,
+    }
+
+    // ---------------------------------------------------------------- 4.2
+    /// Force the safety-guard state on or off: a software emergency stop.
+    /// The name of controllers before `HR6.5.1`; the vendor's newest SDK
+    /// still sends it.
+    EnterSafetyGuard = "EnterSafetyGuard" @ v6 "4.2.9", since "HR6.2.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `bFlag`: 1 = enter the soft stop, 0 = leave it.
+        flag: i32 = FLAG,
+    } => {}
+
+    /// Force the safety-guard state on or off: a software emergency stop
+    /// (after leaving it, "restore" the guard on the pendant). Renamed from
+    /// `EnterSafetyGuard` at `HR6.5.1`.
+    EnterSafeGuard = "EnterSafeGuard" @ v6 "4.2.9", since "HR6.5.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `bFlag`: 1 = enter the soft stop, 0 = leave it.
+        flag: i32 = FLAG,
+    } => {}
+
+    /// From any state back to enabled (StandBy), as far as the controller
+    /// can do it alone: a task that tries for up to 30 s.
+    XToStandby = "XToStandby" @ v6 "4.2.10", since "HR6.4.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// The three-position enabling switch on or off, and its mode (the mode
+    /// is ignored from `HR6.5.13` on).
+    SetTriStageSwitch = "SetTriStageSwitch" @ v6 "4.2.11", since "HR6.5.1";
+    {
+        /// `rbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nThreeStageEnable`: 0 = off, 1 = on.
+        enable: i32 = FLAG,
+        /// `nThreeStageMode`: 0 = free drive, 1 = enable.
+        mode: i32 = FLAG,
+    } => {}
+
+    /// Each joint's brake.
+    ReadBrakeStatus = "ReadBrakeStatus" @ v6 "4.2.12", since "HR6.5.14";
+    {
+        /// `boxID`: electric box (robot) id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `stateJ1..J6`: per joint, 1 = released, 0 = braked (the vendor
+        /// SDK's reading; the document says only "0/1").
+        brakes: [i32; 6],
+    }
+
+    // ---------------------------------------------------------------- 4.3
+    /// Apply (make current) a script file.
+    SwitchScript<'a> = "SwitchScript" @ v6 "4.3.6", since "HR6.3.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sScriptName`: the script file, `.JSON`.
+        script: &'a str,
+    } => {}
+
+    /// The script file currently applied.
+    ReadDefaultScript = "ReadDefaultScript" @ v6 "4.3.7", since "HR6.3.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => <'a> {
+        /// `sScriptName`: the script file, `.JSON`.
+        script: &'a str,
+    }
+
+    /// Whether scripts with unsaved changes may run (kept across restarts).
+    EnableRunningUnsavedProgram = "EnableRunningUnsavedProgram" @ v6 "4.3.8", since "HR6.5.4";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `enabledVal`: 0 = refuse them, 1 = allow.
+        enabled: i32 = FLAG,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.4
+    /// Set outputs just before the current motion reaches its target. Bit
+    /// masks say which outputs change, values their new level.
+    CdsSetIO = "cdsSetIO" @ v6 "4.4.16", since "HR6.2.17";
+    {
+        /// `nEndDOMask`: tool outputs to change, bit 0-2.
+        end_do_mask: i32,
+        /// `nEndDOVal`: their levels, bit 0-2.
+        end_do_value: i32,
+        /// `nBoxDOMask`: box DO outputs to change, bit 0-7.
+        box_do_mask: i32,
+        /// `nBoxDOVal`: their levels, bit 0-7.
+        box_do_value: i32,
+        /// `nBoxCOMask`: box CO outputs to change, bit 0-7.
+        box_co_mask: i32,
+        /// `nBoxCOVal`: their levels, bit 0-7.
+        box_co_value: i32,
+        /// `nBoxAOCH0_Mask`: 1 = change analog output 0.
+        ao0_mask: i32 = FLAG,
+        /// `nBoxAOCH0_Mode`: 1 = voltage, 2 = current (the document's
+        /// example sends 0 with the mask off: 0 is accepted).
+        ao0_mode: i32 = int(0, 2),
+        /// `nBoxAOCH1_Mask`: 1 = change analog output 1.
+        ao1_mask: i32 = FLAG,
+        /// `nBoxAOCH1_Mode`: as `ao0_mode`.
+        ao1_mode: i32 = int(0, 2),
+        /// `dbBoxAOCH0_Val`: [mA 4-20 or V 0-10], 0-20.
+        ao0_value: Decimal = num("0", "20"),
+        /// `dbBoxAOCH1_Val`: [mA 4-20 or V 0-10], 0-20.
+        ao1_value: Decimal = num("0", "20"),
+    } => {}
+
+    /// The function of a box control input (CI).
+    SetCIConfig = "SetCIConfig" @ v6 "4.4.17", since "HR6.5.1";
+    {
+        /// `nBit`: CI index 0-7.
+        bit: i32 = BOX_BIT,
+        /// `nFunction`: -1 none, 0 enable, 1 reset errors, 2 reduced mode,
+        /// 3 pause script, 5 stop script, 6 continue script, 7 run script,
+        /// 11 pause motion, 12 continue motion.
+        function: i32 = int(-1, 12),
+        /// `nTriggerType`: 0 low level, 1 high level, 2 rising edge, 3
+        /// falling edge; may be omitted with function -1.
+        trigger: Option<i32> = int(0, 3),
+    } => {}
+
+    /// The functions of the box control inputs: all eight, or one with its
+    /// trigger.
+    ReadCIConfig = "ReadCIConfig" @ v6 "4.4.18", since "HR6.5.1",
+        len = |r| if r.bit.is_some() { 2 } else { 8 };
+    {
+        /// `nBit`: CI index 0-7; omitted = all eight.
+        bit: Option<i32> = BOX_BIT,
+    } => {
+        /// Without `nBit`: `nFunction0..7`, the function of each CI (as
+        /// `SetCIConfig`, plus 9 safety guard, 10 local e-stop). With it:
+        /// `nFunction, nTriggerType` of that CI (trigger -1 with function -1).
+        values: heapless::Vec<i32, 8>,
+    }
+
+    /// The function of a box control output (CO).
+    SetCOConfig = "SetCOConfig" @ v6 "4.4.19", since "HR6.5.1";
+    {
+        /// `nBit`: CO index 0-7.
+        bit: i32 = BOX_BIT,
+        /// `nFunction`: -1 none, 0 enabled, 1 moving, 2 error, 3 reduced
+        /// mode, 4 script running, 5 script paused, 6/7 system e-stop 1/2,
+        /// 8/9 local e-stop 1/2, 10 motion paused.
+        function: i32 = int(-1, 10),
+    } => {}
+
+    /// The functions of the eight box control outputs.
+    ReadCOConfig = "ReadCOConfig" @ v6 "4.4.20", since "HR6.5.1";
+    {} => {
+        /// `nFunction0..7`: the function of each CO (as `SetCOConfig`).
+        functions: [i32; 8],
+    }
+
+    // ---------------------------------------------------------------- 4.5
+    /// The collision sensitivity.
+    SetCollideLevel = "SetCollideLevel" @ v6 "4.5.10", since "HR6.3.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nSafeLevel`: 0 = low risk (most sensitive) to 5 = high risk.
+        level: i32 = int(0, 5),
+    } => {}
+
+    /// The safety-guard (light curtain) configuration.
+    SetSafeGuardConfig = "SetSafeGuardConfig" @ v6 "4.5.11", since "HR6.5.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nEnable`: 0 = off, 1 = on.
+        enable: i32 = FLAG,
+        /// `nMode`: 0 stop, 1 pause, 2 stop but allow jogging.
+        mode: i32 = int(0, 2),
+        /// `nBit1`: first guard input, CI 0-7.
+        bit1: i32 = BOX_BIT,
+        /// `nBit2`: second guard input, CI 0-7.
+        bit2: i32 = BOX_BIT,
+    } => {}
+
+    /// The largest payload of the model.
+    ReadMaxPayload = "ReadMaxPayload" @ v6 "4.5.12", since "HR6.3.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dbMaxPayload`: \[kg\].
+        max_payload: Decimal,
+    }
+
+    /// The current payload.
+    ReadPayload = "ReadPayload" @ v6 "4.5.13", since "HR6.3.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dMass`: \[kg\].
+        mass: Decimal,
+        /// `dX, dY, dZ`: centre-of-mass offset \[mm\].
+        center: [Decimal; 3],
+    }
+
+    /// The speed override. The revision table gives controller
+    /// `20220825.214` (the V5 level).
+    ReadOverride = "ReadOverride" @ v6 "4.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dOverride`: speed ratio 0.01-1.
+        ratio: Decimal,
+    }
+
+    /// A taught point by name: joints, pose, and its tool and user frames.
+    ReadPointByName<'a> = "ReadPointByName" @ v6 "4.5.24", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPointName`: the point's name.
+        name: &'a str,
+    } => {
+        /// `dJ1..dJ6`: [°].
+        joints: Joints,
+        /// `dX..dRz`: [mm, °].
+        pose: Pose,
+        /// `dTcp_X..dTcp_Rz`: its tool frame [mm, °].
+        tcp: Pose,
+        /// `dUcs_X..dUcs_Rz`: its user frame [mm, °].
+        ucs: Pose,
+    }
+
+    /// Motor-side and joint-side encoder values.
+    ReadMotorAndJointEncode = "ReadMotorAndJointEncode" @ v6 "4.5.25", since "HR6.4.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nMotorEncode_J1..J6`.
+        motor: [i32; 6],
+        /// `nJointEncode_J1..J6`.
+        joint: [i32; 6],
+    }
+
+    // ---------------------------------------------------------------- 4.6
+    /// Combined XYZ speed of the TCP, in mm/s (`ReadTcpVelocity` says m/s).
+    ReadTcpVel = "ReadTcpVel" @ v6 "4.6.10", since "HR6.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dCmdVel`: command speed [mm/s].
+        cmd: Decimal,
+        /// `dActVel`: actual speed [mm/s].
+        act: Decimal,
+    }
+
+    // ---------------------------------------------------------------- 4.7
+    /// Actual joints, and the pose in a named user and tool frame. The
+    /// revision table gives `6.5ZT.12` and `6.6.1`.
+    ReadActCoord<'a> = "ReadActCoord" @ v6 "4.7.14", since "HR6.6.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `UcsName`: user frame name (sent before the tool name).
+        ucs_name: &'a str,
+        /// `TcpName`: tool frame name.
+        tcp_name: &'a str,
+    } => {
+        /// `dJ1..dJ6`: [°].
+        joints: Joints,
+        /// `dX..dRz`: in the frames asked for [mm, °].
+        pose: Pose,
+    }
+
+    /// Inverse dynamics: joint torques for positions, velocities and
+    /// accelerations.
+    GetInverseDynamics = "GetInverseDynamics" @ v6 "4.7.15", since "HR6.5.15";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPose_J1..J6`: [°].
+        joints: Joints,
+        /// `dVel_J1..J6`: [°/s].
+        velocities: Joints,
+        /// `dAcc_J1..J6`: [°/s²].
+        accelerations: Joints,
+    } => {
+        /// `dTorq_J1..J6`: [N·m].
+        torques: Joints,
+    }
+
+    // ---------------------------------------------------------------- 4.8
+    /// Create a named tool frame.
+    ConfigTCP<'a> = "ConfigTCP" @ v6 "4.8.9", since "HR6.3.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTcpName`: the new frame's name.
+        name: &'a str,
+        /// `dTcp_X..dTcp_Rz`: [mm, °].
+        tcp: Pose,
+    } => {}
+
+    /// Create a named user frame.
+    ConfigUCS<'a> = "ConfigUCS" @ v6 "4.8.10", since "HR6.3.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sUcsName` (the signature says `sTcpName`): the new frame's name.
+        name: &'a str,
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    } => {}
+
+    /// Make a taught tool frame the default. The revision table gives
+    /// `6.5ZT.12` and `6.6.1`.
+    SetDftTCP<'a> = "SetDftTCP" @ v6 "4.8.11", since "HR6.6.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `TcpName`: tool frame name.
+        name: &'a str,
+    } => {}
+
+    /// The tool orientation that aligns the tool with a user frame, from
+    /// the flange pose.
+    CalTCPOrt = "CalTCPOrt" @ v6 "4.8.12", since "HR6.6.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dUcs_X..dUcs_Rz`: the user frame [mm, °].
+        ucs: Pose,
+        /// `dPcs_X..dPcs_Rz`: the flange (TCP0) pose in the base [mm, °].
+        pcs: Pose,
+    } => {
+        /// `Rx, Ry, Rz`: [°].
+        orientation: [Decimal; 3],
+    }
+
+    /// The mounting angles of the base.
+    SetBaseInstallingAngle = "SetBaseInstallingAngle" @ v6 "4.8.13", since "HR6.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5 (the table calls it `boxID`).
+        rbt_id: RobotId = RBT,
+        /// `nRotation`: [°], -360-360.
+        rotation: i32 = int(-360, 360),
+        /// `nTilt`: [°], -360-360.
+        tilt: i32 = int(-360, 360),
+    } => {}
+
+    /// The mounting angles of the base.
+    GetBaseInstallingAngle = "GetBaseInstallingAngle" @ v6 "4.8.14", since "HR6.5.14";
+    {
+        /// `boxID`: electric box (robot) id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nRotation`: [°].
+        rotation: i32,
+        /// `nTilt`: [°].
+        tilt: i32,
+    }
+
+    /// The names of the saved tool frames.
+    ReadTCPList = "ReadTCPList" @ v6 "4.8.15", since "HR6.5.14";
+    {
+        /// `boxID`: electric box (robot) id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => <'a> {
+        /// `TCP1..TCPN`: the names.
+        names: TextList<'a>,
+    }
+
+    // ---------------------------------------------------------------- 4.9
+    /// The Cartesian directions force-control free drive may move in. It
+    /// took section 4.9.18 of HR-TCP V1.0.0.3's `SetForceFreeDriveMode`; the
+    /// revision table has no entry for it (taken as present from
+    /// `HR5.50.3`, the first controller of the V6 document).
+    SetFTMotionFreedom = "SetFTMotionFreedom" @ v6 "4.9.18", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nFreedom_X..Rz`: 0 = locked, 1 = free, per direction.
+        freedom: [i32; 6] = FLAG,
+    } => {}
+
+    /// Force-control free drive on or off ("All" controllers).
+    SetFTFreeDriveState = "SetFTFreeDriveState" @ v6 "4.9.20";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 = off, 1 = on.
+        state: i32 = FLAG,
+    } => {}
+
+    /// The speed mode of force-control free drive. The revision table
+    /// (`HR6.4.1`, V1.0.17.2) says it takes no parameter; the section sends
+    /// `nRbtID`: both are read, the robot id is written.
+    ReadFTFreeDriveSpeedMode = "ReadFTFreeDriveSpeedMode" @ v6 "4.9.21", since "HR6.4.1";
+    {
+        /// `nRbtID`: robot id, 0-5 (may be omitted).
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `nState`: 0 normal, 1 slow, 2 fast, 3 welding.
+        mode: i32,
+    }
+
+    /// The speed mode of force-control free drive.
+    SetFTFreeDriveSpeedMode = "SetFTFreeDriveSpeedMode" @ v6 "4.9.22", since "HR6.4.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 normal, 1 slow, 2 fast, 3 welding.
+        mode: i32 = int(0, 3),
+    } => {}
+
+    /// Translation and rotation compliance of force-control free drive
+    /// ("All" controllers).
+    SetFTFreeFactor = "SetFTFreeFactor" @ v6 "4.9.23";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dLinear`: translation compliance, 0-100.
+        linear: Decimal = num("0", "100"),
+        /// `dAngular`: rotation compliance, 0-100.
+        angular: Decimal = num("0", "100"),
+    } => {}
+
+    /// Tangential force bounds in X/Y and the largest lifting speed ("All"
+    /// controllers).
+    SetTangentForceBounds = "SetTangentForceBounds" @ v6 "4.9.24";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMax`: largest tangential force \[N\], 0-500.
+        max: Decimal = num("0", "500"),
+        /// `dMin`: smallest tangential force \[N\], 0-500.
+        min: Decimal = num("0", "500"),
+        /// `dVel`: largest lifting speed [mm/s], 0-100.
+        velocity: Decimal = num("0", "100"),
+    } => {}
+
+    /// Compute a force-sensor calibration from 8-16 samples.
+    SetFTCalibration<'a> = "SetFTCalibration" @ v6 "4.9.25", since "HR6.4.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `param1..paramN`: 8-16 samples of twelve values: the pose X..Rz
+        /// [mm, °] in the base frame with the default tool, then the forces
+        /// Fx, Fy, Fz \[N\] and torques Tx, Ty, Tz \[N·m\].
+        samples: ValueGroups<'a, 12>,
+    } => {}
+
+    /// The force sensor's raw data.
+    ReadForceData = "ReadForceData" @ v6 "4.9.26", since "HR6.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `FdX..FdRZ`: raw forces and torques.
+        data: [Decimal; 6],
+    }
+
+    /// Translation and rotation compliance of force-control free drive.
+    ReadFTFreeFactor = "ReadFTFreeFactor" @ v6 "4.9.27", since "HR6.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `Linear_compliance` (an integer in the document's table, a
+        /// number where it is set).
+        linear: Decimal,
+        /// `angular_compliance`.
+        angular: Decimal,
+    }
+
+    /// The user frame of force control (not saved).
+    SetFTUCS = "SetFTUCS" @ v6 "4.9.28", since "HR6.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    } => {}
+
+    /// The user frame of force control.
+    ReadFTUCS = "ReadFTUCS" @ v6 "4.9.29", since "HR6.5.14";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `dUcs_X..dUcs_Rz`: [mm, °].
+        ucs: Pose,
+    }
+
+    // ---------------------------------------------------------------- 4.10
+    /// Align the tool's Z axis (with `LongMoveEvent` keeping it going).
+    /// The revision table gives `HR6.4ER.13` and `HR6.5.1`.
+    MoveAlignToZ<'a> = "MoveAlignToZ" @ v6 "4.10.11", since "HR6.5.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+    } => {
+        /// `bIsReached`: 1 when aligned.
+        aligned: i32,
+        /// `dbJ1..dbJ6`: the aligned joints [°].
+        joints: Joints,
+    }
+
+    /// Hold-to-move to joint positions (kept going by `LongMoveEvent`).
+    /// The revision table gives `HR6.4ER.13` and `HR6.5.1`.
+    MoveJTo = "MoveJTo" @ v6 "4.10.12", since "HR6.5.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dJ1..dJ6`: target joints [°].
+        joints: Joints,
+    } => {}
+
+    /// Hold-to-move to a pose (kept going by `LongMoveEvent`).
+    MoveLTo<'a> = "MoveLTo" @ v6 "4.10.13", since "HR6.5.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: target pose [mm, °].
+        pose: Pose,
+        /// `sTcpName`: tool frame name.
+        tcp_name: &'a str,
+        /// `sUcsName`: user frame name.
+        ucs_name: &'a str,
+    } => {}
+
+    /// Short joint jog: 2° at up to 10 °/s.
+    ShortJogJ = "ShortJogJ" @ v6 "4.10.14", since "HR6.2.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nAxisId`: joint J1-J6 as 0-5.
+        axis: i32 = int(0, 5),
+        /// `nDirection`: 0 = negative, 1 = positive.
+        direction: i32 = FLAG,
+    } => {}
+
+    /// Short Cartesian jog: 2 mm or 2° at up to 10 mm/s or 10 °/s.
+    ShortJogL = "ShortJogL" @ v6 "4.10.15", since "HR6.2.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nAxisId`: direction X, Y, Z, Rx, Ry, Rz as 0-5.
+        axis: i32 = int(0, 5),
+        /// `nDirection`: 0 = negative, 1 = positive.
+        direction: i32 = FLAG,
+    } => {}
+
+    /// Long joint jog, up to 10 °/s, while `LongMoveEvent` keeps coming.
+    LongJogJ = "LongJogJ" @ v6 "4.10.16", since "HR6.2.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nAxisId`: joint J1-J6 as 0-5.
+        axis: i32 = int(0, 5),
+        /// `nDirection`: 0 = negative, 1 = positive.
+        direction: i32 = FLAG,
+        /// `nState`: 1 = start, 0 = stop.
+        state: i32 = FLAG,
+    } => {}
+
+    /// Long Cartesian jog, up to 30 mm/s, while `LongMoveEvent` keeps
+    /// coming.
+    LongJogL = "LongJogL" @ v6 "4.10.17", since "HR6.2.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nAxisId`: direction X, Y, Z, Rx, Ry, Rz as 0-5.
+        axis: i32 = int(0, 5),
+        /// `nDirection`: 0 = negative, 1 = positive.
+        direction: i32 = FLAG,
+        /// `nState`: 1 = start, 0 = stop.
+        state: i32 = FLAG,
+    } => {}
+
+    /// Keeps a long jog (or `MoveJTo`, `MoveLTo`, `MoveAlignToZ`) going:
+    /// send at least every 200 ms, or the motion stops.
+    LongMoveEvent = "LongMoveEvent" @ v6 "4.10.18", since "HR6.2.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.11
+    /// Create a path (an existing path of that name is deleted first). Its
+    /// parameters were redefined at `HR6.3.5`.
+    InitPath<'a> = "InitPath" @ v6 "4.11.1", since "HR6.3.3", changed "HR6.3.5";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nRawDataType`: 0 = joint raw points, 1 = Cartesian.
+        raw_data_type: i32 = FLAG,
+        /// `sPathName`: letters, digits, `_`; at most 29 characters.
+        path: &'a str,
+        /// `dSpeedRatio`: 0.01-1 (for `MovePathJ`).
+        speed_ratio: Decimal = num("0.01", "1"),
+        /// `dRadius`: blend radius \[mm\], > 0 (for `MovePathJ`).
+        radius: Decimal = above("0"),
+        /// `dVelocity, dAcc, dJerk, sUcsName, sTcpName` (for `MovePathL`):
+        /// required with Cartesian raw points, else may be omitted.
+        cartesian: Option<CartesianPath<'a>>,
+    } => {}
+
+    /// Add raw points to a path (up to 10000 in all).
+    PushPathPoints<'a> = "PushPathPoints" @ v6 "4.11.2", since "HR6.3.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: path name.
+        path: &'a str,
+        /// `dValue1..6`, ...: six values per point, joints [°] or a pose
+        /// [mm, °] as the path's raw data type says.
+        points: ValueGroups<'a, 6>,
+    } => {}
+
+    /// End adding points; the controller then computes the path. The
+    /// revision table calls it `EndPushPoints` (accepted as an alias).
+    EndPushPathPoints<'a> = "EndPushPathPoints" | "EndPushPoints" @ v6 "4.11.3", since "HR6.3.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: path name.
+        path: &'a str,
+    } => {}
+
+    /// Delete a path.
+    DelPath<'a> = "DelPath" @ v6 "4.11.4", since "HR6.3.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: path name.
+        path: &'a str,
+    } => {}
+
+    /// The names of all paths, or what is known of one.
+    ReadPath<'a> = "ReadPath" @ v6 "4.11.5", since "HR6.3.3",
+        len = |r| usize::from(r.path.is_some());
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: a path; omitted = list every path.
+        path: Option<&'a str>,
+    } => <'a> {
+        /// The names, or the path's details (see [`PathReply`]).
+        path: PathReply<'a>,
+    }
+
+    /// Rename a path (no example in the document).
+    UpdatePathName<'a> = "UpdatePathName" @ v6 "4.11.6", since "HR6.3.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: current name.
+        path: &'a str,
+        /// `sPathNewName`: new name.
+        new_name: &'a str,
+    } => {}
+
+    /// The states of a path's two computations.
+    ReadPathState<'a> = "ReadPathState" @ v6 "4.11.7", since "HR6.3.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: path name.
+        path: &'a str,
+    } => {
+        /// `nStateJ`: the `MovePathJ` computation (see [`crate::path`]).
+        state_j: i32,
+        /// `nErrorCodeJ`: its error, when `state_j` is 5.
+        error_j: ErrorCode,
+        /// `nStateL`: the `MovePathL` computation.
+        state_l: i32,
+        /// `nErrorCodeL`: its error, when `state_l` is 5.
+        error_l: ErrorCode,
+    }
+
+    /// Run a computed path in joint space (its `stateJ` must be 3).
+    MovePathJ<'a> = "MovePathJ" @ v6 "4.11.8", since "HR6.3.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: path name.
+        path: &'a str,
+    } => {}
+
+    /// Start an online-planned joint path of 2-5000 points; more may
+    /// follow in later messages.
+    MovePathJOL<'a> = "MovePathJOL" @ v6 "4.11.10", since "HR6.4.1", changed "HR6.4.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dVel`: joint velocity [°/s].
+        velocity: Decimal,
+        /// `dAcc`: joint acceleration [°/s²].
+        acc: Decimal,
+        /// `dTol`: blending tolerance [°], >= 0.1 (changed at `HR6.4.6`).
+        tolerance: Decimal = at_least("0.1"),
+        /// Nineteen values per point: `dJ1..dJ6` [°], `nIsSetIO` (1 = set
+        /// the outputs when the point is reached), then the twelve output
+        /// fields of `cdsSetIO` (masks, values, analog modes and values).
+        points: ValueGroups<'a, 19>,
+    } => {}
+
+    /// Progress of a `MovePathJOL` run.
+    GetMovePathJOLIndex = "GetMovePathJOLIndex" @ v6 "4.11.11", since "HR6.4.1";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// The current point's index.
+        index: i32,
+        /// The number of points.
+        total: i32,
+    }
+
+    /// The reference joints for computing a Cartesian path (kept).
+    SetPathRefJoints<'a> = "SetPathRefJoints" @ v6 "4.11.24", since "HR6.5.15";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `sPathName`: path name.
+        path: &'a str,
+        /// `dJ1..dJ6`: [°].
+        joints: Joints,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.12
+    /// Joint velocity control for a time (not scaled by the override).
+    SpeedJ = "SpeedJ" @ v6 "4.12.4", since "HR6.4.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dJ1CmdVel..dJ6CmdVel`: [°/s].
+        velocities: Joints,
+        /// `dAcc`: [°/s²].
+        acc: Decimal,
+        /// `dRunTime`: the longest run \[s\], 0.001-86400, rounded to ms.
+        run_time: Decimal = num("0.001", "86400"),
+    } => {}
+
+    /// Cartesian velocity control for a time (not scaled by the override).
+    SpeedL = "SpeedL" @ v6 "4.12.5", since "HR6.4.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dXCmdVel..dRzCmdVel`: [mm/s, °/s].
+        velocities: Pose,
+        /// `dLinearAcc`: [mm/s²].
+        linear_acc: Decimal,
+        /// `dAngularAcc`: [°/s²].
+        angular_acc: Decimal,
+        /// `dRunTime`: the longest run \[s\], 0.001-86400, rounded to ms.
+        run_time: Decimal = num("0.001", "86400"),
+    } => {}
+
+    // ---------------------------------------------------------------- 4.14
+    /// Position following: the largest following speeds.
+    SetPoseTrackingMaxMotionLimit = "SetPoseTrackingMaxMotionLimit" @ v6 "4.14.1", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dMaxLineVel`: [mm/s], > 0.
+        max_line_vel: Decimal = above("0"),
+        /// `dMaxOriVel`: [°/s], > 0.
+        max_ori_vel: Decimal = above("0"),
+    } => {}
+
+    /// Position following: stop after this long without updates.
+    SetPoseTrackingStopTimeOut = "SetPoseTrackingStopTimeOut" @ v6 "4.14.2", since "HR6.3.6";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dTime`: \[s\], >= 0.
+        time: Decimal = at_least("0"),
+    } => {}
+
+    /// Position following: PID gains.
+    SetPoseTrackingPIDParams = "SetPoseTrackingPIDParams" @ v6 "4.14.3", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dPosPID1..3`: position gains (defaults 5, 0.1, 0).
+        position: [Decimal; 3],
+        /// `dOriPID1..3`: orientation gains (defaults 5, 0.1, 0).
+        orientation: [Decimal; 3],
+    } => {}
+
+    /// Position following: the offset to keep from the sensed pose.
+    SetPoseTrackingTargetPos = "SetPoseTrackingTargetPos" @ v6 "4.14.4", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: [mm, °].
+        target: Pose,
+    } => {}
+
+    /// Position following on or off.
+    SetPoseTrackingState = "SetPoseTrackingState" @ v6 "4.14.5", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nState`: 0 = off, 1 = on.
+        state: i32 = FLAG,
+    } => {}
+
+    /// Position following: the sensed pose, streamed.
+    SetUpdateTrackingPose = "SetUpdateTrackingPose" @ v6 "4.14.6", since "HR5.50.3";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `dX..dRz`: [mm, °].
+        pose: Pose,
+    } => {}
+
+    // ---------------------------------------------------------------- 4.15
+    /// Serial settings of the tool-flange Modbus (EtherCAT end I/O).
+    SetEndModbusInfo = "SetEndModbusInfo" @ v6 "4.15.4", since "HR6.4.8";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+        /// `nBaudrate`: > 0 (default 115200).
+        baudrate: i32 = int(1, i32::MAX),
+        /// `nDataBit`: > 0 (default 8).
+        data_bits: i32 = int(1, i32::MAX),
+        /// `nParityBit`: 78 (`N`) none, 79 (`O`) odd, 69 (`E`) even.
+        parity: i32 = int(1, i32::MAX),
+        /// `nStopBit`: > 0 (default 1).
+        stop_bits: i32 = int(1, i32::MAX),
+    } => {}
+
+    /// Start payload identification.
+    LoadIdentify = "LoadIdentify" @ v6 "4.15.5", since "HR6.4.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {}
+
+    /// Progress and result of payload identification. A failure reply
+    /// carries the same values before its explanation (kept in
+    /// [`Failure::detail`](crate::Failure)).
+    GetLoadIdentifyResult = "GetLoadIdentifyResult" @ v6 "4.15.6", since "HR6.4.17";
+    {
+        /// `nRbtID`: robot id, 0-5.
+        rbt_id: RobotId = RBT,
+    } => {
+        /// `status`: 0 done, 1-3 trajectory 1-3 failed, 4 running, 5
+        /// stopped, 6 exited, 7 not started.
+        status: i32,
+        /// `progress`: 0-100.
+        progress: i32,
+        /// `mass`: \[kg\].
+        mass: Decimal,
+        /// `cx, cy, cz`: centre of mass \[mm\].
+        center: [Decimal; 3],
+    }
 }
 }
 
 // The table must cover the whole of chapter 4 of HR-TCP V1.0.0.3, and with
-// `v6` every command the V6 document adds.
+// `v6` every command the V6 document adds (its 209 sections, less the two
+// of HR-TCP V1.0.0.3 it has not, plus `EnterSafetyGuard`; `MoveJ`, `MoveL`
+// and `SetForceFreeDriveMode` are in HR-TCP V1.0.0.3 only).
 #[cfg(not(feature = "v6"))]
 const _: () = assert!(CommandId::ALL.len() == 139);
+#[cfg(feature = "v6")]
+const _: () = assert!(CommandId::ALL.len() == 139 + 74);
