@@ -66,6 +66,21 @@ else
   echo "==> vectors are the document's example lines: SKIPPED, no protocol document at $SPEC"
   STEPS+=("skip      vectors are the document's example lines (no document at $SPEC; set HANS_SPEC)")
 fi
+SPEC6=${HANS_SPEC_V6:-$ROOT/../shared/spec/HuayanRobotV6-V1.0.19.1.zh.txt}
+if [ -f "$SPEC6" ]; then
+  step "V6 vectors are the V6 document's example lines" \
+    python3 host-tests/scripts/chapter4.py check host-tests/vectors/v6/chapter4.txt "$SPEC6"
+else
+  echo "==> V6 vectors are the V6 document's example lines: SKIPPED, no document at $SPEC6"
+  STEPS+=("skip      V6 vectors are the V6 document's example lines (no document at $SPEC6; set HANS_SPEC_V6)")
+fi
+# The V6 commands are behind the codec's `v6` feature, which the workspace
+# build below does not turn on: their vectors, properties and typed tests run
+# here, in a build of the codec and its tests alone.
+step "codec with the V6 commands (feature v6): vectors, properties, typed tests" \
+  cargo test -p hans-codec -p hans-host-tests --features hans-host-tests/v6 --locked
+step "clippy (codec with v6 and defmt)" \
+  cargo clippy -p hans-codec -p hans-host-tests --all-targets --features hans-codec/defmt,hans-host-tests/v6 --locked -- -D warnings
 step "host tests" cargo test --workspace --locked
 
 # --- no_std builds for the microcontroller target
@@ -77,7 +92,7 @@ step "clippy (gateway, embassy-net + defmt, thumbv7em)" \
   cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt --locked -- -D warnings
 
 # --- the footprint goal, benchmark builds (run them with cargo bench) and bounded fuzzing
-step "codec footprint on Cortex-M4F (full codec <= 32 KiB)" bash host-tests/scripts/footprint.sh --check
+step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check
 step "benchmarks build" cargo bench --workspace --no-run --locked
 step "fuzz: framer, request, reply, DataSheet (20 s each)" bash host-tests/fuzz/run.sh 20
 

@@ -31,9 +31,13 @@ def packet(payload):
 
 def main():
     blocks = {}
-    for name in sorted(os.listdir(VECTORS)):
-        if not name.endswith(".txt"):
-            continue
+    # The top level and the V6 and V5-only corpora (the fuzz targets build
+    # the codec with `v6`; the V5-only lines are good seeds all the same).
+    files = []
+    for sub in ("", "v6", "v5-only"):
+        d = os.path.join(VECTORS, sub)
+        files += [os.path.join(sub, n) for n in sorted(os.listdir(d)) if n.endswith(".txt")]
+    for name in files:
         block = None
         with open(os.path.join(VECTORS, name), encoding="utf-8") as f:
             for line in f:

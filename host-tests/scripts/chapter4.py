@@ -9,8 +9,12 @@
                                       lines, section by section (as multisets)
 
 SPEC defaults to $HANS_SPEC or ../shared/spec/HR-TCP-V1.0.0.3.zh.txt next to
-the repository. The corpus, not this script, is what the tests read; the
-check keeps the corpus honest ("every example line, verbatim").
+the repository. The V6 document ("Huayan Robot V6", recognised by its title)
+works the same way: its example lines are indented and its pages carry a
+header and a footer inside the example blocks, so for it the indentation is
+dropped and the page furniture skipped. The corpus, not this script, is what
+the tests read; the check keeps the corpus honest ("every example line,
+verbatim").
 """
 import collections
 import os
@@ -27,26 +31,45 @@ EXAMPLE = re.compile(r"^(4\.\d+\.\d+)\.2\.\s*示例")
 HEADING = re.compile(r"^(4\.\d+\.\d+)\.?\s*(?:\*\*)?\s*([A-Za-z][A-Za-z0-9 ]*)")
 
 
+def is_v6(spec_path):
+    """`True` for the V6 document (its title is on its first page)."""
+    with open(spec_path, encoding="utf-8") as f:
+        return "Huayan Robot V6" in f.read(4000)
+
+
+# Page furniture of the V6 document: footer and running header (the
+# non-ASCII test below drops the Chinese ones too).
+V6_FURNITURE = re.compile(r"^\s*(www\.huayan-robotics\.com\b.*|通信协议命令)\s*$")
+
+
 def example_lines(spec_path):
-    """Yields (section, line) for every example line of chapter 4, verbatim."""
+    """Yields (section, line) for every example line of chapter 4, verbatim
+    (for the V6 document without its indentation)."""
     section = None
     seen = False
+    v6 = is_v6(spec_path)
     with open(spec_path, encoding="utf-8") as f:
         for raw in f:
             line = raw.rstrip("\n")
-            m = EXAMPLE.match(line)
+            m = EXAMPLE.match(line.lstrip())
             if m:
                 section = m.group(1)
                 seen = True
                 continue
             # The table of contents also names chapter 5: stop only after
             # the examples.
-            if seen and line.startswith("第五章"):
+            if seen and line.lstrip().startswith("第五章"):
                 return
             if section is None:
                 continue
+            if v6:
+                # Page furniture, and the second lines of wrapped comments
+                # (example messages are ASCII).
+                if V6_FURNITURE.match(line) or not line.isascii():
+                    continue
+                line = line.strip()
             # Any other numbered heading ends the example block.
-            if re.match(r"^4\.\d+", line):
+            if re.match(r"^\s*4\.\d+", line):
                 section = None
                 continue
             s = line.strip()
@@ -74,7 +97,7 @@ def command_names(spec_path):
     names = {}
     with open(spec_path, encoding="utf-8") as f:
         for line in f:
-            m = re.match(r"^(4\.\d+\.\d+)\.\s*(?:\*\*)?([A-Za-z][A-Za-z0-9 ]+?)(?:\*\*|\.|\(|\s*$)", line)
+            m = re.match(r"^\s*(4\.\d+\.\d+)\.\s*(?:\*\*)?([A-Za-z][A-Za-z0-9 ]+?)(?:\*\*|\.|\(|\s*$)", line)
             if m and m.group(1) not in names:
                 names[m.group(1)] = m.group(2).replace(" ", "")
     return names

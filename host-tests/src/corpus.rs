@@ -95,6 +95,9 @@ pub struct Vector {
     pub section: String,
     /// Command of the current `@` header (`-` for unknown names).
     pub command: String,
+    /// Which `@` header the vector follows (counting from 1; 0 before any):
+    /// each header starts a block, even one that repeats the previous.
+    pub block: usize,
     /// What the line is.
     pub kind: Kind,
     /// Where it comes from.
@@ -132,6 +135,7 @@ impl Corpus {
     pub fn parse(text: &str) -> Result<Corpus, String> {
         let mut c = Corpus::default();
         let (mut section, mut command) = ("-".to_string(), "-".to_string());
+        let mut block = 0;
         for (i, line) in text.lines().enumerate() {
             let n = i + 1;
             let bad = |what: &str| format!("line {n}: {what}: {line:?}");
@@ -146,6 +150,7 @@ impl Corpus {
                     }
                     _ => return Err(bad("a header is `@ <section> <command>`")),
                 }
+                block += 1;
                 c.items.push(Item::Header {
                     section: section.clone(),
                     command: command.clone(),
@@ -179,6 +184,7 @@ impl Corpus {
                     line: n,
                     section: section.clone(),
                     command: command.clone(),
+                    block,
                     kind,
                     source,
                     text: text.to_string(),
@@ -211,10 +217,10 @@ impl Corpus {
     pub fn evaluate(&self) -> Vec<Outcome> {
         let mut out = Vec::with_capacity(self.vectors.len());
         let mut expect: Option<ReplyExpect> = None;
-        let mut block = (String::new(), String::new());
+        let mut block = 0;
         for v in &self.vectors {
-            if (v.section.as_str(), v.command.as_str()) != (block.0.as_str(), block.1.as_str()) {
-                block = (v.section.clone(), v.command.clone());
+            if v.block != block {
+                block = v.block;
                 expect = None;
             }
             let o = match v.kind {
@@ -305,7 +311,8 @@ fn evaluate_request(v: &Vector) -> (Outcome, Option<ReplyExpect>) {
     };
     match (r.command(), CommandId::from_name(&v.command)) {
         (Some(id), Some(h)) if id == h => {
-            if id.section() != v.section {
+            // The header names the section of either document.
+            if id.section_v5() != Some(&v.section) && id.section_v6() != Some(&v.section) {
                 o.problems.push(format!(
                     "header section {} but {} is in {}",
                     v.section,
@@ -315,6 +322,10 @@ fn evaluate_request(v: &Vector) -> (Outcome, Option<ReplyExpect>) {
             }
         }
         (None, _) if v.command == "-" => {}
+        // A fragment of an example the page layout broke over lines, which
+        // starts with digits: a message of an unknown name, not misfiled.
+        (None, _)
+            if v.source == Source::Doc && r.name().starts_with(|c: char| c.is_ascii_digit()) => {}
         (got, _) => o
             .problems
             .push(format!("read as {got:?}, the header says {}", v.command)),

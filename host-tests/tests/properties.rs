@@ -12,6 +12,10 @@
 //!   that follows garbage or an over-long message.
 //! * Random and mutated text through `Request::parse` / `Reply::parse` never
 //!   panics, and whatever parses writes back to something that reads the same.
+//! * With the `v6` feature, the V6 commands (all of them, by the layouts
+//!   above) and their special parameters: groups of values, reply forms that
+//!   follow the request, texts with commas, and the level check against the
+//!   revision data.
 
 use std::path::Path;
 
@@ -606,7 +610,13 @@ proptest! {
 
 fn corpus_lines() -> Vec<String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors");
-    ["chapter4.txt", "variants.txt"]
+    let mut files = vec!["chapter4.txt", "variants.txt"];
+    if cfg!(feature = "v6") {
+        files.extend(["v6/chapter4.txt", "v6/variants.txt"]);
+    } else {
+        files.push("v5-only/variants.txt");
+    }
+    files
         .iter()
         .flat_map(|f| {
             Corpus::load(&dir.join(f))
@@ -741,5 +751,91 @@ proptest! {
         "[A-Za-z]{1,12}(,[ -~&&[^,;]]{0,8}){0,40},?;?",
     ]) {
         read_every_way(&text)?;
+    }
+}
+
+#[cfg(feature = "v6")]
+mod v6 {
+    use super::*;
+    use hans_codec::{response, FreeText, ProtocolLevel, Response, ValueGroups};
+
+    proptest! {
+        #![proptest_config(Config { cases: 256, failure_persistence: None, ..Config::default() })]
+
+        /// Any number of values reads as points when it is a whole number of
+        /// six, and the points write back as read.
+        #[test]
+        fn path_points_in_groups_of_six(values in prop::collection::vec(small_decimal(), 0..40)) {
+            let fields: Vec<String> = ["0".to_string(), "aaa".to_string()]
+                .into_iter()
+                .chain(values.iter().map(|v| v.to_string()))
+                .collect();
+            let text = message("PushPathPoints", false, &fields);
+            let parsed = request::PushPathPoints::parse(&text);
+            let whole = !values.is_empty() && values.len() % 6 == 0;
+            prop_assert_eq!(parsed.is_ok(), whole, "{}: {:?}", &text, parsed);
+            if let Ok(r) = parsed {
+                prop_assert_eq!(r.points.len(), values.len() / 6);
+                let flat: Vec<Decimal> = r.points.iter().flatten().collect();
+                prop_assert_eq!(&flat, &values);
+                prop_assert_eq!(&encode(&r), &text);
+                let groups: Vec<[Decimal; 6]> = r.points.iter().collect();
+                let built = request::PushPathPoints { points: ValueGroups::new(&groups), ..r };
+                prop_assert_eq!(encode(&built), encode(&r));
+            }
+        }
+
+        /// `ReadBoxAO` replies: against a request of `n` channels, `n` values
+        /// or `n` (mode, value) pairs read, anything else is an error.
+        #[test]
+        fn box_ao_replies_in_both_forms(
+            channels in prop::collection::vec(0i32..2, 1..=2),
+            reply in prop::collection::vec(small_decimal(), 0..6),
+        ) {
+            let r = request::ReadBoxAO { channels: channels.iter().copied().collect() };
+            let fields: Vec<String> = reply.iter().map(|v| v.to_string()).collect();
+            let text = message("ReadBoxAO", true, &fields);
+            let n = channels.len();
+            let parsed = Reply::parse(&text, r.expect());
+            let pairs = reply.len() == 2 * n && reply.iter().step_by(2).all(|m| m.to_i64().is_some_and(|v| i32::try_from(v).is_ok()));
+            prop_assert_eq!(parsed.is_ok(), reply.len() == n || pairs, "{}: {:?}", text, parsed);
+            if let Ok(Reply::Ok(Response::ReadBoxAO(ao))) = &parsed {
+                prop_assert_eq!(ao.values.len(), n);
+                prop_assert_eq!(ao.modes.is_some(), reply.len() == 2 * n);
+                let mut buf = [0u8; 256];
+                let m = Response::ReadBoxAO(ao.clone()).encode(&mut buf).expect("encodes");
+                let again = std::str::from_utf8(&buf[..m]).expect("ASCII");
+                prop_assert_eq!(Reply::parse(again, r.expect()), parsed.clone());
+            }
+        }
+
+        /// The controller's text comes back whole, commas included.
+        #[test]
+        fn error_texts_keep_their_commas(parts in prop::collection::vec("[!-+\\--:<-~]{1,8}", 1..5)) {
+            let text = parts.join(",");
+            let reply = format!("GetErrorCodeStr,OK,{text},;");
+            let r = Reply::parse(&reply, ReplyExpect::of(CommandId::GetErrorCodeStr));
+            let Ok(Reply::Ok(Response::GetErrorCodeStr(t))) = r else {
+                return Err(TestCaseError::fail(format!("{reply}: {r:?}")));
+            };
+            prop_assert_eq!(t.text.as_str(), text.as_str());
+            let built = response::GetErrorCodeStr { text: FreeText::new(&text) };
+            let mut buf = [0u8; 256];
+            let n = Response::from(built).encode(&mut buf).expect("encodes");
+            prop_assert_eq!(std::str::from_utf8(&buf[..n]).expect("ASCII"), reply.as_str());
+        }
+
+        /// The level check is the revision data: available from `since`, up
+        /// to `removed`.
+        #[test]
+        fn level_checks_follow_the_revision_data(
+            i in 0..CommandId::ALL.len(),
+            (major, minor, patch) in (4u8..8, 0u8..60, 0u8..20),
+        ) {
+            let id = CommandId::ALL[i];
+            let level = ProtocolLevel::new(major, minor, patch);
+            let want = level >= id.since() && id.removed().is_none_or(|r| level < r);
+            prop_assert_eq!(id.check_level(level).is_ok(), want, "{} at {}", id, level);
+        }
     }
 }
