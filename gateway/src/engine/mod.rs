@@ -431,6 +431,7 @@ impl<C: Clock> Engine<'_, C> {
                 core::str::from_utf8(self.buf.get(..msg.len).unwrap_or(&[])).unwrap_or("?")
             );
             last = msg.id;
+            self.hub.with(|m| m.note_send(source));
             let outcome = match self.transact(link, msg.len).await {
                 Ok(text) => self.on_reply(&job, &msg, text),
                 Err(GatewayError::BadReply) => Some(Outcome::gateway(GatewayError::BadReply)),

@@ -32,6 +32,9 @@ pub struct Handshake {
     pub seq_echo: u16,
     /// The command code latched at the rising edge (channels).
     pub command_echo: u16,
+    /// Messages of the current command sent to the robot so far (a job is
+    /// never sent twice: at most its number of steps).
+    pub sends: u8,
 }
 
 /// Status bit: the command is queued or running.
@@ -88,6 +91,7 @@ impl Handshake {
             phase: Phase::Queued,
             seq_echo: seq,
             command_echo: command,
+            sends: 0,
         };
     }
 

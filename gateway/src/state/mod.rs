@@ -216,6 +216,13 @@ impl Model {
         }
     }
 
+    /// A message of the source's command goes to the robot.
+    pub fn note_send(&mut self, source: Source) {
+        if let Some(h) = self.handshake_mut(source) {
+            h.sends = h.sends.saturating_add(1);
+        }
+    }
+
     /// The source's motion runs on the robot.
     pub fn set_moving(&mut self, source: Source) {
         if let Some(h) = self.handshake_mut(source) {

@@ -148,6 +148,24 @@ impl Model {
         self.motion.is_some()
     }
 
+    /// A motion is paused (held until `GrpContinue`).
+    pub fn paused(&self) -> bool {
+        self.motion.is_some_and(|m| m.paused.is_some())
+    }
+
+    /// The operator cleared every fault (released the emergency stop,
+    /// closed the guard, reset the error): an idle robot is enabled and
+    /// stands by; a bring-up step under way is forgotten.
+    pub fn clear_faults(&mut self) {
+        self.estop = false;
+        self.guard = false;
+        self.error = None;
+        self.step = None;
+        if self.motion.is_none() {
+            self.fsm = 33;
+        }
+    }
+
     /// Moves the model to `now`: motions and bring-up steps end, faults
     /// strike.
     pub fn advance(&mut self, now: Instant) {
