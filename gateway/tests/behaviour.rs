@@ -723,3 +723,57 @@ fn factory_defaults_keep_the_robot_address_given_at_start() {
     );
     let _ = Instant::from_ticks(0);
 }
+
+// ------------------------------------- points REGISTERS.md makes explicit
+
+#[test]
+fn a_trigger_entry_gets_the_missing_terminator_as_raw_does() {
+    let mut w = world();
+    w.set(r::trigger_text(2), &text_words("SetBoxDO,1,1", 8));
+    w.set(r::TRIG_BITS, &[1 << 2]);
+    w.run_for(ms(20));
+    assert_eq!(w.reg(r::TRIG_DONE), 1 << 2);
+    assert_eq!(sent(&w, "SetBoxDO,1,1,;"), 1);
+}
+
+#[test]
+fn a_trigger_bit_that_rises_while_its_entry_is_busy_is_ignored() {
+    let mut w = world();
+    w.robot.model.motion_time = ms(500);
+    w.set(r::trigger_text(0), &text_words("MoveRelJ,0,1,1,5,;", 10));
+    w.set(r::TRIG_BITS, &[1]);
+    w.run_for(ms(50));
+    w.set(r::TRIG_BITS, &[0]);
+    w.set(r::TRIG_BITS, &[1]);
+    w.run_for(ms(2000));
+    assert_eq!(w.reg(r::TRIG_DONE), 1);
+    assert_eq!(sent(&w, "MoveRelJ"), 1, "the second rise was ignored");
+}
+
+#[test]
+fn a_command_fired_while_the_link_is_connecting_ends_in_39500() {
+    let mut w = world();
+    // The robot drops off and no longer answers connects: after the first
+    // backoff (0.2 s) the link stays "connecting" (3 s at most).
+    w.net.blackhole(ROBOT_IP, true);
+    w.robot.drop_connections();
+    w.run_for(ms(400));
+    assert_eq!(w.reg(r::STATUS_LINK_STATE), 1);
+    fire(&mut w, CH0, code::SET_BOX_DO, 1, &[1.0, 1.0]);
+    assert_eq!(status(&mut w, CH0), r::ST_ERROR);
+    assert_eq!(error(&mut w, CH0), gateway_err(GatewayError::NotConnected));
+    // After 3 s the attempt fails (39504) and the link backs off.
+    w.run_for(ms(3000));
+    assert_eq!(w.reg(r::STATUS_LINK_LAST_ERROR), 39504);
+}
+
+#[test]
+fn robot_flags_bit_10_is_read_from_nbreaking_when_polled() {
+    let mut w = world();
+    // The testkit robot reports its brakes released while enabled.
+    assert_ne!(w.reg(r::STATUS_FLAGS) & r::FLAG_BRAKE_RELEASED, 0);
+    w.set(CH0, &[0, code::DISABLE]);
+    w.set(CH0, &[1]);
+    w.run_for(ms(300));
+    assert_eq!(w.reg(r::STATUS_FLAGS) & r::FLAG_BRAKE_RELEASED, 0);
+}

@@ -201,3 +201,19 @@ fn the_example_write_range_holds_exactly_its_values() {
     assert_eq!(b - a + 1, words, "{line}");
     assert_eq!(a, hans_gateway::registers::channel_base(0));
 }
+
+/// Finding: VERSION said "gateway version (0x0100 = 1.0)" while
+/// `hans-gateway --version` printed 0.1.0. It is the register map's version:
+/// the example in its row must be the value the gateway reports.
+#[test]
+fn the_documented_version_is_the_map_version() {
+    let rows = table_after(&doc(), "## The map");
+    let row = rows
+        .iter()
+        .find(|r| r[0] == "VERSION")
+        .expect("a VERSION row");
+    let v = hans_gateway::registers::MAP_VERSION;
+    let example = format!("0x{v:04X} = {}.{}", v >> 8, v & 0xFF);
+    assert!(row[5].contains(&example), "{:?} lacks {example:?}", row[5]);
+    assert!(row[5].contains("Register map version"), "{:?}", row[5]);
+}
