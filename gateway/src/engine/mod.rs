@@ -386,6 +386,7 @@ impl<C: Clock> Engine<'_, C> {
             // No controller is connected now (listen mode: the DataSheet
             // follows the next one, from wherever it connects).
             m.link.peer = None;
+            m.link.losses = m.link.losses.wrapping_add(1);
             m.robot.invalidate();
         });
         link.close().await;

@@ -64,6 +64,9 @@ pub struct LinkStatus {
     pub connects: u16,
     /// Why it last failed.
     pub last_error: Option<GatewayError>,
+    /// Times a connected link was lost (timeouts and mismatches included;
+    /// a controller replacing its connection in listen mode is not a loss).
+    pub losses: u16,
     /// The controller's address while connected.
     pub peer: Option<Ipv4Addr>,
 }

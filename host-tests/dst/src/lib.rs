@@ -109,10 +109,14 @@ struct Track {
     motion: bool,
     /// It is a bring-up step (may end in 39605-39607).
     bring_up: bool,
+    /// It is a `GrpStop` (its Done aborts the motions waiting).
+    stop: bool,
     /// Messages it may send.
     steps: u8,
     /// The link was lost (or reset) since it was fired.
     link_lost: bool,
+    /// Which firing this is (counted per scenario).
+    id: u64,
     /// Phase and sends at the last check.
     phase: Phase,
     sends: u8,
@@ -121,12 +125,14 @@ struct Track {
 /// Checks the invariants of the module documentation on a running world.
 pub struct Checker {
     tracks: BTreeMap<u16, Track>,
+    losses: u16,
     /// Outcomes seen: Done, Error, CommandAborted.
     ended: [u64; 3],
     /// Error outcomes seen, by ErrorID.
     pub codes: BTreeMap<i32, u64>,
-    connects: u16,
-    last_error: Option<GatewayError>,
+    /// Firings so far, and those Busy at the last check.
+    firings: u64,
+    busy: Vec<(u16, u64)>,
     watchdog: bool,
 }
 
@@ -148,31 +154,29 @@ const VALID_STATUS: [u16; 7] = [
 impl Checker {
     /// A checker for `w` as it is now.
     pub fn new(w: &World) -> Self {
-        let (connects, last_error, watchdog) = w.model(|m| {
-            (
-                m.link.connects,
-                m.link.last_error,
-                m.config.active.watchdog_ms != 0,
-            )
-        });
+        let (losses, watchdog) = w.model(|m| (m.link.losses, m.config.active.watchdog_ms != 0));
         Checker {
             tracks: BTreeMap::new(),
+            losses,
             ended: [0; 3],
             codes: BTreeMap::new(),
-            connects,
-            last_error,
+            firings: 0,
+            busy: Vec::new(),
             watchdog,
         }
     }
 
     /// The PLC is about to fire `source` with a command of this kind.
-    fn fired(&mut self, source: Source, motion: bool, bring_up: bool, steps: u8) {
+    fn fired(&mut self, source: Source, kind: Kind) {
+        self.firings += 1;
         self.tracks.insert(
             key(source),
             Track {
-                motion,
-                bring_up,
-                steps,
+                motion: kind.motion,
+                bring_up: kind.bring_up,
+                stop: kind.stop,
+                steps: kind.steps,
+                id: self.firings,
                 link_lost: false,
                 phase: Phase::Queued,
                 sends: 0,
@@ -200,17 +204,42 @@ impl Checker {
         }
         let now = w.now();
         let tracks = &mut self.tracks;
-        let (connects, last_error, up) = w.model(|m| {
-            (
-                m.link.connects,
-                m.link.last_error,
-                m.link.state == LinkState::Connected,
-            )
-        });
-        let lost = connects != self.connects || last_error != self.last_error || !up;
-        self.connects = connects;
-        self.last_error = last_error;
+        let (losses, up) = w.model(|m| (m.link.losses, m.link.state == LinkState::Connected));
+        let lost = losses != self.losses || !up;
+        self.losses = losses;
+        // A link loss ends every command that was Busy before it: none of
+        // them is kept for the next connection.
+        if lost {
+            let survivor = self.busy.iter().find(|(k, id)| {
+                tracks.get(k).is_some_and(|t| t.id == *id)
+                    && w.model(|m| Source::all().any(|s| key(s) == *k && m.is_busy(s)))
+            });
+            if let Some((k, _)) = survivor {
+                return Err(format!("source {k}: Busy across a link loss"));
+            }
+        }
         let watchdog = self.watchdog;
+        // MC_Stop: a Stop that is Done now aborted every motion that waited
+        // in the queue at the last check (none of them may run or be Done).
+        let stopped = w.model(|m| {
+            tracks.iter().any(|(k, t)| {
+                t.stop
+                    && !matches!(t.phase, Phase::Ended(_))
+                    && Source::all().any(|s| {
+                        key(s) == *k
+                            && m.handshake(s).map(|h| h.phase) == Some(Phase::Ended(Outcome::Done))
+                    })
+            })
+        });
+        let waiting: Vec<u16> = if stopped {
+            tracks
+                .iter()
+                .filter(|(_, t)| t.motion && t.phase == Phase::Queued && t.sends == 0)
+                .map(|(k, _)| *k)
+                .collect()
+        } else {
+            Vec::new()
+        };
         let ended = &mut self.ended;
         let codes = &mut self.codes;
         w.model(|m| {
@@ -251,6 +280,17 @@ impl Checker {
                         }] += 1;
                     }
                 }
+                if waiting.contains(&key(source))
+                    && !matches!(
+                        h.phase,
+                        Phase::Ended(Outcome::Aborted | Outcome::Error(ErrorSource::Gateway, _))
+                    )
+                {
+                    return Err(format!(
+                        "{source:?}: a motion that waited when a Stop was Done is {:?}, not CommandAborted",
+                        h.phase
+                    ));
+                }
                 t.phase = h.phase;
                 t.sends = h.sends;
                 match h.phase {
@@ -269,7 +309,15 @@ impl Checker {
                 }
             }
             Ok(())
-        })
+        })?;
+        let busy = w.model(|m| {
+            Source::all()
+                .filter(|s| m.is_busy(*s))
+                .filter_map(|s| self.tracks.get(&key(s)).map(|t| (key(s), t.id)))
+                .collect()
+        });
+        self.busy = busy;
+        Ok(())
     }
 }
 
@@ -401,6 +449,7 @@ struct Kind {
     motion: bool,
     bring_up: bool,
     urgent: bool,
+    stop: bool,
     steps: u8,
 }
 
@@ -421,6 +470,7 @@ fn text_kind(t: &str) -> Kind {
                 | "PauseScript"
                 | "ContinueScript"
         ),
+        stop: name == "GrpStop",
         steps: 1,
     }
 }
@@ -569,18 +619,13 @@ impl Scenario {
     /// Fires `source` after writing what `prepare` gives, and checks the
     /// rising-edge rules at once.
     fn fire(&mut self, source: Source, kind: Kind) -> Result<(), String> {
-        let Kind {
-            motion,
-            bring_up,
-            urgent,
-            steps,
-        } = kind;
+        let urgent = kind.urgent;
         let (busy, seq_before, link_up, full) = self.world.model(|m| {
             let h = m.handshake(source).copied().unwrap_or_default();
             (h.is_busy(), h.seq_echo, m.link.is_up(), m.queue.is_full())
         });
         if !busy {
-            self.checker.fired(source, motion, bring_up, steps);
+            self.checker.fired(source, kind);
             self.stats.commands += 1;
         }
         let i = self.plc();
@@ -695,6 +740,7 @@ impl Scenario {
                 motion: matches!(code, 10..=14),
                 bring_up: matches!(code, 1 | 3),
                 urgent: matches!(code, 4..=8 | 31..=33),
+                stop: code == 6,
                 steps: if code == 1 { 3 } else { 1 },
             },
         )
@@ -937,7 +983,8 @@ impl Scenario {
                 // it from a trigger entry that is free.
                 let free = w.model(|m| (0..16u8).find(|n| !m.is_busy(Source::Trigger(*n))));
                 if let Some(n) = free {
-                    self.checker.fired(Source::Trigger(n), false, false, 1);
+                    self.checker
+                        .fired(Source::Trigger(n), text_kind("GrpContinue,0,;"));
                     let words = text_words("GrpContinue,0,;", 96);
                     let bits = w.model(|m| m.triggers.bits) & !(1 << n);
                     w.request(0, &pdu::write(r::trigger_text(usize::from(n)), &words));
