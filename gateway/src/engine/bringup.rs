@@ -34,6 +34,14 @@ pub fn motion_under_way(state: FsmState) -> bool {
     )
 }
 
+/// `true` in the fault states: 4-5 emergency stop, 9-12 safety guard,
+/// 16-17 controller version / EtherCAT error, 20-22 out of the safe space,
+/// collision stop, error. A motion that meets one has not finished: the
+/// next `ReadRobotState` tells how it failed.
+pub fn fault_state(state: FsmState) -> bool {
+    matches!(i32::from(state), 4 | 5 | 9..=12 | 16 | 17 | 20..=22)
+}
+
 /// The state a bring-up step leads to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

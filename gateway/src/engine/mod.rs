@@ -82,6 +82,10 @@ struct Lost;
 enum Polled {
     /// Nothing it needs (the status may have been updated).
     Nothing,
+    /// The robot refused the read (`Fail`, `errorcmd`): it lacks it.
+    Refused,
+    /// The reply could not be read (the link stays).
+    Unreadable,
     /// `ReadRobotState`.
     State(response::ReadRobotState),
     /// `ReadCurFSM`.
@@ -583,16 +587,17 @@ impl<C: Clock> Engine<'_, C> {
             Ok(text) => {
                 let Ok(reply) = Reply::parse(text, msg.expect) else {
                     debug!("status: unreadable reply");
-                    return Ok(Polled::Nothing);
+                    return Ok(Polled::Unreadable);
                 };
                 self.hub.with(|m| step.apply(&reply, &mut m.robot));
                 Ok(match reply {
                     Reply::Ok(Response::ReadRobotState(rs)) => Polled::State(rs),
                     Reply::Ok(Response::ReadCurFSM(f)) => Polled::Fsm(f.state),
-                    _ => Polled::Nothing,
+                    Reply::Ok(_) => Polled::Nothing,
+                    Reply::Fail(_) | Reply::ErrorCmd(_) => Polled::Refused,
                 })
             }
-            Err(GatewayError::BadReply) => Ok(Polled::Nothing),
+            Err(GatewayError::BadReply) => Ok(Polled::Unreadable),
             Err(cause) => {
                 warn!("status: {}", cause.as_str());
                 self.link_lost(link, cause).await;
@@ -649,18 +654,26 @@ impl<C: Clock> Engine<'_, C> {
     /// `GrpContinue`), and once the position is read (`ReadActPos`), so
     /// that Done means ACT_JOINTS and ACT_POSE are final. `Ok(false)`: not
     /// yet (polled again), also when an urgent command waits (it goes
-    /// first).
+    /// first), when the FSM's reply could not be read (read again at the
+    /// next poll), and when the FSM shows a fault (the next
+    /// `ReadRobotState` ends the motion in Error). A controller that refuses `ReadCurFSM` lacks it: the
+    /// flags alone decide.
     async fn confirm_done<S: Socket>(&mut self, link: &mut Link<S>) -> Result<bool, Lost> {
         if self.hub.with(|m| m.queue.has_urgent()) {
             return Ok(false);
         }
-        if let Polled::Fsm(state) = self.poll_step(link, PollStep::Fsm).await? {
-            if bringup::motion_under_way(state) {
+        match self.poll_step(link, PollStep::Fsm).await? {
+            Polled::Fsm(state) if bringup::motion_under_way(state) => {
                 if let Some(mo) = self.motion.as_mut() {
                     mo.still_under_way();
                 }
                 return Ok(false);
             }
+            // A fault stopped it between the two reads: not finished; the
+            // next ReadRobotState says how it failed.
+            Polled::Fsm(state) if bringup::fault_state(state) => return Ok(false),
+            Polled::Unreadable => return Ok(false),
+            _ => {}
         }
         if self.hub.with(|m| m.queue.has_urgent()) {
             return Ok(false);

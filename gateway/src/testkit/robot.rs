@@ -148,9 +148,23 @@ impl Model {
         self.motion.is_some()
     }
 
+    /// When the motion under way was accepted (or last continued).
+    pub fn motion_start(&self) -> Option<Instant> {
+        self.motion.map(|m| m.start)
+    }
+
     /// A motion is paused (held until `GrpContinue`).
     pub fn paused(&self) -> bool {
         self.motion.is_some_and(|m| m.paused.is_some())
+    }
+
+    /// The emergency stop is pressed now: the motion under way stops.
+    pub fn emergency_stop(&mut self, now: Instant) {
+        if self.motion.take().is_some() {
+            self.last_end = Some(now);
+        }
+        self.estop = true;
+        self.set_fsm(5);
     }
 
     /// The operator cleared every fault (released the emergency stop,
@@ -234,6 +248,13 @@ impl Model {
             b(idle),
             b(idle),
         ]
+    }
+
+    /// Goes to state `v` now: a bring-up step under way is overtaken (a
+    /// controller does one thing at a time).
+    fn set_fsm(&mut self, v: i32) {
+        self.fsm = v;
+        self.step = None;
     }
 
     fn begin_step(&mut self, now: Instant, via: i32, to: i32) {
@@ -549,7 +570,7 @@ impl SimRobot {
             if m.fsm != 33 || m.motion.is_some() || m.error.is_some() {
                 return fail(20018);
             }
-            m.fsm = 25;
+            m.set_fsm(25);
             let r = self.rng.below(1000) as u32;
             let f = self.faults;
             let fault = if r < f.motion_error {
@@ -641,14 +662,14 @@ impl SimRobot {
             CommandId::GrpStop => {
                 if m.motion.take().is_some() {
                     m.last_end = Some(now);
-                    m.fsm = 33;
+                    m.set_fsm(33);
                 }
                 ok()
             }
             CommandId::GrpInterrupt => match &mut m.motion {
                 Some(mo) if mo.paused.is_none() => {
                     mo.paused = Some(now);
-                    m.fsm = 32;
+                    m.set_fsm(32);
                     ok()
                 }
                 Some(_) => ok(),
@@ -663,7 +684,7 @@ impl SimRobot {
                         if let Some((at, _)) = &mut mo.fault {
                             *at += held;
                         }
-                        m.fsm = 25;
+                        m.set_fsm(25);
                     }
                     ok()
                 }
@@ -675,7 +696,7 @@ impl SimRobot {
                 }
                 if m.error.take().is_some() || m.guard {
                     m.guard = false;
-                    m.fsm = 33;
+                    m.set_fsm(33);
                 }
                 ok()
             }
@@ -712,7 +733,7 @@ impl SimRobot {
                     return fail(20018);
                 }
                 if m.fsm == 33 {
-                    m.fsm = 24;
+                    m.set_fsm(24);
                 }
                 ok()
             }
@@ -720,7 +741,7 @@ impl SimRobot {
                 if m.motion.is_some() {
                     return fail(20018);
                 }
-                m.fsm = 7;
+                m.set_fsm(7);
                 ok()
             }
             _ => ok(),

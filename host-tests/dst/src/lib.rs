@@ -126,6 +126,8 @@ struct Track {
 pub struct Checker {
     tracks: BTreeMap<u16, Track>,
     losses: u16,
+    /// The robot's motion at the last check (its start).
+    robot_motion: Option<Instant>,
     /// Outcomes seen: Done, Error, CommandAborted.
     ended: [u64; 3],
     /// Error outcomes seen, by ErrorID.
@@ -158,6 +160,7 @@ impl Checker {
         Checker {
             tracks: BTreeMap::new(),
             losses,
+            robot_motion: None,
             ended: [0; 3],
             codes: BTreeMap::new(),
             firings: 0,
@@ -219,6 +222,8 @@ impl Checker {
             }
         }
         let watchdog = self.watchdog;
+        let robot_motion = w.robot.model.motion_start();
+        let robot_motion_before = core::mem::replace(&mut self.robot_motion, robot_motion);
         // MC_Stop: a Stop that is Done now aborted every motion that waited
         // in the queue at the last check (none of them may run or be Done).
         let stopped = w.model(|m| {
@@ -268,6 +273,19 @@ impl Checker {
                     return Err(format!("{source:?}: sent after it ended ({:?})", t.phase));
                 }
                 if h.phase != t.phase {
+                    // A motion is Done only once the robot has finished it: the
+                    // robot is idle, or in a motion it did not run at the
+                    // last check (the next one, taken since).
+                    if t.motion && h.phase == Phase::Ended(Outcome::Done) {
+                        if let Some(start) = robot_motion {
+                            if robot_motion_before == Some(start) {
+                                return Err(format!(
+                                    "{source:?}: Done while the robot still runs its motion (since {} ms)",
+                                    start.as_millis()
+                                ));
+                            }
+                        }
+                    }
                     if let Phase::Ended(o) = h.phase {
                         check_outcome(source, t, o, h.sends, watchdog)?;
                         if let Outcome::Error(_, c) = o {
@@ -851,8 +869,7 @@ impl Scenario {
                 self.note("robot: connections dropped".into());
             }
             1 if self.world.robot.model.in_motion() => {
-                self.world.robot.model.estop = true;
-                self.world.robot.model.fsm = 5;
+                self.world.robot.model.emergency_stop(now);
                 self.note("robot: emergency stop".into());
             }
             2 => {
