@@ -777,3 +777,20 @@ fn robot_flags_bit_10_is_read_from_nbreaking_when_polled() {
     w.run_for(ms(300));
     assert_eq!(w.reg(r::STATUS_FLAGS) & r::FLAG_BRAKE_RELEASED, 0);
 }
+
+#[test]
+fn raw_parameters_are_the_robots_to_judge() {
+    let mut w = world();
+    // A field the document says is a number: sent, and the robot refuses it.
+    w.set(r::RAW_REQUEST, &text_words("MoveRelJ,0,abc,1,5,;", 12));
+    w.set(r::RAW_CONTROL, &[1]);
+    w.run_for(ms(20));
+    assert_eq!(sent(&w, "MoveRelJ,0,abc"), 1);
+    assert_eq!(w.reg(r::RAW_STATUS), r::ST_ERROR);
+    assert_eq!(w.read(r::RAW_ERROR_ID, 3).unwrap(), [0, 20006, 1]);
+    // Text that is no message at all is the gateway's to refuse.
+    w.set(r::RAW_CONTROL, &[0]);
+    w.set(r::RAW_REQUEST, &text_words("Move RelJ,0,;", 8));
+    w.set(r::RAW_CONTROL, &[1]);
+    assert_eq!(w.read(r::RAW_ERROR_ID, 3).unwrap(), [0, 39501, 3]);
+}

@@ -1,7 +1,7 @@
 //! RAW requests and trigger entries: one protocol message written by the
 //! PLC, checked once with the codec's grammar when fired.
 
-use hans_codec::{CommandId, Decimal, ReplyExpect, Request};
+use hans_codec::{CommandId, Decimal, Kind, RawMessage, ReplyExpect};
 
 use super::{JobKind, Message, Urgent};
 use crate::error::GatewayError;
@@ -68,11 +68,23 @@ pub fn build(bytes: &[u8]) -> Result<(JobKind, Option<u8>), GatewayError> {
             return Err(BAD);
         }
     }
-    let req = Request::parse(t).map_err(|_| BAD)?;
-    let id = req.command();
+    let msg = RawMessage::parse(t).map_err(|_| BAD)?;
+    if msg.kind() != Kind::Request {
+        return Err(BAD);
+    }
+    let id = CommandId::from_name(msg.name());
+    let number = |i: usize| msg.fields().nth(i).and_then(|f| Decimal::parse(f).ok());
     if let Some(u) = id.and_then(Urgent::of) {
-        // A robot id outside 0-255 has no canonical form here: refused.
-        let rbt = urgent_robot(&req).ok_or(BAD)?;
+        // The robot id of those that have one (0 when left out); one that is
+        // not a number 0-255 has no canonical form here: refused.
+        let rbt = match u {
+            Urgent::StopScript | Urgent::PauseScript | Urgent::ContinueScript => 0,
+            _ if msg.is_empty() => 0,
+            _ => number(0)
+                .and_then(|d| d.to_i64())
+                .and_then(|v| u8::try_from(v).ok())
+                .ok_or(BAD)?,
+        };
         return Ok((JobKind::Urgent(u), Some(rbt)));
     }
     let mut text = heapless::String::new();
@@ -81,16 +93,19 @@ pub fn build(bytes: &[u8]) -> Result<(JobKind, Option<u8>), GatewayError> {
         let tail = if t.ends_with(',') { ";" } else { ",;" };
         text.push_str(tail).map_err(|_| BAD)?;
     }
-    let name_len = u8::try_from(req.name().len()).map_err(|_| BAD)?;
-    let override_ratio = match &req {
-        Request::SetOverride(o) => Some(o.ratio),
+    let name_len = u8::try_from(msg.name().len()).map_err(|_| BAD)?;
+    let override_ratio = match id {
+        Some(CommandId::SetOverride) => number(1),
         _ => None,
     };
     Ok((
         JobKind::Text(TextJob {
             text,
             id,
-            expect: req.expect(),
+            expect: ReplyExpect {
+                command: id,
+                count: list_len(id, &msg),
+            },
             name_len: name_len.min(u8::try_from(t.len()).unwrap_or(u8::MAX)),
             override_ratio,
         }),
@@ -98,18 +113,20 @@ pub fn build(bytes: &[u8]) -> Result<(JobKind, Option<u8>), GatewayError> {
     ))
 }
 
-/// The robot id of an urgent request (0 where it has none; `None` outside
-/// 0-255). Ids 6-255 are sent: the range check is the robot's to report.
-fn urgent_robot(req: &Request<'_>) -> Option<u8> {
-    let id = match req {
-        Request::GrpStop(c) => c.rbt_id,
-        Request::GrpInterrupt(c) => c.rbt_id,
-        Request::GrpContinue(c) => c.rbt_id,
-        Request::GrpReset(c) => c.rbt_id,
-        Request::GrpDisable(c) => c.rbt_id,
-        _ => return Some(0),
+/// For the reads whose reply has one value per index asked for, how many
+/// (`ReadBoxDI,5,6,;` → 2; `ReadEI,0,1,2,;` → 2 after the robot id).
+fn list_len(id: Option<CommandId>, msg: &RawMessage<'_>) -> Option<u16> {
+    let skip = match id? {
+        CommandId::ReadBoxDI
+        | CommandId::ReadBoxDO
+        | CommandId::ReadBoxCI
+        | CommandId::ReadBoxCO
+        | CommandId::ReadBoxAI
+        | CommandId::ReadBoxAO => 0,
+        CommandId::ReadEI | CommandId::ReadEO | CommandId::ReadEAI => 1,
+        _ => return None,
     };
-    u8::try_from(id.0).ok()
+    u16::try_from(msg.len().saturating_sub(skip)).ok()
 }
 
 #[cfg(test)]
