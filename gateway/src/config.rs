@@ -187,6 +187,10 @@ const fn field(
     }
 }
 
+/// Status sources this build has: polling, and the DataSheet with the
+/// feature `datasheet`.
+const STATUS_SOURCES: u16 = if cfg!(feature = "datasheet") { 2 } else { 1 };
+
 /// Every setting, in register order.
 pub const FIELDS: [Field; 15] = [
     field(
@@ -276,9 +280,9 @@ pub const FIELDS: [Field; 15] = [
     field(
         "CFG_STATUS_SOURCE",
         r::CONFIG_STATUS_SOURCE,
-        Domain::Range(0, 1),
+        Domain::Range(0, STATUS_SOURCES - 1),
         "",
-        "0 = poll the command port, 1 = DataSheet",
+        "0 = poll the command port, 1 = DataSheet (builds with the DataSheet reader)",
     ),
     field(
         "CFG_DATASHEET_PORT",

@@ -135,8 +135,12 @@ impl Gateway {
             let [rx, tx] = b.each_mut();
             crate::modbus::session(&plc, clock, net.socket(rx, tx), port)
         });
+        #[cfg(feature = "datasheet")]
         let (mut ds_rx, mut ds_tx) = ([0u8; LINK_BUF], [0u8; 64]);
+        #[cfg(feature = "datasheet")]
         let datasheet = crate::datasheet::run(hub, clock, net.socket(&mut ds_rx, &mut ds_tx));
+        #[cfg(not(feature = "datasheet"))]
+        let datasheet = core::future::pending::<Infallible>();
         let saver = storage::task(hub, &mut storage);
         let _ = join4(engine, join_array(sessions), datasheet, saver).await;
         // The engine, the sessions, the reader and the saver loop forever.

@@ -22,7 +22,7 @@
 //! | [`hub`] | the shared state and the signals between the tasks |
 //! | [`link`] | robot link: connect or listen, one request in flight, framing, reply timeout |
 //! | [`modbus`] | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
-//! | [`datasheet`] | the status from the DataSheet port |
+//! | `datasheet` | the status from the DataSheet port (feature `datasheet`) |
 //! | [`config`] | the configuration and the table of its settings |
 //! | [`storage`] | the stored image, the storage task, RAM and flash storage |
 //! | [`clock`] | time: embassy-time on boards and Linux, a virtual clock in tests |
@@ -37,12 +37,12 @@
 //! RAW requests of 256 characters and replies of 512 (longer replies are
 //! cut and flagged), robot replies up to [`link::REPLY_MAX`] bytes (longer:
 //! Error 39502), Modbus ADUs of 260 bytes, DataSheet packets up to
-//! [`datasheet::PAYLOAD_MAX`] bytes (longer ones are dropped and logged).
+//! `datasheet::PAYLOAD_MAX` bytes (longer ones are dropped and logged).
 //!
 //! Time limits: a robot connect [`link::CONNECT_TIMEOUT`] (the
 //! DataSheet connection too), a bring-up step [`engine::bringup::STATE_TIMEOUT`]
 //! (Error 39607), a DataSheet connection without data
-//! [`datasheet::SILENCE_TIMEOUT`], a silent Modbus client
+//! `datasheet::SILENCE_TIMEOUT`, a silent Modbus client
 //! [`modbus::IDLE_TIMEOUT`], and a robot reply the configured
 //! `CFG_REPLY_TIMEOUT_MS` (Error 39503).
 //!
@@ -57,6 +57,8 @@
 //!
 //! ## Features
 //! * `std` (default): tokio adapter, `log` output, embassy-time's std driver.
+//! * `datasheet` (default): [`datasheet`], the status from the DataSheet
+//!   port (CFG_STATUS_SOURCE = 1; without it that value is refused).
 //! * `embassy-net`: the embassy-net adapter and [`board`].
 //! * `defmt`: log through defmt.
 //! * `flash`: [`storage::flash::FlashStorage`] (sequential-storage over a
@@ -78,6 +80,7 @@ mod fmt;
 pub mod board;
 pub mod clock;
 pub mod config;
+#[cfg(feature = "datasheet")]
 pub mod datasheet;
 pub mod engine;
 pub mod error;

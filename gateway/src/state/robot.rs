@@ -6,6 +6,7 @@
 //! no old value can pass for a current one.
 
 use embassy_time::Instant;
+#[cfg(feature = "datasheet")]
 use hans_codec::datasheet::DataSheet;
 use hans_codec::{response, FsmState, Response};
 
@@ -213,6 +214,7 @@ impl RobotStatus {
     }
 
     /// Copies a DataSheet packet.
+    #[cfg(feature = "datasheet")]
     ///
     /// The flags are rebuilt from this sheet alone (nothing of the polled
     /// flags stays): moving, enabled, paused, blending done, in position and
@@ -310,6 +312,7 @@ mod tests {
     }
 
     #[test]
+    #[cfg(feature = "datasheet")]
     fn a_sheet_rebuilds_the_flags_from_itself_alone() {
         let mut s = RobotStatus::UNKNOWN;
         s.apply_response(&reply(
