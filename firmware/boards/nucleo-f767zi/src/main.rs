@@ -30,7 +30,6 @@ use embassy_stm32::peripherals::{ETH, ETH_SMA, RNG};
 use embassy_stm32::rng::Rng;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{bind_interrupts, eth, rng};
-use panic_probe as _;
 use static_cell::ConstStaticCell;
 
 use hans_gateway::storage::flash::FlashStorage;
@@ -206,4 +205,23 @@ impl Storage for BoardStorage {
     fn is_persistent(&self) -> bool {
         matches!(self, BoardStorage::Flash(_))
     }
+}
+
+/// A panic (a bug: the gateway's library code has none on any input) logs
+/// where it happened and resets the board, so that a field device comes
+/// back on its own. The message's arguments are not formatted: that would
+/// link core's formatting machinery (some KiB) for a path that should
+/// never run.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    match info.location() {
+        Some(loc) => defmt::error!(
+            "panic at {=str}:{=u32}: {=str}",
+            loc.file(),
+            loc.line(),
+            info.message().as_str().unwrap_or("(formatted message)")
+        ),
+        None => defmt::error!("panic"),
+    }
+    cortex_m::peripheral::SCB::sys_reset()
 }
