@@ -57,8 +57,8 @@ macro_rules! space {
     };
 }
 
-/// `true` for the bytes [`space!`] names; the fast reader (`read.rs`) skips
-/// exactly these too.
+/// `true` for the bytes [`space!`] names; the DataSheet reader (`read.rs`)
+/// skips exactly these too.
 #[inline]
 pub(super) fn is_space(b: u8) -> bool {
     matches!(b, space!())

@@ -545,7 +545,7 @@ pub(super) enum Value<'a> {
     Token(Token<'a>),
 }
 
-/// A field of the table, read side. Both readers drive it the same way:
+/// A field of the table, read side. The reader (`read.rs`) drives it:
 /// [`Member::set`] for a single value, or [`Member::begin`], one
 /// [`Member::push`] per element and [`Member::end`] for a list; so what a
 /// field accepts is defined once, here.
@@ -565,9 +565,11 @@ pub(super) trait Member {
     fn end(&mut self, n: usize) -> Result<(), FieldExpected>;
     /// What an element should have been.
     fn expected(&self) -> FieldExpected;
-    /// A whole list at once: exactly [`Member::begin`], [`Member::push`]
-    /// for each value in order and [`Member::end`], in one dynamic call
-    /// (the fast reader's lists).
+    /// A whole list at once, in one dynamic call: the effect of
+    /// [`Member::begin`], [`Member::push`] for each value in order and
+    /// [`Member::end`] when all succeed; an error when one of them would
+    /// fail (which one need not be the same: the reader then reads the list
+    /// again element by element for the precise error and its offset).
     fn list(&mut self, values: &[Decimal]) -> Result<(), FieldExpected> {
         self.begin()?;
         for (i, &d) in values.iter().enumerate() {
