@@ -49,7 +49,7 @@ step "clippy (host workspace)" cargo clippy --workspace --all-targets --locked -
 step "clippy (codec with defmt)" cargo clippy -p hans-codec --all-targets --features defmt --locked -- -D warnings
 step "rustdoc (codec, gateway) without warnings" \
   env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec -p hans-gateway --no-deps \
-  --features hans-gateway/embassy-net,hans-codec/defmt --locked
+  --features hans-gateway/embassy-net,hans-gateway/flash,hans-gateway/testkit,hans-codec/defmt --locked
 
 # --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
 # gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,
@@ -86,15 +86,16 @@ step "host tests" cargo test --workspace --locked
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
-step "gateway library builds for thumbv7em-none-eabihf" \
-  cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net --locked
-step "clippy (gateway, embassy-net + defmt, thumbv7em)" \
-  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt --locked -- -D warnings
+step "gateway library builds for thumbv7em-none-eabihf (core, and with the DataSheet reader)" \
+  bash -c 'cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,flash --locked &&
+    cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,datasheet --locked'
+step "clippy (gateway, embassy-net + defmt + flash + datasheet, thumbv7em)" \
+  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet --locked -- -D warnings
 
 # --- the footprint goal, benchmark builds (run them with cargo bench) and bounded fuzzing
 step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check
 step "benchmarks build" cargo bench --workspace --no-run --locked
-step "fuzz: framer, request, reply, DataSheet (20 s each)" bash host-tests/fuzz/run.sh 20
+step "fuzz: codec (framer, request, reply, DataSheet) and gateway (Modbus session, robot bytes, stored image), 20 s each" bash host-tests/fuzz/run.sh 20
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
 step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh

@@ -8,6 +8,7 @@ import os
 import re
 import struct
 import sys
+import zlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 VECTORS = os.path.join(HERE, "..", "vectors")
@@ -70,7 +71,52 @@ def main():
         put("datasheet", bytes([i]) + packet(p))
         # Two packets with garbage and a false magic between them.
         put("datasheet", bytes([i + 100]) + packet(p) + b"\x00LTB\xffLTBR\x01\x00" + packet(p))
+    gateway_seeds()
     return 0
+
+
+def mbap(tid, pdu):
+    return struct.pack(">HHHB", tid, 0, len(pdu) + 1, 1) + pdu
+
+
+def fc16(addr, words):
+    return struct.pack(">BHHB", 16, addr, len(words), 2 * len(words)) + b"".join(struct.pack(">H", w) for w in words)
+
+
+def text(t, regs):
+    b = t.encode() + b"\0" * (2 * regs)
+    return [(b[2 * i] << 8) | b[2 * i + 1] for i in range(regs)]
+
+
+def gateway_seeds():
+    """Seeds of the gateway's targets: a PLC's frames, robot replies, images."""
+    one = 0x3F80  # 1.0f, high word
+    frames = [
+        mbap(1, struct.pack(">BHH", 3, 0, 50)),                       # read the status block
+        mbap(2, fc16(200, [0, 13, 7, 0, 0, 0, one, 0])),              # code 13, P0 0, P1 1
+        mbap(3, struct.pack(">BHH", 6, 200, 1)),                      # Execute
+        mbap(4, fc16(602, text("MoveRelJ,0,1,1,5,;", 10))),           # a RAW request
+        mbap(5, struct.pack(">BHH", 5, 9600, 0xFF00)),                # RAW Execute by coil
+        mbap(6, fc16(1200, text("GrpStop,0,;", 6)) ),                 # a trigger entry
+        mbap(7, fc16(1100, [1])),                                     # its bit
+        mbap(8, fc16(105, [50])),                                     # CFG_POLL_MS
+        mbap(9, fc16(140, [1, 1])),                                   # heartbeat, apply
+        mbap(10, struct.pack(">BHHHHB", 23, 0, 10, 140, 1, 2) + struct.pack(">H", 2)),
+    ]
+    put("gateway_modbus", bytes([5]) + b"".join(frames))
+    put("gateway_modbus", bytes([200]) + b"".join(frames[:3]) + b"\x00\x01\x12\x34\x00\x06\x01\x03\x00\x00\x00\x01")
+    replies = [b"MoveRelJ,OK,;", b"ReadRobotState,OK,0,1,0,0,0,1,0,0,0,1,1,1,1,;", b"ReadCurFSM,OK,33,;",
+               b"SetBoxDO,Fail,20018,;", b"errorcmd,;", b"\x01\xff;", b"GrpStop,OK,;"]
+    put("gateway_robot", b"".join(bytes([0x80 | len(r)]) + r for r in replies))
+    # A valid image: the default configuration, one trigger entry.
+    cfg = [0, 0, 10003, 0, 10003, 100, 1000, 0, 0, 1, 0, 200, 0, 0, 10005, 0]
+    trig = []
+    for n in range(16):
+        trig += text("GrpStop,0,;" if n == 3 else "", 96)
+    body = b"HGW1" + struct.pack("<HH", 1, len(cfg) + len(trig)) + b"".join(struct.pack("<H", w) for w in cfg + trig)
+    image = body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
+    put("gateway_image", image)
+    put("gateway_image", image[:-1] + bytes([image[-1] ^ 1]))
 
 
 if __name__ == "__main__":

@@ -3,7 +3,10 @@
 use embassy_time::Instant;
 use hans_gateway::job::Source;
 fn main() {
-    let a: Vec<u64> = std::env::args().skip(1).filter_map(|s| s.parse().ok()).collect();
+    let a: Vec<u64> = std::env::args()
+        .skip(1)
+        .filter_map(|s| s.parse().ok())
+        .collect();
     let (seed, upto, until) = (a[0], a[1] as usize, a[2]);
     let mut s = hans_dst::Scenario::new(seed);
     for n in 0..upto {

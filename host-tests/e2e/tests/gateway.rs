@@ -19,7 +19,10 @@ use tokio_modbus::ExceptionCode;
 async fn bring_up_from_power_off() {
     let mut rig = Rig::start(Config::default()).await;
     let plc = &mut rig.plc;
-    assert_eq!(plc.read1(r::STATUS_VERSION).await, hans_gateway::registers::MAP_VERSION);
+    assert_eq!(
+        plc.read1(r::STATUS_VERSION).await,
+        hans_gateway::registers::MAP_VERSION
+    );
     let e = plc.run(0, code::POWER_ON, &[], 1).await;
     assert!(e.done(), "power on: {e:?}");
     let e = plc.run(0, code::ENABLE, &[], 2).await;

@@ -9,7 +9,7 @@
 
 use board_mps2_an386 as board;
 use embassy_executor::Spawner;
-use hans_gateway::{Config, Options, NoStorage};
+use hans_gateway::{Config, NoStorage, Options};
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
