@@ -209,15 +209,12 @@ fn read_num_general<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> Decimal {
 /// decimals (`5.000`) or as `-0`.
 #[inline(never)]
 fn read_int<'a>(c: &mut Cursor<'_, 'a>, param: Param) -> i32 {
-    let mark = c.mark();
-    if let Some(d) = c.take_plain() {
-        if let Some(v) = d.to_i64().and_then(|v| i32::try_from(v).ok()) {
-            return v;
-        }
-        // Not an i32: read the field again for the error's text.
-        c.reset(mark);
+    // A plain number that is no i32 is left for the general reader, which
+    // reports it with the field's text.
+    match c.take_plain_as(|d| d.to_i64().and_then(|v| i32::try_from(v).ok())) {
+        Some(v) => v,
+        None => read_int_general(c, param),
     }
-    read_int_general(c, param)
 }
 
 #[inline(never)]
