@@ -3,8 +3,10 @@
 //! A `#![no_std]`, zero-allocation reader and writer for the TCP control
 //! protocol of Hans / Huayan Elfin robots (HR-TCP V1.0.0.3): the
 //! comma/semicolon command grammar of port 10003 with all 139 commands of
-//! the document typed in both directions, a streaming framer, failure
-//! replies and error codes, and the DataSheet packets of ports 10004-10006.
+//! the document typed in both directions (and, with the `v6` feature, the
+//! 74 that the V6 document V1.0.19.1 adds), which controller versions have
+//! each command ([`ProtocolLevel`]), a streaming framer, failure replies and
+//! named error codes, and the DataSheet packets of ports 10004-10006.
 //!
 //! It never panics on input, never allocates, and keeps numbers exact
 //! ([`Decimal`]): text → value → text is byte-identical for every form a
@@ -62,7 +64,28 @@
 //! }
 //! ```
 //!
+//! ## Protocol levels
+//! Reading is lenient at every level: any known command parses. Writing can
+//! be checked against the controller's version, so that a command it does
+//! not have is a typed error before anything is sent:
+//! ```
+//! use hans_codec::{request, Command, EncodeError, LevelError, ProtocolLevel};
+//!
+//! let mut out = [0u8; 64];
+//! let stop = request::GrpStop::default();
+//! assert!(stop.encode_at(ProtocolLevel::V6, &mut out).is_ok());
+//! let old = request::MoveJ::default(); // removed at HR5.50.3
+//! assert!(matches!(
+//!     old.encode_at(ProtocolLevel::parse("HR6.4.8").unwrap(), &mut out),
+//!     Err(EncodeError::Unsupported(LevelError::Removed { .. }))
+//! ));
+//! assert!(old.encode_at(ProtocolLevel::V5, &mut out).is_ok());
+//! ```
+//!
 //! ## Features
+//! * `v6`: the V6 document's commands, and its forms of `ReadBoxAO` (mode
+//!   and value per channel) and `SetPayload` (the update flag). Off by
+//!   default: a build without it links none of them.
 //! * `defmt`: derives `defmt::Format` on public types.
 //!
 //! Unknown command names are not errors: they pass through as
