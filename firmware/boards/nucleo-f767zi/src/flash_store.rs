@@ -81,7 +81,7 @@ impl Bank2 {
 
     fn check(offset: u32, len: usize, align: u32) -> Result<(), FlashError> {
         let end = offset as usize + len;
-        if offset % align != 0 || end > (SECTORS * SECTOR_SIZE) as usize {
+        if !offset.is_multiple_of(align) || end > (SECTORS * SECTOR_SIZE) as usize {
             return Err(FlashError::Bounds);
         }
         Ok(())
@@ -153,7 +153,7 @@ impl NorFlash for Bank2 {
 
     async fn erase(&mut self, from: u32, to: u32) -> Result<(), FlashError> {
         Self::check(from, to.saturating_sub(from) as usize, SECTOR_SIZE)?;
-        if to % SECTOR_SIZE != 0 || to < from {
+        if !to.is_multiple_of(SECTOR_SIZE) || to < from {
             return Err(FlashError::Bounds);
         }
         for sector in from / SECTOR_SIZE..to / SECTOR_SIZE {
@@ -178,7 +178,7 @@ impl NorFlash for Bank2 {
 
     async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), FlashError> {
         Self::check(offset, bytes.len(), 4)?;
-        if bytes.len() % 4 != 0 {
+        if !bytes.len().is_multiple_of(4) {
             return Err(FlashError::Bounds);
         }
         Self::idle().await;

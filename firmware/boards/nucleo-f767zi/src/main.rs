@@ -182,6 +182,9 @@ async fn run_gateway(stack: embassy_net::Stack<'static>, storage: &mut BoardStor
 
 /// The configuration's storage: bank 2 of the flash, or none when the flash
 /// is in single-bank mode (erasing would stall the board for seconds).
+// One value of this lives in a static for the program's life, so the empty
+// variant's unused bytes cost nothing that boxing (no heap here) would save.
+#[allow(clippy::large_enum_variant)]
 enum BoardStorage {
     Flash(FlashStorage<flash_store::Bank2>),
     Ram(NoStorage),
