@@ -106,11 +106,14 @@ fn main() -> ExitCode {
     let t = *total.lock().expect("stats");
     println!("{}", hans_dst::summary(&t, start.elapsed().as_secs_f64()));
     let last = next.load(Ordering::Relaxed).min(to);
-    println!(
-        "seeds {from}..{last} (steps {}), zero invariant violations so far",
-        args.steps
-    );
-    if let Some(f) = failure.lock().expect("failure").take() {
+    let failed = failure.lock().expect("failure").take();
+    if failed.is_none() {
+        println!(
+            "seeds {from}..{last} (steps {}), zero invariant violations",
+            args.steps
+        );
+    }
+    if let Some(f) = failed {
         eprintln!("INVARIANT BROKEN\n{f}");
         eprintln!("replay: hans-dst --seed {} --steps {}", f.seed, args.steps);
         return ExitCode::from(1);
