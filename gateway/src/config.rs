@@ -56,6 +56,109 @@ pub enum StatusSource {
     DataSheet = 1,
 }
 
+/// The gateway's own network settings. On a board they are applied at
+/// start (a change takes effect at the next start); on Linux the operating
+/// system owns the interface and the command line the listening addresses,
+/// so these are kept and shown but not used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NetConfig {
+    /// Static address (when `dhcp` is off).
+    pub ip: Ipv4Addr,
+    /// Network mask (contiguous ones).
+    pub mask: Ipv4Addr,
+    /// Default gateway; `0.0.0.0` = none.
+    pub gateway: Ipv4Addr,
+    /// Ask a DHCP server for the address instead.
+    pub dhcp: bool,
+    /// Port of the Modbus server, default 502.
+    pub modbus_port: u16,
+    /// Port of the web page, default 80; 0 = no web page.
+    pub web_port: u16,
+}
+
+impl NetConfig {
+    /// The factory defaults: 192.168.1.50/24, gateway 192.168.1.1, Modbus
+    /// on 502, the web page on 80.
+    pub const DEFAULT: NetConfig = NetConfig {
+        ip: Ipv4Addr::new(192, 168, 1, 50),
+        mask: Ipv4Addr::new(255, 255, 255, 0),
+        gateway: Ipv4Addr::new(192, 168, 1, 1),
+        dhcp: false,
+        modbus_port: 502,
+        web_port: 80,
+    };
+
+    /// The mask as a prefix length (the mask is contiguous: checked when
+    /// it is set).
+    pub fn prefix_len(&self) -> u8 {
+        u32::from(self.mask).leading_ones() as u8
+    }
+}
+
+impl Default for NetConfig {
+    fn default() -> Self {
+        NetConfig::DEFAULT
+    }
+}
+
+/// Entries of each allow-list.
+pub const ALLOW_ENTRIES: usize = 4;
+
+/// One entry of an allow-list: a network `ip/prefix`; prefix 0 = unused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AllowEntry {
+    /// Address (bits beyond the prefix are ignored).
+    pub ip: Ipv4Addr,
+    /// Prefix length 1-32 (32 = one address); 0 = unused entry.
+    pub prefix: u8,
+}
+
+impl AllowEntry {
+    /// An unused entry.
+    pub const UNUSED: AllowEntry = AllowEntry {
+        ip: Ipv4Addr::UNSPECIFIED,
+        prefix: 0,
+    };
+
+    /// `true` if the entry is used and `addr` is inside its network.
+    pub fn matches(&self, addr: Ipv4Addr) -> bool {
+        if self.prefix == 0 {
+            return false;
+        }
+        let mask = u32::MAX << (32 - u32::from(self.prefix.min(32)));
+        (u32::from(addr) ^ u32::from(self.ip)) & mask == 0
+    }
+}
+
+/// The client addresses a server accepts: empty (every entry unused) =
+/// everyone, the factory default.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AllowList(pub [AllowEntry; ALLOW_ENTRIES]);
+
+impl Default for AllowList {
+    fn default() -> Self {
+        AllowList::EVERYONE
+    }
+}
+
+impl AllowList {
+    /// Nobody listed: everyone is allowed.
+    pub const EVERYONE: AllowList = AllowList([AllowEntry::UNUSED; ALLOW_ENTRIES]);
+
+    /// `true` if no entry is used.
+    pub fn is_empty(&self) -> bool {
+        self.0.iter().all(|e| e.prefix == 0)
+    }
+
+    /// `true` if a client at `addr` may connect.
+    pub fn permits(&self, addr: Ipv4Addr) -> bool {
+        self.is_empty() || self.0.iter().any(|e| e.matches(addr))
+    }
+}
+
 /// The configuration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -94,6 +197,16 @@ pub struct Config {
     pub datasheet_port: u16,
     /// Robot id, 0-5.
     pub robot_id: u8,
+    /// The gateway's network settings.
+    pub net: NetConfig,
+    /// The configuration registers (and the trigger texts) are
+    /// write-protected over Modbus; only an authorized web session edits
+    /// the configuration, and lifts this.
+    pub write_protect: bool,
+    /// Who may open a Modbus session.
+    pub modbus_allow: AllowList,
+    /// Who may open the web page.
+    pub web_allow: AllowList,
 }
 
 impl Default for Config {
@@ -121,7 +234,22 @@ impl Config {
         status_source: StatusSource::Polling,
         datasheet_port: 10005,
         robot_id: 0,
+        net: NetConfig::DEFAULT,
+        write_protect: false,
+        modbus_allow: AllowList::EVERYONE,
+        web_allow: AllowList::EVERYONE,
     };
+
+    /// This configuration with the network and access settings of `other`
+    /// (the recovery start: a board started with its button held keeps the
+    /// stored settings but takes the factory network and access ones).
+    pub fn with_network_of(mut self, other: &Config) -> Config {
+        self.net = other.net;
+        self.write_protect = other.write_protect;
+        self.modbus_allow = other.modbus_allow;
+        self.web_allow = other.web_allow;
+        self
+    }
 }
 
 /// What a setting's register may hold.
@@ -135,21 +263,80 @@ pub enum Domain {
     Range(u16, u16),
     /// 0 (off) or `min..=max`.
     OffOrRange(u16, u16),
+    /// A network mask in two registers, as [`Domain::Ipv4`]: contiguous
+    /// ones from the top (255.255.255.0); 0.0.0.0 is refused.
+    Mask,
+    /// An allow-list of [`ALLOW_ENTRIES`] entries, three registers each:
+    /// the address (as [`Domain::Ipv4`]) and the prefix length 0-32
+    /// (0 = unused entry).
+    AllowList,
 }
 
 impl Domain {
-    /// `true` if `v` is a valid value (of the first register, for
-    /// [`Domain::Ipv4`]).
+    /// Registers a value of this domain takes.
+    pub const fn registers(self) -> u16 {
+        match self {
+            Domain::Ipv4 | Domain::Mask => 2,
+            Domain::AllowList => 3 * ALLOW_ENTRIES as u16,
+            _ => 1,
+        }
+    }
+
+    /// `true` if `v` is a valid value of a one-register domain (every
+    /// value, for the others: see [`Domain::check`]).
     pub const fn contains(self, v: u16) -> bool {
         match self {
-            Domain::Ipv4 => true,
             Domain::Range(lo, hi) => lo <= v && v <= hi,
             Domain::OffOrRange(lo, hi) => v == 0 || (lo <= v && v <= hi),
+            _ => true,
+        }
+    }
+
+    /// Checks a value given as its registers (`words.len()` is
+    /// [`Domain::registers`]); `Err(i)` names the first bad register, relative.
+    pub fn check(self, words: &[u16]) -> Result<(), u16> {
+        match self {
+            Domain::Mask => {
+                let m = ipv4(words);
+                let bits = u32::from(m);
+                if bits == 0 || bits.leading_ones() + bits.trailing_zeros() != 32 {
+                    return Err(0);
+                }
+                Ok(())
+            }
+            Domain::AllowList => {
+                for (i, e) in words.chunks(3).enumerate() {
+                    if e.get(2).copied().unwrap_or(0) > 32 {
+                        return Err(i as u16 * 3 + 2);
+                    }
+                }
+                Ok(())
+            }
+            Domain::Ipv4 => Ok(()),
+            _ => match words.first() {
+                Some(&v) if self.contains(v) => Ok(()),
+                _ => Err(0),
+            },
         }
     }
 }
 
-/// One setting: a `CFG_*` register (two for the robot address).
+/// The address held in two registers (`a.b.c.d` = `a × 256 + b`,
+/// `c × 256 + d`).
+pub fn ipv4(words: &[u16]) -> Ipv4Addr {
+    let w = |i: usize| words.get(i).copied().unwrap_or(0).to_be_bytes();
+    let ([a, b], [c, d]) = (w(0), w(1));
+    Ipv4Addr::new(a, b, c, d)
+}
+
+/// The two registers of an address.
+pub fn ipv4_words(ip: Ipv4Addr) -> [u16; 2] {
+    let [a, b, c, d] = ip.octets();
+    [u16::from_be_bytes([a, b]), u16::from_be_bytes([c, d])]
+}
+
+/// One setting: its registers (one, two for an address, twelve for an
+/// allow-list).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Field {
     /// Register name (`REGISTERS.md`).
@@ -158,6 +345,9 @@ pub struct Field {
     pub addr: u16,
     /// Registers it takes.
     pub len: u16,
+    /// Where its registers start in [`Words`] (the settings' registers,
+    /// one block after the other, in [`FIELDS`] order).
+    pub slot: u16,
     /// Valid values.
     pub domain: Domain,
     /// Unit, empty for none.
@@ -173,14 +363,18 @@ const fn field(
     unit: &'static str,
     help: &'static str,
 ) -> Field {
-    let len = match domain {
-        Domain::Ipv4 => 2,
-        _ => 1,
+    // The slot follows from the block the address is in: the settings of
+    // 100-115 first, those of 160-193 after them.
+    let slot = if addr >= r::NET_IP {
+        r::CONFIG_LEN + (addr - r::NET_IP)
+    } else {
+        addr - r::CONFIG_ROBOT_IP
     };
     Field {
         name,
         addr,
-        len,
+        len: domain.registers(),
+        slot,
         domain,
         unit,
         help,
@@ -192,7 +386,7 @@ const fn field(
 const STATUS_SOURCES: u16 = if cfg!(feature = "datasheet") { 2 } else { 1 };
 
 /// Every setting, in register order.
-pub const FIELDS: [Field; 15] = [
+pub const FIELDS: [Field; 24] = [
     field(
         "CFG_ROBOT_IP",
         r::CONFIG_ROBOT_IP,
@@ -298,7 +492,82 @@ pub const FIELDS: [Field; 15] = [
         "",
         "robot id nRbtID",
     ),
+    field(
+        "NET_IP",
+        r::NET_IP,
+        Domain::Ipv4,
+        "",
+        "the gateway's address (without DHCP); at the next start",
+    ),
+    field(
+        "NET_MASK",
+        r::NET_MASK,
+        Domain::Mask,
+        "",
+        "network mask, e.g. 255.255.255.0; at the next start",
+    ),
+    field(
+        "NET_GATEWAY",
+        r::NET_GATEWAY,
+        Domain::Ipv4,
+        "",
+        "default gateway, 0.0.0.0 = none; at the next start",
+    ),
+    field(
+        "NET_DHCP",
+        r::NET_DHCP,
+        Domain::Range(0, 1),
+        "",
+        "1 = address from a DHCP server (builds with DHCP); at the next start",
+    ),
+    field(
+        "NET_MODBUS_PORT",
+        r::NET_MODBUS_PORT,
+        Domain::Range(1, 65535),
+        "",
+        "Modbus TCP port; at the next start",
+    ),
+    field(
+        "NET_WEB_PORT",
+        r::NET_WEB_PORT,
+        Domain::Range(0, 65535),
+        "",
+        "web page port, 0 = no web page; at the next start",
+    ),
+    field(
+        "CFG_WRITE_PROTECT",
+        r::CONFIG_WRITE_PROTECT,
+        Domain::Range(0, 1),
+        "",
+        "1 = configuration registers and trigger texts read-only over Modbus",
+    ),
+    field(
+        "MODBUS_ALLOW",
+        r::MODBUS_ALLOW,
+        Domain::AllowList,
+        "",
+        "Modbus clients allowed: 4 × (address, prefix length 1-32, 0 = unused); all unused = everyone",
+    ),
+    field(
+        "WEB_ALLOW",
+        r::WEB_ALLOW,
+        Domain::AllowList,
+        "",
+        "web clients allowed, as MODBUS_ALLOW",
+    ),
 ];
+
+/// The field whose registers hold `addr`.
+pub fn field_of(addr: u16) -> Option<&'static Field> {
+    FIELDS
+        .iter()
+        .find(|f| f.addr <= addr && addr < f.addr + f.len)
+}
+
+/// The field named `name`.
+pub fn field_named(name: &str) -> Option<&'static Field> {
+    FIELDS.iter().find(|f| f.name == name)
+}
 
 /// What the last configuration command did (register `CONFIG_RESULT`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -324,8 +593,39 @@ pub struct InvalidValue {
     pub addr: u16,
 }
 
-/// The configuration as its registers, in register order.
-pub type Words = [u16; r::CONFIG_LEN as usize];
+/// Registers of the settings: 100-115 and 160-193.
+pub const CONFIG_WORDS: usize = (r::CONFIG_LEN + r::NET_LEN) as usize;
+
+/// The settings as their registers: those of 100-115, then those of
+/// 160-193 (a field's [`Field::slot`] is its place here).
+pub type Words = [u16; CONFIG_WORDS];
+
+/// The place of register `addr` in [`Words`], if it is a setting's.
+pub fn slot_of(addr: u16) -> Option<usize> {
+    let in_block = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
+    if let Some(o) = in_block(r::CONFIG_ROBOT_IP, r::CONFIG_LEN) {
+        return Some(usize::from(o));
+    }
+    in_block(r::NET_IP, r::NET_LEN).map(|o| usize::from(r::CONFIG_LEN + o))
+}
+
+fn allow_words(list: &AllowList, out: &mut [u16]) {
+    for (e, w) in list.0.iter().zip(out.chunks_mut(3)) {
+        let [a, b] = ipv4_words(e.ip);
+        for (slot, v) in w.iter_mut().zip([a, b, u16::from(e.prefix)]) {
+            *slot = v;
+        }
+    }
+}
+
+fn allow_list(words: &[u16]) -> AllowList {
+    let mut list = AllowList::EVERYONE;
+    for (e, w) in list.0.iter_mut().zip(words.chunks(3)) {
+        e.ip = ipv4(w);
+        e.prefix = w.get(2).copied().unwrap_or(0).min(32) as u8;
+    }
+    list
+}
 
 impl Config {
     /// The robot's command endpoint.
@@ -333,47 +633,76 @@ impl Config {
         SocketAddrV4::new(self.robot_ip, self.robot_port)
     }
 
-    /// The configuration as its [`r::CONFIG_LEN`] registers.
+    /// The configuration as its registers ([`Words`]).
     pub fn to_words(&self) -> Words {
-        let ip = self.robot_ip.octets();
-        [
-            u16::from_be_bytes([ip[0], ip[1]]),
-            u16::from_be_bytes([ip[2], ip[3]]),
-            self.robot_port,
-            self.link_mode as u16,
-            self.listen_port,
-            self.poll_ms,
-            self.reply_timeout_ms,
-            self.word_order as u16,
-            self.watchdog_ms,
-            self.watchdog_action as u16,
-            u16::from(self.wait_blending_done) | (u16::from(self.wait_in_position) << 1),
-            self.start_grace_ms,
-            u16::from(self.auto_reset),
-            self.status_source as u16,
-            self.datasheet_port,
-            u16::from(self.robot_id),
-        ]
+        let mut w: Words = [0; CONFIG_WORDS];
+        let mut put = |addr: u16, values: &[u16]| {
+            if let Some(s) = slot_of(addr) {
+                for (slot, &v) in w.iter_mut().skip(s).zip(values) {
+                    *slot = v;
+                }
+            }
+        };
+        put(r::CONFIG_ROBOT_IP, &ipv4_words(self.robot_ip));
+        put(
+            r::CONFIG_ROBOT_PORT,
+            &[
+                self.robot_port,
+                self.link_mode as u16,
+                self.listen_port,
+                self.poll_ms,
+                self.reply_timeout_ms,
+                self.word_order as u16,
+                self.watchdog_ms,
+                self.watchdog_action as u16,
+                u16::from(self.wait_blending_done) | (u16::from(self.wait_in_position) << 1),
+                self.start_grace_ms,
+                u16::from(self.auto_reset),
+                self.status_source as u16,
+                self.datasheet_port,
+                u16::from(self.robot_id),
+            ],
+        );
+        let n = &self.net;
+        put(r::NET_IP, &ipv4_words(n.ip));
+        put(r::NET_MASK, &ipv4_words(n.mask));
+        put(r::NET_GATEWAY, &ipv4_words(n.gateway));
+        put(
+            r::NET_DHCP,
+            &[
+                u16::from(n.dhcp),
+                n.modbus_port,
+                n.web_port,
+                u16::from(self.write_protect),
+            ],
+        );
+        let mut lists = [0u16; 6 * ALLOW_ENTRIES];
+        let (m, web) = lists.split_at_mut(3 * ALLOW_ENTRIES);
+        allow_words(&self.modbus_allow, m);
+        allow_words(&self.web_allow, web);
+        put(r::MODBUS_ALLOW, &lists);
+        w
     }
 
     /// Reads and checks the configuration from its registers: every field
-    /// against [`FIELDS`]; the first invalid one is named.
+    /// against [`FIELDS`]; the first invalid register is named.
     pub fn from_words(w: &Words) -> Result<Config, InvalidValue> {
-        let at = |reg: u16| {
-            w.get(usize::from(reg.wrapping_sub(r::CONFIG_ROBOT_IP)))
-                .copied()
-                .unwrap_or(0)
-        };
         for f in FIELDS {
-            if !f.domain.contains(at(f.addr)) {
-                return Err(InvalidValue { addr: f.addr });
-            }
+            let s = usize::from(f.slot);
+            let words = w.get(s..s + usize::from(f.len)).unwrap_or(&[]);
+            f.domain
+                .check(words)
+                .map_err(|o| InvalidValue { addr: f.addr + o })?;
         }
-        let [a, b] = at(r::CONFIG_ROBOT_IP).to_be_bytes();
-        let [c, d] = at(r::CONFIG_ROBOT_IP + 1).to_be_bytes();
+        let at = |reg: u16| slot_of(reg).and_then(|s| w.get(s)).copied().unwrap_or(0);
+        let ip_at = |reg: u16| ipv4(&[at(reg), at(reg + 1)]);
+        let list_at = |reg: u16| {
+            let s = slot_of(reg).unwrap_or(0);
+            allow_list(w.get(s..s + 3 * ALLOW_ENTRIES).unwrap_or(&[]))
+        };
         let policy = at(r::CONFIG_MOTION_POLICY);
         Ok(Config {
-            robot_ip: Ipv4Addr::new(a, b, c, d),
+            robot_ip: ip_at(r::CONFIG_ROBOT_IP),
             robot_port: at(r::CONFIG_ROBOT_PORT),
             link_mode: match at(r::CONFIG_LINK_MODE) {
                 0 => LinkMode::Connect,
@@ -402,6 +731,17 @@ impl Config {
             },
             datasheet_port: at(r::CONFIG_DATASHEET_PORT),
             robot_id: at(r::CONFIG_ROBOT_ID) as u8,
+            net: NetConfig {
+                ip: ip_at(r::NET_IP),
+                mask: ip_at(r::NET_MASK),
+                gateway: ip_at(r::NET_GATEWAY),
+                dhcp: at(r::NET_DHCP) == 1,
+                modbus_port: at(r::NET_MODBUS_PORT),
+                web_port: at(r::NET_WEB_PORT),
+            },
+            write_protect: at(r::CONFIG_WRITE_PROTECT) == 1,
+            modbus_allow: list_at(r::MODBUS_ALLOW),
+            web_allow: list_at(r::WEB_ALLOW),
         })
     }
 }
@@ -441,20 +781,101 @@ mod tests {
 
     #[test]
     fn the_field_table_covers_every_register_once_and_holds_the_defaults() {
-        let mut next = r::CONFIG_ROBOT_IP;
+        let mut next_slot = 0;
         for f in FIELDS {
-            assert_eq!(f.addr, next, "{}", f.name);
-            next += f.len;
-        }
-        assert_eq!(next, r::CONFIG_ROBOT_IP + r::CONFIG_LEN);
-        let w = Config::DEFAULT.to_words();
-        for f in FIELDS {
-            let v = w[usize::from(f.addr - r::CONFIG_ROBOT_IP)];
-            assert!(
-                f.domain.contains(v),
-                "default of {} out of its range",
-                f.name
+            assert_eq!(usize::from(f.slot), next_slot, "{}", f.name);
+            assert_eq!(slot_of(f.addr), Some(next_slot), "{}", f.name);
+            assert_eq!(
+                slot_of(f.addr + f.len - 1),
+                Some(next_slot + usize::from(f.len) - 1)
             );
+            assert_eq!(field_of(f.addr + f.len - 1).map(|g| g.name), Some(f.name));
+            next_slot += usize::from(f.len);
         }
+        assert_eq!(next_slot, CONFIG_WORDS);
+        // Each block is covered without a gap.
+        assert_eq!(slot_of(r::CONFIG_ROBOT_IP + r::CONFIG_LEN), None);
+        assert_eq!(slot_of(r::NET_IP + r::NET_LEN), None);
+        assert_eq!(slot_of(r::NET_IP - 1), None);
+        assert_eq!(
+            Config::from_words(&Config::DEFAULT.to_words()),
+            Ok(Config::DEFAULT)
+        );
+    }
+
+    #[test]
+    fn network_and_access_settings_round_trip_and_are_checked() {
+        let mut c = Config::DEFAULT;
+        c.net = NetConfig {
+            ip: Ipv4Addr::new(10, 20, 30, 2),
+            mask: Ipv4Addr::new(255, 255, 0, 0),
+            gateway: Ipv4Addr::UNSPECIFIED,
+            dhcp: true,
+            modbus_port: 5020,
+            web_port: 0,
+        };
+        c.write_protect = true;
+        c.modbus_allow.0[1] = AllowEntry {
+            ip: Ipv4Addr::new(192, 168, 0, 0),
+            prefix: 24,
+        };
+        c.web_allow.0[3] = AllowEntry {
+            ip: Ipv4Addr::new(127, 0, 0, 1),
+            prefix: 32,
+        };
+        let w = c.to_words();
+        assert_eq!(Config::from_words(&w), Ok(c));
+        assert_eq!(c.net.prefix_len(), 16);
+        let at = |a: u16| slot_of(a).unwrap();
+        for (mask, ok) in [
+            ([0xFFFF, 0xFF00], true),
+            ([0xFFFF, 0xFFFF], true),
+            ([0x8000, 0], true),
+            ([0, 0], false),
+            ([0xFF00, 0xFF00], false),
+            ([0x7FFF, 0xFF00], false),
+        ] {
+            let mut w = w;
+            w[at(r::NET_MASK)] = mask[0];
+            w[at(r::NET_MASK) + 1] = mask[1];
+            let r = Config::from_words(&w);
+            assert_eq!(r.is_ok(), ok, "{mask:x?}");
+            if !ok {
+                assert_eq!(r, Err(InvalidValue { addr: r::NET_MASK }));
+            }
+        }
+        let mut bad = w;
+        bad[at(r::WEB_ALLOW) + 3 * 2 + 2] = 33;
+        assert_eq!(
+            Config::from_words(&bad),
+            Err(InvalidValue {
+                addr: r::WEB_ALLOW + 8
+            })
+        );
+    }
+
+    #[test]
+    fn allow_lists_match_networks_and_empty_means_everyone() {
+        let ip = Ipv4Addr::new;
+        let mut l = AllowList::EVERYONE;
+        assert!(l.permits(ip(10, 1, 2, 3)));
+        l.0[2] = AllowEntry {
+            ip: ip(127, 0, 0, 1),
+            prefix: 32,
+        };
+        assert!(l.permits(ip(127, 0, 0, 1)));
+        assert!(!l.permits(ip(127, 0, 0, 2)));
+        l.0[0] = AllowEntry {
+            ip: ip(192, 168, 7, 99), // host bits beyond the prefix ignored
+            prefix: 24,
+        };
+        assert!(l.permits(ip(192, 168, 7, 1)));
+        assert!(!l.permits(ip(192, 168, 8, 1)));
+        l.0[1] = AllowEntry {
+            ip: ip(0, 0, 0, 0),
+            prefix: 1,
+        };
+        assert!(l.permits(ip(127, 0, 0, 2)));
+        assert!(!l.permits(ip(128, 0, 0, 2)));
     }
 }

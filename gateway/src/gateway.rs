@@ -32,6 +32,20 @@ pub struct Options {
     pub defaults: Config,
     /// Robot address that overrides the stored one (host `--robot`).
     pub robot_override: Option<RobotOverride>,
+    /// Start with the factory network and access settings (`defaults`'
+    /// network, write protection and allow-lists) instead of the stored
+    /// ones: the way back when the address is lost (a board's button held
+    /// at power-up). The stored configuration is not changed until the
+    /// next save.
+    pub recovery: bool,
+    /// The network settings of the configuration are applied by this
+    /// platform (boards). On Linux the operating system and the command
+    /// line decide them: `false`.
+    pub network_managed: bool,
+    /// Seed of the random generator behind web session tokens and
+    /// password salts: from the board's random source (on Linux, the
+    /// operating system's).
+    pub seed: [u8; 32],
 }
 
 /// A robot address given at start (host `--robot` / `--robot-listen`). It
@@ -71,6 +85,9 @@ impl Default for Options {
             modbus_port: 502,
             defaults: Config::default(),
             robot_override: None,
+            recovery: false,
+            network_managed: false,
+            seed: [0; 32],
         }
     }
 }
@@ -160,10 +177,15 @@ impl Gateway {
                     info!("config: nothing stored, using defaults");
                     None
                 }
-                Ok(image) => match storage::image::decode(image, &mut m.triggers.entries) {
-                    Ok(c) => {
+                Ok(image) => match storage::image::decode(
+                    image,
+                    &opts.defaults,
+                    &mut m.triggers.entries,
+                ) {
+                    Ok(stored) => {
                         info!("config: loaded from storage");
-                        Some(c)
+                        m.access.password = stored.password;
+                        Some(stored.config)
                     }
                     Err(e) => {
                         warn!("config: stored image refused ({}), using defaults", e.as_str());
@@ -176,6 +198,13 @@ impl Gateway {
                 }
             };
             let mut config = loaded.unwrap_or(opts.defaults);
+            if opts.recovery {
+                warn!("config: recovery start: factory network and access settings for this run");
+                config = config.with_network_of(&opts.defaults);
+            }
+            m.access.recovery = opts.recovery;
+            m.access.network_managed = opts.network_managed;
+            m.access.running = config.net;
             if let Some(o) = opts.robot_override {
                 config = o.apply(config);
                 if let Some(saved) = loaded.filter(|c| o.apply(*c) != *c) {

@@ -227,6 +227,9 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             (None, Some(a)) => Some(RobotOverride::Connect(*a.ip(), a.port())),
             (None, None) => None,
         },
+        recovery: false,
+        network_managed: false,
+        seed: os_seed(),
     };
     let _ = ready.send(Ok((modbus, robot)));
     let clock = SystemClock;
@@ -246,4 +249,24 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             }
         }
     }
+}
+
+/// 32 bytes from the operating system's random source (`/dev/urandom`),
+/// the seed of web session tokens and password salts. Should it be
+/// unreadable, the time and the process id are used, with a warning:
+/// tokens are then guessable by someone who knows when the gateway started.
+pub fn os_seed() -> [u8; 32] {
+    use std::io::Read;
+    let mut seed = [0u8; 32];
+    let read = std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut seed));
+    if read.is_err() {
+        log::warn!("no /dev/urandom: web session tokens are seeded from the clock");
+        let t = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0);
+        seed[..16].copy_from_slice(&t.to_le_bytes());
+        seed[16..20].copy_from_slice(&std::process::id().to_le_bytes());
+    }
+    seed
 }

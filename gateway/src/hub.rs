@@ -16,6 +16,7 @@
 //! model; other views call [`Hub::with`] and read the typed values.
 
 use core::cell::RefCell;
+use core::net::SocketAddrV4;
 
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
@@ -130,16 +131,48 @@ impl Hub {
         }
     }
 
-    /// A Modbus client connected (`+1`) or left (`-1`); returns how many
-    /// are connected now.
-    pub fn session(&self, opened: bool) -> u16 {
+    /// A Modbus client at `peer` connected: admitted if `MODBUS_ALLOW`
+    /// permits it (an unknown address only when the list is empty), and
+    /// then counted; a refusal is counted in `MODBUS_REFUSED`. Returns the
+    /// clients connected now, `None` if refused.
+    pub fn admit_modbus(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
         self.with(|m| {
-            m.sessions = if opened {
-                m.sessions.saturating_add(1)
-            } else {
-                m.sessions.saturating_sub(1)
+            let list = &m.config.active.modbus_allow;
+            let ok = match peer {
+                Some(p) => list.permits(*p.ip()),
+                None => list.is_empty(),
             };
+            if !ok {
+                m.access.modbus_refused = m.access.modbus_refused.wrapping_add(1);
+                return None;
+            }
+            m.sessions = m.sessions.saturating_add(1);
+            Some(m.sessions)
+        })
+    }
+
+    /// An admitted Modbus client left; returns how many are connected.
+    pub fn leave_modbus(&self) -> u16 {
+        self.with(|m| {
+            m.sessions = m.sessions.saturating_sub(1);
             m.sessions
+        })
+    }
+
+    /// A web client at `peer` connected: `true` if `WEB_ALLOW` permits it
+    /// (an unknown address only when the list is empty); a refusal is
+    /// counted in `WEB_REFUSED`.
+    pub fn admit_web(&self, peer: Option<SocketAddrV4>) -> bool {
+        self.with(|m| {
+            let list = &m.config.active.web_allow;
+            let ok = match peer {
+                Some(p) => list.permits(*p.ip()),
+                None => list.is_empty(),
+            };
+            if !ok {
+                m.access.web_refused = m.access.web_refused.wrapping_add(1);
+            }
+            ok
         })
     }
 }
@@ -168,7 +201,11 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
         self.hub.config_command(p.0).await
     }
 
-    fn session(&self, opened: bool) -> u16 {
-        self.hub.session(opened)
+    fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
+        self.hub.admit_modbus(peer)
+    }
+
+    fn leave(&self) -> u16 {
+        self.hub.leave_modbus()
     }
 }

@@ -23,7 +23,8 @@
 //! | [`link`] | robot link: connect or listen, one request in flight, framing, reply timeout |
 //! | [`modbus`] | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
 //! | `datasheet` | the status from the DataSheet port (feature `datasheet`) |
-//! | [`config`] | the configuration and the table of its settings |
+//! | [`config`] | the configuration and the table of its settings (network and allow-lists included) |
+//! | [`access`] | the web password (salted hash), web sessions, the rate limit of wrong passwords |
 //! | [`storage`] | the stored image, the storage task, RAM and flash storage |
 //! | [`clock`] | time: embassy-time on boards and Linux, a virtual clock in tests |
 //! | [`net`] | the socket interface and its adapters |
@@ -76,6 +77,7 @@ extern crate std;
 #[macro_use]
 mod fmt;
 
+pub mod access;
 #[cfg(feature = "embassy-net")]
 pub mod board;
 pub mod clock;

@@ -26,6 +26,7 @@
 //! A client silent for [`IDLE_TIMEOUT`] is disconnected.
 
 use core::convert::Infallible;
+use core::net::SocketAddrV4;
 
 use embassy_time::Duration;
 use modbus_core::tcp::{server::encode_response, Header, ResponseAdu};
@@ -54,8 +55,12 @@ pub trait Registers {
     fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError>;
     /// Waits for what a write started, and gives the write's result.
     async fn settle(&self, pending: Pending) -> Result<(), WriteError>;
-    /// A client connected (`true`) or left; returns how many are connected.
-    fn session(&self, opened: bool) -> u16;
+    /// A client at `peer` connected: `Some(n)` when it is admitted (`n`
+    /// clients connected now), `None` when the allow-list refuses it (the
+    /// server closes the connection at once, without a reply).
+    fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16>;
+    /// An admitted client left; returns how many are connected.
+    fn leave(&self) -> u16;
 }
 
 /// What a write started that its answer waits for (for the gateway: a
@@ -112,7 +117,17 @@ pub async fn session<S: Socket, C: Clock, R: Registers>(
             continue;
         }
         let peer = sock.remote();
-        let n = regs.session(true);
+        let Some(n) = regs.admit(peer) else {
+            if let Some(p) = peer {
+                let [a, b, c, d] = p.ip().octets();
+                warn!(
+                    "modbus: client {}.{}.{}.{} refused (not in MODBUS_ALLOW)",
+                    a, b, c, d
+                );
+            }
+            sock.close().await;
+            continue;
+        };
         match peer {
             Some(p) => {
                 let [a, b, c, d] = p.ip().octets();
@@ -130,7 +145,7 @@ pub async fn session<S: Socket, C: Clock, R: Registers>(
         }
         serve(regs, clock, &mut sock).await;
         sock.close().await;
-        let n = regs.session(false);
+        let n = regs.leave();
         info!("modbus: client disconnected ({} left)", n);
     }
 }
@@ -283,6 +298,7 @@ fn exception(e: WriteError) -> Exception {
         WriteError::Address => Exception::IllegalDataAddress,
         WriteError::Value => Exception::IllegalDataValue,
         WriteError::Device => Exception::ServerDeviceFailure,
+        WriteError::Protected => Exception::IllegalFunction,
     }
 }
 
@@ -599,8 +615,11 @@ mod tests {
         async fn settle(&self, p: Pending) -> Result<(), WriteError> {
             self.0.config_command(p.0).await
         }
-        fn session(&self, opened: bool) -> u16 {
-            self.0.session(opened)
+        fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
+            self.0.admit_modbus(peer)
+        }
+        fn leave(&self) -> u16 {
+            self.0.leave_modbus()
         }
     }
 
@@ -628,26 +647,26 @@ mod tests {
             [0, 1, 0, 0, 0, 3, 1, 0x90, 1]
         );
         assert_eq!(
-            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 50, 0, 1]),
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 54, 0, 1]),
             [0, 1, 0, 0, 0, 3, 1, 0x83, 2]
         );
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]),
-            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 1]
+            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 2]
         );
-        // FC 1: bits 0-11 of register 0 (version 0x0101: bits 0 and 8),
+        // FC 1: bits 0-11 of register 0 (version 0x0102: bits 1 and 8),
         // packed.
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
-            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x01, 0x01]
+            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x02, 0x01]
         );
-        // FC 2 from bit 4, 796 bits (up to register 49): 100 bytes; bit 4
+        // FC 2 from bit 4, 860 bits (up to register 53): 108 bytes; bit 4
         // of the reply is bit 8 of register 0.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x1C]);
-        assert_eq!((r[7], r[8], r.len()), (2, 100, 9 + 100));
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x5C]);
+        assert_eq!((r[7], r[8], r.len()), (2, 108, 9 + 108));
         assert_eq!(r[9], 1 << 4);
-        // One bit more reaches register 50, unmapped: 02.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x1D]);
+        // One bit more reaches register 54, unmapped: 02.
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x5D]);
         assert_eq!(&r[7..], [0x82, 2]);
         // FC 16 shorter than its header says -> 03, never a panic.
         assert_eq!(

@@ -4,6 +4,8 @@
 //! sockets, no sleeps: a test of minutes of robot time runs in
 //! milliseconds, and runs the same every time.
 
+use core::net::Ipv4Addr;
+
 use embassy_time::{Duration, Instant};
 use hans_gateway::config::Config;
 use hans_gateway::error::GatewayError;
@@ -604,8 +606,8 @@ fn watchdog_action_2_pauses() {
 fn modbus_limits_and_exceptions() {
     let mut w = world();
     assert_eq!(w.read(0, 126), Err(3), "more than 125 registers");
-    assert_eq!(w.read(50, 1), Err(2), "a gap");
-    assert_eq!(w.read(0, 51), Err(2), "partly in a gap");
+    assert_eq!(w.read(54, 1), Err(2), "a gap");
+    assert_eq!(w.read(0, 55), Err(2), "partly in a gap");
     assert_eq!(w.write(0, &[1]), Err(2), "read-only");
     assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[4]), Err(3));
     // FC 5 with a value other than 0x0000 / 0xFF00: exception 03.
@@ -722,6 +724,78 @@ fn factory_defaults_keep_the_robot_address_given_at_start() {
         ]
     );
     let _ = Instant::from_ticks(0);
+}
+
+// ------------------------------------------------------------- access
+
+fn ip_words(ip: Ipv4Addr) -> [u16; 2] {
+    let [a, b, c, d] = ip.octets();
+    [u16::from_be_bytes([a, b]), u16::from_be_bytes([c, d])]
+}
+
+#[test]
+fn the_modbus_allow_list_refuses_other_clients_at_once_and_counts_them() {
+    let mut w = world();
+    // PLC 0 connects from 10.0.0.10; allow that address only.
+    let [a, b] = ip_words(Ipv4Addr::new(10, 0, 0, 10));
+    w.set(r::MODBUS_ALLOW, &[a, b, 32]);
+    w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
+    let other = w.connect_plc(Ipv4Addr::new(10, 0, 0, 11));
+    assert!(!w.plc_open(other), "closed at once");
+    assert_eq!(w.reg(r::STATUS_MODBUS_REFUSED), 1);
+    assert_eq!(w.reg(r::STATUS_SESSIONS), 1, "PLC 0 stays connected");
+    let again = w.connect_plc(Ipv4Addr::new(10, 0, 0, 10));
+    assert!(w.plc_open(again));
+    assert!(matches!(
+        w.request(again, &pdu::read(r::STATUS_VERSION, 1)),
+        Answer::Pdu(_)
+    ));
+    // A /24 entry admits the neighbour.
+    let [c, d] = ip_words(Ipv4Addr::new(10, 0, 0, 0));
+    w.set(r::MODBUS_ALLOW + 3, &[c, d, 24]);
+    w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
+    let neighbour = w.connect_plc(Ipv4Addr::new(10, 0, 0, 11));
+    assert!(w.plc_open(neighbour));
+    assert_eq!(w.reg(r::STATUS_MODBUS_REFUSED), 1);
+    // Emptying the list lets everyone in again.
+    w.set(r::MODBUS_ALLOW, &[0; 12]);
+    w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
+    let anyone = w.connect_plc(Ipv4Addr::new(172, 16, 0, 1));
+    assert!(w.plc_open(anyone));
+}
+
+#[test]
+fn write_protection_refuses_configuration_writes_but_not_commands() {
+    let mut w = world();
+    w.set(r::CONFIG_WRITE_PROTECT, &[1]);
+    w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
+    assert_eq!(
+        w.reg(r::STATUS_ACCESS) & r::ACCESS_WRITE_PROTECTED,
+        r::ACCESS_WRITE_PROTECTED
+    );
+    let before = w.reg(r::CONFIG_POLL_MS);
+    // Settings, CONFIG_COMMAND, trigger texts, and a block write that only
+    // touches one protected register: exception 01, nothing written.
+    assert_eq!(w.write(r::CONFIG_POLL_MS, &[50]), Err(1));
+    assert_eq!(w.write(r::CONFIG_WRITE_PROTECT, &[0]), Err(1));
+    assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[3]), Err(1));
+    assert_eq!(
+        w.write(r::trigger_text(0), &text_words("GrpStop,0,;", 8)),
+        Err(1)
+    );
+    assert_eq!(w.write(r::CONTROL_HEARTBEAT, &[7, 1]), Err(1));
+    assert_eq!(w.reg(r::CONFIG_POLL_MS), before);
+    assert_eq!(w.reg(r::CONTROL_HEARTBEAT), 0);
+    assert_eq!(w.reg(r::STATUS_WRITES_REFUSED), 5);
+    // The heartbeat, commands and trigger bits are still the PLC's.
+    w.set(r::CONTROL_HEARTBEAT, &[7]);
+    assert_eq!(w.reg(r::CONTROL_HEARTBEAT), 7);
+    w.set(CH0 + r::CH_COMMAND, &[code::STOP, 1]);
+    w.set(CH0, &[1]);
+    assert_eq!(wait_end(&mut w, CH0, ms(500)), r::ST_DONE);
+    w.set(r::TRIG_BITS, &[0]);
+    // Reads are not affected.
+    assert!(w.read(r::CONFIG_ROBOT_IP, r::CONFIG_LEN).is_ok());
 }
 
 // ------------------------------------- points REGISTERS.md makes explicit

@@ -268,7 +268,11 @@ fn robot_on_the_command_line_overrides_a_saved_one_and_says_so() {
         ..Config::default()
     };
     let mut bytes = [0u8; IMAGE_LEN];
-    image::encode(&saved, &[Text::EMPTY; 16], &mut bytes).expect("room for the image");
+    let stored = image::Stored {
+        config: saved,
+        password: None,
+    };
+    image::encode(&stored, &[Text::EMPTY; 16], &mut bytes).expect("room for the image");
     std::fs::write(&path, bytes).expect("write the config file");
     let (gw, log) = start(&[
         "--config",

@@ -169,7 +169,7 @@ fn listen_endpoint(s: &str) -> Result<Endpoint, String> {
     Endpoint::parse(s, None)
 }
 
-/// `0.1.0 (register map 1.1)`: the gateway's version, and the register
+/// `0.1.0 (register map 1.2)`: the gateway's version, and the register
 /// map's that the VERSION register holds (major × 256 + minor).
 fn version() -> String {
     format!(

@@ -78,9 +78,10 @@ pub struct Area {
 /// The register map's version in `VERSION`: `major × 256 + minor`. The
 /// minor number grows when the map gains registers or a documented detail
 /// changes (1.1: RESULTS read NaN until a command gives them; urgent RAW and
-/// trigger texts go out in their canonical form); the major number when a
-/// PLC program written for the old map would break.
-pub const MAP_VERSION: u16 = 0x0101;
+/// trigger texts go out in their canonical form; 1.2: the network and
+/// access settings at 160-193, the access status at 50-53); the major
+/// number when a PLC program written for the old map would break.
+pub const MAP_VERSION: u16 = 0x0102;
 
 // ----------------------------------------------------------------- status
 /// The register map's version ([`MAP_VERSION`]).
@@ -139,6 +140,28 @@ pub const STATUS_WATCHDOG_TRIPS: u16 = 48;
 /// The command whose motion is running on the robot: 0 none, 1-2 command
 /// channel, 3 RAW, 16-31 trigger entry 0-15.
 pub const STATUS_ACTIVE_MOTION: u16 = 49;
+/// Access flags ([`ACCESS_WRITE_PROTECTED`], ...).
+pub const STATUS_ACCESS: u16 = 50;
+/// Modbus connections refused by [`MODBUS_ALLOW`] since start (wraps).
+pub const STATUS_MODBUS_REFUSED: u16 = 51;
+/// Web connections refused by [`WEB_ALLOW`] since start (wraps).
+pub const STATUS_WEB_REFUSED: u16 = 52;
+/// Modbus writes refused by the write protection since start (wraps).
+pub const STATUS_WRITES_REFUSED: u16 = 53;
+
+/// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
+/// write-protected ([`CONFIG_WRITE_PROTECT`]).
+pub const ACCESS_WRITE_PROTECTED: u16 = 1 << 0;
+/// `STATUS_ACCESS` bit: a web password is set.
+pub const ACCESS_PASSWORD_SET: u16 = 1 << 1;
+/// `STATUS_ACCESS` bit: the network settings applied differ from the ones
+/// running (they take effect at the next start).
+pub const ACCESS_RESTART_PENDING: u16 = 1 << 2;
+/// `STATUS_ACCESS` bit: started with the factory network and access
+/// settings (the board's button was held at power-up).
+pub const ACCESS_RECOVERY: u16 = 1 << 3;
+/// `STATUS_ACCESS` bit: the web page is served.
+pub const ACCESS_WEB_ON: u16 = 1 << 4;
 
 /// `STATUS_FLAGS` bit: moving.
 pub const FLAG_MOVING: u16 = 1 << 0;
@@ -202,6 +225,29 @@ pub const CONFIG_DATASHEET_PORT: u16 = 114;
 pub const CONFIG_ROBOT_ID: u16 = 115;
 /// Number of configuration registers from [`CONFIG_ROBOT_IP`].
 pub const CONFIG_LEN: u16 = 16;
+
+// ------------------------------------------- network and access settings
+// Settings like the ones above: edited, then applied with CONFIG_COMMAND 1.
+/// The gateway's IPv4 address (two registers).
+pub const NET_IP: u16 = 160;
+/// Network mask (two registers).
+pub const NET_MASK: u16 = 162;
+/// Default gateway (two registers), 0.0.0.0 = none.
+pub const NET_GATEWAY: u16 = 164;
+/// 1 = DHCP.
+pub const NET_DHCP: u16 = 166;
+/// Modbus TCP port.
+pub const NET_MODBUS_PORT: u16 = 167;
+/// Web page port, 0 = off.
+pub const NET_WEB_PORT: u16 = 168;
+/// 1 = configuration registers and trigger texts write-protected.
+pub const CONFIG_WRITE_PROTECT: u16 = 169;
+/// Modbus allow-list: 4 entries of 3 registers (address, prefix length).
+pub const MODBUS_ALLOW: u16 = 170;
+/// Web allow-list, as [`MODBUS_ALLOW`].
+pub const WEB_ALLOW: u16 = 182;
+/// Number of registers from [`NET_IP`].
+pub const NET_LEN: u16 = 34;
 
 // ---------------------------------------------------------------- control
 /// PLC heartbeat: the PLC changes it; watched while a motion runs.
@@ -501,6 +547,10 @@ pub const TABLE: &[Area] = &[
     area!("WATCHDOG", STATUS_WATCHDOG, 1, Ro, Bits),
     area!("WATCHDOG_TRIPS", STATUS_WATCHDOG_TRIPS, 1, Ro, U16),
     area!("ACTIVE_MOTION", STATUS_ACTIVE_MOTION, 1, Ro, U16),
+    area!("ACCESS", STATUS_ACCESS, 1, Ro, Bits),
+    area!("MODBUS_REFUSED", STATUS_MODBUS_REFUSED, 1, Ro, U16),
+    area!("WEB_REFUSED", STATUS_WEB_REFUSED, 1, Ro, U16),
+    area!("WRITES_REFUSED", STATUS_WRITES_REFUSED, 1, Ro, U16),
     area!("CFG_ROBOT_IP", CONFIG_ROBOT_IP, 2, Rw, U16),
     area!("CFG_ROBOT_PORT", CONFIG_ROBOT_PORT, 1, Rw, U16),
     area!("CFG_LINK_MODE", CONFIG_LINK_MODE, 1, Rw, U16),
@@ -521,6 +571,15 @@ pub const TABLE: &[Area] = &[
     area!("CONFIG_RESULT", CONTROL_CONFIG_RESULT, 1, Ro, U16),
     area!("CONFIG_BAD_ADDR", CONTROL_CONFIG_BAD_ADDR, 1, Ro, U16),
     area!("CONFIG_SAVES", CONTROL_SAVES, 1, Ro, U16),
+    area!("NET_IP", NET_IP, 2, Rw, U16),
+    area!("NET_MASK", NET_MASK, 2, Rw, U16),
+    area!("NET_GATEWAY", NET_GATEWAY, 2, Rw, U16),
+    area!("NET_DHCP", NET_DHCP, 1, Rw, U16),
+    area!("NET_MODBUS_PORT", NET_MODBUS_PORT, 1, Rw, U16),
+    area!("NET_WEB_PORT", NET_WEB_PORT, 1, Rw, U16),
+    area!("CFG_WRITE_PROTECT", CONFIG_WRITE_PROTECT, 1, Rw, U16),
+    area!("MODBUS_ALLOW", MODBUS_ALLOW, 12, Rw, U16),
+    area!("WEB_ALLOW", WEB_ALLOW, 12, Rw, U16),
     CH0[0],
     CH0[1],
     CH0[2],
@@ -635,9 +694,11 @@ mod tests {
     #[test]
     fn area_lookup_and_access_checks() {
         assert_eq!(area_of(STATUS_JOINTS + 11).unwrap().name, "ACT_JOINTS");
-        assert!(area_of(50).is_none());
-        assert!(check(0, 50, false).is_ok());
-        assert_eq!(check(0, 51, false), Err(AccessError::IllegalAddress));
+        assert!(area_of(54).is_none());
+        assert!(check(0, 54, false).is_ok());
+        assert_eq!(check(0, 55, false), Err(AccessError::IllegalAddress));
+        assert!(check(NET_IP, NET_LEN, true).is_ok());
+        assert!(check(NET_IP, NET_LEN + 1, true).is_err());
         assert_eq!(check(0, 1, true), Err(AccessError::IllegalAddress));
         assert!(check(CONFIG_ROBOT_IP, CONFIG_LEN, true).is_ok());
         // A channel's inputs are one writable block, its whole extent readable.

@@ -27,6 +27,9 @@ pub enum WriteError {
     Value,
     /// The device failed (a save): exception 04.
     Device,
+    /// The configuration registers are write-protected
+    /// (`CFG_WRITE_PROTECT`): exception 01, nothing written.
+    Protected,
 }
 
 impl From<AccessError> for WriteError {
@@ -146,8 +149,8 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         let io = Io::ALL.get(usize::from(o)).and_then(|&g| robot.io(g));
         return io.unwrap_or(0);
     }
-    if let Some(o) = in_area(r::CONFIG_ROBOT_IP, r::CONFIG_LEN) {
-        return m.config.edit.get(usize::from(o)).copied().unwrap_or(0);
+    if let Some(s) = crate::config::slot_of(addr) {
+        return m.config.edit.get(s).copied().unwrap_or(0);
     }
     for (i, ch) in m.channels.iter().enumerate() {
         let Some(o) = in_area(r::channel_base(i), r::CH_RESULTS + 2 * RESULTS as u16) else {
@@ -234,6 +237,12 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         }
         r::STATUS_WATCHDOG_TRIPS => m.plc.watchdog_trips,
         r::STATUS_ACTIVE_MOTION => m.active_motion.map_or(0, Source::code),
+        r::STATUS_ACCESS => m
+            .access
+            .flags(&m.config.active.net, m.config.active.write_protect),
+        r::STATUS_MODBUS_REFUSED => m.access.modbus_refused,
+        r::STATUS_WEB_REFUSED => m.access.web_refused,
+        r::STATUS_WRITES_REFUSED => m.access.writes_refused,
         r::CONTROL_HEARTBEAT => m.plc.heartbeat,
         r::CONTROL_CONFIG_COMMAND => 0,
         r::CONTROL_CONFIG_RESULT => m.config.result as u16,
@@ -283,6 +292,14 @@ pub fn read_into(m: &Model, start: u16, out: &mut [u16], now: Instant) -> Result
 pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, WriteError> {
     let count = u16::try_from(values.len()).map_err(|_| WriteError::Value)?;
     r::check(start, count, true)?;
+    if m.config.active.write_protect && (start..start.saturating_add(count)).any(is_protected) {
+        m.access.writes_refused = m.access.writes_refused.wrapping_add(1);
+        warn!(
+            "modbus: write to {} refused: configuration write-protected",
+            start
+        );
+        return Err(WriteError::Protected);
+    }
     let mut ev = PlcEvents::default();
     if let Some(o) = r::CONTROL_CONFIG_COMMAND.checked_sub(start) {
         if let Some(&cmd) = values.get(usize::from(o)) {
@@ -325,6 +342,15 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
     Ok(ev)
 }
 
+/// A register the write protection covers: the settings, `CONFIG_COMMAND`
+/// and the trigger texts (stored configuration too). The heartbeat, the
+/// command channels, RAW and the trigger bits stay writable.
+pub fn is_protected(addr: u16) -> bool {
+    crate::config::slot_of(addr).is_some()
+        || addr == r::CONTROL_CONFIG_COMMAND
+        || (r::TRIG_TEXT_BASE..r::MAP_LEN as u16).contains(&addr)
+}
+
 fn edge(ev: &mut PlcEvents, source: Source, old: bool, new: bool) {
     let e = match (old, new) {
         (false, true) => Edge::Rose(source),
@@ -347,8 +373,8 @@ fn with_half(v: u32, h: u16, w: u16, order: WordOrder) -> u32 {
 /// Stores one writable register (the access was checked).
 fn store(m: &mut Model, addr: u16, v: u16, order: WordOrder) {
     let in_area = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
-    if let Some(o) = in_area(r::CONFIG_ROBOT_IP, r::CONFIG_LEN) {
-        if let Some(w) = m.config.edit.get_mut(usize::from(o)) {
+    if let Some(s) = crate::config::slot_of(addr) {
+        if let Some(w) = m.config.edit.get_mut(s) {
             *w = v;
         }
         return;

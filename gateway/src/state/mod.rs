@@ -11,6 +11,7 @@
 //! [`crate::engine`]. The methods here keep the handshakes consistent
 //! (Busy, then exactly one outcome).
 
+pub mod access;
 pub mod handshake;
 pub mod inputs;
 pub mod robot;
@@ -19,6 +20,7 @@ use core::net::Ipv4Addr;
 
 use embassy_time::Instant;
 
+pub use access::AccessState;
 pub use handshake::{Handshake, Phase};
 pub use inputs::{ChannelInputs, ChannelState, RawState, Text, Triggers};
 pub use robot::{Io, RobotFlags, RobotStatus};
@@ -98,7 +100,7 @@ pub struct ConfigState {
     pub active: Config,
     /// The `CFG_*` registers as the PLC wrote them: an edit, checked and
     /// applied by `CONFIG_COMMAND` 1, discarded by 2.
-    pub edit: [u16; r::CONFIG_LEN as usize],
+    pub edit: crate::config::Words,
     /// What the last `CONFIG_COMMAND` did.
     pub result: ConfigResult,
     /// The first invalid register of a refused edit.
@@ -136,6 +138,8 @@ pub struct Model {
     pub ticks: u16,
     /// Modbus clients connected.
     pub sessions: u16,
+    /// Password, network settings in use, refusals.
+    pub access: AccessState,
 }
 
 impl Model {
@@ -167,6 +171,7 @@ impl Model {
             active_motion: None,
             ticks: 0,
             sessions: 0,
+            access: AccessState::new(config.net),
         }
     }
 

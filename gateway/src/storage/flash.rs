@@ -24,7 +24,7 @@ use sequential_storage::map::{MapConfig, MapStorage};
 
 use sequential_storage::map::{SerializationError, Value};
 
-use super::{Image, Storage, StorageError, IMAGE_LEN};
+use super::{Image, Storage, StorageError, IMAGE_MAX};
 
 /// No cache: one item, read once at start and written on rare saves.
 type Uncached3 = Cache<Uncached, Uncached, Uncached, u8>;
@@ -34,7 +34,7 @@ const KEY: u8 = 0;
 
 /// Bytes of the work buffer sequential-storage needs: the key, the image,
 /// rounded up to any flash word (32 bytes at most).
-pub const DATA_BUF: usize = (1 + IMAGE_LEN).next_multiple_of(32);
+pub const DATA_BUF: usize = (1 + IMAGE_MAX).next_multiple_of(32);
 
 /// The flash range is not usable: it must start and end on erase-sector
 /// boundaries and span at least two sectors.
@@ -116,6 +116,7 @@ impl<F: NorFlash> Storage for FlashStorage<F> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::storage::IMAGE_LEN;
     use embassy_futures::block_on;
     use embedded_storage_async::nor_flash::{
         ErrorType, NorFlashError, NorFlashErrorKind, ReadNorFlash,

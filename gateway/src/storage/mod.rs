@@ -1,7 +1,7 @@
 //! Where the configuration and the trigger table are kept.
 //!
-//! The stored image ([`image`]) holds the applied configuration and the
-//! sixteen trigger entries, with a CRC. It is written by the storage task
+//! The stored image ([`image`]) holds the applied configuration, the
+//! sixteen trigger entries and the web password's hash, with a CRC. It is written by the storage task
 //! ([`task`]), one of the gateway's futures, so that a save never stops the
 //! robot link, the watchdog or the Modbus sessions: the medium is driven
 //! through async calls that yield between flash operations.
@@ -22,7 +22,7 @@ pub mod image;
 
 use core::convert::Infallible;
 
-pub use image::{ImageError, IMAGE_LEN};
+pub use image::{ImageError, Stored, IMAGE_LEN, IMAGE_MAX};
 
 /// Why storage failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -102,8 +102,13 @@ struct Current<'a>(&'a crate::hub::Hub);
 
 impl Image for Current<'_> {
     fn write(&self, out: &mut [u8]) -> Result<usize, StorageError> {
-        self.0
-            .with(|m| image::encode(&m.config.active, &m.triggers.entries, out))
+        self.0.with(|m| {
+            let stored = Stored {
+                config: m.config.active,
+                password: m.access.password,
+            };
+            image::encode(&stored, &m.triggers.entries, out)
+        })
     }
 }
 

@@ -152,6 +152,7 @@ impl World {
             modbus_port: MODBUS_PORT,
             defaults,
             robot_override: None,
+            ..Default::default()
         };
         let flag = Arc::new(Flag(AtomicBool::new(true)));
         let waker = Waker::from(flag.clone());
@@ -197,6 +198,7 @@ impl World {
             modbus_port: MODBUS_PORT,
             defaults: self.gateway.hub().with(|m| m.config.factory),
             robot_override: None,
+            ..Default::default()
         };
         self.robot.drop_connections();
         for p in self.plcs.iter_mut() {
@@ -318,6 +320,23 @@ impl World {
             }
             self.turn(end);
         }
+    }
+
+    /// A new Modbus client from `ip` connects; returns its index (for
+    /// [`Self::request`]). Whether the gateway admits it shows in
+    /// [`Self::plc_open`] once the world has run.
+    pub fn connect_plc(&mut self, ip: Ipv4Addr) -> usize {
+        let port = 50000 + self.plcs.len() as u16;
+        if let Some(s) = self.net.connect(SocketAddrV4::new(ip, port), MODBUS_PORT) {
+            self.plcs.push(Plc::new(s));
+        }
+        self.settle();
+        self.plcs.len() - 1
+    }
+
+    /// PLC `i`'s connection is open.
+    pub fn plc_open(&self, i: usize) -> bool {
+        self.plcs.get(i).is_some_and(Plc::is_open)
     }
 
     /// PLC `i` sends `pdu` and waits for the answer (the world runs

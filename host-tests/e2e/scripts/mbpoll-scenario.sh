@@ -13,7 +13,7 @@ set -euo pipefail
 HOST=$1
 PORT=$2
 : "${STATUS_VERSION:=0}"      # register: map version
-: "${VERSION:=257}"           # its value (hans_gateway::registers::MAP_VERSION, 1.1)
+: "${VERSION:=258}"           # its value (hans_gateway::registers::MAP_VERSION, 1.2)
 : "${STATUS_LINK_STATE:=3}"   # register: robot link state, 3 = up
 : "${CH0:=200}"               # channel 0: Execute (CH_CONTROL), code at +1, sequence at +2
 : "${CH0_PARAMS:=204}"        # channel 0: P0 (CH_PARAMS), f32 high word first

@@ -188,6 +188,7 @@ fn gateway_over_two_embassy_net_stacks() {
                 ..hans_gateway::Config::default()
             },
             robot_override: None,
+            ..Default::default()
         };
         let received = RefCell::new(Vec::new());
         let infra = join5(

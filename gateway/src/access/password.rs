@@ -1,0 +1,225 @@
+//! The web password, kept as a salted PBKDF2-HMAC-SHA256 hash.
+//!
+//! The derivation is written here on top of the `hmac` and `sha2` crates
+//! rather than taken from the `pbkdf2` crate, for one reason: it yields to
+//! the executor every [`YIELD_EVERY`] rounds. The [`ITERATIONS`] rounds
+//! take some 100 ms on a Cortex-M7 (more under QEMU), and the robot link,
+//! the watchdog and the Modbus sessions share the executor: they must not
+//! wait that long. The tests check it against the RFC 7914 vectors and the
+//! `pbkdf2` crate.
+
+use hmac::{KeyInit, Mac};
+
+type HmacSha256 = hmac::Hmac<sha2::Sha256>;
+
+/// Bytes of salt.
+pub const SALT_LEN: usize = 16;
+/// Bytes of the derived hash.
+pub const HASH_LEN: usize = 32;
+/// PBKDF2 rounds for new passwords (a stored hash keeps its own count).
+pub const ITERATIONS: u32 = 10_000;
+/// Rounds between two yields to the executor.
+pub const YIELD_EVERY: u32 = 200;
+/// Shortest password accepted.
+pub const MIN_LEN: usize = 8;
+/// Longest password accepted.
+pub const MAX_LEN: usize = 64;
+/// Bytes of [`PasswordHash::to_bytes`].
+pub const STORED_LEN: usize = 4 + SALT_LEN + HASH_LEN;
+
+/// Why a new password is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PasswordError {
+    /// Shorter than [`MIN_LEN`] characters.
+    TooShort,
+    /// Longer than [`MAX_LEN`] characters.
+    TooLong,
+    /// A character outside printable ASCII (space to `~`).
+    NotPrintable,
+}
+
+impl PasswordError {
+    /// A text for the page.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PasswordError::TooShort => "at least 8 characters",
+            PasswordError::TooLong => "at most 64 characters",
+            PasswordError::NotPrintable => "printable ASCII characters only",
+        }
+    }
+}
+
+/// Checks a new password against the rules.
+pub fn check_new(password: &[u8]) -> Result<(), PasswordError> {
+    if password.len() < MIN_LEN {
+        return Err(PasswordError::TooShort);
+    }
+    if password.len() > MAX_LEN {
+        return Err(PasswordError::TooLong);
+    }
+    if !password.iter().all(|b| (b' '..=b'~').contains(b)) {
+        return Err(PasswordError::NotPrintable);
+    }
+    Ok(())
+}
+
+/// A stored password: PBKDF2-HMAC-SHA256 of it with a random salt.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PasswordHash {
+    /// PBKDF2 rounds.
+    pub iterations: u32,
+    /// Random salt.
+    pub salt: [u8; SALT_LEN],
+    /// The derived key.
+    pub hash: [u8; HASH_LEN],
+}
+
+impl PasswordHash {
+    /// Hashes `password` with `salt` (random: from the gateway's generator).
+    pub async fn new(password: &[u8], salt: [u8; SALT_LEN]) -> PasswordHash {
+        PasswordHash {
+            iterations: ITERATIONS,
+            salt,
+            hash: derive(password, &salt, ITERATIONS).await,
+        }
+    }
+
+    /// `true` if `password` is the one hashed. The comparison takes the
+    /// same time wherever the first difference is.
+    pub async fn verify(&self, password: &[u8]) -> bool {
+        if password.len() > MAX_LEN {
+            return false;
+        }
+        let h = derive(password, &self.salt, self.iterations).await;
+        h.iter()
+            .zip(&self.hash)
+            .fold(0u8, |acc, (a, b)| acc | (a ^ b))
+            == 0
+    }
+
+    /// The stored form: rounds (little-endian), salt, hash.
+    pub fn to_bytes(&self) -> [u8; STORED_LEN] {
+        let mut out = [0u8; STORED_LEN];
+        let (it, rest) = out.split_at_mut(4);
+        it.copy_from_slice(&self.iterations.to_le_bytes());
+        let (salt, hash) = rest.split_at_mut(SALT_LEN);
+        salt.copy_from_slice(&self.salt);
+        hash.copy_from_slice(&self.hash);
+        out
+    }
+
+    /// Reads the stored form; `None` if the rounds are 0 or out of reason
+    /// (above 10 × [`ITERATIONS`]: a damaged image must not stall the
+    /// gateway for minutes at each login).
+    pub fn from_bytes(b: &[u8; STORED_LEN]) -> Option<PasswordHash> {
+        let (it, rest) = b.split_at(4);
+        let (salt, hash) = rest.split_at(SALT_LEN);
+        let iterations = u32::from_le_bytes(it.try_into().ok()?);
+        if iterations == 0 || iterations > 10 * ITERATIONS {
+            return None;
+        }
+        Some(PasswordHash {
+            iterations,
+            salt: salt.try_into().ok()?,
+            hash: hash.try_into().ok()?,
+        })
+    }
+}
+
+/// PBKDF2-HMAC-SHA256 with one 32-byte block (RFC 8018, 5.2), yielding
+/// every [`YIELD_EVERY`] rounds.
+pub async fn derive(password: &[u8], salt: &[u8], iterations: u32) -> [u8; HASH_LEN] {
+    // HMAC accepts keys of any length (longer ones are hashed first).
+    let Ok(prf) = HmacSha256::new_from_slice(password) else {
+        return [0; HASH_LEN];
+    };
+    let mut mac = prf.clone();
+    mac.update(salt);
+    mac.update(&1u32.to_be_bytes());
+    let mut u: [u8; HASH_LEN] = mac.finalize().into_bytes().into();
+    let mut t = u;
+    for round in 1..iterations {
+        let mut mac = prf.clone();
+        mac.update(&u);
+        u = mac.finalize().into_bytes().into();
+        for (t, u) in t.iter_mut().zip(&u) {
+            *t ^= u;
+        }
+        if round % YIELD_EVERY == 0 {
+            embassy_futures::yield_now().await;
+        }
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use embassy_futures::block_on;
+
+    fn hex(b: &[u8]) -> std::string::String {
+        b.iter().map(|b| std::format!("{b:02x}")).collect()
+    }
+
+    #[test]
+    fn derivation_matches_the_published_vectors() {
+        // RFC 7914, section 11 (PBKDF2-HMAC-SHA256 test vectors), and the
+        // widely used "password"/"salt" vectors.
+        assert_eq!(
+            hex(&block_on(derive(b"passwd", b"salt", 1))),
+            "55ac046e56e3089fec1691c22544b605f94185216dde0465e68b9d57c20dacbc"
+        );
+        assert_eq!(
+            hex(&block_on(derive(b"password", b"salt", 1))),
+            "120fb6cffcf8b32c43e7225256c4f837a86548c92ccc35480805987cb70be17b"
+        );
+        assert_eq!(
+            hex(&block_on(derive(b"password", b"salt", 4096))),
+            "c5e478d59288c841aa530db6845c4c8d962893a001ce4e11a4963873aa98134a"
+        );
+    }
+
+    #[test]
+    fn derivation_agrees_with_the_pbkdf2_crate() {
+        for (pw, salt, n) in [
+            (&b"x"[..], &b"0123456789abcdef"[..], 3u32),
+            (
+                b"a much longer password than sixty-four bytes, to be hashed first by HMAC!",
+                b"s",
+                201,
+            ),
+            (b"", b"", 2),
+        ] {
+            let mut want = [0u8; HASH_LEN];
+            pbkdf2::pbkdf2_hmac::<sha2::Sha256>(pw, salt, n, &mut want);
+            assert_eq!(block_on(derive(pw, salt, n)), want);
+        }
+    }
+
+    #[test]
+    fn a_hash_verifies_its_password_only_and_survives_storage() {
+        let h = block_on(PasswordHash::new(b"correct horse", [7; SALT_LEN]));
+        assert!(block_on(h.verify(b"correct horse")));
+        assert!(!block_on(h.verify(b"correct hors")));
+        assert!(!block_on(h.verify(b"Correct horse")));
+        let other_salt = block_on(PasswordHash::new(b"correct horse", [8; SALT_LEN]));
+        assert_ne!(h.hash, other_salt.hash);
+        assert_eq!(PasswordHash::from_bytes(&h.to_bytes()), Some(h));
+        let mut bad = h.to_bytes();
+        bad[..4].copy_from_slice(&0u32.to_le_bytes());
+        assert_eq!(PasswordHash::from_bytes(&bad), None);
+    }
+
+    #[test]
+    fn new_passwords_follow_the_rules() {
+        assert_eq!(check_new(b"short"), Err(PasswordError::TooShort));
+        assert_eq!(check_new(&[b'a'; 65]), Err(PasswordError::TooLong));
+        assert_eq!(
+            check_new("pässwörd!".as_bytes()),
+            Err(PasswordError::NotPrintable)
+        );
+        assert_eq!(check_new(b"eight ch"), Ok(()));
+    }
+}

@@ -1,0 +1,66 @@
+//! What the gateway knows of access: the stored password hash, the
+//! network settings it runs with, the refusals it counted.
+
+use crate::access::password::PasswordHash;
+use crate::config::NetConfig;
+use crate::registers::map as r;
+
+/// Access state (register `ACCESS` and the refusal counters; the web
+/// page's access section).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct AccessState {
+    /// The web password's hash, once one is set (saved with the
+    /// configuration).
+    pub password: Option<PasswordHash>,
+    /// The network settings in use since start (the configuration's
+    /// may differ: they take effect at the next start).
+    pub running: NetConfig,
+    /// The network settings come from the configuration on this platform
+    /// (boards); on Linux they are the operating system's and the command
+    /// line's.
+    pub network_managed: bool,
+    /// Started with the factory network and access settings (a board's
+    /// button held at power-up).
+    pub recovery: bool,
+    /// The web page is served.
+    pub web_on: bool,
+    /// Modbus connections refused by the allow-list (wraps).
+    pub modbus_refused: u16,
+    /// Web connections refused by the allow-list (wraps).
+    pub web_refused: u16,
+    /// Modbus writes refused by the write protection (wraps).
+    pub writes_refused: u16,
+}
+
+impl AccessState {
+    /// Nothing refused yet, no password, running with `net`.
+    pub fn new(net: NetConfig) -> Self {
+        AccessState {
+            password: None,
+            running: net,
+            network_managed: false,
+            recovery: false,
+            web_on: false,
+            modbus_refused: 0,
+            web_refused: 0,
+            writes_refused: 0,
+        }
+    }
+
+    /// The `ACCESS` register, given the active configuration's network
+    /// settings and write protection.
+    pub fn flags(&self, net: &NetConfig, write_protect: bool) -> u16 {
+        let b = |on: bool, bit: u16| if on { bit } else { 0 };
+        b(write_protect, r::ACCESS_WRITE_PROTECTED)
+            | b(self.password.is_some(), r::ACCESS_PASSWORD_SET)
+            | b(self.restart_pending(net), r::ACCESS_RESTART_PENDING)
+            | b(self.recovery, r::ACCESS_RECOVERY)
+            | b(self.web_on, r::ACCESS_WEB_ON)
+    }
+
+    /// The configured network settings differ from the running ones (on
+    /// platforms where they apply).
+    pub fn restart_pending(&self, net: &NetConfig) -> bool {
+        self.network_managed && *net != self.running
+    }
+}
