@@ -22,11 +22,23 @@
 //! A pose is `X, Y, Z` in mm and `Rx, Ry, Rz` in degrees, the rotation being
 //! `Rz(Rz)·Ry(Ry)·Rx(Rx)` (fixed-axis roll-pitch-yaw), as every example of
 //! the document agrees. At `Ry = ±90°` (gimbal lock) `Rx` is reported as 0.
+//!
+//! # What is nalgebra's and what is ours
+//! Rotations, quaternions, vectors, rigid transforms ([`Frame`]) and
+//! spherical interpolation are nalgebra's. Ours: the arm (link lengths,
+//! [`forward`], [`inverse`]), the document's pose convention ([`PoseFrame`],
+//! [`rot_to_rpy`]: `Rx` = 0 at gimbal lock, +180 rather than -180) and the
+//! one sign of a quaternion the controller prints ([`rot_to_quat`]).
 
-/// A 3×3 rotation matrix, row-major.
-pub type Mat3 = [[f64; 3]; 3];
-/// A position or direction.
-pub type Vec3 = [f64; 3];
+use nalgebra::{Matrix3, Quaternion, Rotation3, Translation3, UnitQuaternion, Vector3};
+
+/// A rotation (nalgebra's 3×3 rotation matrix).
+pub type Rotation = Rotation3<f64>;
+/// A position or direction (mm).
+pub type Vec3 = Vector3<f64>;
+/// A rigid transform, rotation then translation (nalgebra's isometry with
+/// a rotation matrix). [`PoseFrame`] converts it to and from a pose.
+pub type Frame = nalgebra::IsometryMatrix3<f64>;
 /// `X, Y, Z` (mm), `Rx, Ry, Rz` (°).
 pub type Pose = [f64; 6];
 /// Six joint angles (°).
@@ -62,292 +74,140 @@ fn clean(v: f64) -> f64 {
 }
 
 /// Rotation about X by `a` degrees.
-pub fn rot_x(a: f64) -> Mat3 {
-    let (s, c) = rad(a).sin_cos();
-    [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
+pub fn rot_x(a: f64) -> Rotation {
+    Rotation::from_axis_angle(&Vec3::x_axis(), rad(a))
 }
 
 /// Rotation about Y by `a` degrees.
-pub fn rot_y(a: f64) -> Mat3 {
-    let (s, c) = rad(a).sin_cos();
-    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+pub fn rot_y(a: f64) -> Rotation {
+    Rotation::from_axis_angle(&Vec3::y_axis(), rad(a))
 }
 
 /// Rotation about Z by `a` degrees.
-pub fn rot_z(a: f64) -> Mat3 {
-    let (s, c) = rad(a).sin_cos();
-    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+pub fn rot_z(a: f64) -> Rotation {
+    Rotation::from_axis_angle(&Vec3::z_axis(), rad(a))
 }
 
-/// `a · b`.
-pub fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
-    let mut m = [[0.0; 3]; 3];
-    for (i, row) in m.iter_mut().enumerate() {
-        for (j, cell) in row.iter_mut().enumerate() {
-            *cell = (0..3).map(|k| a[i][k] * b[k][j]).sum();
-        }
-    }
-    m
+/// The frame of a rotation and a position.
+pub fn frame_at(r: Rotation, p: Vec3) -> Frame {
+    Frame::from_parts(Translation3::from(p), r)
 }
 
-/// `m · v`.
-pub fn mat_vec(m: &Mat3, v: &Vec3) -> Vec3 {
-    [
-        m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
-        m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
-        m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
-    ]
+/// The rotation of roll-pitch-yaw angles (°): `Rz(rz)·Ry(ry)·Rx(rx)`
+/// (nalgebra's Euler angles are this convention).
+pub fn rpy_to_rot(rx: f64, ry: f64, rz: f64) -> Rotation {
+    Rotation::from_euler_angles(rad(rx), rad(ry), rad(rz))
 }
 
-/// The transpose (= inverse of a rotation).
-pub fn transpose(m: &Mat3) -> Mat3 {
-    let mut t = [[0.0; 3]; 3];
-    for (i, row) in m.iter().enumerate() {
-        for (j, v) in row.iter().enumerate() {
-            t[j][i] = *v;
-        }
-    }
-    t
-}
-
-fn add(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-}
-
-fn sub(a: Vec3, b: Vec3) -> Vec3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn scale(a: Vec3, k: f64) -> Vec3 {
-    [a[0] * k, a[1] * k, a[2] * k]
-}
-
-fn dot(a: Vec3, b: Vec3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: Vec3, b: Vec3) -> Vec3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn norm(a: Vec3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn unit(a: Vec3) -> Option<Vec3> {
-    let n = norm(a);
-    (n > EPS).then(|| scale(a, 1.0 / n))
-}
-
-/// The rotation of roll-pitch-yaw angles (°): `Rz(rz)·Ry(ry)·Rx(rx)`.
-pub fn rpy_to_mat(rx: f64, ry: f64, rz: f64) -> Mat3 {
-    mat_mul(&rot_z(rz), &mat_mul(&rot_y(ry), &rot_x(rx)))
-}
-
-/// Roll-pitch-yaw angles (°) of a rotation, each in -180..=180, `ry` in
-/// -90..=90; `rx = 0` at gimbal lock.
-pub fn mat_to_rpy(m: &Mat3) -> [f64; 3] {
-    let sy = (-m[2][0]).clamp(-1.0, 1.0);
+/// Roll-pitch-yaw angles (°) of a rotation as the controller prints them:
+/// each in -180..=180, `ry` in -90..=90, `rx = 0` at gimbal lock, and
+/// +180 rather than -180 where rounding noise would decide the sign. (The
+/// document's convention, so not nalgebra's `euler_angles`, which puts the
+/// angle in `rx` at gimbal lock.)
+pub fn rot_to_rpy(r: &Rotation) -> [f64; 3] {
+    let m = r.matrix();
+    let sy = (-m[(2, 0)]).clamp(-1.0, 1.0);
     if sy.abs() > 1.0 - 1e-10 {
         let ry = if sy > 0.0 { 90.0 } else { -90.0 };
-        let rz = deg(clean(-m[0][1]).atan2(clean(m[1][1])));
+        let rz = deg(clean(-m[(0, 1)]).atan2(clean(m[(1, 1)])));
         [0.0, ry, rz]
     } else {
         let ry = deg(sy.asin());
-        let rx = deg(clean(m[2][1]).atan2(clean(m[2][2])));
-        let rz = deg(clean(m[1][0]).atan2(clean(m[0][0])));
+        let rx = deg(clean(m[(2, 1)]).atan2(clean(m[(2, 2)])));
+        let rz = deg(clean(m[(1, 0)]).atan2(clean(m[(0, 0)])));
         [rx, ry, rz]
     }
 }
 
-/// A unit quaternion `[w, x, y, z]` of a rotation (w >= 0).
-pub fn mat_to_quat(m: &Mat3) -> [f64; 4] {
-    let tr = m[0][0] + m[1][1] + m[2][2];
-    let q = if tr > 0.0 {
-        let s = (tr + 1.0).sqrt() * 2.0;
-        [
-            0.25 * s,
-            (m[2][1] - m[1][2]) / s,
-            (m[0][2] - m[2][0]) / s,
-            (m[1][0] - m[0][1]) / s,
-        ]
-    } else if m[0][0] > m[1][1] && m[0][0] > m[2][2] {
-        let s = (1.0 + m[0][0] - m[1][1] - m[2][2]).sqrt() * 2.0;
-        [
-            (m[2][1] - m[1][2]) / s,
-            0.25 * s,
-            (m[0][1] + m[1][0]) / s,
-            (m[0][2] + m[2][0]) / s,
-        ]
-    } else if m[1][1] > m[2][2] {
-        let s = (1.0 + m[1][1] - m[0][0] - m[2][2]).sqrt() * 2.0;
-        [
-            (m[0][2] - m[2][0]) / s,
-            (m[0][1] + m[1][0]) / s,
-            0.25 * s,
-            (m[1][2] + m[2][1]) / s,
-        ]
-    } else {
-        let s = (1.0 + m[2][2] - m[0][0] - m[1][1]).sqrt() * 2.0;
-        [
-            (m[1][0] - m[0][1]) / s,
-            (m[0][2] + m[2][0]) / s,
-            (m[1][2] + m[2][1]) / s,
-            0.25 * s,
-        ]
-    };
-    let q = if q[0] < 0.0 {
-        [-q[0], -q[1], -q[2], -q[3]]
-    } else {
-        q
-    };
-    q.map(clean)
+/// The unit quaternion `[w, x, y, z]` of a rotation, with one sign chosen
+/// for the two that describe it: `w > 0`, or for a half turn (`w = 0`) its
+/// largest component positive.
+pub fn rot_to_quat(r: &Rotation) -> [f64; 4] {
+    let q = UnitQuaternion::from_rotation_matrix(r);
+    let mut v = [q.w, q.i, q.j, q.k];
+    let largest = v[1..]
+        .iter()
+        .copied()
+        .fold(0.0_f64, |m, x| if x.abs() > m.abs() { x } else { m });
+    if v[0] < -EPS || (v[0].abs() <= EPS && largest < 0.0) {
+        v = v.map(|x| -x);
+    }
+    v.map(clean)
 }
 
-/// The rotation of a quaternion `[w, x, y, z]`; `None` for a zero quaternion.
-/// Quaternions that are not unit length are normalised first.
-pub fn quat_to_mat(q: [f64; 4]) -> Option<Mat3> {
-    let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+/// The rotation of a quaternion `[w, x, y, z]`; `None` for a zero (or not
+/// finite) quaternion. Quaternions that are not unit length are normalised.
+pub fn quat_to_rot(q: [f64; 4]) -> Option<Rotation> {
+    let [w, x, y, z] = q;
+    let q = Quaternion::new(w, x, y, z);
+    let n = q.norm();
     if n < EPS || !n.is_finite() {
         return None;
     }
-    let [w, x, y, z] = q.map(|v| v / n);
-    Some([
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ])
+    Some(UnitQuaternion::from_quaternion(q).to_rotation_matrix())
 }
 
-/// The angle (°, 0..=180) of a rotation.
-pub fn rotation_angle(m: &Mat3) -> f64 {
-    let c = ((m[0][0] + m[1][1] + m[2][2] - 1.0) / 2.0).clamp(-1.0, 1.0);
-    deg(c.acos())
+/// The angle (°, 0..=180) of a rotation (through its quaternion, which
+/// stays exact near 0° and 180° where the matrix trace does not).
+pub fn rotation_angle(r: &Rotation) -> f64 {
+    deg(UnitQuaternion::from_rotation_matrix(r).angle())
 }
 
-/// Spherical interpolation between two rotations (`t` = 0 gives `a`).
-pub fn slerp(a: &Mat3, b: &Mat3, t: f64) -> Mat3 {
-    let qa = mat_to_quat(a);
-    let mut qb = mat_to_quat(b);
-    let mut d: f64 = qa.iter().zip(&qb).map(|(x, y)| x * y).sum();
-    if d < 0.0 {
-        qb = qb.map(|v| -v);
-        d = -d;
-    }
-    let q = if d > 0.9995 {
-        let mut q = [0.0; 4];
-        for i in 0..4 {
-            q[i] = qa[i] + t * (qb[i] - qa[i]);
-        }
-        q
-    } else {
-        let th = d.clamp(-1.0, 1.0).acos();
-        let (s0, s1) = (((1.0 - t) * th).sin(), (t * th).sin());
-        let s = th.sin();
-        let mut q = [0.0; 4];
-        for i in 0..4 {
-            q[i] = (s0 * qa[i] + s1 * qb[i]) / s;
-        }
-        q
-    };
-    quat_to_mat(q).unwrap_or(*a)
+/// The angle (°) of the rotation from `a` to `b`.
+pub fn angle_between(a: &Rotation, b: &Rotation) -> f64 {
+    rotation_angle(&(a.inverse() * b))
 }
 
-/// A rigid transform: rotation then translation.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
-    /// Rotation.
-    pub r: Mat3,
-    /// Translation (mm).
-    pub p: Vec3,
+/// Spherical interpolation between two rotations (`t` = 0 gives `a`), the
+/// short way round.
+pub fn slerp(a: &Rotation, b: &Rotation, t: f64) -> Rotation {
+    let qa = UnitQuaternion::from_rotation_matrix(a);
+    let qb = UnitQuaternion::from_rotation_matrix(b);
+    // `None` when the two are (nearly) equal: then the straight line is
+    // the same.
+    qa.try_slerp(&qb, t, 1e-12)
+        .unwrap_or_else(|| qa.nlerp(&qb, t))
+        .to_rotation_matrix()
 }
 
-impl Frame {
-    /// The identity.
-    pub const IDENTITY: Frame = Frame {
-        r: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        p: [0.0; 3],
-    };
-
+/// A frame from a pose and back: the pose convention of the document
+/// (`Rz·Ry·Rx` roll-pitch-yaw in degrees, see [`rot_to_rpy`]).
+pub trait PoseFrame {
     /// The frame of a pose.
-    pub fn from_pose(p: &Pose) -> Frame {
-        Frame {
-            r: rpy_to_mat(p[3], p[4], p[5]),
-            p: [p[0], p[1], p[2]],
-        }
-    }
-
+    fn from_pose(p: &Pose) -> Self;
     /// The pose of this frame.
-    pub fn to_pose(&self) -> Pose {
-        let [rx, ry, rz] = mat_to_rpy(&self.r);
-        [
-            clean(self.p[0]),
-            clean(self.p[1]),
-            clean(self.p[2]),
-            rx,
-            ry,
-            rz,
-        ]
+    fn to_pose(&self) -> Pose;
+}
+
+impl PoseFrame for Frame {
+    fn from_pose(p: &Pose) -> Frame {
+        frame_at(rpy_to_rot(p[3], p[4], p[5]), Vec3::new(p[0], p[1], p[2]))
     }
 
-    /// `self · o`.
-    pub fn mul(&self, o: &Frame) -> Frame {
-        Frame {
-            r: mat_mul(&self.r, &o.r),
-            p: add(mat_vec(&self.r, &o.p), self.p),
-        }
-    }
-
-    /// The inverse transform.
-    pub fn inverse(&self) -> Frame {
-        let rt = transpose(&self.r);
-        Frame {
-            r: rt,
-            p: scale(mat_vec(&rt, &self.p), -1.0),
-        }
+    fn to_pose(&self) -> Pose {
+        let [rx, ry, rz] = rot_to_rpy(&self.rotation);
+        let p = &self.translation.vector;
+        [clean(p.x), clean(p.y), clean(p.z), rx, ry, rz]
     }
 }
 
 /// The flange frame of joint angles, in the base frame.
 pub fn forward(q: &Joints) -> Frame {
     let r1 = rot_z(q[0]);
-    let r12 = mat_mul(&r1, &rot_y(q[1]));
-    let r13 = mat_mul(&r1, &rot_y(q[1] + q[2]));
-    let r = mat_mul(
-        &r13,
-        &mat_mul(&rot_z(q[3]), &mat_mul(&rot_y(q[4]), &rot_z(q[5]))),
-    );
-    let mut p = [0.0, 0.0, D1];
-    p = add(p, mat_vec(&r12, &[0.0, 0.0, L2]));
-    p = add(p, mat_vec(&r13, &[0.0, 0.0, L3]));
-    p = add(p, mat_vec(&r, &[0.0, 0.0, L6]));
-    Frame { r, p }
+    let r12 = r1 * rot_y(q[1]);
+    let r13 = r1 * rot_y(q[1] + q[2]);
+    let r = r13 * rot_z(q[3]) * rot_y(q[4]) * rot_z(q[5]);
+    let p = Vec3::new(0.0, 0.0, D1)
+        + r12 * Vec3::new(0.0, 0.0, L2)
+        + r13 * Vec3::new(0.0, 0.0, L3)
+        + r * Vec3::new(0.0, 0.0, L6);
+    frame_at(r, p)
 }
 
 /// The TCP pose of joints `q` with tool `tcp`, in user frame `ucs`
 /// (`inv(UCS)·F(q)·TCP`): what `GetForwardKin` and `ReadActPos` report.
 pub fn forward_pose(q: &Joints, tcp: &Pose, ucs: &Pose) -> Pose {
-    Frame::from_pose(ucs)
-        .inverse()
-        .mul(&forward(q))
-        .mul(&Frame::from_pose(tcp))
-        .to_pose()
+    (Frame::from_pose(ucs).inverse() * forward(q) * Frame::from_pose(tcp)).to_pose()
 }
 
 /// Joint limits, degrees: `min[i] <= q[i] <= max[i]`.
@@ -396,15 +256,15 @@ fn wrap_near(a: f64, reference: f64, min: f64, max: f64) -> Option<f64> {
 /// difference, then the sum). `None` when the frame is out of reach or no
 /// solution is inside the limits.
 pub fn inverse(target: &Frame, reference: &Joints, limits: &Limits) -> Option<Joints> {
-    let z = [target.r[0][2], target.r[1][2], target.r[2][2]];
-    let w = sub(target.p, scale(z, L6));
-    let rho = (w[0] * w[0] + w[1] * w[1]).sqrt();
-    let h = w[2] - D1;
+    let z = target.rotation * Vec3::z();
+    let w = target.translation.vector - z * L6;
+    let rho = (w.x * w.x + w.y * w.y).sqrt();
+    let h = w.z - D1;
     let mut best: Option<(f64, f64, Joints)> = None;
     let base_q1 = if rho < 1e-6 {
         rad(reference[0])
     } else {
-        w[1].atan2(w[0])
+        w.y.atan2(w.x)
     };
     for flip in [false, true] {
         let q1 = if flip {
@@ -421,23 +281,23 @@ pub fn inverse(target: &Frame, reference: &Joints, limits: &Limits) -> Option<Jo
         for elbow in [1.0, -1.0] {
             let q3 = elbow * c3.acos();
             let q2 = r.atan2(h) - (L3 * q3.sin()).atan2(L2 + L3 * q3.cos());
-            let r03 = mat_mul(&rot_z(deg(q1)), &rot_y(deg(q2 + q3)));
-            let m = mat_mul(&transpose(&r03), &target.r);
-            let sb = (m[0][2] * m[0][2] + m[1][2] * m[1][2]).sqrt();
+            let r03 = rot_z(deg(q1)) * rot_y(deg(q2 + q3));
+            let m = (r03.inverse() * target.rotation).into_inner();
+            let sb = (m[(0, 2)] * m[(0, 2)] + m[(1, 2)] * m[(1, 2)]).sqrt();
             let wrists: Vec<(f64, f64, f64)> = if sb < 1e-9 {
                 // q5 = 0 or 180: only q4 ± q6 is determined; keep q4.
                 let q4 = rad(reference[3]);
-                if m[2][2] > 0.0 {
-                    let q46 = m[1][0].atan2(m[0][0]);
+                if m[(2, 2)] > 0.0 {
+                    let q46 = m[(1, 0)].atan2(m[(0, 0)]);
                     vec![(q4, 0.0, q46 - q4)]
                 } else {
-                    let q46 = (-m[1][0]).atan2(-m[0][0]);
+                    let q46 = (-m[(1, 0)]).atan2(-m[(0, 0)]);
                     vec![(q4, std::f64::consts::PI, q4 - q46)]
                 }
             } else {
-                let b = sb.atan2(m[2][2]);
-                let a = m[1][2].atan2(m[0][2]);
-                let c = m[2][1].atan2(-m[2][0]);
+                let b = sb.atan2(m[(2, 2)]);
+                let a = m[(1, 2)].atan2(m[(0, 2)]);
+                let c = m[(2, 1)].atan2(-m[(2, 0)]);
                 let pi = std::f64::consts::PI;
                 vec![(a, b, c), (a + pi, -b, c + pi)]
             };
@@ -473,8 +333,8 @@ pub fn inverse(target: &Frame, reference: &Joints, limits: &Limits) -> Option<Jo
     let q = best.map(|(_, _, q)| q)?;
     // Guard against numerical trouble: the solution must reproduce the target.
     let f = forward(&q);
-    (norm(sub(f.p, target.p)) < 1e-3
-        && rotation_angle(&mat_mul(&transpose(&f.r), &target.r)) < 1e-3)
+    (distance(&f.translation.vector, &target.translation.vector) < 1e-3
+        && angle_between(&f.rotation, &target.rotation) < 1e-3)
         .then_some(q)
 }
 
@@ -482,10 +342,10 @@ pub fn inverse(target: &Frame, reference: &Joints, limits: &Limits) -> Option<Jo
 /// (`840,200,890,0,0,0` for the document's example).
 pub fn pose_add(a: &Pose, b: &Pose) -> Pose {
     let (fa, fb) = (Frame::from_pose(a), Frame::from_pose(b));
-    Frame {
-        r: mat_mul(&fb.r, &fa.r),
-        p: add(fa.p, fb.p),
-    }
+    frame_at(
+        fb.rotation * fa.rotation,
+        fa.translation.vector + fb.translation.vector,
+    )
     .to_pose()
 }
 
@@ -493,16 +353,16 @@ pub fn pose_add(a: &Pose, b: &Pose) -> Pose {
 /// rotation relative to the second (`R2ᵀ·R1`).
 pub fn pose_sub(a: &Pose, b: &Pose) -> Pose {
     let (fa, fb) = (Frame::from_pose(a), Frame::from_pose(b));
-    Frame {
-        r: mat_mul(&transpose(&fb.r), &fa.r),
-        p: sub(fa.p, fb.p),
-    }
+    frame_at(
+        fb.rotation.inverse() * fa.rotation,
+        fa.translation.vector - fb.translation.vector,
+    )
     .to_pose()
 }
 
 /// `PoseTrans`: pose 2 expressed in frame pose 1 (`P1·P2`).
 pub fn pose_trans(a: &Pose, b: &Pose) -> Pose {
-    Frame::from_pose(a).mul(&Frame::from_pose(b)).to_pose()
+    (Frame::from_pose(a) * Frame::from_pose(b)).to_pose()
 }
 
 /// `PoseInverse`: the inverse transform.
@@ -515,8 +375,8 @@ pub fn pose_inverse(a: &Pose) -> Pose {
 pub fn pose_dist(a: &Pose, b: &Pose) -> (f64, f64) {
     let (fa, fb) = (Frame::from_pose(a), Frame::from_pose(b));
     (
-        norm(sub(fa.p, fb.p)),
-        rotation_angle(&mat_mul(&transpose(&fa.r), &fb.r)),
+        distance(&fa.translation.vector, &fb.translation.vector),
+        angle_between(&fa.rotation, &fb.rotation),
     )
 }
 
@@ -524,90 +384,82 @@ pub fn pose_dist(a: &Pose, b: &Pose) -> (f64, f64) {
 /// interpolation between the orientations.
 pub fn pose_interpolate(a: &Pose, b: &Pose, t: f64) -> Pose {
     let (fa, fb) = (Frame::from_pose(a), Frame::from_pose(b));
-    Frame {
-        r: slerp(&fa.r, &fb.r, t),
-        p: add(fa.p, scale(sub(fb.p, fa.p), t)),
-    }
-    .to_pose()
+    let (pa, pb) = (fa.translation.vector, fb.translation.vector);
+    frame_at(slerp(&fa.rotation, &fb.rotation, t), pa + (pb - pa) * t).to_pose()
 }
 
 /// An orthonormal frame from three points: origin `a`, X towards `b`, Z
 /// normal to the plane `a, b, c`.
 fn frame_of(a: Vec3, b: Vec3, c: Vec3) -> Option<Frame> {
-    let x = unit(sub(b, a))?;
-    let z = unit(cross(x, sub(c, a)))?;
-    let y = cross(z, x);
-    Some(Frame {
-        r: [[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]],
-        p: a,
-    })
+    let x = unit(b - a)?;
+    let z = unit(x.cross(&(c - a)))?;
+    let y = z.cross(&x);
+    let r = Rotation::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z]));
+    Some(frame_at(r, a))
 }
 
 /// `PoseDefdFrame`: points 1-3 are features before a rotation, 4-6 the same
 /// features after it. The result is the user frame `M⁻¹`, where `M` is the
 /// rigid motion taking 1-3 onto 4-6 (this reproduces the document's
 /// example `420,-445,25,0,-90,-90`). `None` if a triangle is degenerate.
-pub fn pose_defd_frame(p: &[Vec3; 6]) -> Option<Pose> {
-    let before = frame_of(p[0], p[1], p[2])?;
-    let after = frame_of(p[3], p[4], p[5])?;
-    let motion = after.mul(&before.inverse());
+pub fn pose_defd_frame(p: &[[f64; 3]; 6]) -> Option<Pose> {
+    let v = p.map(Vec3::from);
+    let before = frame_of(v[0], v[1], v[2])?;
+    let after = frame_of(v[3], v[4], v[5])?;
+    let motion = after * before.inverse();
     Some(motion.inverse().to_pose())
 }
 
 /// `Base2UcsTcp`: a flange pose in the base frame as a TCP pose in `ucs`
 /// (`inv(UCS)·P·TCP`).
 pub fn base_to_ucs_tcp(p: &Pose, tcp: &Pose, ucs: &Pose) -> Pose {
-    Frame::from_pose(ucs)
-        .inverse()
-        .mul(&Frame::from_pose(p))
-        .mul(&Frame::from_pose(tcp))
-        .to_pose()
+    (Frame::from_pose(ucs).inverse() * Frame::from_pose(p) * Frame::from_pose(tcp)).to_pose()
 }
 
 /// `UcsTcp2Base`: a TCP pose in `ucs` as a flange pose in the base frame
 /// (`UCS·P·inv(TCP)`), the inverse of [`base_to_ucs_tcp`].
 pub fn ucs_tcp_to_base(p: &Pose, tcp: &Pose, ucs: &Pose) -> Pose {
-    Frame::from_pose(ucs)
-        .mul(&Frame::from_pose(p))
-        .mul(&Frame::from_pose(tcp).inverse())
-        .to_pose()
+    (Frame::from_pose(ucs) * Frame::from_pose(p) * Frame::from_pose(tcp).inverse()).to_pose()
 }
 
 /// The flange frame that puts the TCP `tcp` at `pose` in user frame `ucs`.
 pub fn flange_of(pose: &Pose, tcp: &Pose, ucs: &Pose) -> Frame {
-    Frame::from_pose(ucs)
-        .mul(&Frame::from_pose(pose))
-        .mul(&Frame::from_pose(tcp).inverse())
+    Frame::from_pose(ucs) * Frame::from_pose(pose) * Frame::from_pose(tcp).inverse()
 }
 
 /// Distance between two positions.
-pub fn distance(a: Vec3, b: Vec3) -> f64 {
-    norm(sub(a, b))
+pub fn distance(a: &Vec3, b: &Vec3) -> f64 {
+    (a - b).norm()
 }
 
-/// A point on the circle through `a`, `b`, `c`: returns centre, radius,
-/// the in-plane unit vectors `u` (towards `a`) and `v`, and the angle from
-/// `a` to `c` passing through `b` (radians, positive). `None` when the points
-/// are collinear.
+fn unit(a: Vec3) -> Option<Vec3> {
+    let n = a.norm();
+    (n > EPS).then(|| a / n)
+}
+
+/// The circle through `a`, `b`, `c`: returns centre, radius, the in-plane
+/// unit vectors `u` (towards `a`) and `v`, and the angle from `a` to `c`
+/// passing through `b` (radians, positive). `None` when the points are
+/// collinear.
 pub fn circle_through(a: Vec3, b: Vec3, c: Vec3) -> Option<(Vec3, f64, Vec3, Vec3, f64)> {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let n = cross(ab, ac);
-    let nn = dot(n, n);
+    let ab = b - a;
+    let ac = c - a;
+    let n = ab.cross(&ac);
+    let nn = n.dot(&n);
     if nn < 1e-6 {
         return None;
     }
     // Circumcentre: a + (|ac|²(n×ab) + |ab|²(ac×n)) / (2|n|²)
-    let t1 = scale(cross(n, ab), dot(ac, ac));
-    let t2 = scale(cross(ac, n), dot(ab, ab));
-    let centre = add(a, scale(add(t1, t2), 1.0 / (2.0 * nn)));
-    let radius = norm(sub(a, centre));
-    let u = unit(sub(a, centre))?;
+    let t1 = n.cross(&ab) * ac.dot(&ac);
+    let t2 = ac.cross(&n) * ab.dot(&ab);
+    let centre = a + (t1 + t2) / (2.0 * nn);
+    let radius = (a - centre).norm();
+    let u = unit(a - centre)?;
     let nz = unit(n)?;
-    let v = cross(nz, u);
+    let v = nz.cross(&u);
     let angle_of = |p: Vec3| {
-        let d = sub(p, centre);
-        let ang = dot(d, v).atan2(dot(d, u));
+        let d = p - centre;
+        let ang = d.dot(&v).atan2(d.dot(&u));
         if ang < 0.0 {
             ang + 2.0 * std::f64::consts::PI
         } else {
@@ -619,10 +471,7 @@ pub fn circle_through(a: Vec3, b: Vec3, c: Vec3) -> Option<(Vec3, f64, Vec3, Vec
 
 /// The point at angle `t` (radians) on a circle from [`circle_through`].
 pub fn circle_point(centre: Vec3, radius: f64, u: Vec3, v: Vec3, t: f64) -> Vec3 {
-    add(
-        centre,
-        add(scale(u, radius * t.cos()), scale(v, radius * t.sin())),
-    )
+    centre + u * (radius * t.cos()) + v * (radius * t.sin())
 }
 
 #[cfg(test)]
@@ -725,11 +574,44 @@ mod tests {
 
     #[test]
     fn quaternions_round_trip() {
-        let m = rpy_to_mat(180.0, 0.0, 180.0);
-        let q = mat_to_quat(&m);
+        let m = rpy_to_rot(180.0, 0.0, 180.0);
+        let q = rot_to_quat(&m);
         assert!(close(&q, &[0.0, 0.0, 1.0, 0.0], 1e-9), "{q:?}");
-        let back = mat_to_rpy(&quat_to_mat(q).unwrap());
+        let back = rot_to_rpy(&quat_to_rot(q).unwrap());
         assert!(same_angle(back[0], 180.0) && same_angle(back[2], 180.0));
-        assert!(quat_to_mat([0.0; 4]).is_none());
+        assert!(quat_to_rot([0.0; 4]).is_none());
+        assert!(quat_to_rot([f64::NAN, 0.0, 0.0, 1.0]).is_none());
+        // A half turn about -Y is written with its largest component positive.
+        let q = rot_to_quat(&rot_y(-180.0));
+        assert!(close(&q, &[0.0, 0.0, 1.0, 0.0], 1e-9), "{q:?}");
+        let q = rot_to_quat(&rot_z(-90.0));
+        assert!(q[0] > 0.0 && q[3] < 0.0, "{q:?}");
+    }
+
+    #[test]
+    fn rpy_is_rz_ry_rx_and_reads_back() {
+        for (rx, ry, rz) in [(10.0, 20.0, 30.0), (-170.0, 80.0, 5.0), (180.0, 0.0, 180.0)] {
+            let m = rpy_to_rot(rx, ry, rz);
+            let by_hand = rot_z(rz) * rot_y(ry) * rot_x(rx);
+            assert!(angle_between(&m, &by_hand) < 1e-9);
+            let back = rot_to_rpy(&m);
+            assert!(angle_between(&rpy_to_rot(back[0], back[1], back[2]), &m) < 1e-9);
+        }
+        // Gimbal lock: the document's convention puts 0 in Rx.
+        let [rx, ry, _] = rot_to_rpy(&rpy_to_rot(30.0, 90.0, 10.0));
+        assert_eq!((rx, ry), (0.0, 90.0));
+    }
+
+    #[test]
+    fn angles_and_slerp_stay_exact_at_the_extremes() {
+        let a = rot_z(0.0);
+        assert!(angle_between(&a, &rot_z(1e-7)) > 0.0);
+        assert!((angle_between(&a, &rot_z(180.0)) - 180.0).abs() < 1e-9);
+        let half = slerp(&a, &rot_z(90.0), 0.5);
+        assert!(angle_between(&half, &rot_z(45.0)) < 1e-9);
+        // The short way round, and equal ends give that rotation.
+        let mid = slerp(&rot_z(170.0), &rot_z(-170.0), 0.5);
+        assert!(angle_between(&mid, &rot_z(180.0)) < 1e-9);
+        assert!(angle_between(&slerp(&a, &a, 0.3), &a) < 1e-12);
     }
 }

@@ -11,16 +11,16 @@ use crate::kinematics as k;
 
 impl Robot {
     pub(super) fn quaternion_to_rpy(&self, c: &rq::Quaternion2RPY) -> Outcome<'_> {
-        let m = k::quat_to_mat(fs(c.quaternion)).ok_or(PARAM)?;
+        let m = k::quat_to_rot(fs(c.quaternion)).ok_or(PARAM)?;
         values(rs::Quaternion2RPY {
-            rpy: decs(k::mat_to_rpy(&m)),
+            rpy: decs(k::rot_to_rpy(&m)),
         })
     }
 
     pub(super) fn rpy_to_quaternion(&self, c: &rq::RPY2Quaternion) -> Outcome<'_> {
         let [rx, ry, rz] = fs(c.rpy);
         values(rs::RPY2Quaternion {
-            quaternion: decs(k::mat_to_quat(&k::rpy_to_mat(rx, ry, rz))),
+            quaternion: decs(k::rot_to_quat(&k::rpy_to_rot(rx, ry, rz))),
         })
     }
 

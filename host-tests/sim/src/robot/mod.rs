@@ -65,7 +65,7 @@ use std::time::Duration;
 
 use hans_codec::FsmState;
 
-use crate::kinematics::{self as k, Joints, Limits, Pose};
+use crate::kinematics::{self as k, Joints, Limits, Pose, PoseFrame};
 use io::Io;
 use queue::{MoveKind, Planned, Segment, Speed};
 use stage::Stage;

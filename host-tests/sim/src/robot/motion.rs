@@ -93,17 +93,17 @@ impl Path {
         limits: &Limits,
     ) -> Result<Path, PlanError> {
         let tcp_inv = tcp.inverse();
-        let from = k::forward(&start).mul(tcp);
+        let from = k::forward(&start) * tcp;
         let mut frames = vec![from];
         frames.extend_from_slice(waypoints);
         let legs: Vec<f64> = frames
             .windows(2)
             .map(|w| {
-                let d = k::distance(w[0].p, w[1].p);
+                let d = k::distance(&w[0].translation.vector, &w[1].translation.vector);
                 if d > 1e-3 {
                     d
                 } else {
-                    k::rotation_angle(&k::mat_mul(&k::transpose(&w[0].r), &w[1].r))
+                    k::angle_between(&w[0].rotation, &w[1].rotation)
                 }
             })
             .collect();
@@ -126,15 +126,10 @@ impl Path {
                     1.0
                 };
                 let (a, b) = (&frames[leg], &frames[leg + 1]);
-                let tcp_frame = Frame {
-                    r: k::slerp(&a.r, &b.r, f),
-                    p: [
-                        a.p[0] + (b.p[0] - a.p[0]) * f,
-                        a.p[1] + (b.p[1] - a.p[1]) * f,
-                        a.p[2] + (b.p[2] - a.p[2]) * f,
-                    ],
-                };
-                let flange = tcp_frame.mul(&tcp_inv);
+                let (pa, pb) = (a.translation.vector, b.translation.vector);
+                let tcp_frame =
+                    k::frame_at(k::slerp(&a.rotation, &b.rotation, f), pa + (pb - pa) * f);
+                let flange = tcp_frame * tcp_inv;
                 let next = k::inverse(&flange, &q, limits).ok_or(PlanError::Unreachable)?;
                 // A jump means the solution flipped (a singularity): the
                 // controller would refuse such a straight line too.
@@ -309,6 +304,7 @@ impl Profile {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::PoseFrame;
 
     #[test]
     fn trapezoid_reaches_the_end_at_the_computed_time() {
@@ -354,16 +350,16 @@ mod tests {
     fn cartesian_line_keeps_the_tcp_on_the_line() {
         let start = [0.0, 0.0, 90.0, 0.0, 90.0, 0.0];
         let goal = Frame::from_pose(&[420.0, 100.0, 445.0, 180.0, 0.0, 180.0]);
-        let path = Path::cartesian(start, &[goal], &Frame::IDENTITY, &Limits::default()).unwrap();
+        let path = Path::cartesian(start, &[goal], &Frame::identity(), &Limits::default()).unwrap();
         assert!((path.length() - 100.0).abs() < 1e-9);
-        let mid = k::forward(&path.at(50.0)).p;
+        let mid = k::forward(&path.at(50.0)).translation.vector;
         assert!(
             (mid[0] - 420.0).abs() < 1e-6 && (mid[1] - 50.0).abs() < 1e-6,
             "{mid:?}"
         );
         let far = Frame::from_pose(&[2000.0, 0.0, 445.0, 180.0, 0.0, 180.0]);
         assert_eq!(
-            Path::cartesian(start, &[far], &Frame::IDENTITY, &Limits::default()),
+            Path::cartesian(start, &[far], &Frame::identity(), &Limits::default()),
             Err(PlanError::Unreachable)
         );
     }

@@ -10,7 +10,7 @@ use super::motion::Path;
 use super::shapes::{arc_frames, spiral_frames, zigzag_frames};
 use super::values::{f, fs, idx};
 use super::{MoveKind, Planned, Robot, Speed};
-use crate::kinematics::{self as k, Frame, Joints, Pose};
+use crate::kinematics::{self as k, Frame, Joints, Pose, PoseFrame, Vec3};
 
 /// Speed and acceleration of the relative moves (`MoveRelJ`, `MoveRelL`),
 /// which carry none: joints (°/s, °/s²) and linear (mm/s, mm/s²).
@@ -105,7 +105,7 @@ impl Robot {
 
     /// The TCP frame (base) where the next move starts, for tool `tcp`.
     pub(super) fn start_tcp_frame(&self, tcp: &Pose) -> Frame {
-        k::forward(&self.plan_start()).mul(&Frame::from_pose(tcp))
+        k::forward(&self.plan_start()) * Frame::from_pose(tcp)
     }
 
     /// The TCP frame `delta` away from `start` along or about one axis:
@@ -113,22 +113,13 @@ impl Robot {
     /// rotations about the TCP point.
     pub(super) fn shifted_frame(&self, start: &Frame, delta: &Pose, tool: bool) -> Frame {
         if tool {
-            return start.mul(&Frame::from_pose(delta));
+            return start * Frame::from_pose(delta);
         }
-        let ucs = Frame::from_pose(&self.ucs);
-        let mut r = Frame::IDENTITY;
-        r.r = Frame::from_pose(&[0.0, 0.0, 0.0, delta[3], delta[4], delta[5]]).r;
-        let r_base = ucs.r;
-        let rot = k::mat_mul(&r_base, &k::mat_mul(&r.r, &k::transpose(&r_base)));
-        let shift = k::mat_vec(&r_base, &[delta[0], delta[1], delta[2]]);
-        Frame {
-            r: k::mat_mul(&rot, &start.r),
-            p: [
-                start.p[0] + shift[0],
-                start.p[1] + shift[1],
-                start.p[2] + shift[2],
-            ],
-        }
+        // The rotation about the user frame's axes, applied at the TCP.
+        let ucs = Frame::from_pose(&self.ucs).rotation;
+        let turn = ucs * k::rpy_to_rot(delta[3], delta[4], delta[5]) * ucs.inverse();
+        let shift = ucs * Vec3::new(delta[0], delta[1], delta[2]);
+        k::frame_at(turn * start.rotation, start.translation.vector + shift)
     }
 
     /// A way-point style move: joint (`linear == false`) or linear.
@@ -149,7 +140,7 @@ impl Robot {
     ) -> Outcome<'static> {
         self.need_motion(now)?;
         let plan = if linear {
-            let target = Frame::from_pose(&ucs).mul(&Frame::from_pose(pose));
+            let target = Frame::from_pose(&ucs) * Frame::from_pose(pose);
             self.linear_move(&[target], &tcp, v, a, Some(cmd_id), seek)?
         } else {
             let target = if use_joint {
@@ -223,7 +214,7 @@ impl Robot {
                     p[i] = if add { p[i] + target[i] } else { target[i] };
                 }
             }
-            let frame = Frame::from_pose(&ucs).mul(&Frame::from_pose(&p));
+            let frame = Frame::from_pose(&ucs) * Frame::from_pose(&p);
             let plan = self.linear_move(&[frame], &tcp, v, a, Some(c.cmd_id), seek)?;
             self.accept(plan, now)
         }
@@ -271,8 +262,8 @@ impl Robot {
             self.need_motion(now)?;
             let u = Frame::from_pose(&ucs);
             let start = self.start_tcp_frame(&tcp);
-            let aux = u.mul(&Frame::from_pose(&fs(c.aux_pose)));
-            let end = u.mul(&Frame::from_pose(&fs(c.end_pose)));
+            let aux = u * Frame::from_pose(&fs(c.aux_pose));
+            let end = u * Frame::from_pose(&fs(c.end_pose));
             let frames = arc_frames(&start, &aux, &end, false, 1.0, false).ok_or(PARAM)?;
             let plan =
                 self.linear_move(&frames, &tcp, f(c.velocity), f(c.acc), Some(c.cmd_id), seek)?;
@@ -334,9 +325,9 @@ impl Robot {
         self.need_motion(now)?;
         let tcp = self.tcp_named(c.tcp_name)?;
         let ucs = Frame::from_pose(&self.ucs_named(c.ucs_name)?);
-        let start = ucs.mul(&Frame::from_pose(&fs(c.start)));
-        let aux = ucs.mul(&Frame::from_pose(&fs(c.aux)));
-        let end = ucs.mul(&Frame::from_pose(&fs(c.end)));
+        let start = ucs * Frame::from_pose(&fs(c.start));
+        let aux = ucs * Frame::from_pose(&fs(c.aux));
+        let end = ucs * Frame::from_pose(&fs(c.end));
         let turns = f(c.rad_len).trunc().max(1.0);
         let mut frames = vec![start];
         frames.extend(
@@ -359,9 +350,9 @@ impl Robot {
         self.need_motion(now)?;
         let tcp = self.tcp_named(c.tcp_name)?;
         let ucs = Frame::from_pose(&self.ucs_named(c.ucs_name)?);
-        let start = ucs.mul(&Frame::from_pose(&fs(c.start)));
-        let end = ucs.mul(&Frame::from_pose(&fs(c.end)));
-        let plane = (c.enable_plane == 1).then(|| ucs.mul(&Frame::from_pose(&fs(c.plane))));
+        let start = ucs * Frame::from_pose(&fs(c.start));
+        let end = ucs * Frame::from_pose(&fs(c.end));
+        let plane = (c.enable_plane == 1).then(|| ucs * Frame::from_pose(&fs(c.plane)));
         let pitch = if c.enable_density == 1 && f(c.density) > 0.0 {
             f(c.density)
         } else {
@@ -380,15 +371,15 @@ impl Robot {
         let ucs = Frame::from_pose(&self.ucs_named(c.ucs_name)?);
         let mut frames: Vec<Frame> = [c.p1, c.p2, c.p3, c.p4, c.p5]
             .iter()
-            .map(|p| ucs.mul(&Frame::from_pose(&fs(*p))))
+            .map(|p| ucs * Frame::from_pose(&fs(*p)))
             .collect();
         if c.orient_mode == 1 {
             frames.push(frames[0]);
         }
         if c.move_type == 1 {
-            let r = frames[0].r;
+            let r = frames[0].rotation;
             for fr in &mut frames {
-                fr.r = r;
+                fr.rotation = r;
             }
         }
         let plan =

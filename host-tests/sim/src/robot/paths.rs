@@ -17,7 +17,7 @@ use super::values::{f, fs};
 use super::{
     reached, MoveKind, Planned, Robot, Speed, Track, MAX_PATHS, MAX_PATH_POINTS, MAX_QUEUE,
 };
-use crate::kinematics::Frame;
+use crate::kinematics::{Frame, PoseFrame};
 
 /// A path that is not ready to run.
 pub(super) const PATH_NOT_READY: i32 = 20042;
@@ -211,11 +211,7 @@ impl Robot {
         };
         self.need_motion(now)?;
         let u = Frame::from_pose(&tr.ucs);
-        let frames: Vec<Frame> = tr
-            .points
-            .iter()
-            .map(|p| u.mul(&Frame::from_pose(p)))
-            .collect();
+        let frames: Vec<Frame> = tr.points.iter().map(|p| u * Frame::from_pose(p)).collect();
         let mut plan = self.linear_move(&frames, &tr.tcp, tr.vel, tr.acc, None, None)?;
         plan.kind = MoveKind::PathL(tr.points.len());
         let dwell = Planned {

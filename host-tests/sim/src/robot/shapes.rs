@@ -2,7 +2,9 @@
 //! `WayPoint2`), zig-zags (`MoveZ`) and spirals (`MoveS`), as TCP frames
 //! for a Cartesian path. Approximations: the document gives no formulas.
 
-use crate::kinematics::{self as k, Frame};
+use std::f64::consts::PI;
+
+use crate::kinematics::{self as k, Frame, Vec3};
 
 /// TCP frames along an arc from `start` through `aux` to `end` (the start
 /// itself excluded), or `turns` full circles when `full`. Orientation is
@@ -15,26 +17,24 @@ pub(super) fn arc_frames(
     turns: f64,
     fixed: bool,
 ) -> Option<Vec<Frame>> {
-    let (c, r, u, v, ang) = k::circle_through(start.p, aux.p, end.p)?;
-    let total = if full {
-        turns * 2.0 * std::f64::consts::PI
-    } else {
-        ang
-    };
+    let (c, r, u, v, ang) = k::circle_through(
+        start.translation.vector,
+        aux.translation.vector,
+        end.translation.vector,
+    )?;
+    let total = if full { turns * 2.0 * PI } else { ang };
     let n = ((total * r / 5.0).ceil() as usize).clamp(8, 720);
     Some(
         (1..=n)
             .map(|i| {
                 let t = total * i as f64 / n as f64;
                 let frac = i as f64 / n as f64;
-                Frame {
-                    r: if fixed {
-                        start.r
-                    } else {
-                        k::slerp(&start.r, &end.r, frac)
-                    },
-                    p: k::circle_point(c, r, u, v, t),
-                }
+                let rot = if fixed {
+                    start.rotation
+                } else {
+                    k::slerp(&start.rotation, &end.rotation, frac)
+                };
+                k::frame_at(rot, k::circle_point(c, r, u, v, t))
             })
             .collect(),
     )
@@ -51,44 +51,29 @@ pub(super) fn zigzag_frames(
     width: f64,
     pitch: f64,
 ) -> Option<Vec<Frame>> {
-    let d = [
-        end.p[0] - start.p[0],
-        end.p[1] - start.p[1],
-        end.p[2] - start.p[2],
-    ];
-    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let from = start.translation.vector;
+    let d = end.translation.vector - from;
+    let len = d.norm();
     if len < 1e-6 {
         return None;
     }
-    let dir = [d[0] / len, d[1] / len, d[2] / len];
+    let dir = d / len;
     let normal = match plane {
         Some(p) => {
-            let w = [
-                p.p[0] - start.p[0],
-                p.p[1] - start.p[1],
-                p.p[2] - start.p[2],
-            ];
-            let n = [
-                dir[1] * w[2] - dir[2] * w[1],
-                dir[2] * w[0] - dir[0] * w[2],
-                dir[0] * w[1] - dir[1] * w[0],
-            ];
-            let nn = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let n = dir.cross(&(p.translation.vector - from));
+            let nn = n.norm();
             if nn < 1e-6 {
                 return None;
             }
-            [n[0] / nn, n[1] / nn, n[2] / nn]
+            n / nn
         }
-        None => [ucs.r[0][2], ucs.r[1][2], ucs.r[2][2]],
+        None => ucs.rotation * Vec3::z(),
     };
     // Sideways direction: in the plane, across the travel.
-    let side = [
-        normal[1] * dir[2] - normal[2] * dir[1],
-        normal[2] * dir[0] - normal[0] * dir[2],
-        normal[0] * dir[1] - normal[1] * dir[0],
-    ];
+    let side = normal.cross(&dir);
     let n = ((len / pitch.max(0.1)).ceil() as usize).clamp(1, 500);
     let mut frames = Vec::with_capacity(n + 1);
+    frames.push(*start);
     for i in 1..=n {
         let t = i as f64 / n as f64;
         let off = if i == n {
@@ -98,18 +83,12 @@ pub(super) fn zigzag_frames(
         } else {
             -width / 2.0
         };
-        frames.push(Frame {
-            r: k::slerp(&start.r, &end.r, t),
-            p: [
-                start.p[0] + d[0] * t + side[0] * off,
-                start.p[1] + d[1] * t + side[1] * off,
-                start.p[2] + d[2] * t + side[2] * off,
-            ],
-        });
+        frames.push(k::frame_at(
+            k::slerp(&start.rotation, &end.rotation, t),
+            from + d * t + side * off,
+        ));
     }
-    let mut all = vec![*start];
-    all.extend(frames);
-    Some(all)
+    Some(frames)
 }
 
 /// An Archimedean spiral in the user frame's XY plane around the start:
@@ -122,27 +101,21 @@ pub(super) fn spiral_frames(
     end_radius: f64,
 ) -> (Vec<Frame>, f64, f64) {
     let turns = ((end_radius - 1.0) / incr.max(1e-3)).clamp(0.0, 200.0);
-    let total = turns * 2.0 * std::f64::consts::PI;
+    let total = turns * 2.0 * PI;
     let n = ((turns * 72.0).ceil() as usize).clamp(2, 3000);
-    let (ux, uy) = (
-        [ucs.r[0][0], ucs.r[1][0], ucs.r[2][0]],
-        [ucs.r[0][1], ucs.r[1][1], ucs.r[2][1]],
-    );
+    let (ux, uy) = (ucs.rotation * Vec3::x(), ucs.rotation * Vec3::y());
+    let centre = start.translation.vector;
     let mut frames = Vec::with_capacity(n);
     let mut length = 0.0;
-    let mut prev = start.p;
+    let mut prev = centre;
     for i in 0..=n {
         let th = total * i as f64 / n as f64;
-        let r = 1.0 + incr * th / (2.0 * std::f64::consts::PI);
+        let r = 1.0 + incr * th / (2.0 * PI);
         let (s, c) = th.sin_cos();
-        let p = [
-            start.p[0] + r * (c * ux[0] + s * uy[0]),
-            start.p[1] + r * (c * ux[1] + s * uy[1]),
-            start.p[2] + r * (c * ux[2] + s * uy[2]),
-        ];
-        length += k::distance(prev, p);
+        let p = centre + (ux * c + uy * s) * r;
+        length += k::distance(&prev, &p);
         prev = p;
-        frames.push(Frame { r: start.r, p });
+        frames.push(k::frame_at(start.rotation, p));
     }
     (frames, length, total.to_degrees())
 }

@@ -9,7 +9,7 @@ use super::{reached, Robot, Script, Stage};
 /// The `ReadRobotState` flags.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Flags {
-    /// `nMovingState` (lags the motion by [`Timing::moving_flag_lag`]).
+    /// `nMovingState` (lags the motion by [`Timing::moving_flag_lag`](super::Timing::moving_flag_lag)).
     pub moving: bool,
     /// `nEnableState`.
     pub enabled: bool,
