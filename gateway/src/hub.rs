@@ -147,14 +147,22 @@ impl Hub {
                 return None;
             }
             m.sessions = m.sessions.saturating_add(1);
+            if let Some(p) = peer {
+                // One slot per session: always room.
+                let _ = m.modbus_peers.push(p);
+            }
             Some(m.sessions)
         })
     }
 
-    /// An admitted Modbus client left; returns how many are connected.
-    pub fn leave_modbus(&self) -> u16 {
+    /// The admitted Modbus client at `peer` left; returns how many are
+    /// connected.
+    pub fn leave_modbus(&self, peer: Option<SocketAddrV4>) -> u16 {
         self.with(|m| {
             m.sessions = m.sessions.saturating_sub(1);
+            if let Some(i) = m.modbus_peers.iter().position(|p| Some(*p) == peer) {
+                m.modbus_peers.swap_remove(i);
+            }
             m.sessions
         })
     }
@@ -205,7 +213,7 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
         self.hub.admit_modbus(peer)
     }
 
-    fn leave(&self) -> u16 {
-        self.hub.leave_modbus()
+    fn leave(&self, peer: Option<SocketAddrV4>) -> u16 {
+        self.hub.leave_modbus(peer)
     }
 }

@@ -59,8 +59,8 @@ pub trait Registers {
     /// clients connected now), `None` when the allow-list refuses it (the
     /// server closes the connection at once, without a reply).
     fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16>;
-    /// An admitted client left; returns how many are connected.
-    fn leave(&self) -> u16;
+    /// The admitted client at `peer` left; returns how many are connected.
+    fn leave(&self, peer: Option<SocketAddrV4>) -> u16;
 }
 
 /// What a write started that its answer waits for (for the gateway: a
@@ -145,7 +145,7 @@ pub async fn session<S: Socket, C: Clock, R: Registers>(
         }
         serve(regs, clock, &mut sock).await;
         sock.close().await;
-        let n = regs.leave();
+        let n = regs.leave(peer);
         info!("modbus: client disconnected ({} left)", n);
     }
 }
@@ -618,8 +618,8 @@ mod tests {
         fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
             self.0.admit_modbus(peer)
         }
-        fn leave(&self) -> u16 {
-            self.0.leave_modbus()
+        fn leave(&self, peer: Option<SocketAddrV4>) -> u16 {
+            self.0.leave_modbus(peer)
         }
     }
 

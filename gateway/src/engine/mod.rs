@@ -42,6 +42,7 @@ use crate::hub::Hub;
 use crate::job::{Gate, Job, JobKind, Message, Source, Urgent};
 use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
+use crate::state::history::LogEvent;
 use crate::state::LinkState;
 use bringup::{StepWait, Verdict};
 use motion::{Judgement, Motion, MOTION_POLL};
@@ -243,7 +244,8 @@ impl<C: Clock> Engine<'_, C> {
     }
 
     fn end(&self, source: Source, outcome: Outcome) {
-        self.hub.with(|m| m.finish(source, outcome));
+        let now = self.clock.now();
+        self.hub.with(|m| m.finish(source, outcome, now));
     }
 
     fn deadline(&self) -> Instant {
@@ -267,10 +269,12 @@ impl<C: Clock> Engine<'_, C> {
                     "robot link: the controller connected again; new connection replaces the old"
                 );
                 let peer = link.peer().map(|p| *p.ip());
+                let now = self.clock.now();
                 self.hub.with(|m| {
                     // Maybe from another address: the DataSheet follows.
                     m.link.peer = peer;
                     m.link.connects = m.link.connects.wrapping_add(1);
+                    m.log.link(LogEvent::LinkUp(peer), now);
                 });
             }
             _ => {}
@@ -301,8 +305,9 @@ impl<C: Clock> Engine<'_, C> {
 
     /// The link is down: connect, listen, or wait out the backoff.
     async fn bring_up<S: Socket>(&mut self, link: &mut Link<S>) {
-        self.hub.with(|m| m.fail_queue(GatewayError::NotConnected));
         let now = self.clock.now();
+        self.hub
+            .with(|m| m.fail_queue(GatewayError::NotConnected, now));
         let wake = &self.hub.wake;
         match self.target {
             Target::None => {
@@ -361,10 +366,12 @@ impl<C: Clock> Engine<'_, C> {
             info!("robot link: up");
         }
         let peer = link.peer().map(|p| *p.ip());
+        let now = self.clock.now();
         self.hub.with(|m| {
             m.link.state = LinkState::Connected;
             m.link.peer = peer;
             m.link.connects = m.link.connects.wrapping_add(1);
+            m.log.link(LogEvent::LinkUp(peer), now);
         });
         if self.config.status_source == StatusSource::Polling {
             self.round = Some(0);
@@ -378,15 +385,17 @@ impl<C: Clock> Engine<'_, C> {
         let motion = self.motion.take();
         let pending = self.pending.take();
         self.round = None;
+        let now = self.clock.now();
         self.hub.with(|m| {
             let lost = Outcome::gateway(GatewayError::LinkLost);
             if let Some(mo) = motion {
-                m.finish(mo.source, lost);
+                m.finish(mo.source, lost, now);
             }
             if let Some(p) = pending {
-                m.finish(p.job.source, lost);
+                m.finish(p.job.source, lost, now);
             }
-            m.fail_queue(GatewayError::LinkLost);
+            m.fail_queue(GatewayError::LinkLost, now);
+            m.log.link(LogEvent::LinkDown(cause), now);
             // No controller is connected now (listen mode: the DataSheet
             // follows the next one, from wherever it connects).
             m.link.peer = None;
@@ -436,9 +445,13 @@ impl<C: Clock> Engine<'_, C> {
                 core::str::from_utf8(self.buf.get(..msg.len).unwrap_or(&[])).unwrap_or("?")
             );
             last = msg.id;
-            self.hub.with(|m| m.note_send(source));
+            let sent = self.buf.get(..msg.len).unwrap_or(&[]);
+            self.hub.with(|m| m.note_send(source, sent));
             let outcome = match self.transact(link, msg.len).await {
-                Ok(text) => self.on_reply(&job, &msg, text),
+                Ok(text) => {
+                    self.hub.with(|m| m.note_reply(source, text.as_bytes()));
+                    self.on_reply(&job, &msg, text)
+                }
                 Err(GatewayError::BadReply) => Some(Outcome::gateway(GatewayError::BadReply)),
                 Err(cause) => {
                     let own = match cause {
@@ -493,11 +506,12 @@ impl<C: Clock> Engine<'_, C> {
             // MC_Stop: the running motion and every motion still waiting
             // end in CommandAborted; waiting non-motion commands go on.
             let stopped = self.motion.take();
+            let now = self.clock.now();
             self.hub.with(|m| {
                 if let Some(mo) = stopped {
-                    m.finish(mo.source, Outcome::Aborted);
+                    m.finish(mo.source, Outcome::Aborted, now);
                 }
-                m.abort_queued_motions();
+                m.abort_queued_motions(now);
             });
         }
         self.end(source, Outcome::Done);
@@ -775,11 +789,12 @@ impl<C: Clock> Engine<'_, C> {
         };
         let source = mo.source;
         self.motion = None;
+        let now = self.clock.now();
         self.hub.with(|m| {
-            m.finish(source, Outcome::gateway(GatewayError::Watchdog));
+            m.finish(source, Outcome::gateway(GatewayError::Watchdog), now);
             // As a Stop: the motions waiting behind it are not sent (and
             // nothing may start behind a held motion).
-            m.abort_queued_motions();
+            m.abort_queued_motions(now);
         });
         self.send_internal(link, urgent).await;
     }

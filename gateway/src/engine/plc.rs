@@ -32,7 +32,7 @@ pub fn apply(m: &mut Model, ev: &PlcEvents, now: Instant) -> bool {
     let mut queued = false;
     for edge in &ev.edges {
         match *edge {
-            Edge::Rose(source) => queued |= fire(m, source),
+            Edge::Rose(source) => queued |= fire(m, source, now),
             Edge::Fell(source) => m.release(source),
         }
     }
@@ -89,28 +89,29 @@ fn build(m: &Model, source: Source) -> (u16, u16, Result<Job, GatewayError>) {
     }
 }
 
-/// A rising edge: fires the source unless it is Busy. `true` if queued.
-pub fn fire(m: &mut Model, source: Source) -> bool {
+/// A rising edge at `now`: fires the source unless it is Busy. `true` if
+/// queued.
+pub fn fire(m: &mut Model, source: Source, now: Instant) -> bool {
     if m.is_busy(source) {
         // PLCopen: a new edge while Busy is ignored.
         return false;
     }
     let (seq, code, job) = build(m, source);
-    m.start(source, seq, code);
+    m.start(source, seq, code, now);
     let job = match job {
         Ok(j) => j,
         Err(e) => {
-            m.finish(source, Outcome::gateway(e));
+            m.finish(source, Outcome::gateway(e), now);
             return false;
         }
     };
     if !m.link.is_up() {
-        m.finish(source, Outcome::gateway(GatewayError::NotConnected));
+        m.finish(source, Outcome::gateway(GatewayError::NotConnected), now);
         return false;
     }
     info!("{} {}: queued", source.name(), source.index());
     if let Err(job) = m.queue.push(job) {
-        m.finish(job.source, Outcome::gateway(GatewayError::QueueFull));
+        m.finish(job.source, Outcome::gateway(GatewayError::QueueFull), now);
         return false;
     }
     true

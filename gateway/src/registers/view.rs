@@ -509,16 +509,21 @@ mod tests {
     #[test]
     fn handshakes_read_as_status_words() {
         let mut m = model();
-        m.start(Source::Raw, 4, 0);
+        m.start(Source::Raw, 4, 0, now());
         assert_eq!(read(&m, r::RAW_STATUS, now()), r::ST_BUSY | r::ST_QUEUED);
         assert_eq!(read(&m, r::RAW_SEQ_ECHO, now()), 4);
-        m.finish(Source::Raw, Outcome::Error(ErrorSource::RobotFail, 20018));
+        m.finish(
+            Source::Raw,
+            Outcome::Error(ErrorSource::RobotFail, 20018),
+            now(),
+        );
         assert_eq!(read(&m, r::RAW_ERROR_ID + 1, now()), 20018);
         assert_eq!(read(&m, r::RAW_ERROR_SOURCE, now()), 1);
-        m.start(Source::Trigger(2), 0, 0);
+        m.start(Source::Trigger(2), 0, 0, now());
         m.finish(
             Source::Trigger(5),
             Outcome::gateway(GatewayError::TriggerEmpty),
+            now(),
         );
         assert_eq!(read(&m, r::TRIG_BUSY, now()), 1 << 2);
         assert_eq!(read(&m, r::TRIG_ERROR, now()), 1 << 5);

@@ -13,6 +13,7 @@
 
 pub mod access;
 pub mod handshake;
+pub mod history;
 pub mod inputs;
 pub mod robot;
 
@@ -138,8 +139,12 @@ pub struct Model {
     pub ticks: u16,
     /// Modbus clients connected.
     pub sessions: u16,
+    /// Their addresses.
+    pub modbus_peers: heapless::Vec<core::net::SocketAddrV4, { crate::MAX_SESSIONS }>,
     /// Password, network settings in use, refusals.
     pub access: AccessState,
+    /// The last commands and link events.
+    pub log: history::CommandLog,
 }
 
 impl Model {
@@ -171,7 +176,9 @@ impl Model {
             active_motion: None,
             ticks: 0,
             sessions: 0,
+            modbus_peers: heapless::Vec::new(),
             access: AccessState::new(config.net),
+            log: history::CommandLog::default(),
         }
     }
 
@@ -200,9 +207,10 @@ impl Model {
         self.handshake(source).is_some_and(Handshake::is_busy)
     }
 
-    /// A rising edge: Busy and Queued, echoes latched, the last command's
-    /// results and reply forgotten.
-    pub fn start(&mut self, source: Source, seq: u16, code: u16) {
+    /// A rising edge at `now`: Busy and Queued, echoes latched, the last
+    /// command's results and reply forgotten; logged.
+    pub fn start(&mut self, source: Source, seq: u16, code: u16, now: Instant) {
+        self.log.started(source, code, now);
         match source {
             Source::Channel(i) => {
                 if let Some(c) = self.channels.get_mut(usize::from(i)) {
@@ -224,8 +232,9 @@ impl Model {
         }
     }
 
-    /// A message of the source's command goes to the robot.
-    pub fn note_send(&mut self, source: Source) {
+    /// A message of the source's command (`text`) goes to the robot.
+    pub fn note_send(&mut self, source: Source, text: &[u8]) {
+        self.log.sent(source, text);
         if let Some(h) = self.handshake_mut(source) {
             h.sends = h.sends.saturating_add(1);
         }
@@ -239,9 +248,15 @@ impl Model {
         self.active_motion = Some(source);
     }
 
-    /// Ends a source's command (Busy off, exactly one outcome on) and logs
-    /// it. Its motion, if it ran one, no longer runs.
-    pub fn finish(&mut self, source: Source, outcome: Outcome) {
+    /// The robot replied `text` to the source's command.
+    pub fn note_reply(&mut self, source: Source, text: &[u8]) {
+        self.log.replied(source, text);
+    }
+
+    /// Ends a source's command at `now` (Busy off, exactly one outcome on)
+    /// and logs it. Its motion, if it ran one, no longer runs.
+    pub fn finish(&mut self, source: Source, outcome: Outcome, now: Instant) {
+        self.log.ended(source, outcome, now);
         if self.active_motion == Some(source) {
             self.active_motion = None;
         }
@@ -268,18 +283,18 @@ impl Model {
         }
     }
 
-    /// Ends every queued command with gateway error `e`.
-    pub fn fail_queue(&mut self, e: GatewayError) {
+    /// Ends every queued command with gateway error `e` at `now`.
+    pub fn fail_queue(&mut self, e: GatewayError, now: Instant) {
         for source in self.queue.drain_sources() {
-            self.finish(source, Outcome::gateway(e));
+            self.finish(source, Outcome::gateway(e), now);
         }
     }
 
-    /// A stop ended the motions: every motion still waiting in the queue
-    /// ends in CommandAborted and is never sent.
-    pub fn abort_queued_motions(&mut self) {
+    /// A stop ended the motions at `now`: every motion still waiting in
+    /// the queue ends in CommandAborted and is never sent.
+    pub fn abort_queued_motions(&mut self, now: Instant) {
         for source in self.queue.take_motions() {
-            self.finish(source, Outcome::Aborted);
+            self.finish(source, Outcome::Aborted, now);
         }
     }
 
@@ -305,7 +320,7 @@ mod tests {
 
     fn queued(m: &mut Model, source: Source, t: &str) {
         let (kind, robot) = text::build(t.as_bytes()).unwrap();
-        m.start(source, 1, 0);
+        m.start(source, 1, 0, Instant::from_ticks(0));
         m.queue
             .push(Job {
                 source,
@@ -326,7 +341,8 @@ mod tests {
             Source::Trigger(3),
             "WayPoint,0,0,0,0,0,0,0,0,0,0,0,0,0,TCP,Base,1,1,0,0,1,0,0,0,x,;",
         );
-        m.abort_queued_motions();
+        let t = Instant::from_ticks(0);
+        m.abort_queued_motions(t);
         let phase = |m: &Model, s| m.handshake(s).unwrap().phase;
         assert_eq!(
             phase(&m, Source::Channel(0)),
@@ -337,7 +353,7 @@ mod tests {
             Phase::Ended(Outcome::Aborted)
         );
         assert_eq!(phase(&m, Source::Raw), Phase::Queued);
-        m.fail_queue(GatewayError::LinkLost);
+        m.fail_queue(GatewayError::LinkLost, t);
         assert_eq!(
             phase(&m, Source::Raw),
             Phase::Ended(Outcome::Error(ErrorSource::Gateway, 39601))
@@ -345,7 +361,7 @@ mod tests {
         assert!(m.queue.is_empty());
         m.set_moving(Source::Channel(1));
         assert_eq!(m.active_motion, Some(Source::Channel(1)));
-        m.finish(Source::Channel(1), Outcome::Done);
+        m.finish(Source::Channel(1), Outcome::Done, t);
         assert_eq!(m.active_motion, None);
     }
 }
