@@ -9,6 +9,8 @@
 
 extern crate std;
 
+pub mod config_file;
+
 use core::net::{Ipv4Addr, SocketAddrV4};
 use std::io;
 use std::path::PathBuf;

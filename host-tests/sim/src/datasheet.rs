@@ -200,7 +200,11 @@ mod tests {
 
     #[test]
     fn a_sheet_round_trips_through_the_codec() {
-        let mut r = Robot::new(Timing::default(), Initial::StandBy);
+        let mut r = Robot::new(
+            Timing::default(),
+            Initial::StandBy,
+            hans_codec::ProtocolLevel::V6,
+        );
         r.update(0.0);
         let snap = r.snapshot(0.0);
         let sheet = sheet_of(&snap);

@@ -84,12 +84,13 @@ use std::sync::atomic::AtomicUsize;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use hans_codec::CommandId;
 use tokio::sync::{mpsc, watch};
 use tokio::task::JoinHandle;
 
 pub use clock::{Clock, ClockMode};
 pub use faults::{Fault, FaultRule, Faults};
-pub use hans_codec::FsmState;
+pub use hans_codec::{FsmState, ProtocolLevel};
 pub use robot::io::Io;
 pub use robot::{Flags, Initial, RobotError, Snapshot, Timing, MAX_QUEUE};
 
@@ -128,6 +129,19 @@ pub struct Config {
     pub connect_out: Option<SocketAddr>,
     /// Fault rules in force from the start.
     pub faults: Vec<FaultRule>,
+    /// The protocol level the simulated controller speaks: which commands
+    /// it knows (the codec's level data) and the form of a few replies. At
+    /// [`ProtocolLevel::V5`] (HR-TCP V1.0.0.3) it answers the V6 document's
+    /// commands `Fail,20005`, as an old controller does; at
+    /// [`ProtocolLevel::V6`] (`HR6.6.1`, the default) the commands the V6
+    /// document removed (`MoveJ`, `MoveL`, `MoveE`, HR-TCP's path commands).
+    /// Any controller version between works too (`ProtocolLevel::parse`).
+    pub protocol: ProtocolLevel,
+    /// The fast command port (V6 document 3.2: 10001 on a controller),
+    /// which serves the commands the document marks as fast (state reads,
+    /// kinematics); 0 picks a free one (the default here). It listens only
+    /// at levels that have `ReadFastCmdPort` (from `HR6.5.1`); `None`: never.
+    pub fast_port: Option<u16>,
 }
 
 impl Default for Config {
@@ -150,6 +164,8 @@ impl Default for Config {
             reboot_time: Duration::from_secs(2),
             connect_out: None,
             faults: Vec::new(),
+            protocol: ProtocolLevel::V6,
+            fast_port: Some(0),
         }
     }
 }
@@ -186,6 +202,7 @@ fn datasheet_period(i: usize) -> Duration {
 pub struct Sim {
     shared: Arc<Shared>,
     command_addr: SocketAddr,
+    fast_addr: Option<SocketAddr>,
     datasheet_addrs: Vec<SocketAddr>,
     tasks: Vec<JoinHandle<()>>,
 }
@@ -201,9 +218,18 @@ impl Sim {
             let l = server::bind(SocketAddr::new(config.host, p))?;
             ds.push((l.local_addr()?, l));
         }
-        let mut robot = robot::Robot::new(config.timing, config.initial);
+        // The fast port, where the level has it.
+        let fast = match config.fast_port {
+            Some(p) if CommandId::ReadFastCmdPort.available_at(config.protocol) => {
+                let l = server::bind(SocketAddr::new(config.host, p))?;
+                Some((l.local_addr()?, l))
+            }
+            _ => None,
+        };
+        let mut robot = robot::Robot::new(config.timing, config.initial, config.protocol);
         robot.model = config.model.clone();
         robot.script_functions = config.script_functions.clone();
+        robot.fast_port = fast.as_ref().map(|(a, _)| a.port());
         let (refuse_tx, refuse_rx) = mpsc::channel(8);
         let faults = Faults::default();
         for r in &config.faults {
@@ -228,6 +254,13 @@ impl Sim {
             command,
             refuse_rx,
         ))];
+        let fast_addr = match fast {
+            Some((addr, l)) => {
+                tasks.push(tokio::spawn(server::fast_accept_loop(shared.clone(), l)));
+                Some(addr)
+            }
+            None => None,
+        };
         let mut datasheet_addrs = Vec::new();
         for (i, (addr, l)) in ds.into_iter().enumerate() {
             datasheet_addrs.push(addr);
@@ -240,6 +273,7 @@ impl Sim {
         let sim = Sim {
             shared,
             command_addr,
+            fast_addr,
             datasheet_addrs,
             tasks,
         };
@@ -255,6 +289,17 @@ impl Sim {
     /// The command port's address.
     pub fn command_addr(&self) -> SocketAddr {
         self.command_addr
+    }
+
+    /// The fast command port's address, when it listens (see
+    /// [`Config::fast_port`]).
+    pub fn fast_addr(&self) -> Option<SocketAddr> {
+        self.fast_addr
+    }
+
+    /// The protocol level the simulator speaks.
+    pub fn protocol(&self) -> ProtocolLevel {
+        self.with_robot(|r, _| r.level)
     }
 
     /// The DataSheet ports' addresses (20, 10, 5 Hz).

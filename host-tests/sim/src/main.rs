@@ -3,6 +3,7 @@
 //! ```text
 //! hans-sim [--host 127.0.0.1] [--command-port 10003]
 //!          [--datasheet-ports 10004,10005,10006] [--ready] [--speed 1.0]
+//!          [--protocol v6] [--fast-port 10001]
 //!          [--connect HOST:PORT] [--fault SPEC]... [--model 5KG]
 //! ```
 //! Prints one line per listener when ready, e.g.
@@ -13,7 +14,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::Parser;
-use hans_sim::{ClockMode, Config, FaultRule, Initial, Sim, Timing};
+use hans_sim::{ClockMode, Config, FaultRule, Initial, ProtocolLevel, Sim, Timing};
 
 /// Prints one status line. A closed stdout (its reader stopped reading) is
 /// no reason to stop serving, so a failed write is ignored where `println!`
@@ -68,6 +69,18 @@ struct Args {
     /// Robot model returned by ReadRobotModel.
     #[arg(long, default_value = "5KG")]
     model: String,
+    /// Protocol level: v5 (HR-TCP V1.0.0.3: the V6 document's commands are
+    /// refused with Fail 20005), v6 (HR6.6.1: MoveJ, MoveL and the other
+    /// removed commands are refused), or a controller version (HR6.4.8).
+    #[arg(long, default_value = "v6", value_parser = parse_level)]
+    protocol: ProtocolLevel,
+    /// Fast command port (0 = pick a free one). Served at levels from
+    /// HR6.5.1 only.
+    #[arg(long, default_value_t = 10001)]
+    fast_port: u16,
+    /// Do not serve the fast command port.
+    #[arg(long)]
+    no_fast_port: bool,
     /// Script functions RunFunc accepts, comma separated.
     #[arg(
         long,
@@ -75,6 +88,16 @@ struct Args {
         default_value = "Func_main,Func_1,Func_2,Func_3"
     )]
     script_funcs: Vec<String>,
+}
+
+/// `v5`, `v6` or a controller version such as `HR6.4.8`.
+fn parse_level(s: &str) -> Result<ProtocolLevel, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "v5" => Ok(ProtocolLevel::V5),
+        "v6" => Ok(ProtocolLevel::V6),
+        _ => ProtocolLevel::parse(s)
+            .ok_or_else(|| format!("{s:?}: expected v5, v6 or a version such as HR6.4.8")),
+    }
 }
 
 fn main() -> ExitCode {
@@ -135,10 +158,28 @@ async fn run(args: Args) -> ExitCode {
         model: args.model,
         script_functions: args.script_funcs,
         faults,
+        protocol: args.protocol,
+        fast_port: (!args.no_fast_port).then_some(args.fast_port),
         ..Config::default()
     };
-    let sim = match Sim::start(config).await {
+    let sim = match Sim::start(config.clone()).await {
         Ok(s) => s,
+        // The fast port is an extra: without it the controller still works.
+        Err(e) if matches!(config.fast_port, Some(p) if p != 0) => {
+            eprintln!("hans-sim: {e}; trying without the fast command port");
+            match Sim::start(Config {
+                fast_port: None,
+                ..config
+            })
+            .await
+            {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("hans-sim: cannot listen: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
         Err(e) => {
             eprintln!("hans-sim: cannot listen: {e}");
             return ExitCode::FAILURE;
@@ -149,6 +190,10 @@ async fn run(args: Args) -> ExitCode {
         let hz = [20, 10, 5].get(i).copied().unwrap_or(5);
         say!("hans-sim: datasheet port ({hz} Hz) listening on {a}");
     }
+    if let Some(a) = sim.fast_addr() {
+        say!("hans-sim: fast command port listening on {a}");
+    }
+    say!("hans-sim: protocol level {}", sim.protocol());
     say!(
         "hans-sim: robot FSM {} ({})",
         sim.fsm().code(),

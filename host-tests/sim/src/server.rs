@@ -29,7 +29,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use hans_codec::{Framer, ParseError, RawMessage, Request};
+use hans_codec::{CommandId, Framer, ParseError, RawMessage, Request};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{mpsc, watch};
@@ -49,6 +49,10 @@ pub const MAX_CONNECTIONS: usize = 64;
 
 /// The reply to bytes that are not a message at all.
 pub(crate) const ERRORCMD: &[u8] = b"errorcmd,20007,;";
+
+/// `Fail,20005`: a command the controller does not know (or that this
+/// port does not serve).
+const UNKNOWN_COMMAND: i32 = 20005;
 
 /// State shared by every task of one simulator.
 pub(crate) struct Shared {
@@ -104,14 +108,12 @@ impl Shared {
     fn reboot(&self) {
         self.drop_connections();
         let _ = self.refuse.try_send(self.reboot_time);
-        let timing = self.robot().timing;
-        let mut fresh = Robot::new(timing, Initial::PoweredOff);
-        {
-            let old = self.robot();
-            fresh.model = old.model.clone();
-            fresh.script_functions = old.script_functions.clone();
-        }
-        *self.robot() = fresh;
+        let mut robot = self.robot();
+        let mut fresh = Robot::new(robot.timing, Initial::PoweredOff, robot.level);
+        fresh.model = robot.model.clone();
+        fresh.script_functions = robot.script_functions.clone();
+        fresh.fast_port = robot.fast_port;
+        *robot = fresh;
     }
 }
 
@@ -170,7 +172,7 @@ pub(crate) async fn accept_loop(
                         drop(stream);
                         continue;
                     }
-                    tasks.spawn(serve(shared.clone(), stream));
+                    tasks.spawn(serve(shared.clone(), stream, Port::Command));
                 }
             }
         }
@@ -199,7 +201,7 @@ pub(crate) async fn connect_out(shared: &Arc<Shared>, addr: SocketAddr) -> io::R
     let stream = tokio::time::timeout(Duration::from_secs(5), TcpStream::connect(addr))
         .await
         .map_err(|_| io::Error::new(io::ErrorKind::TimedOut, "connect timed out"))??;
-    let handle = tokio::spawn(serve(shared.clone(), stream));
+    let handle = tokio::spawn(serve(shared.clone(), stream, Port::Command));
     *shared.outgoing.lock().unwrap_or_else(|e| e.into_inner()) = Some(handle.abort_handle());
     Ok(())
 }
@@ -212,9 +214,95 @@ impl Drop for ConnGuard<'_> {
     }
 }
 
+/// Which port a connection came in on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Port {
+    /// The command port (10003): every command.
+    Command,
+    /// The fast command port (10001): the commands of [`FAST_COMMANDS`].
+    Fast,
+}
+
+/// The commands the V6 document marks "can be sent on the fast command
+/// port" (注：该命令可使用快速命令端口发送). The fast port answers any
+/// other command `Fail,20005`, as one it does not serve (the document says
+/// nothing of them).
+pub const FAST_COMMANDS: &[CommandId] = &[
+    CommandId::IsSimulation,
+    CommandId::ReadControllerState,
+    CommandId::GetErrorCodeStr,
+    CommandId::ReadRobotModel,
+    CommandId::PackageVersion,
+    CommandId::ReadEI,
+    CommandId::ReadEO,
+    CommandId::ReadEAI,
+    CommandId::ReadMaxPayload,
+    CommandId::ReadPayload,
+    CommandId::ReadOverride,
+    CommandId::ReadJointMaxVel,
+    CommandId::ReadJointMaxAcc,
+    CommandId::ReadJointMaxJerk,
+    CommandId::ReadLinearMaxVel,
+    CommandId::ReadRobotState,
+    CommandId::ReadCurWayPointID,
+    CommandId::ReadAxisErrorCode,
+    CommandId::ReadCurFSM,
+    CommandId::ReadPointByName,
+    CommandId::ReadMotorAndJointEncode,
+    CommandId::ReadActPos,
+    CommandId::ReadCmdPos,
+    CommandId::ReadCmdJointVel,
+    CommandId::ReadActJointVel,
+    CommandId::ReadActTcpVel,
+    CommandId::ReadCmdJointCur,
+    CommandId::ReadActJointCur,
+    CommandId::ReadTcpVelocity,
+    CommandId::ReadTcpVel,
+    CommandId::Quaternion2RPY,
+    CommandId::RPY2Quaternion,
+    CommandId::GetInverseKin,
+    CommandId::GetForwardKin,
+    CommandId::Base2UcsTcp,
+    CommandId::UcsTcp2Base,
+    CommandId::PoseSub,
+    CommandId::PoseTrans,
+    CommandId::PoseInverse,
+    CommandId::PoseDist,
+    CommandId::PoseInterpolate,
+    CommandId::PoseDefdFrame,
+    CommandId::GetInverseDynamics,
+    CommandId::ReadCurTCP,
+    CommandId::ReadCurUCS,
+    CommandId::ReadTCPByName,
+    CommandId::ReadUCSByName,
+    CommandId::ReadPathState,
+];
+
+/// Accepts connections on the fast command port until shutdown.
+pub(crate) async fn fast_accept_loop(shared: Arc<Shared>, listener: TcpListener) {
+    let mut tasks = JoinSet::new();
+    let mut shutdown = shared.shutdown.subscribe();
+    loop {
+        while tasks.try_join_next().is_some() {}
+        tokio::select! {
+            _ = shutdown.changed() => break,
+            r = listener.accept() => {
+                if let Ok((stream, _)) = r {
+                    if shared.connections.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+                        drop(stream);
+                        continue;
+                    }
+                    tasks.spawn(serve(shared.clone(), stream, Port::Fast));
+                }
+            }
+        }
+    }
+    tasks.shutdown().await;
+}
+
 /// Serves one command connection until it closes, is dropped or the
 /// simulator stops.
-pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream) {
+pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream, port: Port) {
     shared.connections.fetch_add(1, Ordering::SeqCst);
     let _guard = ConnGuard(&shared.connections);
     let _ = stream.set_nodelay(true);
@@ -266,7 +354,7 @@ pub(crate) async fn serve(shared: Arc<Shared>, mut stream: TcpStream) {
         // message) is discarded.
         framer.reset();
         let keep = match msg {
-            Some(m) => respond(&shared, &mut stream, &m).await,
+            Some(m) => respond(&shared, &mut stream, &m, port).await,
             None => stream.write_all(ERRORCMD).await.is_ok(),
         };
         if !keep {
@@ -286,13 +374,19 @@ fn starts_with_empty_message(data: &[u8]) -> bool {
 }
 
 /// Answers one message; `false` when the connection must close.
-async fn respond(shared: &Arc<Shared>, stream: &mut TcpStream, msg: &str) -> bool {
+async fn respond(shared: &Arc<Shared>, stream: &mut TcpStream, msg: &str, port: Port) -> bool {
     shared.record(msg);
     let raw = RawMessage::parse(msg);
     let name = raw.map(|r| r.name()).unwrap_or("");
     let plan = shared.faults.plan_for(name);
     let mut effect = Effect::None;
-    let reply: Vec<u8> = if plan.action.executes() {
+    let known = CommandId::from_name(name);
+    let level = shared.robot().level;
+    let reply: Vec<u8> = if !plan.action.executes() {
+        Vec::new()
+    } else if port == Port::Fast && !known.is_some_and(|id| FAST_COMMANDS.contains(&id)) {
+        fail_text(name, UNKNOWN_COMMAND, "")
+    } else {
         match Request::parse(msg) {
             Ok(req) => {
                 let now = shared.now();
@@ -301,10 +395,13 @@ async fn respond(shared: &Arc<Shared>, stream: &mut TcpStream, msg: &str) -> boo
                 text
             }
             Err(ParseError::Grammar(_)) => ERRORCMD.to_vec(),
+            // A name the controller's level does not have is unknown to it,
+            // whatever its fields.
+            Err(_) if known.is_some_and(|id| !id.available_at(level)) => {
+                fail_text(name, UNKNOWN_COMMAND, "")
+            }
             Err(_) => fail_text(name, 20007, ""),
         }
-    } else {
-        Vec::new()
     };
     if !plan.delay.is_zero() {
         tokio::time::sleep(plan.delay).await;

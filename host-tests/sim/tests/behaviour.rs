@@ -7,7 +7,7 @@ mod support;
 
 use hans_codec::datasheet::{DataSheet, Deframer, MAGIC};
 use hans_codec::RawMessage;
-use hans_sim::{Config, FsmState, RobotError, Sim};
+use hans_sim::{Config, FsmState, ProtocolLevel, RobotError, Sim};
 use support::{close, manual, ms, Client, WAIT};
 use tokio::io::AsyncReadExt;
 use tokio::net::TcpStream;
@@ -273,7 +273,11 @@ async fn io_reads_back_and_tool_registers() {
     assert_eq!(c.values("ReadBoxDO,5,6,;").await, ["1", "0"]);
     assert_eq!(c.values("ReadBoxCO,2,;").await, ["1"]);
     assert_eq!(c.values("ReadEO,0,1,2,;").await, ["1", "0"]);
-    assert_eq!(c.values("ReadBoxAO,0,1,;").await, ["0.000", "8.800"]);
+    // The V6 document's form: mode and value per channel.
+    assert_eq!(
+        c.values("ReadBoxAO,0,1,;").await,
+        ["1", "0.000", "2", "8.800"]
+    );
     sim.set_io(|io| {
         io.di[0] = true;
         io.ci[7] = true;
@@ -344,7 +348,12 @@ async fn scripts_free_drive_and_force_control() {
 
 #[tokio::test]
 async fn joint_and_cartesian_paths_and_servo() {
-    let sim = manual(Config::ready()).await;
+    // HR-TCP's path commands: gone from the V6 level (HR6.5.0).
+    let sim = manual(Config {
+        protocol: ProtocolLevel::V5,
+        ..Config::ready()
+    })
+    .await;
     let mut c = Client::connect(sim.command_addr()).await;
     assert_eq!(c.fail("MovePath,0,P1,;").await, 20042);
     c.ok("StartPushMovePath,0,P1,0.5,2,;").await;
@@ -356,7 +365,10 @@ async fn joint_and_cartesian_paths_and_servo() {
     assert_eq!(c.values("ReadMovePathState,0,P1,;").await, ["2"]);
     sim.advance(ms(300));
     assert_eq!(c.values("ReadMovePathState,0,P1,;").await, ["3"]);
-    c.ok("MovePathJ,0,P1,;").await;
+    // HR-TCP's name (with the V6 commands, `MovePathJ` is the V6
+    // document's own command, from HR6.3.3: not an alias at this level).
+    assert_eq!(c.fail("MovePathJ,0,P1,;").await, 20005);
+    c.ok("MovePath,0,P1,;").await;
     assert_eq!(c.fsm().await, 25);
     sim.advance(ms(10_000));
     assert!((c.numbers("ReadCmdPos,0,;").await[0] - 40.0).abs() < 1e-6);

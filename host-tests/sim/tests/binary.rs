@@ -23,6 +23,7 @@ impl Drop for KillOnDrop {
 async fn the_program_reports_its_ports_and_serves() {
     let mut child = Command::new(env!("CARGO_BIN_EXE_hans-sim"))
         .args(["--command-port", "0", "--datasheet-ports", "0,0", "--ready"])
+        .args(["--fast-port", "0"])
         .args(["--fault", "fail=20018:busy@SetBoxDO*1"])
         .stdout(Stdio::piped())
         .spawn()
@@ -32,7 +33,7 @@ async fn the_program_reports_its_ports_and_serves() {
     let lines = tokio::task::spawn_blocking(move || {
         BufReader::new(stdout)
             .lines()
-            .take(3)
+            .take(5)
             .map(|l| l.unwrap())
             .collect::<Vec<_>>()
     });
@@ -44,6 +45,14 @@ async fn the_program_reports_its_ports_and_serves() {
             "{lines:?}"
         );
         assert!(lines[1].contains("datasheet port (20 Hz)") && lines[2].contains("(10 Hz)"));
+        assert!(
+            lines[3].starts_with("hans-sim: fast command port listening on 127.0.0.1:"),
+            "{lines:?}"
+        );
+        assert_eq!(lines[4], "hans-sim: protocol level HR6.6.1");
+        let fast = lines[3].rsplit(' ').next().unwrap().parse().unwrap();
+        let mut f = Client::connect(fast).await;
+        assert_eq!(f.call("ReadCurFSM,0,;").await, "ReadCurFSM,OK,33,;");
         let addr = lines[0].rsplit(' ').next().unwrap().parse().unwrap();
         let mut c = Client::connect(addr).await;
         assert_eq!(c.call("ReadCurFSM,0,;").await, "ReadCurFSM,OK,33,;");

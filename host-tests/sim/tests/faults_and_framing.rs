@@ -114,10 +114,11 @@ async fn bad_input_gets_typed_refusals() {
     assert_eq!(c.call("GrpStop,OK,;").await, "GrpStop,Fail,20007,;");
     // Every form the document and NOTES allow.
     assert_eq!(c.call("OSCmd,1;").await, "OSCmd,OK,;");
+    // 48 V off; the V6 level's reply has the 12 V output too (HR6.3.3).
     assert_eq!(
         c.call("ReadBoxInfo,;").await,
-        "ReadBoxInfo,OK,1,0,0.000,0.000,0,0,;"
-    ); // 48 V off
+        "ReadBoxInfo,OK,1,0,0.000,0.000,0,0,12.000,0.500,;"
+    );
     assert_eq!(c.call("ConnectToBox,0,;").await, "ConnectToBox,OK,;");
     assert_eq!(
         c.call("ReadBoxCO,0,1,2,3,4,5,6,7,;;").await,

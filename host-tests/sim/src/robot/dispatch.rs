@@ -17,7 +17,8 @@
 //! | `servo.rs` | 4.12 servo streaming |
 //!
 //! Every request is first checked here, in this order: a command the
-//! simulator does not know is `Fail,20005`; parameters outside the
+//! simulator does not know, or that its protocol level does not have (the
+//! codec's level data: `CommandId::available_at`), is `Fail,20005`; parameters outside the
 //! document's ranges (the codec's `validate()`) and a robot id other than 0
 //! are `Fail,20006`. Then its handler answers [`Answer::Done`] (`Name,OK,;`),
 //! [`Answer::Values`], or a refusal code. Refusals shared by the sections: a
@@ -29,7 +30,8 @@
 use hans_codec::types::Visitor;
 use hans_codec::{response as rs, Decimal, FsmState, Request, Response};
 
-use super::values::{decs, f, fs};
+use super::settings::MAX_PAYLOAD;
+use super::values::{dec, decs, f, fs, idx};
 use super::Robot;
 
 /// What the server must do besides sending the reply.
@@ -47,6 +49,8 @@ pub(super) type Code = i32;
 
 /// A command the controller does not know.
 pub(super) const UNKNOWN: Code = 20005;
+/// A message whose fields do not read as the command.
+pub(super) const FORMAT: Code = 20007;
 /// A parameter the robot cannot use.
 pub(super) const PARAM: Code = 20006;
 /// A command the current state does not allow.
@@ -59,6 +63,17 @@ pub(super) enum Answer<'s> {
     Done,
     /// The reply's values (boxed: some replies are large).
     Values(Box<Response<'s>>),
+    /// The reply, written already (under the command's own name): for
+    /// values that borrow what the handler built, such as lists of names.
+    Encoded(Vec<u8>),
+}
+
+impl Answer<'_> {
+    /// Success with the values of `r`, written now.
+    pub(super) fn encoded<'r>(r: impl Into<Response<'r>>) -> Outcome<'static> {
+        let resp = r.into();
+        Ok(Answer::Encoded(encode_ok(&resp, resp.name())))
+    }
 }
 
 /// What a handler answers: success, or the refusal's failure code.
@@ -111,22 +126,24 @@ impl Robot {
     pub fn handle(&mut self, req: &Request<'_>, name: &str, now: f64) -> (Vec<u8>, Effect) {
         self.update(now);
         let mut effect = Effect::None;
-        let answer = match Self::admit(req) {
+        let answer = match self.admit(req) {
             Ok(()) => self.exec(req, now, &mut effect),
             Err(code) => Err(code),
         };
         let text = match answer {
             Ok(Answer::Done) => ok_text(name),
             Ok(Answer::Values(resp)) => encode_ok(&resp, name),
+            Ok(Answer::Encoded(text)) => renamed(text, name),
             Err(code) => fail_text(name, code, ""),
         };
         (text, effect)
     }
 
     /// The checks every request passes before its handler runs.
-    fn admit(req: &Request<'_>) -> Result<(), Code> {
-        if req.command().is_none() {
-            return Err(UNKNOWN);
+    fn admit(&self, req: &Request<'_>) -> Result<(), Code> {
+        match req.command() {
+            Some(id) if id.available_at(self.level) => {}
+            _ => return Err(UNKNOWN),
         }
         req.validate().map_err(|_| PARAM)?;
         match robot_id(req) {
@@ -384,6 +401,144 @@ impl Robot {
             R::WriteHoldingRegisters(c) => self.write_holding_registers(c),
             R::ReadHoldingRegisters(c) => self.read_holding_registers(c),
 
+            // ------------- the V6 document's additions, by its sections
+            // 4.1
+            R::GetErrorCodeStr(c) => self.get_error_code_str(c),
+            R::PackageVersion(_) => values(rs::PackageVersion {
+                version: &self.package_version,
+            }),
+            R::ReadFastCmdPort(_) => self.read_fast_cmd_port(),
+            // 4.2
+            R::EnterSafetyGuard(c) => self.enter_safe_guard(c.flag == 1, now),
+            R::EnterSafeGuard(c) => self.enter_safe_guard(c.flag == 1, now),
+            R::XToStandby(_) => self.x_to_standby(now),
+            R::SetTriStageSwitch(c) => {
+                self.stored.tri_stage = (c.enable, c.mode);
+                done()
+            }
+            R::ReadBrakeStatus(_) => self.read_brake_status(),
+            // 4.3
+            R::SwitchScript(c) => self.switch_script(c),
+            R::ReadDefaultScript(_) => self.read_default_script(),
+            R::EnableRunningUnsavedProgram(c) => {
+                self.stored.run_unsaved = c.enabled == 1;
+                done()
+            }
+            // 4.4
+            R::CdsSetIO(c) => self.cds_set_io(c),
+            R::SetCIConfig(c) => self.set_ci_config(c),
+            R::ReadCIConfig(c) => self.read_ci_config(c),
+            R::SetCOConfig(c) => {
+                self.stored.co_config[idx(c.bit)] = c.function;
+                done()
+            }
+            R::ReadCOConfig(_) => values(rs::ReadCOConfig {
+                functions: self.stored.co_config,
+            }),
+            // 4.5
+            R::SetCollideLevel(c) => {
+                self.stored.collide_level = c.level;
+                done()
+            }
+            R::SetSafeGuardConfig(c) => {
+                self.stored.safe_guard = [c.enable, c.mode, c.bit1, c.bit2];
+                done()
+            }
+            R::ReadMaxPayload(_) => values(rs::ReadMaxPayload {
+                max_payload: dec(MAX_PAYLOAD),
+            }),
+            R::ReadPayload(_) => self.read_payload(),
+            R::ReadOverride(_) => values(rs::ReadOverride {
+                ratio: dec(self.override_ratio),
+            }),
+            R::ReadPointByName(c) => self.read_point_by_name(c),
+            R::ReadMotorAndJointEncode(_) => self.read_motor_and_joint_encode(now),
+            // 4.6
+            R::ReadTcpVel(_) => self.read_tcp_vel(now),
+            // 4.7
+            R::ReadActCoord(c) => self.read_act_coord(c, now),
+            R::GetInverseDynamics(c) => self.get_inverse_dynamics(c),
+            // 4.8
+            R::ConfigTCP(c) => self.config_tcp(c),
+            R::ConfigUCS(c) => self.config_ucs(c),
+            R::SetDftTCP(c) => self.set_dft_tcp(c),
+            R::CalTCPOrt(c) => self.cal_tcp_ort(c),
+            R::SetBaseInstallingAngle(c) => {
+                self.stored.base_angle = (c.rotation, c.tilt);
+                done()
+            }
+            R::GetBaseInstallingAngle(_) => values(rs::GetBaseInstallingAngle {
+                rotation: self.stored.base_angle.0,
+                tilt: self.stored.base_angle.1,
+            }),
+            R::ReadTCPList(_) => self.read_tcp_list(),
+            // 4.9
+            R::SetFTMotionFreedom(c) => {
+                self.stored.ft_freedom = c.freedom;
+                done()
+            }
+            R::SetFTFreeDriveState(c) => self.force_free_drive(c.state == 1, now),
+            R::ReadFTFreeDriveSpeedMode(_) => values(rs::ReadFTFreeDriveSpeedMode {
+                mode: self.stored.ft_speed_mode,
+            }),
+            R::SetFTFreeDriveSpeedMode(c) => {
+                self.stored.ft_speed_mode = c.mode;
+                done()
+            }
+            R::SetFTFreeFactor(c) => {
+                self.stored.ft_free_factor = (f(c.linear), f(c.angular));
+                done()
+            }
+            R::SetTangentForceBounds(c) => self.set_tangent_force_bounds(c),
+            R::SetFTCalibration(c) => self.set_ft_calibration(c),
+            R::ReadForceData(_) => self.read_force_data(),
+            R::ReadFTFreeFactor(_) => self.read_ft_free_factor(),
+            R::SetFTUCS(c) => {
+                self.stored.ft_ucs = fs(c.ucs);
+                done()
+            }
+            R::ReadFTUCS(_) => values(rs::ReadFTUCS {
+                ucs: decs(self.stored.ft_ucs),
+            }),
+            // 4.10 jogging and hold-to-move
+            R::MoveAlignToZ(c) => self.move_align_to_z(c, now),
+            R::MoveJTo(c) => self.move_j_to(c, now),
+            R::MoveLTo(c) => self.move_l_to(c, now),
+            R::ShortJogJ(c) => self.short_jog_j(c, now),
+            R::ShortJogL(c) => self.short_jog_l(c, now),
+            R::LongJogJ(c) => self.long_jog_j(c, now),
+            R::LongJogL(c) => self.long_jog_l(c, now),
+            R::LongMoveEvent(_) => self.long_move_event(now),
+            // 4.11 paths
+            R::InitPath(c) => self.init_path(c),
+            R::PushPathPoints(c) => self.push_path_points(c),
+            R::EndPushPathPoints(c) => self.end_push_path_points(c, now),
+            R::DelPath(c) => self.del_path(c),
+            R::ReadPath(c) => self.read_path(c),
+            R::UpdatePathName(c) => self.update_path_name(c),
+            R::ReadPathState(c) => self.read_path_state(c),
+            R::MovePathJ(c) => self.move_path_j(c, now),
+            R::MovePathJOL(c) => self.move_path_jol(c, now),
+            R::GetMovePathJOLIndex(_) => self.get_move_path_jol_index(),
+            R::SetPathRefJoints(c) => self.set_path_ref_joints(c),
+            // 4.12 velocity control
+            R::SpeedJ(c) => self.speed_j(c, now),
+            R::SpeedL(c) => self.speed_l(c, now),
+            // 4.14 pose tracking: accepted, not modelled
+            R::SetPoseTrackingMaxMotionLimit(_)
+            | R::SetPoseTrackingStopTimeOut(_)
+            | R::SetPoseTrackingPIDParams(_)
+            | R::SetPoseTrackingTargetPos(_)
+            | R::SetUpdateTrackingPose(_) => done(),
+            R::SetPoseTrackingState(c) => {
+                self.stored.pose_tracking = c.state == 1;
+                done()
+            }
+            // 4.15 tool-end Modbus settings, payload identification
+            R::SetEndModbusInfo(c) => self.set_end_modbus_info(c),
+            R::LoadIdentify(_) => self.start_load_identify(now),
+            R::GetLoadIdentifyResult(_) => self.get_load_identify_result(now),
+
             R::Unknown(_) => Err(UNKNOWN),
         }
     }
@@ -398,20 +553,36 @@ fn ok_text(name: &str) -> Vec<u8> {
 /// Encodes a success reply, under the name the request used (an alias
 /// such as `GrpPowerOn` is answered as `GrpPowerOn,OK,;`).
 fn encode_ok(resp: &Response<'_>, name: &str) -> Vec<u8> {
-    let mut buf = vec![0u8; 16 * 1024];
-    match resp.encode(&mut buf) {
-        Ok(n) => {
-            buf.truncate(n);
-            let canonical = resp.name();
-            if canonical != name && buf.starts_with(canonical.as_bytes()) {
-                let mut out = name.as_bytes().to_vec();
-                out.extend_from_slice(&buf[canonical.len()..]);
-                return out;
+    // Replies are short but for lists of names (paths, tools).
+    for size in [16 * 1024, 1024 * 1024] {
+        let mut buf = vec![0u8; size];
+        match resp.encode(&mut buf) {
+            Ok(n) => {
+                buf.truncate(n);
+                return renamed(buf, name);
             }
-            buf
+            Err(hans_codec::EncodeError::BufferTooSmall) => continue,
+            Err(_) => break,
         }
-        // Only on a simulator bug (a value the codec cannot write).
-        Err(_) => fail_text(name, 20007, ""),
+    }
+    // Only on a simulator bug (a value the codec cannot write).
+    fail_text(name, FORMAT, "")
+}
+
+/// A reply written under its command's name, under `name` instead (the
+/// alias the request used).
+fn renamed(text: Vec<u8>, name: &str) -> Vec<u8> {
+    let Some(id) = hans_codec::CommandId::from_name(name) else {
+        return text;
+    };
+    let canonical = id.name();
+    match text.strip_prefix(canonical.as_bytes()) {
+        Some(rest) if canonical != name => {
+            let mut out = name.as_bytes().to_vec();
+            out.extend_from_slice(rest);
+            out
+        }
+        _ => text,
     }
 }
 

@@ -8,7 +8,7 @@
 use hans_codec::{request as rq, response as rs};
 
 use super::dispatch::{done, values, Outcome, PARAM};
-use super::values::{decs, fs};
+use super::values::{dec, decs, f, fs};
 use super::Robot;
 
 /// A force-control command outside force control.
@@ -76,6 +76,43 @@ impl Robot {
 
     pub(super) fn read_ft_cab_data(&self) -> Outcome<'_> {
         values(rs::ReadFTCabData {
+            data: decs(self.ft_data),
+        })
+    }
+
+    // ------------------------------------------------ V6 document 4.9
+
+    pub(super) fn read_ft_free_factor(&self) -> Outcome<'_> {
+        let (linear, angular) = self.stored.ft_free_factor;
+        values(rs::ReadFTFreeFactor {
+            linear: dec(linear),
+            angular: dec(angular),
+        })
+    }
+
+    /// `SetTangentForceBounds`: the smallest force above the largest is
+    /// refused.
+    pub(super) fn set_tangent_force_bounds(
+        &mut self,
+        c: &rq::SetTangentForceBounds,
+    ) -> Outcome<'_> {
+        if f(c.min) > f(c.max) {
+            return Err(PARAM);
+        }
+        done()
+    }
+
+    /// `SetFTCalibration`: 8 to 16 samples (the document's bounds).
+    pub(super) fn set_ft_calibration(&mut self, c: &rq::SetFTCalibration) -> Outcome<'_> {
+        if !(8..=16).contains(&c.samples.len()) {
+            return Err(PARAM);
+        }
+        done()
+    }
+
+    /// `ReadForceData`: the raw sensor data, as the calibrated data here.
+    pub(super) fn read_force_data(&self) -> Outcome<'_> {
+        values(rs::ReadForceData {
             data: decs(self.ft_data),
         })
     }

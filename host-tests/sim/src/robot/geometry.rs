@@ -92,4 +92,42 @@ impl Robot {
             ucs: decs(k::pose_defd_frame(&pts).ok_or(PARAM)?),
         })
     }
+
+    // ------------------------------------------------ V6 document 4.7
+
+    pub(super) fn read_act_coord(&self, c: &rq::ReadActCoord, now: f64) -> Outcome<'_> {
+        let ucs = self.ucs_named(c.ucs_name)?;
+        let tcp = self.tcp_named(c.tcp_name)?;
+        let q = self.act_joints(now);
+        values(rs::ReadActCoord {
+            joints: decs(q),
+            pose: decs(k::forward_pose(&q, &tcp, &ucs)),
+        })
+    }
+
+    /// `GetInverseDynamics`: the torques (N·m) of a rough model, a gravity
+    /// term on the pitch joints (arm and payload) plus inertia and
+    /// friction; no real arm's parameters.
+    pub(super) fn get_inverse_dynamics(&self, c: &rq::GetInverseDynamics) -> Outcome<'_> {
+        let (q, v, a) = (fs(c.joints), fs(c.velocities), fs(c.accelerations));
+        let load = 1.0 + self.payload.0 / 5.0;
+        let s = |deg: f64| deg.to_radians().sin();
+        let gravity = [
+            0.0,
+            load * (40.0 * s(q[1]) + 20.0 * s(q[1] + q[2])),
+            load * 20.0 * s(q[1] + q[2]),
+            0.0,
+            load * 2.0 * s(q[1] + q[2] + q[4]),
+            0.0,
+        ];
+        let inertia = [0.05, 0.08, 0.04, 0.005, 0.005, 0.002];
+        let friction = 0.02;
+        let mut torques = [0.0; 6];
+        for i in 0..6 {
+            torques[i] = gravity[i] + inertia[i] * a[i] + friction * v[i];
+        }
+        values(rs::GetInverseDynamics {
+            torques: decs(torques),
+        })
+    }
 }

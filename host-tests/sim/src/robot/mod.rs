@@ -24,8 +24,10 @@
 //! | free drive (opening / closing) | 31 FreeDriver (29 / 30) |
 //! | force-control free drive (opening / closing) | 46 FTFreeDriver (44 / 45) |
 //! | script running / pausing / paused / stopping | 34 / 35 / 36 / 37 |
+//! | payload identification (`LoadIdentify`) | 41 RobotLoadIdentify |
 //! | stopping a motion | 27 RobotStopping |
 //! | motion paused | 32 RobotHolding |
+//! | a hold-to-move motion (long jog, `MoveJTo`, `MoveLTo`, `MoveAlignToZ`) | 26 LongJogMoving |
 //! | motion running, or force control on | 25 Moving |
 //! | otherwise | 33 StandBy |
 //!
@@ -53,6 +55,10 @@ mod servo;
 mod settings;
 mod shapes;
 mod values;
+// The commands the V6 document adds, where they have a section of their own.
+mod errors;
+mod jog;
+mod paths_v6;
 
 // The robot's own state.
 mod queue;
@@ -63,10 +69,13 @@ mod timing;
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
 
-use hans_codec::FsmState;
+use hans_codec::{FsmState, ProtocolLevel};
 
 use crate::kinematics::{self as k, Joints, Limits, Pose, PoseFrame};
 use io::Io;
+use jog::Hold;
+use paths::Track;
+use paths_v6::OnlinePath;
 use queue::{MoveKind, Planned, Segment, Speed};
 use stage::Stage;
 pub use state::Flags;
@@ -80,6 +89,10 @@ pub const MAX_QUEUE: usize = 64;
 pub const MAX_PATHS: usize = 32;
 /// Most points of one stored path; more are refused with `Fail,20006`.
 pub const MAX_PATH_POINTS: usize = 10_000;
+
+/// The first controller of the V6 document (`HR5.50.3`): from it on the
+/// replies take the V6 document's forms (`ReadBoxAO` with modes, ...).
+const FIRST_V6: ProtocolLevel = ProtocolLevel::new(5, 50, 3);
 
 /// Slack when comparing simulated times: sums of durations in `f64` seconds
 /// are not exact (0.2 + 0.1 > 0.3).
@@ -99,23 +112,6 @@ enum Script {
     Pausing { until: f64, remaining: f64 },
     Held { remaining: f64 },
     Stopping { until: f64 },
-}
-
-/// A stored path of section 4.11.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Track {
-    /// Joint points (`false`) or Cartesian points (`true`).
-    pub cartesian: bool,
-    pub points: Vec<[f64; 6]>,
-    /// 0 not taught, 1 teaching, 2 computing (until `ready_at`), 3 ready,
-    /// 4 teaching ended, 5 error.
-    pub state: i32,
-    pub ready_at: f64,
-    pub speed_ratio: f64,
-    pub vel: f64,
-    pub acc: f64,
-    pub tcp: Pose,
-    pub ucs: Pose,
 }
 
 /// A robot error set from a test (`Sim::set_error`).
@@ -211,6 +207,83 @@ pub(crate) struct Robot {
     pub io: Io,
     pub ft_data: [f64; 6],
     pub end_io_ethercat: bool,
+
+    /// The protocol level the controller speaks.
+    pub level: ProtocolLevel,
+    /// `PackageVersion`: the level's version and a build date.
+    pub package_version: String,
+    /// The fast command port, when it listens (`ReadFastCmdPort`).
+    pub fast_port: Option<u16>,
+    /// The hold-to-move motion running (long jog, `MoveJTo`, ...), and
+    /// when it stops unless `LongMoveEvent` comes first.
+    hold: Option<Hold>,
+    hold_until: f64,
+    /// A `MovePathJOL` run: its points, for the index and their outputs.
+    online_path: Option<OnlinePath>,
+    /// Payload: mass (kg) and centre of mass (mm).
+    pub payload: (f64, [f64; 3]),
+    /// Payload identification (`LoadIdentify`).
+    load_identify: Option<settings::Identification>,
+    /// `cdsSetIO` during a motion: set when the motion reaches its target.
+    pending_outputs: Option<io_commands::Outputs>,
+    /// Taught points by name (`ReadPointByName`): joints, tool, user frame.
+    pub points: BTreeMap<String, (Joints, Pose, Pose)>,
+    /// Settings the V6 document adds that are stored and read back.
+    pub stored: Stored,
+}
+
+/// Settings that are stored and read back, without behaviour of their own.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Stored {
+    /// `SwitchScript`: the script file applied.
+    pub script_file: String,
+    /// `EnableRunningUnsavedProgram`.
+    pub run_unsaved: bool,
+    /// `SetTriStageSwitch`: enable, mode.
+    pub tri_stage: (i32, i32),
+    /// `SetCIConfig`: function and trigger of each CI.
+    pub ci_config: [(i32, i32); 8],
+    /// `SetCOConfig`: function of each CO.
+    pub co_config: [i32; 8],
+    /// `SetCollideLevel`.
+    pub collide_level: i32,
+    /// `SetSafeGuardConfig`: enable, mode, bit 1, bit 2.
+    pub safe_guard: [i32; 4],
+    /// `SetBaseInstallingAngle`: rotation, tilt.
+    pub base_angle: (i32, i32),
+    /// `SetFTMotionFreedom`.
+    pub ft_freedom: [i32; 6],
+    /// `SetFTFreeDriveSpeedMode`.
+    pub ft_speed_mode: i32,
+    /// `SetFTFreeFactor`: linear, angular.
+    pub ft_free_factor: (f64, f64),
+    /// `SetFTUCS`.
+    pub ft_ucs: Pose,
+    /// `SetEndModbusInfo`: baud rate, data bits, parity, stop bits.
+    pub end_modbus: [i32; 4],
+    /// `SetPoseTrackingState`.
+    pub pose_tracking: bool,
+}
+
+impl Default for Stored {
+    fn default() -> Self {
+        Stored {
+            script_file: "default.JSON".into(),
+            run_unsaved: false,
+            tri_stage: (0, 0),
+            ci_config: [(-1, -1); 8],
+            co_config: [-1; 8],
+            collide_level: 2,
+            safe_guard: [0, 0, 0, 1],
+            base_angle: (0, 0),
+            ft_freedom: [1; 6],
+            ft_speed_mode: 0,
+            ft_free_factor: (50.0, 50.0),
+            ft_ucs: [0.0; 6],
+            end_modbus: [115_200, 8, 78, 1],
+            pose_tracking: false,
+        }
+    }
 }
 
 /// Where the robot starts: the pose of the document's examples (tool down
@@ -218,7 +291,7 @@ pub(crate) struct Robot {
 pub const HOME: Joints = [0.0, 0.0, 90.0, 0.0, 90.0, 0.0];
 
 impl Robot {
-    pub fn new(timing: Timing, initial: Initial) -> Robot {
+    pub fn new(timing: Timing, initial: Initial, level: ProtocolLevel) -> Robot {
         let on = initial == Initial::StandBy;
         let st = |b| if b { Stage::On } else { Stage::Off };
         let mut tcps = BTreeMap::new();
@@ -230,6 +303,12 @@ impl Robot {
         ucss.insert(
             "Point_1".to_string(),
             [420.0, 0.0, 445.0, 180.0, 0.0, 180.0],
+        );
+        // The point of the V6 document's `ReadPointByName` example.
+        let mut points = BTreeMap::new();
+        points.insert(
+            "Point_3".to_string(),
+            ([0.0, 0.0, 45.0, 0.0, 90.0, 0.0], [0.0; 6], [0.0; 6]),
         );
         Robot {
             timing,
@@ -273,6 +352,20 @@ impl Robot {
             io: Io::default(),
             ft_data: [0.0; 6],
             end_io_ethercat: true,
+            level,
+            package_version: {
+                let (a, b, c) = level.parts();
+                format!("{a}.{b}.{c}.20250805")
+            },
+            fast_port: None,
+            hold: None,
+            hold_until: f64::NEG_INFINITY,
+            online_path: None,
+            payload: (0.0, [0.0; 3]),
+            load_identify: None,
+            pending_outputs: None,
+            points,
+            stored: Stored::default(),
         }
     }
 
@@ -301,10 +394,9 @@ impl Robot {
             other => other,
         };
         for t in self.tracks.values_mut() {
-            if t.state == 2 && reached(now, t.ready_at) {
-                t.state = 3;
-            }
+            t.settle(now);
         }
+        self.apply_online_path_outputs(now);
         self.advance_motion(now);
     }
 

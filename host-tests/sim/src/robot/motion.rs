@@ -92,6 +92,29 @@ impl Path {
         tcp: &Frame,
         limits: &Limits,
     ) -> Result<Path, PlanError> {
+        Path::cartesian_upto(start, waypoints, tcp, limits, false)
+    }
+
+    /// As [`Path::cartesian`], but a path that leaves the reachable space
+    /// (or would flip through a singularity) ends at its last reachable
+    /// sample instead of failing: how far a jog along a line can go.
+    pub fn cartesian_reachable(
+        start: Joints,
+        waypoints: &[Frame],
+        tcp: &Frame,
+        limits: &Limits,
+    ) -> Path {
+        Path::cartesian_upto(start, waypoints, tcp, limits, true)
+            .unwrap_or_else(|_| Path::dwell(start))
+    }
+
+    fn cartesian_upto(
+        start: Joints,
+        waypoints: &[Frame],
+        tcp: &Frame,
+        limits: &Limits,
+        partial: bool,
+    ) -> Result<Path, PlanError> {
         let tcp_inv = tcp.inverse();
         let from = k::forward(&start) * tcp;
         let mut frames = vec![from];
@@ -130,13 +153,23 @@ impl Path {
                 let tcp_frame =
                     k::frame_at(k::slerp(&a.rotation, &b.rotation, f), pa + (pb - pa) * f);
                 let flange = tcp_frame * tcp_inv;
-                let next = k::inverse(&flange, &q, limits).ok_or(PlanError::Unreachable)?;
                 // A jump means the solution flipped (a singularity): the
                 // controller would refuse such a straight line too.
-                if (0..6).any(|j| (next[j] - q[j]).abs() > 45.0) {
-                    return Err(PlanError::Unreachable);
+                let next = k::inverse(&flange, &q, limits)
+                    .filter(|next| (0..6).all(|j| (next[j] - q[j]).abs() <= 45.0));
+                match next {
+                    Some(next) => q = next,
+                    None if partial => {
+                        // Samples stay equally spaced: the path is the
+                        // first `i - 1` steps.
+                        let length = total * (i - 1) as f64 / n as f64;
+                        if samples.len() < 2 {
+                            samples.push(start);
+                        }
+                        return Ok(Path { samples, length });
+                    }
+                    None => return Err(PlanError::Unreachable),
                 }
-                q = next;
                 samples.push(q);
             }
         } else {

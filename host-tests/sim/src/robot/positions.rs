@@ -78,4 +78,13 @@ impl Robot {
             act: dec(Self::tcp_speed(self.tcp_velocity(now, true))),
         })
     }
+
+    /// `ReadTcpVel` (V6 document 4.6.10): command and actual TCP speed,
+    /// mm/s.
+    pub(super) fn read_tcp_vel(&self, now: f64) -> Outcome<'_> {
+        values(rs::ReadTcpVel {
+            cmd: dec(Self::tcp_speed(self.tcp_velocity(now, false))),
+            act: dec(Self::tcp_speed(self.tcp_velocity(now, true))),
+        })
+    }
 }

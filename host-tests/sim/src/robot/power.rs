@@ -148,4 +148,51 @@ impl Robot {
         self.free_drive.raise(now, self.timing.free_drive);
         done()
     }
+
+    // ------------------------------------------------ V6 document 4.1, 4.2
+
+    pub(super) fn read_fast_cmd_port(&self) -> Outcome<'_> {
+        let port = self.fast_port.ok_or(STATE)?;
+        values(rs::ReadFastCmdPort {
+            port: i32::from(port),
+        })
+    }
+
+    /// `EnterSafetyGuard` / `EnterSafeGuard`: the safety guard forced on
+    /// (a software stop: motion decelerates, FSM 12) or off.
+    pub(super) fn enter_safe_guard(&mut self, on: bool, now: f64) -> Outcome<'_> {
+        self.set_guard(on, now);
+        done()
+    }
+
+    /// `XToStandby`: as far as the controller can go alone towards
+    /// StandBy: the error reset, then every bring-up step still needed,
+    /// chained. Refused under an emergency stop or an open safety guard.
+    pub(super) fn x_to_standby(&mut self, now: f64) -> Outcome<'_> {
+        if self.estop || self.guard {
+            return Err(STATE);
+        }
+        if self.error.take().is_some() {
+            self.resetting_until = now + self.timing.reset.as_secs_f64();
+        }
+        self.stop(now);
+        self.script = None;
+        self.free_drive.lower(now, self.timing.free_drive);
+        self.ft_free.lower(now, self.timing.free_drive);
+        self.box_.raise(now, self.timing.box_connect);
+        let after = self.box_.ready_at(now);
+        self.power.raise(after, self.timing.electrify);
+        let after = self.power.ready_at(now);
+        self.master.raise(after, self.timing.start_master);
+        let after = self.master.ready_at(now).max(now.max(self.resetting_until));
+        self.enable.raise(after, self.timing.enable);
+        done()
+    }
+
+    pub(super) fn read_brake_status(&self) -> Outcome<'_> {
+        let released = i32::from(self.enable.is_on() && !self.estop);
+        values(rs::ReadBrakeStatus {
+            brakes: [released; 6],
+        })
+    }
 }

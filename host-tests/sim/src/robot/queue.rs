@@ -15,7 +15,8 @@ pub(crate) enum Speed {
     Timed(f64),
 }
 
-/// What kind of move, for the progress commands.
+/// What kind of move: for the progress commands, the FSM state, and the
+/// moves that only run while the client keeps asking.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum MoveKind {
     /// A way point or other single move.
@@ -24,6 +25,14 @@ pub(crate) enum MoveKind {
     PathL(usize),
     /// Standing still (path computation).
     Dwell,
+    /// A hold-to-move motion (long jog, `MoveJTo`, `MoveLTo`,
+    /// `MoveAlignToZ`): FSM 26 LongJogMoving, and it brakes when
+    /// `LongMoveEvent` stops coming (`Robot::hold_until`).
+    Hold,
+    /// Velocity control (`SpeedJ`, `SpeedL`): a new one replaces it.
+    Velocity,
+    /// A `MovePathJOL` run (its points: `Robot::online_path`).
+    Online,
 }
 
 /// A move that has been accepted.
@@ -81,11 +90,21 @@ impl Segment {
 
 impl Robot {
     pub(super) fn advance_motion(&mut self, now: f64) {
+        let lapse = self.hold_until;
         loop {
             if let Some(seg) = self.active.as_mut() {
                 let Some(end) = seg.profile.end() else {
                     break;
                 };
+                // A hold-to-move motion whose keep-alive lapsed brakes from
+                // the instant it lapsed.
+                if (seg.phase, seg.plan.kind) == (Phase::Run, MoveKind::Hold)
+                    && reached(now, lapse)
+                    && lapse < end
+                {
+                    seg.brake(seg.started.max(lapse), Phase::Stop);
+                    continue;
+                }
                 // A seek input that matches ends the way point early.
                 if let (Phase::Run, Some((bit, level))) = (seg.phase, seg.plan.seek) {
                     if self.io.di.get(bit).copied() == Some(level) {
@@ -103,6 +122,10 @@ impl Robot {
                     Phase::Run => {
                         if let MoveKind::PathL(n) = seg.plan.kind {
                             self.last_path_l = Some((1.0, i32::try_from(n).unwrap_or(i32::MAX)));
+                        }
+                        // `cdsSetIO`: the motion has reached its target.
+                        if let Some(o) = self.pending_outputs.take() {
+                            self.apply_outputs(&o);
                         }
                         self.rest = q;
                         self.active = None;
@@ -227,6 +250,8 @@ impl Robot {
         }
         self.queue.clear();
         self.servo = None;
+        self.pending_outputs = None;
+        self.stop_load_identify(now);
         if self.ft_on.take().is_some() {
             self.idle_since = self.idle_since.max(now);
         }
@@ -236,6 +261,8 @@ impl Robot {
     pub fn stop(&mut self, now: f64) {
         self.queue.clear();
         self.servo = None;
+        self.pending_outputs = None;
+        self.stop_load_identify(now);
         if self.ft_on.take().is_some() && self.active.is_none() {
             self.idle_since = now;
         }

@@ -73,4 +73,21 @@ impl Robot {
             _ => Err(STATE),
         }
     }
+
+    // ------------------------------------------------ V6 document 4.3
+
+    /// `SwitchScript`: not while a script runs.
+    pub(super) fn switch_script(&mut self, c: &rq::SwitchScript) -> Outcome<'_> {
+        if self.script.is_some() {
+            return Err(STATE);
+        }
+        self.stored.script_file = c.script.to_string();
+        done()
+    }
+
+    pub(super) fn read_default_script(&self) -> Outcome<'_> {
+        values(rs::ReadDefaultScript {
+            script: &self.stored.script_file,
+        })
+    }
 }

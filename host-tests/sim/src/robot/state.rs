@@ -3,7 +3,7 @@
 
 use hans_codec::FsmState;
 
-use super::queue::Phase;
+use super::queue::{MoveKind, Phase};
 use super::{reached, Robot, Script, Stage};
 
 /// The `ReadRobotState` flags.
@@ -95,11 +95,15 @@ impl Robot {
             Some(Script::Stopping { .. }) => return F::ScriptStopping,
             None => {}
         }
+        if self.load_identify_running(now) {
+            return F::RobotLoadIdentify;
+        }
         match &self.active {
-            Some(seg) => match seg.phase {
-                Phase::Stop => F::RobotStopping,
-                Phase::Pause => F::RobotHolding,
-                Phase::Run => F::Moving,
+            Some(seg) => match (seg.phase, seg.plan.kind) {
+                (Phase::Stop, _) => F::RobotStopping,
+                (Phase::Pause, _) => F::RobotHolding,
+                (Phase::Run, MoveKind::Hold) => F::LongJogMoving,
+                (Phase::Run, _) => F::Moving,
             },
             None if !self.queue.is_empty() || self.ft_on.is_some() => F::Moving,
             None => F::StandBy,

@@ -28,10 +28,12 @@ pub struct Timing {
     pub script: Duration,
     /// Pausing / stopping a script (FSM 35 / 37).
     pub script_transition: Duration,
-    /// `EndPushMovePath`: path state 2 (computing) before 3 (ready).
+    /// `EndPushMovePath`: path state 2 (computing) before 3 (ready); also
+    /// the `MovePathJ` computation of `EndPushPathPoints` (`stateJ`).
     pub path_compute: Duration,
     /// `MovePathL`: computing before the motion starts (the robot counts as
-    /// moving meanwhile; the document says 2-4 s).
+    /// moving meanwhile; the document says 2-4 s); also the `MovePathL`
+    /// computation of `EndPushPathPoints` (`stateL`).
     pub path_l_compute: Duration,
     /// Force control: searching (state 1) before search done (state 2).
     pub force_search: Duration,
@@ -41,6 +43,12 @@ pub struct Timing {
     /// The actual position follows the command position this much later;
     /// `nInPos` becomes 1 this long after the command position stops.
     pub actual_lag: Duration,
+    /// A long jog (or `MoveJTo`, `MoveLTo`, `MoveAlignToZ`) stops this long
+    /// after its start or the last `LongMoveEvent`: the V6 document's
+    /// "period not over 200 ms, or the long jog stops" (4.10.18).
+    pub long_move_keepalive: Duration,
+    /// `LoadIdentify`: the identification runs (FSM 41) this long.
+    pub load_identify: Duration,
 }
 
 impl Default for Timing {
@@ -63,13 +71,17 @@ impl Default for Timing {
             force_search: ms(500),
             moving_flag_lag: ms(50),
             actual_lag: ms(20),
+            long_move_keepalive: ms(200),
+            load_identify: ms(5000),
         }
     }
 }
 
 impl Timing {
     /// Every operation completes at once and no flag lags (scripts still run
-    /// for [`Timing::script`]).
+    /// for [`Timing::script`], payload identification for
+    /// [`Timing::load_identify`], and a long jog still needs its
+    /// `LongMoveEvent`s).
     pub fn instant() -> Timing {
         let z = Duration::ZERO;
         Timing {

@@ -1,0 +1,409 @@
+//! The configuration file of the Linux binary (`--config FILE`): TOML that
+//! people edit and keep in version control. Boards keep the binary image
+//! ([`crate::storage::image`]); this file is another view of the same
+//! stored state: the settings, the sixteen trigger entries and the web
+//! password's salted hash.
+//!
+//! ```toml
+//! [robot]
+//! address = "192.168.0.10"
+//!
+//! [link]
+//! poll_ms = 50
+//!
+//! [access]
+//! modbus_allow = ["192.168.0.0/24", "10.0.0.7"]
+//!
+//! [triggers]
+//! 3 = "GrpStop,0,;"
+//! ```
+//!
+//! A commented example with every key is `examples/gateway.toml` beside
+//! the crate's `Cargo.toml`.
+//!
+//! ## Rules
+//! * Each key is one setting of [`FIELDS`](crate::config::FIELDS) (or one bit of it), named in the
+//!   table below. Its value becomes the setting's registers and is checked
+//!   by the same rule as a register write ([`Domain::check`] of its field,
+//!   then [`Config::from_words`] for the whole): no range is written twice.
+//! * A key left out takes its factory default; a trigger entry left out is
+//!   empty; no `password` means none is set (the web page asks for one).
+//! * An unknown table or key, a value of the wrong type or out of range is
+//!   refused, each with its line and column and the reason; every problem
+//!   of the file is reported, not only the first. Nothing of a refused file
+//!   is used, and the binary does not start on it.
+//! * Addresses are strings `"a.b.c.d"`; allow-lists arrays of up to four
+//!   networks `"a.b.c.d/prefix"` (prefix 1-32; `"a.b.c.d"` alone is `/32`;
+//!   `[]` = everyone), loaded into the list's entries in order; settings
+//!   that are a choice are words (`mode = "listen"`), switches `true` /
+//!   `false`.
+//! * A trigger entry is a string (its UTF-8 bytes, at most 192, no NUL);
+//!   an entry that is not UTF-8 (only a PLC can write one, and it can
+//!   never fire: the gateway sends printable ASCII only) is written as an
+//!   array of its byte values, so that a save loses nothing.
+//! * The password is `"pbkdf2-sha256$ROUNDS$SALT$HASH"` (salt 16 bytes and
+//!   hash 32 bytes, in hex): PBKDF2-HMAC-SHA256 of the password, never the
+//!   password itself ([`crate::access::password`]). Set or change it on the
+//!   web page; delete the line to remove it.
+//! * A save rewrites the whole file ([`render`]) with every key and a
+//!   comment naming its register and range. Comments written by hand are
+//!   not kept: keeping them (toml_edit) would cost a second TOML crate
+//!   and an edit-in-place writer for a file the gateway rewrites whole.
+//! * A file of an older version, holding the binary image (magic `HGW1`),
+//!   is still read, and written as TOML at its next save.
+//!
+//! ## Keys and registers
+//! | key | register | value |
+//! |---|---|---|
+//! | `robot.address` | CFG_ROBOT_IP | `"a.b.c.d"` |
+//! | `robot.port` | CFG_ROBOT_PORT | integer |
+//! | `robot.id` | CFG_ROBOT_ID | integer |
+//! | `link.mode` | CFG_LINK_MODE | `"connect"` (0), `"listen"` (1) |
+//! | `link.listen_port` | CFG_LISTEN_PORT | integer |
+//! | `link.reply_timeout_ms` | CFG_REPLY_TIMEOUT_MS | integer |
+//! | `link.status_source` | CFG_STATUS_SOURCE | `"polling"` (0), `"datasheet"` (1) |
+//! | `link.poll_ms` | CFG_POLL_MS | integer |
+//! | `link.datasheet_port` | CFG_DATASHEET_PORT | integer |
+//! | `motion.wait_blending_done` | CFG_MOTION_POLICY bit 0 | `true` / `false` |
+//! | `motion.wait_in_position` | CFG_MOTION_POLICY bit 1 | `true` / `false` |
+//! | `motion.start_grace_ms` | CFG_START_GRACE_MS | integer |
+//! | `motion.auto_reset` | CFG_AUTO_RESET | `true` / `false` |
+//! | `watchdog.period_ms` | CFG_WATCHDOG_MS | integer, 0 = off |
+//! | `watchdog.action` | CFG_WATCHDOG_ACTION | `"report-only"` (0), `"stop"` (1), `"pause"` (2) |
+//! | `registers.word_order` | CFG_FLOAT_WORD_ORDER | `"high-first"` (0), `"low-first"` (1) |
+//! | `network.address` | NET_IP | `"a.b.c.d"` |
+//! | `network.mask` | NET_MASK | `"a.b.c.d"` |
+//! | `network.gateway` | NET_GATEWAY | `"a.b.c.d"` |
+//! | `network.dhcp` | NET_DHCP | `true` / `false` |
+//! | `network.modbus_port` | NET_MODBUS_PORT | integer |
+//! | `network.web_port` | NET_WEB_PORT | integer, 0 = no web page |
+//! | `access.write_protect` | CFG_WRITE_PROTECT | `true` / `false` |
+//! | `access.modbus_allow` | MODBUS_ALLOW | `["a.b.c.d/prefix", ...]` |
+//! | `access.web_allow` | WEB_ALLOW | `["a.b.c.d/prefix", ...]` |
+//! | `access.password` | (the web password) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
+//! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |
+
+extern crate std;
+
+use core::fmt;
+use std::borrow::ToOwned;
+use std::format;
+use std::io;
+use std::path::{Path, PathBuf};
+use std::string::String;
+use std::vec::Vec;
+
+use crate::config::{field_named, Config, Domain, Field, ALLOW_ENTRIES};
+use crate::state::inputs::{Text, TRIGGERS};
+use crate::storage::image::{self, Entries, ImageError, Stored};
+
+/// How a key's value is written and becomes its setting's registers.
+#[derive(Clone, Copy, Debug)]
+enum Form {
+    /// An integer: the register's value.
+    Number,
+    /// `true` / `false`: 1 / 0.
+    Flag,
+    /// `true` / `false`: bit `n` of a register that several keys share.
+    Bit(u16),
+    /// A word: the register holds its place in the list.
+    Word(&'static [&'static str]),
+    /// `"a.b.c.d"`: two registers.
+    Address,
+    /// `["a.b.c.d/prefix", ...]`: the allow-list's registers.
+    AllowList,
+}
+
+/// One key of the file: where it is, the setting ([`FIELDS`](crate::config::FIELDS)) it holds.
+#[derive(Debug)]
+struct Key {
+    table: &'static str,
+    key: &'static str,
+    register: &'static str,
+    form: Form,
+}
+
+const fn key(table: &'static str, key: &'static str, register: &'static str, form: Form) -> Key {
+    Key {
+        table,
+        key,
+        register,
+        form,
+    }
+}
+
+/// Every key, in the order a save writes them (a table's keys together).
+/// A test checks that they cover every setting of [`FIELDS`](crate::config::FIELDS) and match the
+/// table of the module's documentation.
+const KEYS: [Key; 25] = [
+    key("robot", "address", "CFG_ROBOT_IP", Form::Address),
+    key("robot", "port", "CFG_ROBOT_PORT", Form::Number),
+    key("robot", "id", "CFG_ROBOT_ID", Form::Number),
+    key(
+        "link",
+        "mode",
+        "CFG_LINK_MODE",
+        Form::Word(&["connect", "listen"]),
+    ),
+    key("link", "listen_port", "CFG_LISTEN_PORT", Form::Number),
+    key(
+        "link",
+        "reply_timeout_ms",
+        "CFG_REPLY_TIMEOUT_MS",
+        Form::Number,
+    ),
+    key(
+        "link",
+        "status_source",
+        "CFG_STATUS_SOURCE",
+        Form::Word(&["polling", "datasheet"]),
+    ),
+    key("link", "poll_ms", "CFG_POLL_MS", Form::Number),
+    key("link", "datasheet_port", "CFG_DATASHEET_PORT", Form::Number),
+    key(
+        "motion",
+        "wait_blending_done",
+        "CFG_MOTION_POLICY",
+        Form::Bit(0),
+    ),
+    key(
+        "motion",
+        "wait_in_position",
+        "CFG_MOTION_POLICY",
+        Form::Bit(1),
+    ),
+    key(
+        "motion",
+        "start_grace_ms",
+        "CFG_START_GRACE_MS",
+        Form::Number,
+    ),
+    key("motion", "auto_reset", "CFG_AUTO_RESET", Form::Flag),
+    key("watchdog", "period_ms", "CFG_WATCHDOG_MS", Form::Number),
+    key(
+        "watchdog",
+        "action",
+        "CFG_WATCHDOG_ACTION",
+        Form::Word(&["report-only", "stop", "pause"]),
+    ),
+    key(
+        "registers",
+        "word_order",
+        "CFG_FLOAT_WORD_ORDER",
+        Form::Word(&["high-first", "low-first"]),
+    ),
+    key("network", "address", "NET_IP", Form::Address),
+    key("network", "mask", "NET_MASK", Form::Address),
+    key("network", "gateway", "NET_GATEWAY", Form::Address),
+    key("network", "dhcp", "NET_DHCP", Form::Flag),
+    key("network", "modbus_port", "NET_MODBUS_PORT", Form::Number),
+    key("network", "web_port", "NET_WEB_PORT", Form::Number),
+    key("access", "write_protect", "CFG_WRITE_PROTECT", Form::Flag),
+    key("access", "modbus_allow", "MODBUS_ALLOW", Form::AllowList),
+    key("access", "web_allow", "WEB_ALLOW", Form::AllowList),
+];
+
+/// The tables, in the order a save writes them: those of [`KEYS`]
+/// (`access` also holds the password), then the trigger table.
+const TABLES: [&str; 8] = [
+    "robot",
+    "link",
+    "motion",
+    "watchdog",
+    "registers",
+    "network",
+    "access",
+    "triggers",
+];
+
+/// The web password's key in `[access]`.
+const PASSWORD: &str = "password";
+/// The scheme of the password's hash.
+const SCHEME: &str = "pbkdf2-sha256";
+/// The first bytes of a binary image (`storage::image`), which an older
+/// version wrote to this file.
+const IMAGE_MAGIC: &[u8; 4] = b"HGW1";
+
+/// What the file holds: the stored state and the trigger table.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Contents {
+    /// The configuration and the password's hash.
+    pub stored: Stored,
+    /// The sixteen trigger entries.
+    pub triggers: Entries,
+}
+
+impl Contents {
+    /// Factory settings, no trigger entry, no password.
+    pub fn new(config: Config) -> Contents {
+        Contents {
+            stored: Stored {
+                config,
+                password: None,
+            },
+            triggers: [Text::EMPTY; TRIGGERS],
+        }
+    }
+}
+
+/// How the file was written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// TOML (this version).
+    Toml,
+    /// The binary image of an older version: read, and written as TOML at
+    /// the next save.
+    BinaryImage,
+}
+
+/// One thing wrong in the file, where it is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Problem {
+    /// Line, from 1.
+    pub line: usize,
+    /// Column (characters), from 1.
+    pub column: usize,
+    /// What is wrong.
+    pub reason: String,
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}: {}", self.line, self.column, self.reason)
+    }
+}
+
+/// Why a file was refused.
+#[derive(Debug)]
+pub enum Error {
+    /// It cannot be read.
+    Io(io::Error),
+    /// TOML that is malformed or holds invalid settings: every problem, in
+    /// the order of the file.
+    Toml(Vec<Problem>),
+    /// A binary image of an older version that is damaged.
+    Image(ImageError),
+}
+
+/// A refused file: its path and why.
+#[derive(Debug)]
+pub struct FileError {
+    /// The file.
+    pub path: PathBuf,
+    /// Why.
+    pub error: Error,
+}
+
+/// One line per problem: `FILE:LINE:COLUMN: reason` (`FILE: reason` when
+/// there is no line).
+impl fmt::Display for FileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let path = self.path.display();
+        match &self.error {
+            Error::Io(e) => write!(f, "{path}: {e}"),
+            Error::Image(e) => write!(
+                f,
+                "{path}: a binary configuration image of an older version, refused: {}",
+                e.as_str()
+            ),
+            Error::Toml(problems) => {
+                for (i, p) in problems.iter().enumerate() {
+                    if i > 0 {
+                        writeln!(f)?;
+                    }
+                    write!(f, "{path}:{p}")?;
+                }
+                Ok(())
+            }
+        }
+    }
+}
+
+impl std::error::Error for FileError {}
+
+/// Reads the file at `path`: `Ok(None)` if it does not exist (nothing
+/// stored yet), the contents and their format if it is valid. Settings
+/// the file leaves out take their value in `defaults`.
+pub fn read_file(path: &Path, defaults: &Config) -> Result<Option<(Contents, Format)>, FileError> {
+    let refused = |error| FileError {
+        path: path.to_owned(),
+        error,
+    };
+    match std::fs::read(path) {
+        Ok(bytes) => read_bytes(&bytes, defaults).map(Some).map_err(refused),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(refused(Error::Io(e))),
+    }
+}
+
+/// Reads a file's bytes: TOML, or the binary image of an older version.
+pub fn read_bytes(bytes: &[u8], defaults: &Config) -> Result<(Contents, Format), Error> {
+    // A binary image holds NUL bytes (in its header already); TOML cannot.
+    if bytes.starts_with(IMAGE_MAGIC) && bytes.contains(&0) {
+        let mut triggers = [Text::EMPTY; TRIGGERS];
+        let stored = image::decode(bytes, defaults, &mut triggers).map_err(Error::Image)?;
+        return Ok((Contents { stored, triggers }, Format::BinaryImage));
+    }
+    let text = match core::str::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let valid = bytes.get(..e.valid_up_to()).unwrap_or(&[]);
+            let text = core::str::from_utf8(valid).unwrap_or("");
+            let reason = "not UTF-8 text (a TOML file is UTF-8)".to_owned();
+            return Err(Error::Toml(std::vec![problem(text, text.len(), reason)]));
+        }
+    };
+    parse(text, defaults)
+        .map(|c| (c, Format::Toml))
+        .map_err(Error::Toml)
+}
+
+fn field_of_key(k: &Key) -> Option<&'static Field> {
+    field_named(k.register)
+}
+
+/// `"a", "b"`.
+fn quoted(words: &[&str]) -> String {
+    words
+        .iter()
+        .map(|w| format!("\"{w}\""))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// What a key may hold, from its field's domain: `10-100 ms`, `"polling"`.
+fn takes(k: &Key, f: &Field) -> String {
+    let unit = match f.unit {
+        "" | "bits" => String::new(),
+        u => format!(" {u}"),
+    };
+    match (k.form, f.domain) {
+        (Form::Word(words), d) => {
+            let ok: Vec<&str> = words
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| d.contains(*i as u16))
+                .map(|(_, w)| *w)
+                .collect();
+            quoted(&ok)
+        }
+        (Form::Flag | Form::Bit(_), _) => "true or false".to_owned(),
+        (_, Domain::Range(lo, hi)) => format!("{lo}-{hi}{unit}"),
+        (_, Domain::OffOrRange(lo, hi)) => format!("0 (off) or {lo}-{hi}{unit}"),
+        (_, Domain::Mask) => "a mask of contiguous ones".to_owned(),
+        (_, Domain::Ipv4) => "an address a.b.c.d".to_owned(),
+        (_, Domain::AllowList) => format!(
+            "up to {ALLOW_ENTRIES} networks \"a.b.c.d/prefix\", prefix 1-32 (\"a.b.c.d\" alone = /32); [] = everyone"
+        ),
+    }
+}
+
+mod read;
+mod write;
+
+pub use read::parse;
+use read::problem;
+pub use write::render;
+
+#[cfg(test)]
+mod tests;
