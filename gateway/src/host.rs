@@ -14,42 +14,66 @@ pub mod config_file;
 use core::net::{Ipv4Addr, SocketAddrV4};
 use std::io;
 use std::path::PathBuf;
-use std::string::String;
+use std::string::{String, ToString};
 use std::sync::mpsc;
 use std::thread;
 
 use crate::clock::SystemClock;
 use crate::gateway::{Options, RobotOverride};
 use crate::net::tokio::TokioNet;
+use crate::state::inputs::{Text, TRIGGERS};
+use crate::storage::image::{self, Entries};
 use crate::storage::{Image, NoStorage, Storage, StorageError, IMAGE_LEN};
+use crate::Config;
+use config_file::{Contents, Format};
 
-/// Storage in a file, replaced atomically on save: the image is written to
-/// `FILE.tmp` and fsynced, renamed over `FILE`, and the directory fsynced,
-/// so that a power cut leaves the old file or the new one. The file work
-/// runs on tokio's blocking pool: the gateway's thread goes on serving
-/// while the disk syncs.
+/// Storage in a TOML file that people may edit ([`config_file`]): read at
+/// start, replaced atomically on save: the text is written to `FILE.tmp`
+/// and fsynced, renamed over `FILE`, and the directory fsynced, so that a
+/// power cut leaves the old file or the new one. The file work runs on
+/// tokio's blocking pool: the gateway's thread goes on serving while the
+/// disk syncs.
+///
+/// To the gateway it is a storage of binary images like the others: a
+/// load turns the file into the image that [`image::decode`] reads (one
+/// start-up path on every target), a save turns the image back into TOML.
+/// A file that does not exist holds nothing (the defaults are used); the
+/// binary image an older version wrote is read, and replaced by TOML at
+/// the next save. A file that is refused makes the load fail (and the
+/// gateway start with its defaults, saying so in the log): check it first
+/// with [`config_file::read_file`], as [`RunningGateway::start`] and the
+/// binary do, to refuse to start on it.
 pub struct FileStorage {
     path: PathBuf,
+    defaults: Config,
     data: std::vec::Vec<u8>,
 }
 
 impl FileStorage {
-    /// Storage at `path` (created on the first save).
+    /// Storage at `path` (created on the first save); settings the file
+    /// leaves out take their factory defaults.
     pub fn new(path: impl Into<PathBuf>) -> Self {
+        FileStorage::with_defaults(path, Config::DEFAULT)
+    }
+
+    /// Storage at `path`; settings the file leaves out take their value
+    /// in `defaults`.
+    pub fn with_defaults(path: impl Into<PathBuf>, defaults: Config) -> Self {
         FileStorage {
             path: path.into(),
+            defaults,
             data: std::vec::Vec::new(),
         }
     }
 
-    /// Writes `image` to the file, durably (see the type's documentation).
-    pub fn write_durably(path: &std::path::Path, image: &[u8]) -> io::Result<()> {
+    /// Writes `bytes` to the file, durably (see the type's documentation).
+    pub fn write_durably(path: &std::path::Path, bytes: &[u8]) -> io::Result<()> {
         use std::io::Write;
         let mut tmp = std::ffi::OsString::from(path.as_os_str());
         tmp.push(".tmp");
         let tmp = PathBuf::from(tmp);
         let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(image)?;
+        f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
         std::fs::rename(&tmp, path)?;
@@ -63,11 +87,28 @@ impl FileStorage {
 
 impl Storage for FileStorage {
     async fn load(&mut self) -> Result<&[u8], StorageError> {
-        self.data = match std::fs::read(&self.path) {
-            Ok(data) => data,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => std::vec::Vec::new(),
-            Err(_) => return Err(StorageError::Io),
+        let (contents, format) = match config_file::read_file(&self.path, &self.defaults) {
+            Ok(Some(read)) => read,
+            Ok(None) => {
+                self.data.clear();
+                return Ok(&self.data);
+            }
+            Err(e) => {
+                for line in e.to_string().lines() {
+                    log::error!("config: {line}");
+                }
+                return Err(StorageError::Io);
+            }
         };
+        if format == Format::BinaryImage {
+            log::info!(
+                "config: {} holds the binary image of an older version; the next save writes it as TOML",
+                self.path.display()
+            );
+        }
+        self.data.resize(IMAGE_LEN, 0);
+        let n = image::encode(&contents.stored, &contents.triggers, &mut self.data)?;
+        self.data.truncate(n);
         Ok(&self.data)
     }
 
@@ -75,9 +116,15 @@ impl Storage for FileStorage {
         let path = self.path.clone();
         let mut buf = std::vec![0u8; IMAGE_LEN];
         let n = image.write(&mut buf)?;
-        buf.truncate(n);
-        let image = buf;
-        let done = tokio::task::spawn_blocking(move || FileStorage::write_durably(&path, &image));
+        let mut triggers: Entries = [Text::EMPTY; TRIGGERS];
+        let bytes = buf.get(..n).unwrap_or(&[]);
+        let stored = image::decode(bytes, &self.defaults, &mut triggers).map_err(|e| {
+            log::error!("config: the image to save is refused: {}", e.as_str());
+            StorageError::Io
+        })?;
+        let text = config_file::render(&Contents { stored, triggers });
+        let done =
+            tokio::task::spawn_blocking(move || FileStorage::write_durably(&path, text.as_bytes()));
         match done.await {
             Ok(Ok(())) => Ok(()),
             Ok(Err(e)) => {
@@ -98,7 +145,8 @@ pub struct HostOptions {
     pub robot: Option<SocketAddrV4>,
     /// Listen for the robot here instead (port 0 = any free port).
     pub robot_listen: Option<SocketAddrV4>,
-    /// Storage file; `None` keeps the configuration in RAM.
+    /// Configuration file ([`FileStorage`], checked at start); `None`
+    /// keeps the configuration in RAM.
     pub config_file: Option<PathBuf>,
     /// Configuration used when storage holds none.
     pub defaults: crate::Config,
@@ -127,8 +175,15 @@ pub struct RunningGateway {
 }
 
 impl RunningGateway {
-    /// Starts a gateway; returns once its ports are bound.
+    /// Starts a gateway; returns once its ports are bound. A configuration
+    /// file that is refused ([`config_file::read_file`]) is an error of
+    /// kind `InvalidData` (its text: one `FILE:LINE:COLUMN: reason` per
+    /// line), and nothing is started.
     pub fn start(opts: HostOptions) -> io::Result<RunningGateway> {
+        if let Some(path) = &opts.config_file {
+            config_file::read_file(path, &opts.defaults)
+                .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
+        }
         let (ready_tx, ready_rx) =
             mpsc::channel::<io::Result<(SocketAddrV4, Option<SocketAddrV4>)>>();
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
@@ -237,7 +292,7 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
     let clock = SystemClock;
     match &opts.config_file {
         Some(p) => {
-            let storage = FileStorage::new(p.clone());
+            let storage = FileStorage::with_defaults(p.clone(), opts.defaults);
             tokio::select! {
                 _ = crate::gateway::run(&net, &clock, storage, options) => {}
                 _ = stop => {}

@@ -1,15 +1,20 @@
 //! The `hans-gateway` binary's command line: help, version, usage errors,
-//! host names for `--robot`, and what it says when `--robot` overrides a
-//! saved robot address.
+//! host names for `--robot`, what it says when `--robot` overrides a
+//! saved robot address, and the TOML configuration file (`--config`): a
+//! refused file stops the start, a hand-written one is used, a save writes
+//! TOML that reads back.
 //! Loopback only; every process is killed at the end, also on failure, and
 //! every wait is bounded.
 
-use std::io::{BufRead, BufReader, Read};
-use std::net::{Ipv4Addr, TcpListener};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{Ipv4Addr, TcpListener, TcpStream};
+use std::path::PathBuf;
 use std::process::{Child, ChildStderr, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
+use hans_gateway::host::config_file::{self, Format};
+use hans_gateway::registers::map as reg;
 use hans_gateway::registers::MAP_VERSION;
 use hans_gateway::state::Text;
 use hans_gateway::storage::{image, IMAGE_LEN};
@@ -80,6 +85,9 @@ fn help_and_version_print_to_stdout_and_exit_0() {
         "--config FILE",
         "trigger entries",
         "CONFIG_RESULT 3",
+        "TOML",
+        "FILE:LINE:COLUMN: reason",
+        "salted hash",
         "Exit status",
         "RUST_LOG",
     ] {
@@ -252,31 +260,44 @@ impl Drop for Running {
     }
 }
 
+/// A fresh path in the temporary directory (removed when dropped).
+struct TempFile(PathBuf);
+
+impl TempFile {
+    fn new(name: &str) -> TempFile {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0);
+        let file = format!("hans-gw-cli-{}-{nanos}-{name}", std::process::id());
+        TempFile(std::env::temp_dir().join(file))
+    }
+
+    fn arg(&self) -> &str {
+        self.0.to_str().expect("utf-8 path")
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+        let mut tmp = self.0.clone().into_os_string();
+        tmp.push(".tmp");
+        let _ = std::fs::remove_file(tmp);
+    }
+}
+
 /// Finding M6: `--robot` silently replaced a saved robot address. It
 /// still wins (the operator asked for it), and the log says so, naming the
 /// saved setting.
 #[test]
 fn robot_on_the_command_line_overrides_a_saved_one_and_says_so() {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos())
-        .unwrap_or(0);
-    let path = std::env::temp_dir().join(format!("hans-gw-cli-{}-{nanos}.cfg", std::process::id()));
-    let saved = Config {
-        robot_ip: Ipv4Addr::new(10, 9, 8, 7),
-        robot_port: 4321,
-        ..Config::default()
-    };
-    let mut bytes = [0u8; IMAGE_LEN];
-    let stored = image::Stored {
-        config: saved,
-        password: None,
-    };
-    image::encode(&stored, &[Text::EMPTY; 16], &mut bytes).expect("room for the image");
-    std::fs::write(&path, bytes).expect("write the config file");
+    let file = TempFile::new("override.toml");
+    std::fs::write(&file.0, "[robot]\naddress = \"10.9.8.7\"\nport = 4321\n")
+        .expect("write the config file");
     let (gw, log) = start(&[
         "--config",
-        path.to_str().expect("utf-8 path"),
+        file.arg(),
         // Nothing listens on port 1 of the loopback: the link stays down.
         "--robot",
         "127.0.0.1:1",
@@ -285,14 +306,228 @@ fn robot_on_the_command_line_overrides_a_saved_one_and_says_so() {
     ]);
     let found = log.wait_for("overrides the saved one");
     drop(gw);
-    let _ = std::fs::remove_file(&path);
     assert!(found.contains("WARN"), "{found}");
     assert!(found.contains("10.9.8.7:4321"), "{found}");
+}
+
+/// A malformed or invalid file is refused before anything starts: status
+/// 2, one `hans-gateway: FILE:LINE:COLUMN: reason` line per problem, and
+/// no Modbus server (the process ends by itself, never saying it serves).
+#[test]
+fn a_refused_config_file_stops_the_start_with_its_line_and_status_2() {
+    let file = TempFile::new("bad.toml");
+    let path = file.arg();
+    let mut damaged = [0u8; IMAGE_LEN];
+    let stored = image::Stored {
+        config: Config::default(),
+        password: None,
+    };
+    image::encode(&stored, &[Text::EMPTY; 16], &mut damaged).expect("room for the image");
+    damaged[50] ^= 1;
+    for (contents, want) in [
+        (
+            &b"# my gateway\n[link]\npoll_ms = 5\n[robot]\nadress = \"10.0.0.1\"\n"[..],
+            vec![
+                format!("hans-gateway: {path}:3:11: link.poll_ms = 5: out of range, CFG_POLL_MS takes 10-100 ms"),
+                format!("hans-gateway: {path}:5:1: unknown key \"adress\" in [robot]"),
+            ],
+        ),
+        (
+            &b"[robot]\naddress = \"10.0.0.1\n"[..],
+            vec![format!("hans-gateway: {path}:2:")],
+        ),
+        (
+            &b"[access]\npassword = \"secret123\"\n"[..],
+            vec![format!("hans-gateway: {path}:2:12: access.password: not a salted hash")],
+        ),
+        (
+            &damaged[..],
+            vec![format!("hans-gateway: {path}: a binary configuration image of an older version, refused: CRC mismatch")],
+        ),
+    ] {
+        std::fs::write(&file.0, contents).expect("write the config file");
+        let out = run(&[
+            "--config",
+            path,
+            "--robot",
+            "127.0.0.1:1",
+            "--modbus-listen",
+            "127.0.0.1:0",
+        ]);
+        assert_eq!(out.code, Some(2), "{out:?}");
+        let errors: Vec<&str> = out
+            .stderr
+            .lines()
+            .filter(|l| l.starts_with("hans-gateway: "))
+            .collect();
+        assert_eq!(errors.len(), want.len(), "{}", out.stderr);
+        for (line, want) in errors.iter().zip(&want) {
+            assert!(line.starts_with(want.as_str()), "{line}\nwanted {want}");
+        }
+        assert!(!out.stderr.contains("modbus server on"), "{}", out.stderr);
+        assert!(out.stdout.is_empty(), "{out:?}");
+    }
+    // The file is left as it was.
+    assert_eq!(std::fs::read(&file.0).expect("read"), damaged);
+}
+
+/// A file written by hand, without `--robot`: the gateway connects to the
+/// robot it names and shows its settings in the registers.
+#[test]
+fn a_hand_written_config_file_is_used() {
+    let robot = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind the robot's port");
+    let port = robot.local_addr().expect("robot address").port();
+    let file = TempFile::new("hand.toml");
+    std::fs::write(
+        &file.0,
+        format!(
+            "# The gateway of cell 3.\n\n[robot]\naddress = \"127.0.0.1\"  # the controller\nport = {port}\n\n[link]\npoll_ms = 40\n\n[access]\nmodbus_allow = [\"127.0.0.0/8\"]\n\n[triggers]\n2 = \"GrpStop,0,;\"\n"
+        ),
+    )
+    .expect("write the config file");
+    let (gw, log) = start(&["--config", file.arg(), "--modbus-listen", "127.0.0.1:0"]);
+    let modbus = modbus_addr(&log);
+    accept_within(&robot, WAIT);
+    assert_eq!(read_registers(&modbus, reg::CONFIG_POLL_MS, 1), [40]);
+    assert_eq!(read_registers(&modbus, reg::CONFIG_ROBOT_PORT, 1), [port]);
+    let allow = read_registers(&modbus, reg::MODBUS_ALLOW, 3);
+    assert_eq!(allow, [0x7F00, 0, 8]);
+    let text = read_registers(&modbus, reg::TRIG_TEXT_BASE + 2 * reg::TRIG_TEXT_STRIDE, 6);
+    let bytes: Vec<u8> = text.iter().flat_map(|w| w.to_be_bytes()).collect();
+    assert_eq!(&bytes[..11], b"GrpStop,0,;");
+    drop(gw);
+}
+
+/// A save over Modbus (CONFIG_COMMAND 1) writes TOML, also over the binary
+/// image an older version wrote, and a new start reads it back.
+#[test]
+fn a_save_over_modbus_writes_toml_that_reads_back() {
+    let file = TempFile::new("saved.toml");
+    let old = image::Stored {
+        config: Config {
+            poll_ms: 30,
+            ..Config::default()
+        },
+        password: None,
+    };
+    let mut triggers = [Text::EMPTY; 16];
+    triggers[4].set(b"GrpStop,0,;");
+    let mut bytes = [0u8; IMAGE_LEN];
+    image::encode(&old, &triggers, &mut bytes).expect("room for the image");
+    std::fs::write(&file.0, bytes).expect("write the old image");
+
+    let args = [
+        "--config",
+        file.arg(),
+        "--robot",
+        "127.0.0.1:1",
+        "--modbus-listen",
+        "127.0.0.1:0",
+    ];
+    let (gw, log) = start(&args);
+    log.wait_for("binary image of an older version");
+    let modbus = modbus_addr(&log);
+    assert_eq!(read_registers(&modbus, reg::CONFIG_POLL_MS, 1), [30]);
+    write_register(&modbus, reg::CONFIG_POLL_MS, 60);
+    write_register(&modbus, reg::CONTROL_CONFIG_COMMAND, 1);
+    assert_eq!(read_registers(&modbus, reg::CONTROL_CONFIG_RESULT, 1), [0]);
+    drop(gw);
+
+    let text = std::fs::read_to_string(&file.0).expect("the file is text now");
+    for needle in [
+        "# hans-gateway configuration (TOML)",
+        "\npoll_ms = 60\n",
+        "\n4 = \"GrpStop,0,;\"\n",
+        // The robot given at start is what a save stores.
+        "\naddress = \"127.0.0.1\"\n",
+        "\nport = 1\n",
+    ] {
+        assert!(text.contains(needle), "{needle:?} not in\n{text}");
+    }
+    let (read, format) = config_file::read_file(&file.0, &Config::default())
+        .expect("valid")
+        .expect("exists");
+    assert_eq!(format, Format::Toml);
+    assert_eq!(read.stored.config.poll_ms, 60);
+    assert_eq!(read.triggers, triggers);
+
+    let (gw, log) = start(
+        &args[..2]
+            .iter()
+            .chain(&args[4..])
+            .copied()
+            .collect::<Vec<_>>(),
+    );
+    let modbus = modbus_addr(&log);
+    assert_eq!(read_registers(&modbus, reg::CONFIG_POLL_MS, 1), [60]);
+    drop(gw);
+}
+
+/// Waits for the gateway to connect to `robot`; fails the test after `wait`.
+fn accept_within(robot: &TcpListener, wait: Duration) {
+    robot.set_nonblocking(true).expect("non-blocking accept");
+    let start = Instant::now();
+    loop {
+        match robot.accept() {
+            Ok(_) => return,
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                assert!(start.elapsed() < wait, "the gateway never connected");
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            Err(e) => panic!("accept: {e}"),
+        }
+    }
+}
+
+/// The Modbus server's address, from the log.
+fn modbus_addr(log: &Log) -> String {
+    let line = log.wait_for("modbus server on ");
+    let (_, addr) = line.split_once("modbus server on ").expect("address");
+    addr.trim().to_string()
+}
+
+/// One Modbus TCP request (unit 1) and its answer's PDU; an exception
+/// fails the test.
+fn modbus_request(addr: &str, pdu: &[u8]) -> Vec<u8> {
+    let mut s = TcpStream::connect(addr).expect("connect to the Modbus server");
+    s.set_read_timeout(Some(WAIT)).expect("timeout");
+    let len = u16::try_from(pdu.len() + 1).expect("short PDU");
+    let mut adu = vec![0, 1, 0, 0];
+    adu.extend_from_slice(&len.to_be_bytes());
+    adu.push(1);
+    adu.extend_from_slice(pdu);
+    s.write_all(&adu).expect("send the request");
+    let mut head = [0u8; 7];
+    s.read_exact(&mut head).expect("the answer's header");
+    let n = usize::from(u16::from_be_bytes([head[4], head[5]])) - 1;
+    let mut answer = vec![0u8; n];
+    s.read_exact(&mut answer).expect("the answer");
+    assert_eq!(answer[0], pdu[0], "exception: {answer:?}");
+    answer
+}
+
+fn read_registers(addr: &str, start: u16, count: u16) -> Vec<u16> {
+    let [a, b] = start.to_be_bytes();
+    let [c, d] = count.to_be_bytes();
+    let answer = modbus_request(addr, &[3, a, b, c, d]);
+    answer[2..]
+        .chunks(2)
+        .map(|w| u16::from_be_bytes([w[0], w[1]]))
+        .collect()
+}
+
+fn write_register(addr: &str, at: u16, value: u16) {
+    let [a, b] = at.to_be_bytes();
+    let [c, d] = value.to_be_bytes();
+    modbus_request(addr, &[6, a, b, c, d]);
 }
 
 /// The gateway's log lines (stderr), read by a thread as they come.
 struct Log {
     lines: mpsc::Receiver<String>,
+    /// Lines read and not yet matched (the gateway's threads log in no
+    /// fixed order).
+    seen: std::cell::RefCell<Vec<String>>,
 }
 
 impl Log {
@@ -306,13 +541,20 @@ impl Log {
                 }
             }
         });
-        Log { lines }
+        Log {
+            lines,
+            seen: Default::default(),
+        }
     }
 
-    /// The first line containing `needle`; fails the test after [`WAIT`].
+    /// The first line containing `needle`, among those seen before or
+    /// coming; fails the test after [`WAIT`].
     fn wait_for(&self, needle: &str) -> String {
+        let mut seen = self.seen.borrow_mut();
+        if let Some(i) = seen.iter().position(|l| l.contains(needle)) {
+            return seen.remove(i);
+        }
         let start = Instant::now();
-        let mut seen = Vec::new();
         loop {
             let left = WAIT.saturating_sub(start.elapsed());
             match self.lines.recv_timeout(left) {

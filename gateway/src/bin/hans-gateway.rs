@@ -17,6 +17,7 @@ use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
+use hans_gateway::host::config_file::{self, Error as FileProblem};
 use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers::MAP_VERSION;
 
@@ -33,11 +34,19 @@ hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE]
 
 /// What `--help` says after the options.
 const AFTER_HELP: &str = "\
-The configuration file holds the CFG_* registers (robot address and port, link mode,
-listen port, poll period, reply timeout, word order, watchdog, motion policy, start grace,
-auto reset, status source, DataSheet port, robot id) and the sixteen trigger entries, in a
-checked binary image (magic HGW1, CRC-32); a damaged file is ignored (defaults are used and
-the log says so). --robot or --robot-listen override the robot setting saved in the file
+The configuration file (--config FILE) is TOML that you may edit and keep in version
+control: the settings in the tables [robot], [link], [motion], [watchdog], [registers],
+[network] and [access] (each key's comment names its CFG_* / NET_* register), the sixteen
+trigger entries in [triggers], and the web password as a salted hash (never in clear). An
+example with every key: gateway/examples/gateway.toml. A key left out takes its factory
+default; a file that does not exist yet means the defaults (the first save creates it).
+The file is checked before anything starts: a malformed file, an unknown key or a value
+out of range is refused, one line per problem on stderr
+  hans-gateway: FILE:LINE:COLUMN: reason
+and the gateway exits with status 2 (it never runs on silent defaults). A save
+(CONFIG_COMMAND 1) rewrites the whole file atomically; comments added by hand are not
+kept. A binary image written by an older version is still read, and written as TOML at
+the next save. --robot or --robot-listen override the robot setting saved in the file
 for this run (a warning in the log says so); the other saved settings are kept. One of
 --robot, --robot-listen or --config FILE is needed.
 
@@ -50,8 +59,8 @@ Logs go to stderr (RUST_LOG=debug for more). SIGINT or SIGTERM stops the gateway
 Exit status:
   0  --help or --version
   1  the gateway could not start (a host name does not resolve to an IPv4 address,
-     an address cannot be bound)
-  2  bad command line";
+     an address cannot be bound, the configuration file cannot be read)
+  2  bad command line, or a configuration file that is refused (FILE:LINE:COLUMN: reason)";
 
 /// The command line.
 #[derive(Parser, Debug)]
@@ -78,8 +87,9 @@ struct Cli {
     #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
     #[arg(verbatim_doc_comment)]
     robot_listen: Option<Endpoint>,
-    /// Keep the configuration and the trigger table in FILE: read at
-    /// start, written when the PLC writes 1 to CONFIG_COMMAND.
+    /// Keep the configuration and the trigger table in FILE (TOML):
+    /// checked and read at start, written when the PLC writes 1 to
+    /// CONFIG_COMMAND.
     /// Without it they live in RAM: the PLC's CONFIG_COMMAND 1
     /// applies them but reports CONFIG_RESULT 3 (not saved).
     #[arg(long, value_name = "FILE", verbatim_doc_comment)]
@@ -234,11 +244,43 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
     })
 }
 
+/// Checks the configuration file before anything starts: a file that is
+/// refused prints one `hans-gateway: FILE:LINE:COLUMN: reason` line per
+/// problem and gives status 2 (like a bad command line: the operator must
+/// fix it), one that cannot be read status 1 (the environment).
+fn check_config_file(cli: &Cli) -> Result<(), ExitCode> {
+    let Some(path) = &cli.config else {
+        return Ok(());
+    };
+    match config_file::read_file(path, &hans_gateway::Config::default()) {
+        Ok(Some(_)) => Ok(()),
+        Ok(None) => {
+            log::info!(
+                "config: {} does not exist yet: defaults; the first save creates it",
+                path.display()
+            );
+            Ok(())
+        }
+        Err(e) => {
+            for line in e.to_string().lines() {
+                eprintln!("hans-gateway: {line}");
+            }
+            Err(match e.error {
+                FileProblem::Io(_) => ExitCode::FAILURE,
+                FileProblem::Toml(_) | FileProblem::Image(_) => ExitCode::from(2),
+            })
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = command_line();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
         .format_timestamp_millis()
         .init();
+    if let Err(code) = check_config_file(&cli) {
+        return code;
+    }
     // A name that does not resolve is an environment the gateway cannot
     // start in (DNS not up yet, a missing hosts entry), like a port that
     // cannot be bound: status 1, which a supervisor may retry; the command
