@@ -557,6 +557,147 @@ pub const FIELDS: [Field; 24] = [
     ),
 ];
 
+/// Why a setting's text was refused (the web page shows it beside the
+/// field).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FieldError {
+    /// Not a number.
+    NotANumber,
+    /// Outside the field's range (see [`Domain`]).
+    OutOfRange,
+    /// Not an address `a.b.c.d`.
+    NotAnAddress,
+    /// Not a contiguous network mask.
+    NotAMask,
+    /// An allow-list entry is not `a.b.c.d/prefix` with a prefix 1-32.
+    NotANetwork,
+    /// More than [`ALLOW_ENTRIES`] entries.
+    TooManyEntries,
+}
+
+impl FieldError {
+    /// A short text.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FieldError::NotANumber => "not a whole number",
+            FieldError::OutOfRange => "out of range",
+            FieldError::NotAnAddress => "not an address a.b.c.d",
+            FieldError::NotAMask => "not a network mask (e.g. 255.255.255.0)",
+            FieldError::NotANetwork => "entries are a.b.c.d or a.b.c.d/prefix (prefix 1-32)",
+            FieldError::TooManyEntries => "at most 4 entries",
+        }
+    }
+}
+
+/// Reads `a.b.c.d`.
+pub fn parse_ipv4(t: &str) -> Option<Ipv4Addr> {
+    let mut o = [0u8; 4];
+    let mut parts = t.split('.');
+    for slot in o.iter_mut() {
+        let p = parts.next()?;
+        if p.is_empty() || p.len() > 3 || !p.bytes().all(|b| b.is_ascii_digit()) {
+            return None;
+        }
+        *slot = p.parse().ok()?;
+    }
+    if parts.next().is_some() {
+        return None;
+    }
+    Some(Ipv4Addr::from(o))
+}
+
+impl Field {
+    /// The setting's registers in `words`.
+    fn words<'w>(&self, words: &'w Words) -> &'w [u16] {
+        let s = usize::from(self.slot);
+        words.get(s..s + usize::from(self.len)).unwrap_or(&[])
+    }
+
+    /// Writes the setting's value as text: a number, `a.b.c.d`, or an
+    /// allow-list as `a.b.c.d/prefix` entries separated by spaces (empty:
+    /// everyone).
+    pub fn format(&self, words: &Words, out: &mut impl core::fmt::Write) -> core::fmt::Result {
+        let w = self.words(words);
+        match self.domain {
+            Domain::Ipv4 | Domain::Mask => {
+                let [a, b, c, d] = ipv4(w).octets();
+                write!(out, "{a}.{b}.{c}.{d}")
+            }
+            Domain::AllowList => {
+                let mut first = true;
+                for e in allow_list(w).0.iter().filter(|e| e.prefix != 0) {
+                    if !first {
+                        out.write_str(" ")?;
+                    }
+                    first = false;
+                    let [a, b, c, d] = e.ip.octets();
+                    write!(out, "{a}.{b}.{c}.{d}/{}", e.prefix)?;
+                }
+                Ok(())
+            }
+            _ => write!(out, "{}", w.first().copied().unwrap_or(0)),
+        }
+    }
+
+    /// Reads the setting's value from text (as [`Self::format`] writes
+    /// it; an allow-list entry without `/prefix` is one address, entries
+    /// separated by spaces or commas) into `words`, checked as the
+    /// registers are. Nothing is written on error.
+    pub fn parse(&self, text: &str, words: &mut Words) -> Result<(), FieldError> {
+        let t = text.trim();
+        let mut v = [0u16; 3 * ALLOW_ENTRIES];
+        let n = usize::from(self.len);
+        match self.domain {
+            Domain::Ipv4 | Domain::Mask => {
+                let ip = parse_ipv4(t).ok_or(FieldError::NotAnAddress)?;
+                let [a, b] = ipv4_words(ip);
+                v[0] = a;
+                v[1] = b;
+            }
+            Domain::AllowList => {
+                let mut entries = t.split([' ', ',']).filter(|e| !e.is_empty());
+                for chunk in v.chunks_mut(3) {
+                    let Some(e) = entries.next() else { break };
+                    let (ip, prefix) = match e.split_once('/') {
+                        Some((ip, p)) => {
+                            let p: u8 = p.parse().map_err(|_| FieldError::NotANetwork)?;
+                            (ip, p)
+                        }
+                        None => (e, 32),
+                    };
+                    if !(1..=32).contains(&prefix) {
+                        return Err(FieldError::NotANetwork);
+                    }
+                    let ip = parse_ipv4(ip).ok_or(FieldError::NotANetwork)?;
+                    let [a, b] = ipv4_words(ip);
+                    chunk.copy_from_slice(&[a, b, u16::from(prefix)]);
+                }
+                if entries.next().is_some() {
+                    return Err(FieldError::TooManyEntries);
+                }
+            }
+            _ => {
+                if t.is_empty() || !t.bytes().all(|b| b.is_ascii_digit()) {
+                    return Err(FieldError::NotANumber);
+                }
+                v[0] = t.parse().map_err(|_| FieldError::OutOfRange)?;
+            }
+        }
+        let v = v.get(..n).unwrap_or(&[]);
+        self.domain.check(v).map_err(|_| match self.domain {
+            Domain::Mask => FieldError::NotAMask,
+            Domain::AllowList => FieldError::NotANetwork,
+            _ => FieldError::OutOfRange,
+        })?;
+        let s = usize::from(self.slot);
+        if let Some(dst) = words.get_mut(s..s + n) {
+            dst.copy_from_slice(v);
+        }
+        Ok(())
+    }
+}
+
 /// The field whose registers hold `addr`.
 pub fn field_of(addr: u16) -> Option<&'static Field> {
     FIELDS
@@ -852,6 +993,85 @@ mod tests {
                 addr: r::WEB_ALLOW + 8
             })
         );
+    }
+
+    #[test]
+    fn settings_read_and_write_as_text_checked_as_registers() {
+        extern crate std;
+        use std::string::String;
+        let mut w = Config::DEFAULT.to_words();
+        let text = |name: &str, w: &Words| {
+            let mut s = String::new();
+            field_named(name).unwrap().format(w, &mut s).unwrap();
+            s
+        };
+        let set = |name: &str, t: &str, w: &mut Words| field_named(name).unwrap().parse(t, w);
+        assert_eq!(text("CFG_POLL_MS", &w), "100");
+        assert_eq!(set("CFG_POLL_MS", " 50 ", &mut w), Ok(()));
+        assert_eq!(text("CFG_POLL_MS", &w), "50");
+        assert_eq!(
+            set("CFG_POLL_MS", "101", &mut w),
+            Err(FieldError::OutOfRange)
+        );
+        assert_eq!(
+            set("CFG_POLL_MS", "5x", &mut w),
+            Err(FieldError::NotANumber)
+        );
+        assert_eq!(
+            set("CFG_POLL_MS", "-5", &mut w),
+            Err(FieldError::NotANumber)
+        );
+        assert_eq!(
+            set("CFG_ROBOT_PORT", "70000", &mut w),
+            Err(FieldError::OutOfRange)
+        );
+        assert_eq!(text("CFG_POLL_MS", &w), "50", "nothing written on error");
+        assert_eq!(set("NET_IP", "10.1.2.3", &mut w), Ok(()));
+        assert_eq!(text("NET_IP", &w), "10.1.2.3");
+        assert_eq!(
+            set("NET_IP", "10.1.2", &mut w),
+            Err(FieldError::NotAnAddress)
+        );
+        assert_eq!(
+            set("NET_IP", "10.1.2.256", &mut w),
+            Err(FieldError::NotAnAddress)
+        );
+        assert_eq!(
+            set("NET_MASK", "255.0.255.0", &mut w),
+            Err(FieldError::NotAMask)
+        );
+        assert_eq!(text("MODBUS_ALLOW", &w), "");
+        assert_eq!(set("MODBUS_ALLOW", "10.0.0.0/8, 127.0.0.1", &mut w), Ok(()));
+        assert_eq!(text("MODBUS_ALLOW", &w), "10.0.0.0/8 127.0.0.1/32");
+        assert_eq!(
+            set(
+                "MODBUS_ALLOW",
+                "1.1.1.1 2.2.2.2 3.3.3.3 4.4.4.4 5.5.5.5",
+                &mut w
+            ),
+            Err(FieldError::TooManyEntries)
+        );
+        assert_eq!(
+            set("WEB_ALLOW", "1.2.3.4/33", &mut w),
+            Err(FieldError::NotANetwork)
+        );
+        assert_eq!(
+            set("WEB_ALLOW", "1.2.3.4/0", &mut w),
+            Err(FieldError::NotANetwork)
+        );
+        assert_eq!(set("MODBUS_ALLOW", "", &mut w), Ok(()));
+        let c = Config::from_words(&w).unwrap();
+        assert!(c.modbus_allow.is_empty());
+        assert_eq!(c.net.ip, Ipv4Addr::new(10, 1, 2, 3));
+        // Every field's default reads back from its text.
+        let d = Config::DEFAULT.to_words();
+        for f in FIELDS {
+            let mut s = String::new();
+            f.format(&d, &mut s).unwrap();
+            let mut back = Config::DEFAULT.to_words();
+            f.parse(&s, &mut back).unwrap();
+            assert_eq!(back, d, "{}", f.name);
+        }
     }
 
     #[test]

@@ -6,7 +6,7 @@
 use core::convert::Infallible;
 use core::net::Ipv4Addr;
 
-use embassy_futures::join::{join4, join_array};
+use embassy_futures::join::{join5, join_array};
 
 use crate::clock::Clock;
 use crate::config::{self, Config};
@@ -46,6 +46,12 @@ pub struct Options {
     /// password salts: from the board's random source (on Linux, the
     /// operating system's).
     pub seed: [u8; 32],
+    /// Port of the web page where the platform does not manage the
+    /// network (Linux `--web-listen`); 0 = no web page. Boards take
+    /// `NET_WEB_PORT` from the configuration instead.
+    pub web_port: u16,
+    /// How the web page restarts the device (boards); `None`: it cannot.
+    pub restart: Option<fn()>,
 }
 
 /// A robot address given at start (host `--robot` / `--robot-listen`). It
@@ -88,6 +94,8 @@ impl Default for Options {
             recovery: false,
             network_managed: false,
             seed: [0; 32],
+            web_port: 0,
+            restart: None,
         }
     }
 }
@@ -138,15 +146,44 @@ impl Gateway {
         clock: &C,
         mut storage: S,
     ) -> Infallible {
+        self.load(&mut storage, clock).await;
+        self.serve(net, clock, storage).await
+    }
+
+    /// The network settings to run with, once [`Self::load`] has run:
+    /// the configuration's on boards (the caller applies address, mask,
+    /// gateway and DHCP to its stack), and in any case the ports.
+    pub fn network(&self) -> crate::config::NetConfig {
+        self.hub.with(|m| m.access.running)
+    }
+
+    /// The Modbus and web ports to serve: the configuration's where the
+    /// platform manages the network, else the options'.
+    fn ports(&self) -> (u16, u16) {
+        if self.opts.network_managed {
+            let n = self.network();
+            (n.modbus_port, n.web_port)
+        } else {
+            (self.opts.modbus_port, self.opts.web_port)
+        }
+    }
+
+    /// Runs the gateway with the configuration [`Self::load`] loaded
+    /// (see [`Self::run`]).
+    pub async fn serve<N: Net, C: Clock, S: Storage>(
+        &self,
+        net: &N,
+        clock: &C,
+        mut storage: S,
+    ) -> Infallible {
         // Every part is built where it stays (a local of this future):
         // buffers of kilobytes are never moved through the stack.
-        self.load(&mut storage, clock).await;
+        let (port, web_port) = self.ports();
         let hub = &self.hub;
         let mut link_bufs = [[0u8; LINK_BUF]; 4];
         let [l0, l1, l2, l3] = link_bufs.each_mut();
         let engine = crate::engine::run(hub, clock, net.socket(l0, l1), net.socket(l2, l3));
         let plc = PlcPort { hub, clock };
-        let port = self.opts.modbus_port;
         let mut bufs = [[[0u8; MODBUS_BUF]; 2]; MAX_SESSIONS];
         let sessions = bufs.each_mut().map(|b| {
             let [rx, tx] = b.each_mut();
@@ -159,15 +196,33 @@ impl Gateway {
         #[cfg(not(feature = "datasheet"))]
         let datasheet = core::future::pending::<Infallible>();
         let saver = storage::task(hub, &mut storage);
-        let _ = join4(engine, join_array(sessions), datasheet, saver).await;
+        #[cfg(feature = "web")]
+        let web = crate::web::Web::new(self.opts.seed, self.opts.restart);
+        #[cfg(feature = "web")]
+        let page = async {
+            if web_port == 0 {
+                return core::future::pending().await;
+            }
+            hub.with(|m| m.access.web_on = true);
+            info!("web: page on port {}", web_port);
+            crate::web::run(hub, clock, &web, net, web_port).await
+        };
+        #[cfg(not(feature = "web"))]
+        let page = {
+            let _ = web_port;
+            core::future::pending::<Infallible>()
+        };
+        let _ = join5(engine, join_array(sessions), datasheet, saver, page).await;
         // The engine, the sessions, the reader and the saver loop forever.
         core::future::pending().await
     }
 
-    /// Loads the stored configuration and trigger table. Not inlined, so
-    /// that its locals are off the stack once it returns.
+    /// Loads the stored configuration and trigger table (and the web
+    /// password); the first half of [`Self::run`], for platforms that
+    /// apply the network settings before serving. Not inlined, so that
+    /// its locals are off the stack once it returns.
     #[inline(never)]
-    async fn load<C: Clock, S: Storage>(&self, storage: &mut S, clock: &C) {
+    pub async fn load<C: Clock, S: Storage>(&self, storage: &mut S, clock: &C) {
         let stored = storage.load().await;
         let opts = &self.opts;
         let now = clock.now();

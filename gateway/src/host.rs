@@ -287,6 +287,8 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         recovery: false,
         network_managed: false,
         seed: os_seed(),
+        web_port: 0,
+        restart: None,
     };
     let _ = ready.send(Ok((modbus, robot)));
     let clock = SystemClock;

@@ -102,33 +102,55 @@ impl Hub {
             ConfigStep::Save => {
                 // The engine follows the new configuration at once.
                 self.wake.signal(());
-                self.save_done.reset();
-                self.save_request.signal(());
-                let outcome = self.save_done.wait().await;
-                self.with(|m| {
-                    let c = &mut m.config;
-                    c.result = match outcome {
-                        SaveOutcome::Saved => {
-                            c.saves = c.saves.wrapping_add(1);
-                            info!("config: saved");
-                            ConfigResult::Ok
-                        }
-                        SaveOutcome::NotPersistent => {
-                            warn!("config: applied, not saved: no persistent storage (lost at restart)");
-                            ConfigResult::NotSaved
-                        }
-                        SaveOutcome::Failed(_) => {
-                            warn!("config: applied, but saving failed");
-                            ConfigResult::SaveFailed
-                        }
-                    };
-                    match outcome {
-                        SaveOutcome::Failed(_) => Err(WriteError::Device),
-                        _ => Ok(()),
-                    }
-                })
+                match self.save_locked().await {
+                    SaveOutcome::Failed(_) => Err(WriteError::Device),
+                    _ => Ok(()),
+                }
             }
         }
+    }
+
+    /// Changes the stored state with `f` (the web page: settings, trigger
+    /// entries, the password) and saves it as `CONFIG_COMMAND` 1 does,
+    /// one change or configuration command at a time. `f` returns whether
+    /// the configuration in use changed (the engine is woken), or why
+    /// nothing was changed (then nothing is saved).
+    pub async fn change<E>(
+        &self,
+        f: impl FnOnce(&mut Model) -> Result<bool, E>,
+    ) -> Result<SaveOutcome, E> {
+        let _one_at_a_time = self.config_lock.lock().await;
+        if self.with(f)? {
+            self.wake.signal(());
+        }
+        Ok(self.save_locked().await)
+    }
+
+    /// Has the storage task save, waits for it and reports the outcome in
+    /// `CONFIG_RESULT` and `CONFIG_SAVES`. The caller holds `config_lock`.
+    async fn save_locked(&self) -> SaveOutcome {
+        self.save_done.reset();
+        self.save_request.signal(());
+        let outcome = self.save_done.wait().await;
+        self.with(|m| {
+            let c = &mut m.config;
+            c.result = match outcome {
+                SaveOutcome::Saved => {
+                    c.saves = c.saves.wrapping_add(1);
+                    info!("config: saved");
+                    ConfigResult::Ok
+                }
+                SaveOutcome::NotPersistent => {
+                    warn!("config: applied, not saved: no persistent storage (lost at restart)");
+                    ConfigResult::NotSaved
+                }
+                SaveOutcome::Failed(_) => {
+                    warn!("config: applied, but saving failed");
+                    ConfigResult::SaveFailed
+                }
+            };
+        });
+        outcome
     }
 
     /// A Modbus client at `peer` connected: admitted if `MODBUS_ALLOW`

@@ -28,6 +28,7 @@
 //! | [`storage`] | the stored image, the storage task, RAM and flash storage |
 //! | [`clock`] | time: embassy-time on boards and Linux, a virtual clock in tests |
 //! | [`net`] | the socket interface and its adapters |
+//! | `web` | the web page and its JSON API (feature `web`) |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
 //! | [`testkit`] | a virtual world for tests: clock, network, robot, PLC (feature `testkit`) |
 //!
@@ -66,6 +67,10 @@
 //!   `NorFlash`).
 //! * `testkit`: [`testkit`], the virtual world of the tests, simulations
 //!   and fuzz targets (needs `std`).
+// The gateway is one future of nested futures (engine, sessions, web
+// connections, picoserve): computing its layout needs more depth than the
+// default 128.
+#![recursion_limit = "256"]
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -99,6 +104,8 @@ pub mod state;
 pub mod storage;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
+#[cfg(feature = "web")]
+pub mod web;
 
 pub use clock::{Clock, SystemClock};
 pub use config::Config;

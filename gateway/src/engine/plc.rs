@@ -145,10 +145,7 @@ pub fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
                 ConfigStep::Invalid(bad)
             }
             Ok(new) => {
-                c.active = new;
-                c.edit = new.to_words();
-                c.generation = c.generation.wrapping_add(1);
-                info!("config: applied");
+                c.apply(new);
                 ConfigStep::Save
             }
         },

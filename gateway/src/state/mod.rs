@@ -115,6 +115,17 @@ pub struct ConfigState {
     pub factory: Config,
 }
 
+impl ConfigState {
+    /// Makes `new` the configuration in use (the engine follows it once
+    /// woken); the registers show it.
+    pub fn apply(&mut self, new: Config) {
+        self.active = new;
+        self.edit = new.to_words();
+        self.generation = self.generation.wrapping_add(1);
+        info!("config: applied");
+    }
+}
+
 /// Everything the gateway knows.
 pub struct Model {
     /// The robot's status.

@@ -16,6 +16,7 @@ use core::pin::Pin;
 use core::task::{Context, Poll, Waker};
 use std::boxed::Box;
 use std::rc::Rc;
+use std::string::String;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::task::Wake;
@@ -83,7 +84,12 @@ pub struct WorldConfig {
     pub plcs: usize,
     /// The storage (it survives [`World::restart`]).
     pub storage: MemStorage,
+    /// Serve the web page on [`WEB_PORT`] (feature `web`).
+    pub web: bool,
 }
+
+/// The gateway's web port in the world (when [`WorldConfig::web`]).
+pub const WEB_PORT: u16 = 80;
 
 impl Default for WorldConfig {
     fn default() -> Self {
@@ -93,6 +99,7 @@ impl Default for WorldConfig {
             config: Config::default(),
             plcs: 1,
             storage: MemStorage::default(),
+            web: false,
         }
     }
 }
@@ -152,6 +159,8 @@ impl World {
             modbus_port: MODBUS_PORT,
             defaults,
             robot_override: None,
+            web_port: if config.web { WEB_PORT } else { 0 },
+            seed: [config.seed as u8; 32],
             ..Default::default()
         };
         let flag = Arc::new(Flag(AtomicBool::new(true)));
@@ -198,6 +207,8 @@ impl World {
             modbus_port: MODBUS_PORT,
             defaults: self.gateway.hub().with(|m| m.config.factory),
             robot_override: None,
+            web_port: if self.config.web { WEB_PORT } else { 0 },
+            seed: [self.config.seed as u8 ^ 0x5a; 32],
             ..Default::default()
         };
         self.robot.drop_connections();
@@ -322,6 +333,36 @@ impl World {
         }
     }
 
+    /// A web client from `ip` sends `request` (raw bytes: request line,
+    /// headers, body) on a new connection and reads until the gateway
+    /// closes it, the answer is complete (by its `Content-Length` or its
+    /// last chunk) or `limit` passes. Returns what came back (empty: the
+    /// connection was refused or closed at once).
+    pub fn http(&mut self, ip: Ipv4Addr, request: &[u8], limit: Duration) -> Vec<u8> {
+        let from = SocketAddrV4::new(ip, 40000 + (self.polls % 20000) as u16);
+        let Some(mut s) = self.net.connect(from, WEB_PORT) else {
+            return Vec::new();
+        };
+        self.settle();
+        s.write(request);
+        let end = self.now() + limit;
+        let mut got = Vec::new();
+        loop {
+            self.catch_up();
+            got.extend(s.read());
+            if http_complete(&got) || !s.is_open() {
+                got.extend(s.read());
+                break;
+            }
+            if !self.turn(end) {
+                break;
+            }
+        }
+        s.close();
+        self.settle();
+        got
+    }
+
     /// A new Modbus client from `ip` connects; returns its index (for
     /// [`Self::request`]). Whether the gateway admits it shows in
     /// [`Self::plc_open`] once the world has run.
@@ -388,4 +429,23 @@ impl World {
             panic!("writing {addr}: exception {e}");
         }
     }
+}
+
+/// An HTTP answer in `b` is complete: its head and as many body bytes as
+/// `Content-Length` says, or the last chunk of a chunked one.
+pub fn http_complete(b: &[u8]) -> bool {
+    let Some(head_end) = b.windows(4).position(|w| w == b"\r\n\r\n") else {
+        return false;
+    };
+    let head = String::from_utf8_lossy(&b[..head_end]).to_ascii_lowercase();
+    let body = &b[head_end + 4..];
+    if head.contains("transfer-encoding: chunked") {
+        return body.ends_with(b"0\r\n\r\n");
+    }
+    let len = head
+        .lines()
+        .find_map(|l| l.strip_prefix("content-length:"))
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .unwrap_or(0);
+    body.len() >= len
 }

@@ -1,0 +1,517 @@
+//! The web page and its JSON API, served by the gateway itself: a second
+//! view of the typed state (the registers are the first).
+//!
+//! The HTTP server is [picoserve](https://crates.io/crates/picoserve)
+//! (chosen over edge-http): it parses requests into a bounded buffer,
+//! handles keep-alive and timeouts, writes chunked responses, takes the
+//! timer as a trait (so the server runs on the gateway's [`Clock`], in
+//! virtual time in tests) and needs no heap; edge-http takes its timeouts
+//! from embassy-time directly and its sockets from edge-nal, a second
+//! socket abstraction beside the gateway's. picoserve runs here on the
+//! gateway's own [`Socket`] ([`io`]), so the page is the same code on
+//! Linux (tokio) and on boards (embassy-net). Routing is one match in
+//! [`App`] rather than picoserve's typed router: each route is one line
+//! to read, and a fuzz target drives the whole request path.
+//!
+//! * [`WEB_CONNECTIONS`] connections at once, each with an
+//!   [`HTTP_BUF`]-byte request buffer: a request (line, headers and body)
+//!   longer than that gets 413 (body) or 400 and the connection closes.
+//! * Timeouts: 5 s to start a request, 3 s to read it, 3 s per write, 5 s
+//!   idle on a kept-alive connection.
+//! * The page is one static, gzip-compressed file in flash ([`assets`]);
+//!   the answers of the API are JSON ([`api`], `gateway/WEB.md`).
+//! * Access: `WEB_ALLOW` is checked when a client connects (refused:
+//!   closed at once, counted); every change needs a session opened with
+//!   the password ([`crate::access`]).
+
+pub mod api;
+pub mod assets;
+pub mod io;
+pub mod json;
+mod post;
+
+use core::cell::RefCell;
+use core::convert::Infallible;
+use core::net::SocketAddrV4;
+
+use embassy_futures::join::join_array;
+use embassy_time::Duration;
+use picoserve::io::Read;
+use picoserve::request::{Path, Request, RequestParts};
+use picoserve::response::chunked::{ChunkWriter, ChunkedResponse, Chunks, ChunksWritten};
+use picoserve::response::{Content, IntoResponse, Response, ResponseWriter, StatusCode};
+use picoserve::routing::PathRouterService;
+use picoserve::{ResponseSent, Router};
+
+use crate::access::session::{Sessions, Token};
+use crate::clock::Clock;
+use crate::hub::Hub;
+use crate::net::{Net, Socket};
+use api::{Doc, Part};
+use io::{ClockTimer, Conn};
+use json::Json;
+
+/// Web connections served at once.
+pub const WEB_CONNECTIONS: usize = 3;
+/// Bytes of a request: line, headers and body (a configuration import of
+/// every setting and sixteen full trigger entries takes ~4.5 KiB).
+pub const HTTP_BUF: usize = 6144;
+/// Socket receive buffer of a web connection.
+pub const WEB_RX: usize = 1024;
+/// Socket send buffer of a web connection.
+pub const WEB_TX: usize = 2048;
+/// Name of the session cookie.
+pub const COOKIE: &str = "hgw_session";
+
+static CONFIG: picoserve::Config = picoserve::Config {
+    timeouts: picoserve::Timeouts {
+        start_read_request: picoserve::time::Duration::from_secs(5),
+        persistent_start_read_request: picoserve::time::Duration::from_secs(5),
+        read_request: picoserve::time::Duration::from_secs(3),
+        write: picoserve::time::Duration::from_secs(3),
+    },
+    connection: picoserve::KeepAlive::KeepAlive,
+};
+
+/// What the web server keeps besides the gateway's state: the sessions,
+/// and how to restart the device.
+pub struct Web {
+    sessions: RefCell<Sessions>,
+    restart: Option<fn()>,
+}
+
+impl Web {
+    /// A web server whose tokens and salts come from `seed`, and which
+    /// offers a restart if the platform gives one (boards).
+    pub fn new(seed: [u8; 32], restart: Option<fn()>) -> Self {
+        Web {
+            sessions: RefCell::new(Sessions::new(seed)),
+            restart,
+        }
+    }
+}
+
+/// Serves the web page on `port` with [`WEB_CONNECTIONS`] sockets of
+/// `net`, until the future is dropped.
+pub(crate) async fn run<N: Net, C: Clock>(
+    hub: &Hub,
+    clock: &C,
+    web: &Web,
+    net: &N,
+    port: u16,
+) -> Infallible {
+    // Built where they stay (in this future), as the Modbus sessions'.
+    let mut bufs = [const { ConnBufs::new() }; WEB_CONNECTIONS];
+    let conns = bufs.each_mut().map(|b| {
+        let ConnBufs { rx, tx, http } = b;
+        connection(hub, clock, web, net.socket(rx, tx), port, http)
+    });
+    let _ = join_array(conns).await;
+    core::future::pending().await
+}
+
+/// The buffers of one web connection.
+struct ConnBufs {
+    rx: [u8; WEB_RX],
+    tx: [u8; WEB_TX],
+    http: [u8; HTTP_BUF],
+}
+
+impl ConnBufs {
+    const fn new() -> Self {
+        ConnBufs {
+            rx: [0; WEB_RX],
+            tx: [0; WEB_TX],
+            http: [0; HTTP_BUF],
+        }
+    }
+}
+
+async fn connection<S: Socket, C: Clock>(
+    hub: &Hub,
+    clock: &C,
+    web: &Web,
+    mut sock: S,
+    port: u16,
+    http: &mut [u8],
+) -> Infallible {
+    loop {
+        if sock.accept(port).await.is_err() {
+            clock.sleep(Duration::from_millis(500)).await;
+            continue;
+        }
+        let peer = sock.remote();
+        if !hub.admit_web(peer) {
+            if let Some(p) = peer {
+                let [a, b, c, d] = p.ip().octets();
+                warn!(
+                    "web: client {}.{}.{}.{} refused (not in WEB_ALLOW)",
+                    a, b, c, d
+                );
+            }
+            sock.close().await;
+            continue;
+        }
+        serve_one(hub, clock, web, peer, &mut sock, http).await;
+        sock.close().await;
+    }
+}
+
+/// Serves one connection (its requests, kept alive) until it ends. Also
+/// the entry point of the HTTP fuzz target.
+pub async fn serve_one<S: Socket, C: Clock>(
+    hub: &Hub,
+    clock: &C,
+    web: &Web,
+    peer: Option<SocketAddrV4>,
+    sock: &mut S,
+    http: &mut [u8],
+) {
+    let app = Router::from_service(App {
+        hub,
+        clock,
+        web,
+        peer,
+    });
+    let server = picoserve::Server::custom(&app, ClockTimer(clock), &CONFIG, http);
+    if server.serve(Conn::new(sock)).await.is_err() {
+        debug!("web: connection ended on an error (timeout, reset, malformed request)");
+    }
+}
+
+/// The routes (see `gateway/WEB.md`).
+struct App<'a, C: Clock> {
+    hub: &'a Hub,
+    clock: &'a C,
+    web: &'a Web,
+    #[allow(dead_code)]
+    peer: Option<SocketAddrV4>,
+}
+
+/// A body of bytes with its content type.
+pub struct Bytes<'a> {
+    /// `Content-Type`.
+    pub ty: &'static str,
+    /// The bytes.
+    pub data: &'a [u8],
+}
+
+impl Content for Bytes<'_> {
+    fn content_type(&self) -> &'static str {
+        self.ty
+    }
+
+    fn content_length(&self) -> usize {
+        self.data.len()
+    }
+
+    async fn write_content<W: picoserve::io::Write>(self, mut writer: W) -> Result<(), W::Error> {
+        writer.write_all(self.data).await
+    }
+}
+
+/// A JSON answer held in one part.
+fn json_body(j: &Json) -> Bytes<'_> {
+    Bytes {
+        ty: "application/json",
+        data: j.as_bytes(),
+    }
+}
+
+/// A document streamed in chunks from the state.
+struct DocChunks<'a, C: Clock> {
+    hub: &'a Hub,
+    clock: &'a C,
+    doc: Doc,
+}
+
+impl<C: Clock> Chunks for DocChunks<'_, C> {
+    fn content_type(&self) -> &'static str {
+        "application/json"
+    }
+
+    async fn write_chunks<W: picoserve::io::Write>(
+        self,
+        mut w: ChunkWriter<W>,
+    ) -> Result<ChunksWritten, W::Error> {
+        let mut j = Json::new();
+        for i in 0.. {
+            j.clear();
+            let now = self.clock.now();
+            let part = self.hub.with(|m| self.doc.part(m, now, i, &mut j));
+            match part {
+                Ok(p) => {
+                    w.write_chunk(j.as_bytes()).await?;
+                    if p == Part::Last {
+                        break;
+                    }
+                }
+                Err(_) => {
+                    // Cannot happen (every part's longest form is tested
+                    // to fit); the document ends here, cut.
+                    warn!("web: a part of {} did not fit", i);
+                    break;
+                }
+            }
+        }
+        w.finalize().await
+    }
+}
+
+/// The session token a request carries (cookie or `Authorization:
+/// Bearer`).
+fn token(parts: &RequestParts<'_>) -> Option<Token> {
+    let h = parts.headers();
+    if let Some(a) = h.get("Authorization") {
+        if let Some(t) = a.as_raw().strip_prefix(b"Bearer ") {
+            return Token::from_hex(t.trim_ascii());
+        }
+    }
+    let cookies = h.get("Cookie")?;
+    cookies.as_raw().split(|&b| b == b';').find_map(|c| {
+        let c = c.trim_ascii();
+        c.strip_prefix(COOKIE.as_bytes())
+            .and_then(|rest| rest.strip_prefix(b"="))
+            .and_then(Token::from_hex)
+    })
+}
+
+/// A cross-site request: its `Origin` names another host than `Host`.
+fn cross_site(parts: &RequestParts<'_>) -> bool {
+    let h = parts.headers();
+    let Some(origin) = h.get("Origin") else {
+        return false;
+    };
+    let o = origin.as_raw();
+    let o = o
+        .strip_prefix(b"http://")
+        .or_else(|| o.strip_prefix(b"https://"))
+        .unwrap_or(o);
+    match h.get("Host") {
+        Some(host) => o != host.as_raw(),
+        None => true,
+    }
+}
+
+impl<C: Clock> App<'_, C> {
+    fn authorized(&self, parts: &RequestParts<'_>) -> bool {
+        let now = self.clock.now();
+        token(parts).is_some_and(|t| self.web.sessions.borrow_mut().check(&t, now))
+    }
+
+    fn password_set(&self) -> bool {
+        self.hub.with(|m| m.access.password.is_some())
+    }
+}
+
+/// What a request is answered with: built first, written with one await
+/// at the end (so that one JSON buffer lives in the connection's future,
+/// not one per route).
+pub(crate) enum Reply {
+    /// The page.
+    Page,
+    /// A document streamed from the state.
+    Doc(Doc),
+    /// A small JSON answer.
+    Json(StatusCode, Json),
+    /// A JSON answer that opens a session (sets the cookie).
+    Session(StatusCode, Json, Token),
+    /// A JSON answer that ends the session (clears the cookie).
+    Logout(Json),
+    /// Answer, then restart the device.
+    Restart(Json),
+}
+
+/// `{"error":"..."}`.
+fn error_json(text: &str) -> Json {
+    let mut j = Json::new();
+    let _ = j
+        .raw("{")
+        .and_then(|j| j.key("error"))
+        .and_then(|j| j.str(text.as_bytes()))
+        .and_then(|j| j.raw("}"));
+    j
+}
+
+fn error(status: StatusCode, text: &str) -> Reply {
+    Reply::Json(status, error_json(text))
+}
+
+impl<C: Clock> App<'_, C> {
+    fn session_json(&self, authorized: bool) -> Json {
+        let now = self.clock.now();
+        let wait = match self.web.sessions.borrow().may_try(now) {
+            Ok(()) => 0,
+            Err(d) => d.as_secs() + 1,
+        };
+        let mut j = Json::new();
+        let _ = j
+            .raw("{")
+            .and_then(|j| j.key("authorized"))
+            .and_then(|j| j.bool(authorized))
+            .and_then(|j| j.raw(","))
+            .and_then(|j| j.key("password_set"))
+            .and_then(|j| j.bool(self.password_set()))
+            .and_then(|j| j.raw(","))
+            .and_then(|j| j.key("retry_after_s"))
+            .and_then(|j| j.uint(wait))
+            .and_then(|j| j.raw(","))
+            .and_then(|j| j.key("restart"))
+            .and_then(|j| j.bool(self.web.restart.is_some()))
+            .and_then(|j| j.raw("}"));
+        j
+    }
+
+    /// Reads the request (its body where the route has one) and decides
+    /// the answer.
+    async fn route<R: Read>(&self, path: &str, request: &mut Request<'_, R>) -> Reply {
+        let method = request.parts.method();
+        let get = method == "GET" || method == "HEAD";
+        let post = method == "POST";
+        if post && cross_site(&request.parts) {
+            return error(StatusCode::FORBIDDEN, "cross-site request refused");
+        }
+        match path {
+            "/" | "/index.html" if get => Reply::Page,
+            "/api/status" if get => Reply::Doc(Doc::Status),
+            "/api/config" if get => Reply::Doc(Doc::Config),
+            "/api/fields" if get => Reply::Doc(Doc::Fields),
+            "/api/log" if get => Reply::Doc(Doc::Log),
+            "/api/session" if get => Reply::Json(
+                StatusCode::OK,
+                self.session_json(self.authorized(&request.parts)),
+            ),
+            "/api/login" if post => self.login(request).await,
+            "/api/logout" if post => {
+                if let Some(t) = token(&request.parts) {
+                    self.web.sessions.borrow_mut().close(&t);
+                }
+                Reply::Logout(post::ok_json())
+            }
+            "/api/password" if post => self.set_password(request).await,
+            p if post
+                && (p == "/api/config"
+                    || p == "/api/restart"
+                    || p.starts_with("/api/trigger/")) =>
+            {
+                if !self.password_set() {
+                    return error(StatusCode::FORBIDDEN, "set a password first");
+                }
+                if !self.authorized(&request.parts) {
+                    return error(StatusCode::UNAUTHORIZED, "log in first");
+                }
+                match p {
+                    "/api/config" => self.post_config(request).await,
+                    "/api/restart" => match self.web.restart {
+                        Some(_) => Reply::Restart(post::ok_json()),
+                        None => error(
+                            StatusCode::NOT_IMPLEMENTED,
+                            "this gateway cannot restart itself (restart the service)",
+                        ),
+                    },
+                    _ => {
+                        let n = p
+                            .strip_prefix("/api/trigger/")
+                            .and_then(|n| n.parse::<usize>().ok());
+                        self.post_trigger(n, request).await
+                    }
+                }
+            }
+            "/" | "/index.html" | "/api/status" | "/api/config" | "/api/fields" | "/api/log"
+            | "/api/session" | "/api/login" | "/api/logout" | "/api/password" | "/api/restart" => {
+                error(StatusCode::METHOD_NOT_ALLOWED, "method not allowed")
+            }
+            _ => error(StatusCode::NOT_FOUND, "not found"),
+        }
+    }
+}
+
+fn session_cookie(t: &Token) -> impl core::fmt::Display {
+    struct Cookie([u8; crate::access::session::TOKEN_CHARS]);
+    impl core::fmt::Display for Cookie {
+        fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+            let hex = core::str::from_utf8(&self.0).unwrap_or("");
+            write!(f, "{COOKIE}={hex}; Path=/; HttpOnly; SameSite=Strict")
+        }
+    }
+    Cookie(t.to_hex())
+}
+
+impl<C: Clock> PathRouterService<()> for App<'_, C> {
+    async fn call_path_router_service<R: Read, W: ResponseWriter<Error = R::Error>>(
+        &self,
+        _state: &(),
+        _params: (),
+        path: Path<'_>,
+        mut request: Request<'_, R>,
+        w: W,
+    ) -> Result<ResponseSent, W::Error> {
+        let reply = self.route(path.encoded(), &mut request).await;
+        let c = request.body_connection.finalize().await?;
+        match reply {
+            Reply::Page => {
+                Response::new(
+                    StatusCode::OK,
+                    Bytes {
+                        ty: "text/html; charset=utf-8",
+                        data: assets::INDEX_HTML_GZ,
+                    },
+                )
+                .with_headers([
+                    ("Content-Encoding", "gzip"),
+                    ("Cache-Control", "no-cache"),
+                    ("X-Content-Type-Options", "nosniff"),
+                ])
+                .write_to(c, w)
+                .await
+            }
+            Reply::Doc(doc) => {
+                ChunkedResponse::new(DocChunks {
+                    hub: self.hub,
+                    clock: self.clock,
+                    doc,
+                })
+                .into_response()
+                .with_header("Cache-Control", "no-store")
+                .write_to(c, w)
+                .await
+            }
+            Reply::Json(status, j) => {
+                Response::new(status, json_body(&j))
+                    .with_header("Cache-Control", "no-store")
+                    .write_to(c, w)
+                    .await
+            }
+            Reply::Session(status, j, t) => {
+                let hex = t.to_hex();
+                Response::new(status, json_body(&j))
+                    .with_header("Set-Cookie", session_cookie(&t))
+                    .with_header("X-Session-Token", core::str::from_utf8(&hex).unwrap_or(""))
+                    .with_header("Cache-Control", "no-store")
+                    .write_to(c, w)
+                    .await
+            }
+            Reply::Logout(j) => {
+                Response::new(StatusCode::OK, json_body(&j))
+                    .with_header(
+                        "Set-Cookie",
+                        "hgw_session=; Max-Age=0; Path=/; HttpOnly; SameSite=Strict",
+                    )
+                    .write_to(c, w)
+                    .await
+            }
+            Reply::Restart(j) => {
+                let sent = Response::new(StatusCode::ACCEPTED, json_body(&j))
+                    .write_to(c, w)
+                    .await?;
+                warn!("web: restart requested");
+                // Let the answer leave before the device goes.
+                self.clock.sleep(Duration::from_millis(500)).await;
+                if let Some(restart) = self.web.restart {
+                    restart();
+                }
+                Ok(sent)
+            }
+        }
+    }
+}
