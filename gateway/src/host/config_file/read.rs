@@ -18,7 +18,7 @@ use super::{
     field_of_key, quoted, takes, Contents, Form, Key, Problem, KEYS, PASSWORD, SCHEME, TABLES,
 };
 use crate::access::password::{PasswordHash, HASH_LEN, ITERATIONS, SALT_LEN};
-use crate::config::{ipv4_words, Config, Field, Words, ALLOW_ENTRIES};
+use crate::config::{field_of, ipv4_words, Config, Field, Words, ALLOW_ENTRIES};
 use crate::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
 /// The line and column of byte `offset` of `text`, and the reason.
@@ -64,7 +64,8 @@ pub fn parse(text: &str, defaults: &Config) -> Result<Contents, Vec<Problem>> {
                     field_of_key(k).is_some_and(|f| f.addr <= e.addr && e.addr < f.addr + f.len)
                 })
                 .and_then(|(_, at)| *at);
-            let reason = format!("the configuration is refused at register {}", e.addr);
+            let name = field_of(e.addr).map_or("a setting", |f| f.name);
+            let reason = format!("{name} (register {}) is out of range", e.addr);
             r.problems.push(problem(text, at.unwrap_or(0), reason));
         }
     }
@@ -77,6 +78,16 @@ pub fn parse(text: &str, defaults: &Config) -> Result<Contents, Vec<Problem>> {
 }
 
 type Span = core::ops::Range<usize>;
+
+/// The tables that have a key named `key`: `[robot] or [network]`.
+fn tables_of(key: &str) -> Option<String> {
+    let tables: Vec<String> = KEYS
+        .iter()
+        .filter(|k| k.key == key)
+        .map(|k| format!("[{}]", k.table))
+        .collect();
+    (!tables.is_empty()).then(|| tables.join(" or "))
+}
 
 /// The state of a read: the settings' registers so far, what was found.
 struct Reader<'t> {
@@ -101,11 +112,10 @@ impl Reader<'_> {
     fn table(&mut self, name: &Spanned<Cow<'_, str>>, value: &Spanned<DeValue<'_>>) {
         let n = name.get_ref().as_ref();
         if !TABLES.contains(&n) {
-            let reason = match KEYS.iter().find(|k| k.key == n) {
-                Some(k) => format!(
-                    "unknown key \"{n}\" outside the tables (it goes in [{}])",
-                    k.table
-                ),
+            let reason = match tables_of(n) {
+                Some(tables) => {
+                    format!("unknown key \"{n}\" outside the tables (it goes in {tables})")
+                }
                 None => format!(
                     "unknown table [{n}]; the tables are {}",
                     TABLES.map(|t| format!("[{t}]")).join(", ")
@@ -131,17 +141,9 @@ impl Reader<'_> {
             } else if let Some(i) = KEYS.iter().position(|x| x.table == n && x.key == kn) {
                 self.setting(i, v);
             } else {
-                let elsewhere: Vec<String> = KEYS
-                    .iter()
-                    .filter(|x| x.key == kn)
-                    .map(|x| format!("[{}]", x.table))
-                    .collect();
-                let reason = match elsewhere.is_empty() {
-                    false => format!(
-                        "unknown key \"{kn}\" in [{n}] (it goes in {})",
-                        elsewhere.join(" or ")
-                    ),
-                    true => {
+                let reason = match tables_of(kn) {
+                    Some(tables) => format!("unknown key \"{kn}\" in [{n}] (it goes in {tables})"),
+                    None => {
                         let mut keys: Vec<&str> = KEYS
                             .iter()
                             .filter(|x| x.table == n)

@@ -196,16 +196,17 @@ fn a_choice_outside_this_build_names_what_it_takes() {
 
 #[test]
 fn unknown_keys_and_tables_are_refused_not_ignored() {
-    let text = "poll_ms = 50\n[robot]\nadress = \"10.0.0.1\"\n[robots]\nport = 1\n[link]\naddress = \"1.2.3.4\"\n";
+    let text = "poll_ms = 50\nport = 1\n[robot]\nadress = \"10.0.0.1\"\n[robots]\nport = 1\n[link]\naddress = \"1.2.3.4\"\n";
     let err = parse(text, &Config::DEFAULT).unwrap_err();
     let lines: Vec<String> = err.iter().map(|p| p.to_string()).collect();
     assert_eq!(
         lines,
         [
             "1:1: unknown key \"poll_ms\" outside the tables (it goes in [link])",
-            "3:1: unknown key \"adress\" in [robot]; its keys are address, port, id",
-            "4:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [triggers]",
-            "7:1: unknown key \"address\" in [link] (it goes in [robot] or [network])",
+            "2:1: unknown key \"port\" outside the tables (it goes in [robot])",
+            "4:1: unknown key \"adress\" in [robot]; its keys are address, port, id",
+            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [triggers]",
+            "8:1: unknown key \"address\" in [link] (it goes in [robot] or [network])",
         ]
     );
     let err = parse("[access]\npasword = \"x\"\n", &Config::DEFAULT).unwrap_err();
