@@ -117,6 +117,17 @@ def gateway_seeds():
     image = body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
     put("gateway_image", image)
     put("gateway_image", image[:-1] + bytes([image[-1] ^ 1]))
+    # Web requests: reads, the first password, a configuration post, a login.
+    def http(method, path, body=b"", headers=()):
+        head = f"{method} {path} HTTP/1.1\r\nHost: gw\r\n" + "".join(f"{h}\r\n" for h in headers)
+        return head.encode() + f"Content-Length: {len(body)}\r\n\r\n".encode() + body
+    put("gateway_http", bytes([9]) + http("GET", "/api/status") + http("GET", "/api/log"))
+    put("gateway_http", bytes([64]) + http("GET", "/"))
+    put("gateway_http", bytes([17]) + http("POST", "/api/password", b"\ncorrect horse")
+        + http("POST", "/api/config", b'{"settings":{"CFG_POLL_MS":"50"},"triggers":["GrpStop,0,;"]}',
+               ["Cookie: hgw_session=00112233445566778899aabbccddeeff"]))
+    put("gateway_http", bytes([33]) + http("POST", "/api/login", b"wrong password")
+        + http("POST", "/api/trigger/3", b"SetBoxDO,1,1,;", ["Authorization: Bearer 00"]))
 
 
 if __name__ == "__main__":

@@ -339,11 +339,9 @@ impl World {
     /// last chunk) or `limit` passes. Returns what came back (empty: the
     /// connection was refused or closed at once).
     pub fn http(&mut self, ip: Ipv4Addr, request: &[u8], limit: Duration) -> Vec<u8> {
-        let from = SocketAddrV4::new(ip, 40000 + (self.polls % 20000) as u16);
-        let Some(mut s) = self.net.connect(from, WEB_PORT) else {
+        let Some(mut s) = self.web_connect(ip) else {
             return Vec::new();
         };
-        self.settle();
         s.write(request);
         let end = self.now() + limit;
         let mut got = Vec::new();
@@ -361,6 +359,15 @@ impl World {
         s.close();
         self.settle();
         got
+    }
+
+    /// A web client from `ip` connects (the world runs until the gateway
+    /// took the connection or refused it).
+    pub fn web_connect(&mut self, ip: Ipv4Addr) -> Option<crate::testkit::net::SimStream> {
+        let from = SocketAddrV4::new(ip, 40000 + (self.polls % 20000) as u16);
+        let s = self.net.connect(from, WEB_PORT)?;
+        self.settle();
+        Some(s)
     }
 
     /// A new Modbus client from `ip` connects; returns its index (for

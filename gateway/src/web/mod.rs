@@ -28,7 +28,7 @@ pub mod api;
 pub mod assets;
 pub mod io;
 pub mod json;
-mod post;
+pub mod post;
 
 use core::cell::RefCell;
 use core::convert::Infallible;
