@@ -391,7 +391,9 @@ fn config(m: &Model, i: usize, j: &mut Json) -> Result<Part, Full> {
     let words = m.config.active.to_words();
     match i {
         0 => {
-            j.raw("{")?.key("format")?.str(super::post::FORMAT.as_bytes())?;
+            j.raw("{")?
+                .key("format")?
+                .str(super::post::FORMAT.as_bytes())?;
             j.raw(",")?.key("settings")?.raw("{")?;
             for (k, f) in FIELDS.iter().enumerate() {
                 if k > 0 {
