@@ -150,6 +150,8 @@ pub struct HostOptions {
     pub config_file: Option<PathBuf>,
     /// Configuration used when storage holds none.
     pub defaults: crate::Config,
+    /// Serve the web page here (port 0 = any free port); `None`: no page.
+    pub web_listen: Option<SocketAddrV4>,
 }
 
 impl HostOptions {
@@ -161,15 +163,23 @@ impl HostOptions {
             robot_listen: None,
             config_file: None,
             defaults: crate::Config::default(),
+            web_listen: None,
         }
     }
+}
+
+/// The addresses a started gateway listens on.
+#[derive(Clone, Copy, Debug)]
+struct Bound {
+    modbus: SocketAddrV4,
+    robot_listen: Option<SocketAddrV4>,
+    web: Option<SocketAddrV4>,
 }
 
 /// A gateway running on its own thread. Dropping it stops it (sockets
 /// closed, thread joined).
 pub struct RunningGateway {
-    modbus: SocketAddrV4,
-    robot_listen: Option<SocketAddrV4>,
+    bound: Bound,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<thread::JoinHandle<()>>,
 }
@@ -184,8 +194,7 @@ impl RunningGateway {
             config_file::read_file(path, &opts.defaults)
                 .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
         }
-        let (ready_tx, ready_rx) =
-            mpsc::channel::<io::Result<(SocketAddrV4, Option<SocketAddrV4>)>>();
+        let (ready_tx, ready_rx) = mpsc::channel::<io::Result<Bound>>();
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
         let thread = thread::Builder::new()
             .name(String::from("hans-gateway"))
@@ -204,9 +213,8 @@ impl RunningGateway {
                 rt.block_on(serve(opts, ready_tx, stop_rx));
             })?;
         match ready_rx.recv() {
-            Ok(Ok((modbus, robot_listen))) => Ok(RunningGateway {
-                modbus,
-                robot_listen,
+            Ok(Ok(bound)) => Ok(RunningGateway {
+                bound,
                 stop: Some(stop_tx),
                 thread: Some(thread),
             }),
@@ -223,12 +231,17 @@ impl RunningGateway {
 
     /// Where the Modbus server listens.
     pub fn modbus_addr(&self) -> SocketAddrV4 {
-        self.modbus
+        self.bound.modbus
     }
 
     /// Where the gateway listens for the robot (listen mode).
     pub fn robot_listen_addr(&self) -> Option<SocketAddrV4> {
-        self.robot_listen
+        self.bound.robot_listen
+    }
+
+    /// Where the web page is served.
+    pub fn web_addr(&self) -> Option<SocketAddrV4> {
+        self.bound.web
     }
 
     /// Stops the gateway and waits for its thread.
@@ -252,7 +265,7 @@ impl Drop for RunningGateway {
     }
 }
 
-type Ready = mpsc::Sender<io::Result<(SocketAddrV4, Option<SocketAddrV4>)>>;
+type Ready = mpsc::Sender<io::Result<Bound>>;
 
 async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Receiver<()>) {
     let bind_ip = opts
@@ -266,10 +279,18 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             Some(a) => Some(SocketAddrV4::new(*a.ip(), net.listen(a).await?)),
             None => None,
         };
-        io::Result::Ok((SocketAddrV4::new(*opts.modbus_listen.ip(), mport), robot))
+        let web = match opts.web_listen {
+            Some(a) => Some(SocketAddrV4::new(*a.ip(), net.listen(a).await?)),
+            None => None,
+        };
+        io::Result::Ok(Bound {
+            modbus: SocketAddrV4::new(*opts.modbus_listen.ip(), mport),
+            robot_listen: robot,
+            web,
+        })
     }
     .await;
-    let (modbus, robot) = match bound {
+    let bound = match bound {
         Ok(b) => b,
         Err(e) => {
             let _ = ready.send(Err(e));
@@ -277,9 +298,9 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         }
     };
     let options = Options {
-        modbus_port: modbus.port(),
+        modbus_port: bound.modbus.port(),
         defaults: opts.defaults,
-        robot_override: match (robot, opts.robot) {
+        robot_override: match (bound.robot_listen, opts.robot) {
             (Some(l), _) => Some(RobotOverride::Listen(l.port())),
             (None, Some(a)) => Some(RobotOverride::Connect(*a.ip(), a.port())),
             (None, None) => None,
@@ -287,10 +308,10 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         recovery: false,
         network_managed: false,
         seed: os_seed(),
-        web_port: 0,
+        web_port: bound.web.map_or(0, |w| w.port()),
         restart: None,
     };
-    let _ = ready.send(Ok((modbus, robot)));
+    let _ = ready.send(Ok(bound));
     let clock = SystemClock;
     match &opts.config_file {
         Some(p) => {

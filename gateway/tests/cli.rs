@@ -580,3 +580,44 @@ fn start(args: &[&str]) -> (Running, Log) {
     let log = Log::new(gw.0.stderr.take().expect("stderr"));
     (gw, log)
 }
+
+/// `--web-listen` serves the page and the API; the log names its address.
+#[test]
+fn web_listen_serves_the_page_and_the_api() {
+    let (gw, log) = start(&[
+        "--robot",
+        "127.0.0.1:1",
+        "--modbus-listen",
+        "127.0.0.1:0",
+        "--web-listen",
+        "127.0.0.1:0",
+    ]);
+    let line = log.wait_for("web page on http://");
+    let (_, url) = line.split_once("web page on http://").expect("address");
+    let addr = url.trim().trim_end_matches('/').to_string();
+    let get = |path: &str| {
+        let mut s = TcpStream::connect(&addr).expect("connect to the web page");
+        s.set_read_timeout(Some(WAIT)).expect("timeout");
+        write!(
+            s,
+            "GET {path} HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n"
+        )
+        .expect("send");
+        let mut answer = Vec::new();
+        let _ = s.read_to_end(&mut answer);
+        String::from_utf8_lossy(&answer).to_string()
+    };
+    let page = get("/");
+    assert!(page.starts_with("HTTP/1.1 200"), "{page}");
+    assert!(
+        page.to_ascii_lowercase().contains("content-encoding: gzip"),
+        "{page}"
+    );
+    let status = get("/api/status");
+    assert!(status.starts_with("HTTP/1.1 200"), "{status}");
+    assert!(status.contains("\"map\":\"1.2\""), "{status}");
+    // The access bit "web page on" shows over Modbus too.
+    let regs = read_registers(&modbus_addr(&log), 50, 1);
+    assert_eq!(regs[0] & (1 << 4), 1 << 4);
+    drop(gw);
+}

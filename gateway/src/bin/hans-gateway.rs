@@ -1,8 +1,8 @@
 //! `hans-gateway`: the gateway on Linux.
 //!
 //! ```text
-//! hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE]
-//! hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE]
+//! hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
+//! hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
 //! hans-gateway --config FILE --modbus-listen HOST:PORT
 //! hans-gateway --help | --version
 //! ```
@@ -27,8 +27,8 @@ const ROBOT_PORT: u16 = 10003;
 /// The forms of the command line, in `--help` and after every usage error
 /// (lines after the first are indented under clap's `Usage: `).
 const USAGE: &str = "\
-hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE]
-       hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE]
+hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
+       hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
        hans-gateway --config FILE --modbus-listen HOST:PORT
        hans-gateway --help | --version";
 
@@ -87,6 +87,11 @@ struct Cli {
     #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
     #[arg(verbatim_doc_comment)]
     robot_listen: Option<Endpoint>,
+    /// Serve the web page (status, configuration, trigger table,
+    /// command log; gateway/WEB.md) here. Off unless given.
+    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    #[arg(verbatim_doc_comment)]
+    web_listen: Option<Endpoint>,
     /// Keep the configuration and the trigger table in FILE (TOML):
     /// checked and read at start, written when the PLC writes 1 to
     /// CONFIG_COMMAND.
@@ -239,6 +244,11 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
             .as_ref()
             .map(|e| resolve("robot-listen", e))
             .transpose()?,
+        web_listen: cli
+            .web_listen
+            .as_ref()
+            .map(|e| resolve("web-listen", e))
+            .transpose()?,
         config_file: cli.config,
         defaults: hans_gateway::Config::default(),
     })
@@ -305,6 +315,9 @@ fn main() -> ExitCode {
     log::info!("modbus server on {}", gw.modbus_addr());
     if let Some(a) = gw.robot_listen_addr() {
         log::info!("waiting for the robot controller on {a}");
+    }
+    if let Some(a) = gw.web_addr() {
+        log::info!("web page on http://{a}/");
     }
     // Runs until the process is stopped (SIGINT/SIGTERM end it; sockets
     // are closed by the OS).
