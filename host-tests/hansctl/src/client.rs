@@ -5,7 +5,9 @@ use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
-use hans_codec::{Command, Framer, Reply, ReplyExpect, Request, Response};
+use hans_codec::{
+    Command, EncodeError, Framer, LevelError, ProtocolLevel, Reply, ReplyExpect, Request, Response,
+};
 
 /// Why a request did not get a reply.
 #[derive(Debug)]
@@ -22,6 +24,9 @@ pub enum ClientError {
     Fail(String, hans_codec::ErrorCode, String),
     /// `errorcmd` reply.
     ErrorCmd(String),
+    /// The command is not one the chosen protocol level has; nothing was
+    /// sent.
+    Level(LevelError),
 }
 
 impl std::fmt::Display for ClientError {
@@ -41,6 +46,7 @@ impl std::fmt::Display for ClientError {
             ClientError::ErrorCmd(r) => {
                 write!(f, "the controller could not parse the request: {r}")
             }
+            ClientError::Level(e) => write!(f, "{e}: not sent"),
         }
     }
 }
@@ -50,6 +56,9 @@ pub struct Client {
     stream: TcpStream,
     framer: Box<Framer<65536>>,
     timeout: Duration,
+    /// The controller's protocol level, when the user gave one: typed
+    /// requests are written for it (`encode_at`).
+    level: Option<ProtocolLevel>,
 }
 
 /// `HOST[:PORT]` with `port` as the default.
@@ -70,8 +79,13 @@ pub fn resolve(robot: &str, port: u16) -> Result<SocketAddr, ClientError> {
 }
 
 impl Client {
-    /// Connects within `timeout`.
-    pub fn connect(addr: SocketAddr, timeout: Duration) -> Result<Client, ClientError> {
+    /// Connects within `timeout`; typed requests are checked against
+    /// `level`, when given, before they are sent.
+    pub fn connect(
+        addr: SocketAddr,
+        timeout: Duration,
+        level: Option<ProtocolLevel>,
+    ) -> Result<Client, ClientError> {
         let stream = TcpStream::connect_timeout(&addr, timeout)
             .map_err(|e| ClientError::Connect(format!("{addr}: {e}")))?;
         let _ = stream.set_nodelay(true);
@@ -79,6 +93,7 @@ impl Client {
             stream,
             framer: Box::default(),
             timeout,
+            level,
         })
     }
 
@@ -131,9 +146,14 @@ impl Client {
     /// `Fail` or `errorcmd` reply is an error.
     pub fn call<'a, C: Command<'a>>(&mut self, cmd: &C) -> Result<String, ClientError> {
         let mut buf = vec![0u8; 8192];
-        let n = cmd
-            .encode(&mut buf)
-            .map_err(|e| ClientError::BadReply(format!("cannot encode: {e}")))?;
+        let written = match self.level {
+            Some(level) => cmd.encode_at(level, &mut buf),
+            None => cmd.encode(&mut buf),
+        };
+        let n = written.map_err(|e| match e {
+            EncodeError::Unsupported(e) => ClientError::Level(e),
+            e => ClientError::BadReply(format!("cannot encode: {e}")),
+        })?;
         let msg = String::from_utf8_lossy(buf.get(..n).unwrap_or(&[])).into_owned();
         let reply = self.call_raw(&msg)?;
         check(&reply, cmd.expect())?;

@@ -6,6 +6,7 @@
 
 mod client;
 mod decode;
+mod jog;
 mod json;
 
 use std::io::{BufRead, Read, Write};
@@ -15,7 +16,9 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand};
 use hans_codec::datasheet::{DataSheet, Deframer};
-use hans_codec::{request as rq, response as rs, Command, Decimal, FsmState, RobotId};
+use hans_codec::{
+    request as rq, response as rs, Command, Decimal, FsmState, ProtocolLevel, RobotId,
+};
 
 use client::{check, resolve, response, Client, ClientError};
 use json::{Json, Obj};
@@ -36,8 +39,24 @@ struct Cli {
     /// Machine-readable output: one JSON object per line.
     #[arg(long, global = true)]
     json: bool,
+    /// The controller's protocol level: v5 (HR-TCP V1.0.0.3), v6 (HR6.6.1)
+    /// or its version (HR6.4.8). A command that level does not have is
+    /// refused before it is sent (exit status 2). Without it, nothing is
+    /// checked.
+    #[arg(long, global = true, value_parser = parse_level)]
+    protocol: Option<ProtocolLevel>,
     #[command(subcommand)]
     cmd: Cmd,
+}
+
+/// `v5`, `v6` or a controller version such as `HR6.4.8`.
+fn parse_level(s: &str) -> Result<ProtocolLevel, String> {
+    match s.to_ascii_lowercase().as_str() {
+        "v5" => Ok(ProtocolLevel::V5),
+        "v6" => Ok(ProtocolLevel::V6),
+        _ => ProtocolLevel::parse(s)
+            .ok_or_else(|| format!("{s:?}: expected v5, v6 or a version such as HR6.4.8")),
+    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -143,6 +162,38 @@ enum Cmd {
         #[command(subcommand)]
         action: Option<IoCmd>,
     },
+    /// Jog one joint or Cartesian axis (V6 commands: LongJogJ/L and
+    /// LongMoveEvent, ShortJogJ/L).
+    ///
+    /// AXIS is j1..j6, or x, y, z, rx, ry, rz (user frame, or tool frame
+    /// after SetToolMotion), followed by + or -: `hansctl jog j2+`.
+    ///
+    /// From a terminal, hold any key: the jog starts with the first key
+    /// press and runs while the keyboard repeats it; it stops when the
+    /// repeats stop (release), or on q, Esc or Ctrl-C. With --for it runs for
+    /// that long; with --short it is one step (2° or 2 mm). While it runs,
+    /// LongMoveEvent goes out every 100 ms (the document asks for at least
+    /// every 200 ms); if hansctl stops sending, the controller stops the jog.
+    #[command(verbatim_doc_comment)]
+    Jog {
+        /// j1..j6 or x, y, z, rx, ry, rz, then + or -.
+        axis: String,
+        /// Jog for this long (e.g. 1.5s, 800ms, 2) instead of while a key
+        /// is held.
+        #[arg(long = "for", value_name = "DURATION", value_parser = parse_duration)]
+        duration: Option<Duration>,
+        /// One short step (ShortJogJ/L) instead of a long jog.
+        #[arg(long, conflicts_with = "duration")]
+        short: bool,
+    },
+    /// The controller's text for an error code (GetErrorCodeStr), or the
+    /// codec's when the controller has none to give (a V5 controller,
+    /// --protocol v5, no connection).
+    Error {
+        /// The error code, e.g. 20018.
+        #[arg(allow_negative_numbers = true)]
+        code: i32,
+    },
     /// Live view of the DataSheet stream.
     Watch {
         /// DataSheet port (10004 = 20 Hz, 10005 = 10 Hz, 10006 = 5 Hz).
@@ -177,6 +228,7 @@ impl From<ClientError> for Exit {
     fn from(e: ClientError) -> Self {
         let code = match e {
             ClientError::Fail(..) | ClientError::ErrorCmd(_) => 1,
+            ClientError::Level(_) => 2,
             _ => 3,
         };
         Exit(code, e.to_string())
@@ -202,7 +254,7 @@ fn run(cli: &Cli) -> Result<(), Exit> {
     let timeout = Duration::from_millis(cli.timeout.max(1));
     let connect = || -> Result<Client, Exit> {
         let addr = resolve(&cli.robot, 10003)?;
-        Ok(Client::connect(addr, timeout)?)
+        Ok(Client::connect(addr, timeout, cli.protocol)?)
     };
     match &cli.cmd {
         Cmd::Decode => decode_stdin(),
@@ -287,7 +339,97 @@ fn run(cli: &Cli) -> Result<(), Exit> {
                     mode,
                 }),
         } => io_set(cli, &mut connect()?, kind, *index, *value, *mode),
+        Cmd::Jog {
+            axis,
+            duration,
+            short,
+        } => {
+            let axis = jog::Axis::parse(axis).map_err(|e| Exit(2, e))?;
+            // Refused before connecting when the level has no jogging.
+            jog::check_level(cli.protocol, &axis, *short).map_err(Exit::from)?;
+            let mode = match (short, duration) {
+                (true, _) => jog::Mode::Short,
+                (false, Some(d)) => jog::Mode::For(*d),
+                (false, None) => jog::Mode::Held,
+            };
+            jog::run(cli.json, &mut connect()?, &axis, mode)
+        }
+        Cmd::Error { code } => error_text(cli, *code, connect),
         Cmd::Watch { port, count } => watch(cli, *port, *count, timeout),
+    }
+}
+
+/// `1.5s`, `800ms`, `2` (seconds).
+fn parse_duration(s: &str) -> Result<Duration, String> {
+    let t = s.trim();
+    let (num, scale) = if let Some(v) = t.strip_suffix("ms") {
+        (v, 0.001)
+    } else if let Some(v) = t.strip_suffix('s') {
+        (v, 1.0)
+    } else {
+        (t, 1.0)
+    };
+    match num.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 && v * scale <= 86_400.0 => {
+            Ok(Duration::from_secs_f64(v * scale))
+        }
+        _ => Err(format!("{s:?}: expected a duration such as 1.5s or 800ms")),
+    }
+}
+
+/// `error CODE`: the controller's text, else the codec's.
+fn error_text(
+    cli: &Cli,
+    code: i32,
+    connect: impl FnOnce() -> Result<Client, Exit>,
+) -> Result<(), Exit> {
+    let ec = hans_codec::ErrorCode::from(code);
+    let req = rq::GetErrorCodeStr { code: ec };
+    let asked = match cli.protocol.map(|l| req.check_level(l)) {
+        // The level has no GetErrorCodeStr: do not ask.
+        Some(Err(e)) => Err(format!("{e}")),
+        _ => connect()
+            .map_err(|Exit(_, m)| m)
+            .and_then(|mut c| c.call(&req).map_err(|e| e.to_string())),
+    };
+    let controller = asked
+        .as_ref()
+        .ok()
+        .and_then(|r| match response(r, req.expect()) {
+            Some(hans_codec::Response::GetErrorCodeStr(t)) => Some(t.text.as_str().to_string()),
+            _ => None,
+        });
+    let (text, source) = match (controller, ec.text()) {
+        (Some(t), _) => (Some(t), "controller"),
+        (None, Some(t)) => (Some(t.to_string()), "codec"),
+        (None, None) => (None, "none"),
+    };
+    if let Err(why) = &asked {
+        if !cli.json {
+            eprintln!(
+                "hansctl: the controller's text is not available ({why}); the codec's table:"
+            );
+        }
+    }
+    let name = ec.name();
+    if cli.json {
+        println!(
+            "{}",
+            obj! {
+                "code" => code, "name" => name, "text" => text.as_deref(),
+                "source" => source,
+            }
+        );
+    } else {
+        println!(
+            "{code} {}: {}",
+            name.unwrap_or("(no name)"),
+            text.as_deref().unwrap_or("(no text known)")
+        );
+    }
+    match text {
+        Some(_) => Ok(()),
+        None => Err(Exit(1, format!("no text known for {code}"))),
     }
 }
 
@@ -374,6 +516,20 @@ fn send(cli: &Cli, mut c: Client, message: &str, force: bool) -> Result<(), Exit
             msg.push(',');
         }
         msg.push(';');
+    }
+    // The level: a command the controller does not have is not sent
+    // (unless forced), whether or not its fields read.
+    if let Some(level) = cli.protocol {
+        let id = hans_codec::CommandId::from_name(msg.split(',').next().unwrap_or("").trim());
+        if let Some(Err(e)) = id.map(|id| id.check_level(level)) {
+            if !force {
+                return Err(Exit(
+                    2,
+                    format!("{e}: not sent (use --force to send it anyway)"),
+                ));
+            }
+            eprintln!("hansctl: warning: {e} (sent anyway)");
+        }
     }
     let expect = match client::typed(&msg) {
         Ok(req) => {

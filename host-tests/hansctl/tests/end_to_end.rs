@@ -5,7 +5,7 @@ use std::io::Write;
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
-use hans_sim::{ClockMode, Config, Fault, FsmState, Sim};
+use hans_sim::{ClockMode, Config, Fault, FsmState, ProtocolLevel, Sim};
 use serde_json::Value;
 
 const BIN: &str = env!("CARGO_BIN_EXE_hansctl");
@@ -384,5 +384,167 @@ async fn power_on_move_io_state_and_watch() {
     let out = hansctl(args(&robot, &["reset"])).await;
     assert!(out.status.success());
     tokio::time::sleep(Duration::from_millis(10)).await;
+    sim.shutdown().await;
+}
+
+/// The messages of `received` named `name`.
+fn named<'a>(received: &'a [String], name: &str) -> Vec<&'a String> {
+    received
+        .iter()
+        .filter(|m| m.split(',').next() == Some(name))
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jog_for_a_duration_keeps_the_jog_alive_then_releases_it() {
+    // A long keep-alive: a slow machine that delays an event must not stop
+    // the jog early; only hansctl's release (or its death) may.
+    let sim = Sim::start(Config {
+        timing: hans_sim::Timing {
+            long_move_keepalive: Duration::from_secs(3),
+            ..hans_sim::Timing::default()
+        },
+        ..Config::ready()
+    })
+    .await
+    .unwrap();
+    let robot = sim.command_addr().to_string();
+    let before = sim.state().cmd_joints[1];
+    let t0 = std::time::Instant::now();
+    let run = tokio::spawn(hansctl(args(&robot, &["jog", "j2+", "--for", "600ms"])));
+    // Seen jogging while it runs.
+    let mut seen = false;
+    while !run.is_finished() && t0.elapsed() < Duration::from_secs(20) {
+        seen |= sim.fsm() == FsmState::LongJogMoving;
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    let out = run.await.unwrap();
+    assert!(out.status.success(), "{out:?}");
+    assert!(seen, "FSM 26 while jogging");
+    let received = sim.received();
+    assert_eq!(named(&received, "LongJogJ")[0], "LongJogJ,0,1,1,1,;");
+    assert_eq!(
+        named(&received, "LongJogJ").last().unwrap().as_str(),
+        "LongJogJ,0,1,1,0,;",
+        "released"
+    );
+    let events = named(&received, "LongMoveEvent").len();
+    assert!((3..=7).contains(&events), "{events} events in 0.6 s");
+    // Released: standing still at once, not 3 s later.
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    assert_eq!(sim.fsm(), FsmState::StandBy);
+    let moved = sim.state().cmd_joints[1] - before;
+    assert!(moved > 3.0 && moved < 12.0, "J2 moved {moved}°");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("J2+"), "{text}");
+
+    // A short step: 2°.
+    let before = sim.state().cmd_joints[1];
+    let out = hansctl(args(&robot, &["jog", "j2-", "--short", "--json"])).await;
+    assert!(out.status.success(), "{out:?}");
+    let v = json_lines(&out);
+    assert_eq!(v.last().unwrap()["done"], true);
+    assert!((sim.state().cmd_joints[1] - (before - 2.0)).abs() < 1e-6);
+
+    // Holding a key needs a terminal (stdin is not one here).
+    let out = hansctl(args(&robot, &["jog", "x+"])).await;
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--for"));
+    let out = hansctl(args(&robot, &["jog", "j7+", "--for", "1s"])).await;
+    assert_eq!(out.status.code(), Some(2));
+    sim.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn protocol_refuses_what_the_level_has_not_before_sending() {
+    let sim = Sim::start(Config::ready()).await.unwrap();
+    let robot = sim.command_addr().to_string();
+    sim.clear_received();
+    let out = hansctl(args(
+        &robot,
+        &["--protocol", "v5", "jog", "j1+", "--for", "1s"],
+    ))
+    .await;
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("LongJogJ needs HR6.2.17 (level V5)"), "{err}");
+    let out = hansctl(args(
+        &robot,
+        &[
+            "--protocol",
+            "v6",
+            "send",
+            "MoveJ,0,0,0,0,0,0,0,10,0,90,0,90,0,TCP,Base,50,100,0,1,0,0,0,mj,;",
+        ],
+    ))
+    .await;
+    assert_eq!(out.status.code(), Some(2), "{out:?}");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("MoveJ was removed at HR5.50.3"));
+    assert!(sim.received().is_empty(), "{:?}", sim.received());
+    // Forced, it goes out, and the V6 controller refuses it as unknown.
+    let out = hansctl(args(
+        &robot,
+        &[
+            "--protocol",
+            "v6",
+            "send",
+            "--force",
+            "MoveJ,0,0,0,0,0,0,0,10,0,90,0,90,0,TCP,Base,50,100,0,1,0,0,0,mj,;",
+        ],
+    ))
+    .await;
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("MoveJ,Fail,20005"));
+    // Commands the level has go out as before.
+    let out = hansctl(args(&robot, &["--protocol", "HR6.4.8", "state"])).await;
+    assert!(out.status.success(), "{out:?}");
+    let out = hansctl(args(&robot, &["--protocol", "v7", "state"])).await;
+    assert_eq!(out.status.code(), Some(2));
+    sim.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn error_prints_the_controllers_text_or_the_codecs() {
+    let sim = Sim::start(Config::ready()).await.unwrap();
+    let robot = sim.command_addr().to_string();
+    let out = hansctl(args(&robot, &["error", "20018"])).await;
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        "20018 StateRefused: command forbidden in this state"
+    );
+    let out = hansctl(args(&robot, &["--json", "error", "20042"])).await;
+    let v = json_lines(&out);
+    assert_eq!(
+        (v[0]["text"].as_str(), v[0]["source"].as_str()),
+        (Some("path not ready"), Some("controller")),
+        "the simulator's own text (the codec has none)"
+    );
+    assert!(named(&sim.received(), "GetErrorCodeStr").len() == 2);
+    // A V5 controller has no GetErrorCodeStr: the codec's table.
+    let old = Sim::start(Config {
+        protocol: ProtocolLevel::V5,
+        ..Config::ready()
+    })
+    .await
+    .unwrap();
+    let old_robot = old.command_addr().to_string();
+    let out = hansctl(args(&old_robot, &["--json", "error", "20018"])).await;
+    assert!(out.status.success(), "{out:?}");
+    let v = json_lines(&out);
+    assert_eq!(
+        (v[0]["text"].as_str(), v[0]["source"].as_str()),
+        (Some("command forbidden in this state"), Some("codec"))
+    );
+    // With --protocol v5 it is not even asked.
+    old.clear_received();
+    let out = hansctl(args(&old_robot, &["--protocol", "v5", "error", "10000"])).await;
+    assert!(out.status.success(), "{out:?}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("Short circuit error"));
+    assert!(old.received().is_empty());
+    // No text anywhere: exit 1.
+    let out = hansctl(args(&old_robot, &["--protocol", "v5", "error", "12345"])).await;
+    assert_eq!(out.status.code(), Some(1));
+    old.shutdown().await;
     sim.shutdown().await;
 }
