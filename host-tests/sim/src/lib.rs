@@ -1,12 +1,14 @@
 //! # hans-sim: a simulated Hans / Huayan (Elfin) robot controller
 //!
-//! It listens where a controller listens — the command port (10003) and the
-//! JSON DataSheet ports (10004-10006, 20/10/5 Hz) — answers all 139
-//! commands of the protocol document with the codec (`hans-codec`) on both
-//! sides, and behaves like a controller where a client can tell: the FSM
-//! of the bring-up, motion that takes time with the document's flags,
-//! kinematics consistent with the document's examples, I/O that reads
-//! back, one message at a time. Faults can be injected for tests.
+//! It listens where a controller listens — the command port (10003), the
+//! JSON DataSheet ports (10004-10006, 20/10/5 Hz) and the fast command port
+//! (10001) — answers the 139 commands of HR-TCP V1.0.0.3 and the 74 of the
+//! V6 document with the codec (`hans-codec`) on both sides, at the protocol
+//! level it is given ([`Config::protocol`]), and behaves like a controller
+//! where a client can tell: the FSM of the bring-up, motion that takes time
+//! with the document's flags, jogging kept alive by `LongMoveEvent`,
+//! kinematics consistent with the documents' examples, I/O that reads back,
+//! one message at a time. Faults can be injected for tests.
 //!
 //! ## Library use (tokio)
 //! ```no_run
@@ -59,9 +61,9 @@
 //! ## Modules
 //! | module | job |
 //! |---|---|
-//! | [`server`] | command port, client mode, one message at a time, faults applied |
+//! | [`server`] | command port, fast port, client mode, one message at a time, faults applied |
 //! | [`datasheet`] | DataSheet ports |
-//! | `robot` | state machine ([`Timing`], FSM table), motion, dispatch of the 139 commands |
+//! | `robot` | state machine ([`Timing`], FSM table), motion, the commands (one file per document section) |
 //! | [`robot::io`] | box and tool-end I/O, tool Modbus registers |
 //! | [`kinematics`] | forward / inverse kinematics, pose arithmetic |
 //! | [`faults`] | fault injection |
