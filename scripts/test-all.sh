@@ -53,7 +53,8 @@ step "rustdoc (codec, gateway) without warnings" \
 
 # --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
 # gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,
-# and the embassy-net path on two in-process stacks)
+# the embassy-net path on two in-process stacks, and the web page in headless
+# Chromium: host-tests/web-e2e, screenshots in target/screenshots/)
 # The corpus is compared with the protocol document, which is not part of
 # the repository: it sits beside the checkout (../shared/spec) or where
 # HANS_SPEC says. Without it this one comparison is skipped, loudly; the
