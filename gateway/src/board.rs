@@ -8,11 +8,30 @@
 //! #[embassy_executor::task]
 //! async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
 //!     let storage = hans_gateway::NoStorage;
-//!     let options = hans_gateway::Options::default(); // Modbus on port 502
+//!     let options = hans_gateway::Options {
+//!         network_managed: true, // apply NET_* to the stack
+//!         seed,                  // from the board's random source
+//!         restart: Some(restart),
+//!         ..Default::default()
+//!     };
 //!     match hans_gateway::board::run(stack, storage, options).await {}
 //! }
 //! // in main: spawner.spawn(gateway(stack).unwrap());
 //! ```
+//!
+//! [`run`] loads the stored configuration first ([`Gateway::load`]), then,
+//! when the options say the board manages the network
+//! (`network_managed`), applies its network settings
+//! ([`Gateway::network`]) to the stack: the static address, mask and
+//! gateway, or DHCP when `NET_DHCP` is 1 and the build has the `dhcp`
+//! feature (without it a stored DHCP setting falls back to the static
+//! address, with a warning, and `NET_DHCP` then reads as not running:
+//! `ACCESS` bit 2). So the stack is created without an address
+//! (`embassy_net::Config::default()`), and one binary serves every plant:
+//! the board's build-time address is only the factory default
+//! ([`Options::defaults`](crate::Options)), changed at run time through the
+//! `NET_*` registers or the web page and applied at the next start. Then
+//! the gateway is served ([`Gateway::serve`]).
 //!
 //! Everything the gateway needs (sockets, buffers, queue, register map)
 //! lives inside the future of [`run`] (the storage too: it is moved in), so
@@ -24,30 +43,127 @@
 //! The robot address and all other settings come from storage (written by
 //! the PLC through the configuration registers) or from
 //! [`Options::defaults`](crate::Options) when storage is empty. The stack
-//! needs [`SOCKETS`] TCP sockets for the gateway (`StackResources<N>` with
-//! `N` ≥ [`SOCKETS`] plus what the board uses itself).
+//! needs [`SOCKETS`] sockets for the gateway (`StackResources<N>` with
+//! `N` ≥ [`SOCKETS`] plus what the board uses itself): a stack that runs
+//! out of sockets panics when one more is created.
 
 use core::convert::Infallible;
+use core::net::Ipv4Addr;
+
+use embassy_futures::join::join;
+use embassy_net::{ConfigV4, Ipv4Cidr, Stack, StaticConfigV4};
 
 use crate::clock::SystemClock;
-use crate::gateway::{Options, MAX_SESSIONS};
+use crate::config::NetConfig;
+use crate::gateway::{Gateway, Options, MAX_SESSIONS};
 use crate::net::embassy::EmbassyNet;
 use crate::storage::Storage;
 
 #[allow(unused_imports)]
 use crate::storage::NoStorage;
 
-/// TCP sockets the gateway uses: the Modbus sessions, two for the robot
-/// link and one for the DataSheet.
-pub const SOCKETS: usize = MAX_SESSIONS + 3;
+/// Sockets of the DataSheet reader (feature `datasheet`).
+const DATASHEET_SOCKETS: usize = if cfg!(feature = "datasheet") { 1 } else { 0 };
+
+/// Sockets of the web page (feature `web`).
+#[cfg(feature = "web")]
+const WEB_SOCKETS: usize = crate::web::WEB_CONNECTIONS;
+#[cfg(not(feature = "web"))]
+const WEB_SOCKETS: usize = 0;
+
+/// The DHCP client's socket (feature `dhcp`; embassy-net adds it when
+/// DHCP is switched on).
+const DHCP_SOCKETS: usize = if cfg!(feature = "dhcp") { 1 } else { 0 };
+
+/// Sockets the gateway uses on the board's stack: the Modbus sessions
+/// ([`MAX_SESSIONS`]), two for the robot link, one for the DataSheet
+/// (feature `datasheet`), the web page's connections (feature `web`:
+/// `web::WEB_CONNECTIONS`) and the DHCP client's (feature `dhcp`). A
+/// board sizes its `StackResources` with this plus its own.
+pub const SOCKETS: usize = MAX_SESSIONS + 2 + DATASHEET_SOCKETS + WEB_SOCKETS + DHCP_SOCKETS;
 
 /// Runs the gateway on the board's network stack until the future is
-/// dropped (it never returns).
+/// dropped (it never returns): loads the stored configuration, applies
+/// its network settings to `stack` if `options.network_managed`, and
+/// serves (see the module docs).
 pub async fn run<S: Storage>(
     stack: embassy_net::Stack<'_>,
-    storage: S,
+    mut storage: S,
     options: Options,
 ) -> Infallible {
+    let clock = SystemClock;
+    let gateway = Gateway::new(options);
+    gateway.load(&mut storage, &clock).await;
+    if options.network_managed {
+        apply_network(stack, &gateway);
+    }
     let net = EmbassyNet::new(stack);
-    crate::gateway::run(&net, &SystemClock, storage, options).await
+    let (never, _) = join(
+        gateway.serve(&net, &clock, storage),
+        announce(stack, options.network_managed),
+    )
+    .await;
+    never
+}
+
+/// Applies the loaded network settings to the stack (see the module docs).
+/// Not inlined: its locals are off the stack once it returns.
+#[inline(never)]
+fn apply_network(stack: Stack<'_>, gateway: &Gateway) {
+    let net = gateway.network();
+    #[cfg(feature = "dhcp")]
+    if net.dhcp {
+        info!("network: DHCP (the address is logged once a server gives one)");
+        stack.set_config_v4(ConfigV4::Dhcp(embassy_net::DhcpConfig::default()));
+        return;
+    }
+    #[cfg(not(feature = "dhcp"))]
+    if net.dhcp {
+        let [a, b, c, d] = net.ip.octets();
+        warn!(
+            "network: NET_DHCP is 1 but this firmware has no DHCP client (build feature `dhcp`): using the static address {}.{}.{}.{}",
+            a, b, c, d
+        );
+        // What runs is the static address: the status says so (ACCESS
+        // bit 2: the configuration differs from what runs).
+        gateway.hub().with(|m| m.access.running.dhcp = false);
+    }
+    stack.set_config_v4(ConfigV4::Static(static_config(&net)));
+}
+
+/// The static IPv4 setting of `net` (address, mask, gateway; `0.0.0.0` as
+/// gateway: none).
+fn static_config(net: &NetConfig) -> StaticConfigV4 {
+    StaticConfigV4 {
+        address: Ipv4Cidr::new(net.ip, net.prefix_len()),
+        gateway: (net.gateway != Ipv4Addr::UNSPECIFIED).then_some(net.gateway),
+        dns_servers: heapless::Vec::new(),
+    }
+}
+
+/// Logs the address each time the stack gets one (at once for a static
+/// address; when the lease comes with DHCP) and when it loses it.
+async fn announce(stack: Stack<'_>, managed: bool) -> Infallible {
+    loop {
+        stack.wait_config_up().await;
+        if let Some(c) = stack.config_v4() {
+            let [a, b, cc, d] = c.address.address().octets();
+            let [g0, g1, g2, g3] = c.gateway.unwrap_or(Ipv4Addr::UNSPECIFIED).octets();
+            info!(
+                "network: address {}.{}.{}.{}/{}, gateway {}.{}.{}.{}{}",
+                a,
+                b,
+                cc,
+                d,
+                c.address.prefix_len(),
+                g0,
+                g1,
+                g2,
+                g3,
+                if managed { "" } else { " (set by the board)" }
+            );
+        }
+        stack.wait_config_down().await;
+        warn!("network: address lost (DHCP lease ended); waiting for a new one");
+    }
 }

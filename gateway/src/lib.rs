@@ -62,6 +62,7 @@
 //! * `datasheet` (default): [`datasheet`], the status from the DataSheet
 //!   port (CFG_STATUS_SOURCE = 1; without it that value is refused).
 //! * `embassy-net`: the embassy-net adapter and [`board`].
+//! * `dhcp`: the DHCP client on boards ([`board::run`] applies `NET_DHCP`).
 //! * `defmt`: log through defmt.
 //! * `flash`: [`storage::flash::FlashStorage`] (sequential-storage over a
 //!   `NorFlash`).

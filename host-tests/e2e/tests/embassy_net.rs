@@ -2,6 +2,13 @@
 //! embassy-net stack, a PLC and a robot on a second stack, the two joined
 //! by embassy-net-driver-channel devices and a frame-copying bridge. No TAP
 //! device, no root; real TCP through the embassy-net adapter.
+//!
+//! As on a board, the gateway's stack starts without an address and
+//! `board::run` applies the configuration's network settings
+//! (`network_managed`): the address, and the Modbus port (5020 here, to
+//! show it is the configuration's). The web page is served on the same
+//! stack (port 80), so the stack's resources are sized by
+//! `board::SOCKETS` with every part of the gateway in use.
 
 // The gateway's board future, nested in this test's blocks, is 130 queries
 // deep when the codec has its `v6` feature (which hans-sim, a dependency of
@@ -18,11 +25,14 @@ use embassy_net::{Config, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
 use embassy_net_driver_channel as ch;
 use embassy_time::{with_timeout, Timer};
 use hans_e2e::{code, words_of_f32, CannedRobot};
+use hans_gateway::config::NetConfig;
 use hans_gateway::registers as r;
 
 const MTU: usize = 1514;
 const GW_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 1);
 const PEER_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 2);
+/// The gateway's Modbus port, from its configuration (`NET_MODBUS_PORT`).
+const MODBUS_PORT: u16 = 5020;
 
 fn config(ip: Ipv4Addr) -> Config {
     Config::ipv4_static(StaticConfigV4 {
@@ -115,7 +125,7 @@ async fn read_reg(s: &mut TcpSocket<'_>, tid: u16, addr: u16) -> u16 {
 async fn plc(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
     let (mut rxb, mut txb) = ([0u8; 1024], [0u8; 1024]);
     let mut s = TcpSocket::new(stack, &mut rxb, &mut txb);
-    s.connect((GW_IP, 502))
+    s.connect((GW_IP, MODBUS_PORT))
         .await
         .expect("connect to the gateway's Modbus port");
     assert_eq!(
@@ -161,6 +171,31 @@ async fn plc(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
     );
     s.close();
     let _ = s.flush().await;
+    web_status(stack).await;
+}
+
+/// `GET /api/status` from the web page on port 80: answered, and it shows
+/// the robot link up.
+async fn web_status(stack: Stack<'_>) {
+    let (mut rxb, mut txb) = ([0u8; 4096], [0u8; 1024]);
+    let mut s = TcpSocket::new(stack, &mut rxb, &mut txb);
+    s.connect((GW_IP, 80)).await.expect("connect to the web page");
+    let mut out: &[u8] = b"GET /api/status HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n";
+    while !out.is_empty() {
+        let k = s.write(out).await.expect("write");
+        out = &out[k..];
+    }
+    let mut got = Vec::new();
+    let mut buf = [0u8; 1024];
+    loop {
+        match s.read(&mut buf).await {
+            Ok(0) | Err(_) => break,
+            Ok(n) => got.extend(&buf[..n]),
+        }
+    }
+    let text = String::from_utf8_lossy(&got);
+    assert!(text.starts_with("HTTP/1.1 200"), "{text}");
+    assert!(text.contains(r#""state":"connected""#), "{text}");
 }
 
 #[test]
@@ -181,18 +216,25 @@ fn gateway_over_two_embassy_net_stacks() {
         state_rb.set_link_state(ch::driver::LinkState::Up);
         let mut res_a = StackResources::<{ hans_gateway::board::SOCKETS }>::new();
         let mut res_b = StackResources::<4>::new();
-        let (stack_a, mut net_a) = embassy_net::new(dev_a, config(GW_IP), &mut res_a, 1);
+        // No address: the gateway applies its configuration's.
+        let (stack_a, mut net_a) = embassy_net::new(dev_a, Config::default(), &mut res_a, 1);
         let (stack_b, mut net_b) = embassy_net::new(dev_b, config(PEER_IP), &mut res_b, 2);
 
         let storage = hans_gateway::storage::NoStorage;
         let options = hans_gateway::Options {
-            modbus_port: 502,
             defaults: hans_gateway::Config {
                 robot_ip: PEER_IP,
                 robot_port: 10003,
+                net: NetConfig {
+                    ip: GW_IP,
+                    mask: Ipv4Addr::new(255, 255, 255, 0),
+                    gateway: Ipv4Addr::UNSPECIFIED,
+                    modbus_port: MODBUS_PORT,
+                    ..NetConfig::DEFAULT
+                },
                 ..hans_gateway::Config::default()
             },
-            robot_override: None,
+            network_managed: true,
             ..Default::default()
         };
         let received = RefCell::new(Vec::new());
