@@ -82,7 +82,11 @@ step "codec with the V6 commands (feature v6): vectors, properties, typed tests"
   cargo test -p hans-codec -p hans-host-tests --features hans-host-tests/v6 --locked
 step "clippy (codec with v6 and defmt)" \
   cargo clippy -p hans-codec -p hans-host-tests --all-targets --features hans-codec/defmt,hans-host-tests/v6 --locked -- -D warnings
-step "host tests" cargo test --workspace --locked
+# hans-sim and hansctl build the codec with `v6`, and Cargo turns a feature on
+# for the whole of one build: the V5-only vectors need a codec without it, so
+# the codec and its tests run alone first, then everything else.
+step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-codec -p hans-host-tests --locked
+step "host tests" cargo test --workspace --exclude hans-host-tests --locked
 
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
