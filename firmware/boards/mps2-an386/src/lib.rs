@@ -5,9 +5,13 @@
 //! * clocks: a fixed 25 MHz system clock; SysTick drives `embassy-time`;
 //! * the interrupt vector table (the chip has no PAC crate) with the LAN9118
 //!   Ethernet interrupt on line 13;
-//! * the LAN9118 driver and an `embassy-net` stack on it with the guest
-//!   address QEMU's user-mode network expects (10.0.2.15/24, gateway
-//!   10.0.2.2);
+//! * the LAN9118 driver and an `embassy-net` stack on it; the gateway
+//!   firmwares start it without an address and the gateway applies its
+//!   network settings, whose factory defaults ([`FACTORY_NET`]) are what
+//!   QEMU's user-mode network expects (10.0.2.15/24, gateway 10.0.2.2);
+//!   the smoke firmware sets that address itself ([`guest_config`]);
+//! * no random source: [`seed`] derives what it can (predictable, see
+//!   there);
 //! * logs: `defmt` over semihosting (QEMU writes the frames to its stdout;
 //!   decode with `defmt-print -e <elf>`);
 //! * exit codes: [`exit`] and the panic handler end QEMU through semihosting,
@@ -15,16 +19,22 @@
 //! * an executor loop that sleeps with WFI ([`executor`]), so QEMU idles
 //!   instead of spinning.
 #![no_std]
+// The gateway is one future of nested futures (engine, sessions, web
+// connections, picoserve): computing its layout needs more depth than the
+// default 128.
+#![recursion_limit = "256"]
 #![deny(missing_docs)]
 
 pub mod diag;
 pub mod executor;
+pub mod firmware;
 pub mod irq;
 
 use cortex_m::peripheral::NVIC;
 use defmt_semihosting as _;
 use embassy_executor::Spawner;
 use embassy_net::{Ipv4Address, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
+use hans_gateway::config::NetConfig;
 use lan9118::Lan9118;
 use static_cell::ConstStaticCell;
 
@@ -39,6 +49,20 @@ pub const GUEST_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 15);
 
 /// Slirp's gateway (and host alias).
 pub const GATEWAY_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 2);
+
+/// The factory network settings of the gateway on this board: the address
+/// QEMU's user-mode network expects ([`GUEST_IP`]/24 via [`GATEWAY_IP`]),
+/// Modbus on 502 and the web page on 80 (`scripts/qemu-run.sh` forwards
+/// both to the host's loopback). The board has no persistent storage, so
+/// these are what it runs with, unless changed from the page or the
+/// registers for the rest of a run (they take effect at the next start,
+/// which, without storage, comes back to these).
+pub const FACTORY_NET: NetConfig = NetConfig {
+    ip: GUEST_IP,
+    mask: Ipv4Address::new(255, 255, 255, 0),
+    gateway: GATEWAY_IP,
+    ..NetConfig::DEFAULT
+};
 
 /// The address `scripts/qemu-run.sh` forwards (`guestfwd`) to the robot
 /// simulator on the host's loopback.
@@ -77,9 +101,21 @@ pub fn fail(error: BoardError) -> ! {
     exit(1)
 }
 
-/// Starts time, the Ethernet controller and the network stack, and spawns the
-/// stack's task. Returns the stack, configured with [`GUEST_IP`].
-pub fn init(spawner: Spawner) -> Result<Stack<'static>, BoardError> {
+/// The static setting of QEMU's user-mode network for firmwares that set
+/// their address themselves (the smoke firmware): [`GUEST_IP`]/24 via
+/// [`GATEWAY_IP`].
+pub fn guest_config() -> embassy_net::Config {
+    embassy_net::Config::ipv4_static(StaticConfigV4 {
+        address: Ipv4Cidr::new(GUEST_IP, 24),
+        gateway: Some(GATEWAY_IP),
+        dns_servers: heapless::Vec::new(),
+    })
+}
+
+/// Starts time, the Ethernet controller and the network stack with
+/// `config` (`embassy_net::Config::default()`: no address yet, the gateway
+/// sets it), and spawns the stack's task. Returns the stack.
+pub fn init(spawner: Spawner, config: embassy_net::Config) -> Result<Stack<'static>, BoardError> {
     let core = cortex_m::Peripherals::take().ok_or(BoardError::CorePeripherals)?;
     systick_time::init(core.SYST, SYSCLK_HZ).map_err(|_| BoardError::Time)?;
 
@@ -98,11 +134,6 @@ pub fn init(spawner: Spawner) -> Result<Stack<'static>, BoardError> {
     // critical section.
     unsafe { NVIC::unmask(irq::Interrupt::Ethernet) };
 
-    let config = embassy_net::Config::ipv4_static(StaticConfigV4 {
-        address: Ipv4Cidr::new(GUEST_IP, 24),
-        gateway: Some(GATEWAY_IP),
-        dns_servers: heapless::Vec::new(),
-    });
     static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
         ConstStaticCell::new(StackResources::new());
     // QEMU has no entropy source; the seed only varies TCP initial sequence
@@ -116,6 +147,43 @@ pub fn init(spawner: Spawner) -> Result<Stack<'static>, BoardError> {
 #[embassy_executor::task]
 async fn net_task(mut runner: embassy_net::Runner<'static, Lan9118<'static>>) -> ! {
     runner.run().await
+}
+
+/// The seed of the web page's session tokens and password salts.
+///
+/// QEMU's `mps2-an386` has no random source (no TRNG, and the emulated
+/// cycle counter does not run), so this mixes what varies a little from
+/// run to run: the SysTick counter and the uptime at the moment of the
+/// call (both follow the host's clock), with the MAC address. That is
+/// **predictable**: session tokens and salts on this demo board can be
+/// guessed by anyone who knows the firmware. A real board takes the seed
+/// from its hardware random generator (the NUCLEO: the STM32 RNG).
+pub fn seed(stack: Stack<'_>) -> [u8; 32] {
+    let mut mac = [0u8; 8];
+    for (m, b) in mac.iter_mut().zip(stack.hardware_address().as_bytes()) {
+        *m = *b;
+    }
+    let systick = u64::from(cortex_m::peripheral::SYST::get_current());
+    let uptime = embassy_time::Instant::now().as_ticks();
+    let mut state = u64::from_le_bytes(mac) ^ systick.rotate_left(40) ^ uptime;
+    let mut seed = [0u8; 32];
+    for chunk in seed.chunks_mut(8) {
+        // splitmix64: spreads the few varying bits over every byte.
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        chunk.copy_from_slice(&z.to_le_bytes());
+    }
+    seed
+}
+
+/// Restarts the board (the web page's restart): a system reset. Under QEMU
+/// the machine resets and the firmware starts again, with the factory
+/// settings (this board keeps nothing).
+pub fn restart() {
+    cortex_m::peripheral::SCB::sys_reset()
 }
 
 /// Logs the stack high-water mark and the Ethernet counters.

@@ -30,7 +30,7 @@ fn main() -> ! {
 
 #[embassy_executor::task]
 async fn start(spawner: Spawner) {
-    let stack = match board::init(spawner) {
+    let stack = match board::init(spawner, board::guest_config()) {
         Ok(stack) => stack,
         Err(e) => board::fail(e),
     };

@@ -1,0 +1,68 @@
+//! The gateway firmware of this board, shared by its two binaries: `gateway`
+//! (the core gateway: Modbus and the robot link) and `field-device` (feature
+//! `field-device`: also the web page with its access control, DHCP and the
+//! DataSheet reader). Only the gateway library's features differ.
+//!
+//! Modbus TCP on port 502 and (field device) the web page on 80, at
+//! 10.0.2.15 ([`FACTORY_NET`](crate::FACTORY_NET)); the robot is the
+//! simulator at 10.0.2.100:10003 (forwarded by `scripts/qemu-run.sh` to the
+//! host) unless the configuration names another. The configuration is kept
+//! in RAM: this board has no persistent storage. Port 5021 serves
+//! diagnostics (see [`diag`](crate::diag)).
+
+use embassy_executor::Spawner;
+use hans_gateway::{Config, NoStorage, Options};
+
+use crate as board;
+
+/// The first task: starts the board, then spawns the diagnostics port and
+/// the gateway. Run it with [`executor::run`](crate::executor::run).
+#[embassy_executor::task]
+pub async fn start(spawner: Spawner) {
+    // No address yet: the gateway applies its network settings.
+    let stack = match board::init(spawner, embassy_net::Config::default()) {
+        Ok(stack) => stack,
+        Err(e) => board::fail(e),
+    };
+    match (board::diag::task(stack), gateway(stack)) {
+        (Ok(diag), Ok(gateway)) => {
+            spawner.spawn(diag);
+            spawner.spawn(gateway);
+        }
+        _ => board::fail(board::BoardError::Spawn),
+    }
+    defmt::info!(
+        "gateway ({=str}): robot at {}:{=u16}",
+        if cfg!(feature = "field-device") {
+            "field device: web page, DHCP, DataSheet"
+        } else {
+            "core"
+        },
+        board::SIM_IP,
+        board::SIM_PORT
+    );
+}
+
+#[embassy_executor::task]
+async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
+    let storage = NoStorage;
+    // Only what differs from the library's defaults, so new options need no
+    // change here.
+    let options = Options {
+        defaults: Config {
+            robot_ip: board::SIM_IP,
+            robot_port: board::SIM_PORT,
+            net: board::FACTORY_NET,
+            ..Config::default()
+        },
+        network_managed: true,
+        // No random source on this board: predictable (see `seed`).
+        seed: board::seed(stack),
+        restart: Some(board::restart),
+        // No button to hold: never a recovery start (and nothing stored to
+        // recover from).
+        recovery: false,
+        ..Options::default()
+    };
+    match hans_gateway::board::run(stack, storage, options).await {}
+}
