@@ -21,6 +21,8 @@ command -v mbpoll >/dev/null || need_apt+=(mbpoll)
 command -v socat >/dev/null || need_apt+=(socat)
 # llvm-size and llvm-objdump read the Cortex-M binaries for the size reports.
 command -v llvm-size >/dev/null || need_apt+=(llvm)
+# Headless Chromium drives the web page in the browser tests (host-tests/web-e2e).
+command -v chromium >/dev/null || need_apt+=(chromium)
 if ((${#need_apt[@]})); then
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"

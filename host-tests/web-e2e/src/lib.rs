@@ -1,0 +1,602 @@
+//! Helpers of the browser tests: a rig of hans-sim + the host gateway (with
+//! its web page) + a Modbus PLC + headless Chromium showing the page, and
+//! the page driven through the DevTools protocol ([`headless_chrome`]).
+//!
+//! * The browser is Debian's `/usr/bin/chromium` ([`CHROMIUM`]), never a
+//!   downloaded one; a machine without it fails with a message that says
+//!   how to install it (`scripts/setup.sh`).
+//! * Everything listens on 127.0.0.1 on ports the system picks.
+//! * Every wait is bounded by [`WAIT`]; a wait that runs out takes a
+//!   screenshot (`…-timeout.png`) and fails with what it waited for.
+//! * Screenshots are PNG files in `screenshots/` under the cargo target
+//!   directory (`target/screenshots/<test>-<step>.png`); each path is
+//!   printed.
+//! * One browser at a time: the tests of a binary take turns
+//!   ([`WebRig::start`] holds a lock), so that two cores are not shared by
+//!   several Chromiums at once.
+
+use std::future::Future;
+use std::io::{Read, Write};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::{Duration, Instant};
+
+use base64::Engine as _;
+use headless_chrome::protocol::cdp::{Emulation, Page};
+use headless_chrome::{Browser, LaunchOptions, Tab};
+use serde_json::Value;
+
+use hans_gateway::host::{HostOptions, RunningGateway};
+use hans_sim::Sim;
+
+pub use hans_e2e::{Plc, WAIT};
+
+/// The browser: Debian's Chromium (`apt-get install chromium`, done by
+/// `scripts/setup.sh`).
+pub const CHROMIUM: &str = "/usr/bin/chromium";
+
+/// How often a wait looks at the page again.
+pub const PAGE_POLL: Duration = Duration::from_millis(50);
+
+/// The desktop window the page is shown in.
+pub const DESKTOP: (u32, u32) = (1280, 900);
+
+/// The phone-sized viewport ([`WebRig::phone`]): CSS pixels of a common
+/// phone.
+pub const PHONE: (u32, u32) = (390, 844);
+
+/// Held by the rig that has the browser (one at a time).
+static ONE_BROWSER: Mutex<()> = Mutex::new(());
+
+/// Starts headless Chromium. Panics, saying how to install it, when
+/// [`CHROMIUM`] is not there.
+pub fn launch_chromium() -> Browser {
+    let path = Path::new(CHROMIUM);
+    assert!(
+        path.exists(),
+        "{CHROMIUM} not found: the browser tests need Debian's chromium \
+         (`bash scripts/setup.sh` installs it, or `apt-get install chromium`)"
+    );
+    // No sandbox: Chromium's sandbox refuses to run as root (CI runs as
+    // root), and the browser only ever shows our own page on 127.0.0.1.
+    let opts = LaunchOptions::default_builder()
+        .path(Some(path.to_path_buf()))
+        .headless(true)
+        .sandbox(false)
+        .window_size(Some(DESKTOP))
+        .idle_browser_timeout(WAIT + WAIT)
+        .build()
+        .expect("browser launch options");
+    Browser::new(opts).unwrap_or_else(|e| panic!("starting {CHROMIUM}: {e:#}"))
+}
+
+/// Where screenshots go: `screenshots/` in the cargo target directory
+/// (the test binary lives in `<target>/<profile>/deps/`).
+pub fn screenshot_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let target = exe
+        .ancestors()
+        .nth(3)
+        .map(Path::to_path_buf)
+        .unwrap_or_else(std::env::temp_dir);
+    target.join("screenshots")
+}
+
+/// Removes the screenshots an earlier run of `test` left.
+fn remove_screenshots(test: &str) {
+    let prefix = format!("{test}-");
+    let Ok(dir) = std::fs::read_dir(screenshot_dir()) else {
+        return;
+    };
+    for e in dir.flatten() {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with(&prefix) && name.ends_with(".png") {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
+/// One HTTP answer read by [`http`].
+#[derive(Clone, Debug)]
+pub struct HttpAnswer {
+    /// Status code.
+    pub status: u16,
+    /// The body (chunks joined).
+    pub body: String,
+}
+
+/// One HTTP/1.1 request from the test itself (a client beside the
+/// browser), read to its end: for reading the API back independently of
+/// the page.
+pub fn http(addr: SocketAddrV4, method: &str, path: &str, body: &str) -> HttpAnswer {
+    let mut s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect to {addr}: {e}"));
+    s.set_read_timeout(Some(WAIT)).expect("read timeout");
+    let req = format!(
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{body}",
+        body.len()
+    );
+    s.write_all(req.as_bytes()).expect("send the request");
+    let start = Instant::now();
+    let mut buf = Vec::new();
+    let mut chunk = [0u8; 4096];
+    loop {
+        if let Some(a) = parse_http(&buf) {
+            return a;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "{method} {path}: no complete answer in {WAIT:?}"
+        );
+        match s.read(&mut chunk) {
+            Ok(0) => panic!(
+                "{method} {path}: connection closed before the answer ended: {:?}",
+                String::from_utf8_lossy(&buf)
+            ),
+            Ok(n) => buf.extend_from_slice(&chunk[..n]),
+            Err(e) => panic!("{method} {path}: {e}"),
+        }
+    }
+}
+
+/// A complete answer in `buf` (by `Content-Length` or chunked), or `None`
+/// while more is to come.
+fn parse_http(buf: &[u8]) -> Option<HttpAnswer> {
+    let end = buf.windows(4).position(|w| w == b"\r\n\r\n")?;
+    let head = String::from_utf8_lossy(&buf[..end]).to_ascii_lowercase();
+    let status = head.split(' ').nth(1)?.parse().ok()?;
+    let rest = &buf[end + 4..];
+    let header = |name: &str| {
+        head.lines()
+            .find_map(|l| l.strip_prefix(name).map(|v| v.trim().to_string()))
+    };
+    let body = if header("transfer-encoding:").is_some_and(|v| v == "chunked") {
+        let mut out = Vec::new();
+        let mut at = 0;
+        loop {
+            let line_end = rest[at..].windows(2).position(|w| w == b"\r\n")? + at;
+            let size_text = String::from_utf8_lossy(&rest[at..line_end]);
+            let size = usize::from_str_radix(size_text.trim(), 16).ok()?;
+            let data = line_end + 2;
+            if size == 0 {
+                break;
+            }
+            out.extend_from_slice(rest.get(data..data + size)?);
+            rest.get(data + size..data + size + 2)?;
+            at = data + size + 2;
+        }
+        out
+    } else {
+        let len: usize = header("content-length:")?.parse().ok()?;
+        rest.get(..len)?.to_vec()
+    };
+    Some(HttpAnswer {
+        status,
+        body: String::from_utf8_lossy(&body).into_owned(),
+    })
+}
+
+/// A JSON text as a string for a script (`"…"`, escaped).
+pub fn js_str(s: &str) -> String {
+    Value::String(s.to_string()).to_string()
+}
+
+/// hans-sim, the host gateway with its page, a PLC and the page in
+/// headless Chromium.
+pub struct WebRig {
+    /// The tab showing the page.
+    pub tab: Arc<Tab>,
+    /// A Modbus client (connected before the page is opened).
+    pub plc: Plc,
+    /// The simulated robot.
+    pub sim: Sim,
+    /// The gateway (`None` once [`WebRig::stop_gateway`] stopped it).
+    pub gw: Option<RunningGateway>,
+    /// Where the page is served.
+    pub web: SocketAddrV4,
+    /// The runtime of the simulator and the PLC: `rig.rt.block_on(rig.plc.…)`.
+    pub rt: tokio::runtime::Runtime,
+    test: &'static str,
+    shots: Vec<PathBuf>,
+    _browser: Browser,
+    _one: MutexGuard<'static, ()>,
+}
+
+impl WebRig {
+    /// Starts everything for the test named `test` (the screenshots'
+    /// prefix) and opens the page; returns once the robot link is up and
+    /// the page is loaded.
+    pub fn start(test: &'static str) -> WebRig {
+        // A test that failed while holding the lock poisons it; the next
+        // one may still run.
+        let one = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
+        remove_screenshots(test);
+        let browser = launch_chromium();
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .expect("tokio runtime");
+        let sim = rt
+            .block_on(Sim::start(hans_sim::Config {
+                datasheet_ports: Vec::new(),
+                fast_port: None,
+                ..hans_sim::Config::ready()
+            }))
+            .expect("start the simulator");
+        let robot = match sim.command_addr() {
+            SocketAddr::V4(a) => a,
+            SocketAddr::V6(_) => panic!("simulator not on IPv4"),
+        };
+        let mut opts = HostOptions::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0), robot);
+        opts.web_listen = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0));
+        let gw = RunningGateway::start(opts).expect("start the gateway");
+        let web = gw.web_addr().expect("the page is served");
+        let mut plc = rt.block_on(Plc::connect(gw.modbus_addr()));
+        rt.block_on(plc.wait_link());
+        let tab = browser.new_tab().expect("a browser tab");
+        tab.set_default_timeout(WAIT);
+        let rig = WebRig {
+            tab,
+            plc,
+            sim,
+            gw: Some(gw),
+            web,
+            rt,
+            test,
+            shots: Vec::new(),
+            _browser: browser,
+            _one: one,
+        };
+        rig.tab
+            .navigate_to(&rig.url())
+            .and_then(|t| t.wait_until_navigated())
+            .unwrap_or_else(|e| panic!("opening {}: {e:#}", rig.url()));
+        rig
+    }
+
+    /// The page's address.
+    pub fn url(&self) -> String {
+        format!("http://{}/", self.web)
+    }
+
+    /// Runs a future (of the simulator, say) to its end.
+    pub fn block_on<F: Future>(&self, f: F) -> F::Output {
+        self.rt.block_on(f)
+    }
+
+    /// Runs what the PLC does: `rig.modbus(async |plc| plc.read1(A).await)`.
+    pub fn modbus<T>(&mut self, f: impl AsyncFnOnce(&mut Plc) -> T) -> T {
+        self.rt.block_on(f(&mut self.plc))
+    }
+
+    /// Evaluates a script expression in the page (awaited if a promise)
+    /// and returns its value as JSON (`undefined` is `null`). Panics if it
+    /// throws.
+    pub fn js(&self, expr: &str) -> Value {
+        let wrapped = format!(
+            "(async () => {{ const v = await ({expr}); return v === undefined ? 'null' : JSON.stringify(v); }})()"
+        );
+        let r = self
+            .tab
+            .evaluate(&wrapped, true)
+            .unwrap_or_else(|e| panic!("evaluating `{expr}`: {e:#}"));
+        match r.value {
+            Some(Value::String(s)) => serde_json::from_str(&s).unwrap_or(Value::String(s)),
+            _ => panic!(
+                "`{expr}` threw or gave no value: {}",
+                r.description.unwrap_or_default()
+            ),
+        }
+    }
+
+    /// The text of the element with id `id` (empty if it has none;
+    /// panics if there is no such element).
+    pub fn text(&self, id: &str) -> String {
+        let v = self.js(&format!(
+            "(() => {{ const e = document.getElementById({}); return e ? e.textContent : null; }})()",
+            js_str(id)
+        ));
+        match v {
+            Value::String(s) => s,
+            _ => panic!("no element #{id} on the page"),
+        }
+    }
+
+    /// Attribute `name` of element `id` (`None` if absent).
+    pub fn attr(&self, id: &str, name: &str) -> Option<String> {
+        let v = self.js(&format!(
+            "document.getElementById({}).getAttribute({})",
+            js_str(id),
+            js_str(name)
+        ));
+        v.as_str().map(str::to_string)
+    }
+
+    /// `data-NAME` of element `id` (empty if absent).
+    pub fn data(&self, id: &str, name: &str) -> String {
+        self.attr(id, &format!("data-{name}")).unwrap_or_default()
+    }
+
+    /// Is element `id` shown (not hidden by itself or a parent)?
+    pub fn visible(&self, id: &str) -> bool {
+        self.js(&format!(
+            "(() => {{ const e = document.getElementById({}); return !!e && e.getClientRects().length > 0; }})()",
+            js_str(id)
+        )) == Value::Bool(true)
+    }
+
+    /// Is the control `id` disabled (itself or by a disabled fieldset)?
+    pub fn disabled(&self, id: &str) -> bool {
+        self.js(&format!(
+            "document.getElementById({}).matches(':disabled')",
+            js_str(id)
+        )) == Value::Bool(true)
+    }
+
+    /// Waits until `f` gives `Some`, looking every [`PAGE_POLL`]; after
+    /// [`WAIT`] takes a screenshot and fails naming `what`.
+    pub fn wait_for<T>(&mut self, what: &str, mut f: impl FnMut(&WebRig) -> Option<T>) -> T {
+        let start = Instant::now();
+        loop {
+            if let Some(v) = f(self) {
+                return v;
+            }
+            if start.elapsed() > WAIT {
+                let shot = self.shot("timeout");
+                panic!(
+                    "timed out after {WAIT:?} waiting for {what} (screenshot {})",
+                    shot.display()
+                );
+            }
+            std::thread::sleep(PAGE_POLL);
+        }
+    }
+
+    /// Waits until the script expression `cond` is true in the page.
+    pub fn wait_js(&mut self, what: &str, cond: &str) {
+        self.wait_for(what, |r| (r.js(cond) == Value::Bool(true)).then_some(()));
+    }
+
+    /// Waits until the text of element `id` satisfies `ok`; returns it.
+    pub fn wait_text(&mut self, id: &str, what: &str, ok: impl Fn(&str) -> bool) -> String {
+        self.wait_for(what, |r| {
+            let t = r.text(id);
+            ok(&t).then_some(t)
+        })
+    }
+
+    /// Waits until `data-NAME` of element `id` is `value`.
+    pub fn wait_data(&mut self, id: &str, name: &str, value: &str) {
+        let what = format!("#{id} data-{name} = {value:?}");
+        self.wait_for(&what, |r| (r.data(id, name) == value).then_some(()));
+    }
+
+    /// Clicks element `id` with the mouse (scrolled into view first).
+    pub fn click(&self, id: &str) {
+        self.tab
+            .find_element(&format!("#{id}"))
+            .and_then(|e| e.click().map(|_| ()))
+            .unwrap_or_else(|e| panic!("clicking #{id}: {e:#}"));
+    }
+
+    /// Replaces the text of input `id` as typed text does (focus, select
+    /// all, insert).
+    pub fn type_in(&self, id: &str, text: &str) {
+        self.js(&format!(
+            "(() => {{ const e = document.getElementById({}); e.focus(); e.select(); }})()",
+            js_str(id)
+        ));
+        if text.is_empty() {
+            self.tab
+                .press_key("Delete")
+                .unwrap_or_else(|e| panic!("clearing #{id}: {e:#}"));
+        } else {
+            self.tab
+                .send_character(text)
+                .unwrap_or_else(|e| panic!("typing into #{id}: {e:#}"));
+        }
+    }
+
+    /// Chooses `value` in the select `id` (as a user's choice does:
+    /// `input` and `change` fire).
+    pub fn choose(&self, id: &str, value: &str) {
+        self.js(&format!(
+            "(() => {{ const e = document.getElementById({}); e.value = {}; \
+             e.dispatchEvent(new Event('input', {{bubbles: true}})); \
+             e.dispatchEvent(new Event('change', {{bubbles: true}})); }})()",
+            js_str(id),
+            js_str(value)
+        ));
+    }
+
+    /// Sets the files of the file input `id` (as the file chooser does).
+    pub fn set_file(&self, id: &str, file: &Path) {
+        let path = file.to_str().expect("a UTF-8 path");
+        self.tab
+            .find_element(&format!("#{id}"))
+            .and_then(|e| e.set_input_files(&[path]).map(|_| ()))
+            .unwrap_or_else(|e| panic!("setting the file of #{id}: {e:#}"));
+        self.js(&format!(
+            "document.getElementById({}).dispatchEvent(new Event('change', {{bubbles: true}}))",
+            js_str(id)
+        ));
+    }
+
+    /// The session state the page shows: `fresh` (no password),
+    /// `login`, `open`.
+    pub fn session(&self) -> String {
+        self.js("document.body.dataset.session")
+            .as_str()
+            .unwrap_or_default()
+            .to_string()
+    }
+
+    /// Sets the first password through the page (its "set a password
+    /// first" form) and waits for the session it opens.
+    pub fn set_first_password(&mut self, pw: &str) {
+        self.wait_for("the page to ask for a first password", |r| {
+            (r.session() == "fresh").then_some(())
+        });
+        self.type_in("pw-new", pw);
+        self.type_in("pw-new2", pw);
+        self.click("pw-set");
+        self.wait_for("a session opened by the first password", |r| {
+            (r.session() == "open").then_some(())
+        });
+    }
+
+    /// Waits for the page's live status (`#conn` says `live`).
+    pub fn wait_live(&mut self) {
+        self.wait_data("conn", "state", "live");
+    }
+
+    /// Shows the page in a phone-sized viewport ([`PHONE`]); `false` goes
+    /// back to the desktop window.
+    pub fn phone(&self, on: bool) {
+        if on {
+            self.tab
+                .call_method(Emulation::SetDeviceMetricsOverride {
+                    width: PHONE.0,
+                    height: PHONE.1,
+                    device_scale_factor: 2.0,
+                    mobile: true,
+                    scale: None,
+                    screen_width: None,
+                    screen_height: None,
+                    position_x: None,
+                    position_y: None,
+                    dont_set_visible_size: None,
+                    screen_orientation: None,
+                    viewport: None,
+                    display_feature: None,
+                    device_posture: None,
+                })
+                .expect("phone viewport");
+        } else {
+            self.tab
+                .call_method(Emulation::ClearDeviceMetricsOverride(None))
+                .expect("desktop viewport");
+        }
+    }
+
+    /// A screenshot of the whole page as
+    /// `<target>/screenshots/<test>-<step>.png`; prints and returns its
+    /// path.
+    pub fn shot(&mut self, step: &str) -> PathBuf {
+        // From the top, so that the sticky header is where it belongs.
+        self.js("window.scrollTo(0, 0)");
+        let size = self
+            .tab
+            .call_method(Page::GetLayoutMetrics(None))
+            .expect("the page's size")
+            .css_content_size;
+        self.capture(
+            step,
+            Some(Page::Viewport {
+                x: 0.0,
+                y: 0.0,
+                width: size.width,
+                height: size.height,
+                scale: 1.0,
+            }),
+        )
+    }
+
+    /// A screenshot of what the window shows of the page, after
+    /// scrolling element `id` to the top (as [`WebRig::shot`] names it).
+    pub fn shot_at(&mut self, id: &str, step: &str) -> PathBuf {
+        self.js(&format!(
+            "document.getElementById({}).scrollIntoView()",
+            js_str(id)
+        ));
+        self.capture(step, None)
+    }
+
+    fn capture(&mut self, step: &str, clip: Option<Page::Viewport>) -> PathBuf {
+        let dir = screenshot_dir();
+        std::fs::create_dir_all(&dir).expect("the screenshot directory");
+        let path = dir.join(format!("{}-{step}.png", self.test));
+        let shot = self
+            .tab
+            .call_method(Page::CaptureScreenshot {
+                format: Some(Page::CaptureScreenshotFormatOption::Png),
+                quality: None,
+                capture_beyond_viewport: Some(clip.is_some()),
+                clip,
+                from_surface: Some(true),
+                optimize_for_speed: None,
+            })
+            .expect("a screenshot");
+        let png = base64::engine::general_purpose::STANDARD
+            .decode(shot.data)
+            .expect("the screenshot's base64");
+        std::fs::write(&path, png).expect("writing the screenshot");
+        println!("screenshot: {}", path.display());
+        self.shots.push(path.clone());
+        path
+    }
+
+    /// One request to the page's server from the test (not the browser).
+    pub fn http(&self, method: &str, path: &str, body: &str) -> HttpAnswer {
+        http(self.web, method, path, body)
+    }
+
+    /// `GET /api/config` from the test: the configuration document.
+    pub fn config_doc(&self) -> String {
+        let a = self.http("GET", "/api/config", "");
+        assert_eq!(a.status, 200, "GET /api/config: {}", a.body);
+        a.body
+    }
+
+    /// Stops the gateway (the page then gets no answer).
+    pub fn stop_gateway(&mut self) {
+        if let Some(gw) = self.gw.take() {
+            gw.stop();
+        }
+    }
+
+    /// Stops everything; returns the screenshots taken.
+    pub fn finish(self) -> Vec<PathBuf> {
+        let WebRig {
+            tab,
+            plc,
+            sim,
+            gw,
+            rt,
+            shots,
+            _browser,
+            _one,
+            ..
+        } = self;
+        drop(tab);
+        drop(_browser);
+        drop(plc);
+        drop(gw);
+        rt.block_on(sim.shutdown());
+        drop(rt);
+        drop(_one);
+        shots
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn answers_are_read_whole_by_length_or_in_chunks() {
+        let a = parse_http(b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\n\r\nok").unwrap();
+        assert_eq!((a.status, a.body.as_str()), (200, "ok"));
+        assert!(parse_http(b"HTTP/1.1 200 OK\r\nContent-Length: 3\r\n\r\nok").is_none());
+        let c = b"HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n3\r\n{\"a\r\n2\r\n\":\r\n0\r\n\r\n";
+        assert_eq!(parse_http(c).unwrap().body, "{\"a\":");
+        assert!(parse_http(&c[..c.len() - 7]).is_none());
+    }
+
+    #[test]
+    fn script_strings_are_escaped() {
+        assert_eq!(js_str("a'b\"c\n"), r#""a'b\"c\n""#);
+    }
+}

@@ -1,0 +1,466 @@
+//! The gateway's web page in headless Chromium (Debian's), against the host
+//! gateway and hans-sim on 127.0.0.1: what a plant engineer sees and does
+//! on it, checked over Modbus and the JSON API. Screenshots of each state
+//! go to `<target>/screenshots/<test>-<step>.png` (paths printed; run with
+//! `--nocapture` to see them).
+
+use hans_gateway::registers as r;
+use hans_web_e2e::{WebRig, PHONE};
+
+/// A password the tests set.
+const PW: &str = "commission-2026";
+
+/// The joints shown on the page (J1-J6), `None` while unknown.
+fn page_joints(rig: &WebRig) -> Option<[f32; 6]> {
+    let mut j = [0.0; 6];
+    for (i, v) in j.iter_mut().enumerate() {
+        *v = rig.text(&format!("j{i}")).parse().ok()?;
+    }
+    Some(j)
+}
+
+#[test]
+fn the_page_shows_the_live_status_and_follows_a_move() {
+    let mut rig = WebRig::start("live-status");
+    rig.wait_live();
+    rig.wait_data("fsm", "code", "33");
+    assert_eq!(rig.text("fsm"), "StandBy (33)");
+    assert_eq!(rig.text("link-state"), "connected");
+    assert_eq!(rig.text("robot-error"), "none");
+    assert_eq!(rig.data("flags-enabled", "on"), "1", "flag 'enabled'");
+    assert!(rig.text("mb-clients").starts_with("127.0.0.1:"));
+    // The joints on the page are those the PLC reads.
+    let start = rig.modbus(async |p| p.joints().await);
+    let shown = rig.wait_for("joints on the page", page_joints);
+    for (a, b) in start.iter().zip(shown) {
+        assert!((a - b).abs() < 0.001, "page {shown:?}, Modbus {start:?}");
+    }
+    rig.shot("standby");
+
+    // A joint move from the PLC: the page follows it.
+    let target = rig.modbus(async |p| p.start_move(0, 40.0, 20.0, 100.0, 1).await);
+    rig.wait_data("fsm", "code", "25");
+    assert_eq!(rig.text("fsm"), "Moving (25)");
+    rig.wait_data("flags-moving", "on", "1");
+    rig.wait_for("J1 moving on the page", |r| {
+        let j = page_joints(r)?;
+        (j[0] > start[0] + 1.0 && j[0] < target[0] - 1.0).then_some(())
+    });
+    let phase = rig.data("hs-ch0", "phase");
+    assert!(phase == "moving" || phase == "running", "{phase}");
+    rig.shot("moving");
+    let end = rig.modbus(async |p| p.wait_end(hans_e2e::Plc::ch_status(0)).await);
+    assert!(end.done(), "{end:?}");
+    rig.wait_data("hs-ch0", "phase", "done");
+    rig.wait_data("fsm", "code", "33");
+    rig.wait_for("J1 at the target on the page", |r| {
+        let j = page_joints(r)?;
+        ((j[0] - target[0]).abs() < 0.01).then_some(())
+    });
+    assert!(
+        rig.text("hs-ch0").contains("Done"),
+        "{}",
+        rig.text("hs-ch0")
+    );
+    // The command log shows the move with its outcome and time to Done.
+    rig.wait_js(
+        "the move in the command log",
+        "[...document.querySelectorAll('#log-body tr[data-kind=command]')].some(t => \
+         t.children[2].textContent.startsWith('WayPoint') && t.children[4].textContent === 'Done' \
+         && t.children[5].textContent.endsWith(' ms'))",
+    );
+    rig.shot("done");
+
+    // On a phone-sized screen nothing is wider than the screen.
+    rig.phone(true);
+    rig.wait_js(
+        "the phone viewport",
+        &format!("window.innerWidth === {}", PHONE.0),
+    );
+    let wide = rig.js("document.documentElement.scrollWidth");
+    assert_eq!(
+        wide.as_u64(),
+        Some(u64::from(PHONE.0)),
+        "page width on a phone"
+    );
+    for section in ["status", "config", "triggers", "log"] {
+        rig.shot_at(section, &format!("phone-{section}"));
+    }
+    rig.phone(false);
+
+    // The gateway goes away: the page says so instead of showing old values
+    // as live.
+    rig.stop_gateway();
+    rig.wait_data("conn", "state", "down");
+    assert!(
+        rig.text("conn").starts_with("no answer"),
+        "{}",
+        rig.text("conn")
+    );
+    assert!(rig.visible("stale-banner"));
+    rig.shot("no-answer");
+    rig.finish();
+}
+
+#[test]
+fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() {
+    let mut rig = WebRig::start("config-edit");
+    rig.wait_live();
+    rig.set_first_password(PW);
+    rig.wait_js(
+        "the form enabled",
+        "!document.getElementById('cfg-fs').disabled",
+    );
+    // Units, ranges and help come from /api/fields.
+    let help = rig.text("h-CFG_POLL_MS");
+    assert!(
+        help.contains("10–100 ms") && help.contains("register 105"),
+        "{help}"
+    );
+    rig.type_in("f-CFG_POLL_MS", "40");
+    rig.type_in("f-CFG_REPLY_TIMEOUT_MS", "2500");
+    rig.type_in("f-MODBUS_ALLOW", "127.0.0.0/8");
+    rig.choose("f-CFG_WRITE_PROTECT", "1");
+    rig.click("cfg-apply");
+    rig.wait_data("cfg-msg", "result", "ok");
+    let msg = rig.text("cfg-msg");
+    assert!(msg.contains("applied"), "{msg}");
+    rig.shot("applied");
+
+    let (poll, timeout, wp, allow) = rig.modbus(async |plc| {
+        (
+            plc.read1(r::CONFIG_POLL_MS).await,
+            plc.read1(r::CONFIG_REPLY_TIMEOUT_MS).await,
+            plc.read1(r::CONFIG_WRITE_PROTECT).await,
+            plc.read(r::MODBUS_ALLOW, 3).await,
+        )
+    });
+    assert_eq!((poll, timeout, wp), (40, 2500, 1));
+    assert_eq!(allow, [0x7f00, 0x0000, 8]);
+    // Write-protected now: a configuration write over Modbus is refused
+    // (exception 01) ...
+    let refused = rig.modbus(async |plc| {
+        use tokio_modbus::client::Writer;
+        plc.ctx
+            .write_single_register(r::CONFIG_POLL_MS, 60)
+            .await
+            .expect("transport")
+    });
+    assert_eq!(refused, Err(tokio_modbus::ExceptionCode::IllegalFunction));
+    // ... until the page lifts the protection.
+    rig.choose("f-CFG_WRITE_PROTECT", "0");
+    rig.click("cfg-apply");
+    rig.wait_text("cfg-msg", "the second apply", |t| {
+        t.starts_with("CFG_WRITE_PROTECT:")
+    });
+    assert_eq!(rig.data("cfg-msg", "result"), "ok");
+    let poll = rig.modbus(async |plc| {
+        plc.write(r::CONFIG_POLL_MS, &[60]).await;
+        plc.write(r::CONTROL_CONFIG_COMMAND, &[1]).await;
+        plc.read1(r::CONFIG_POLL_MS).await
+    });
+    assert_eq!(poll, 60);
+    rig.finish();
+}
+
+#[test]
+fn an_invalid_value_shows_its_error_beside_the_field_and_changes_nothing() {
+    let mut rig = WebRig::start("config-invalid");
+    rig.wait_live();
+    rig.set_first_password(PW);
+    let before = rig.config_doc();
+    rig.type_in("f-CFG_POLL_MS", "5");
+    rig.type_in("f-CFG_REPLY_TIMEOUT_MS", "2000");
+    rig.type_in("f-NET_MASK", "255.0.255.0");
+    rig.click("cfg-apply");
+    rig.wait_data("cfg-msg", "result", "refused");
+    assert_eq!(rig.text("e-CFG_POLL_MS"), "out of range");
+    assert_eq!(
+        rig.text("e-NET_MASK"),
+        "not a network mask (e.g. 255.255.255.0)"
+    );
+    assert_eq!(
+        rig.text("e-CFG_REPLY_TIMEOUT_MS"),
+        "",
+        "a valid value has no error"
+    );
+    assert_eq!(
+        rig.attr("f-CFG_POLL_MS", "aria-invalid").as_deref(),
+        Some("true")
+    );
+    let msg = rig.text("cfg-msg");
+    assert!(
+        msg.starts_with("Nothing was applied: 2 values refused"),
+        "{msg}"
+    );
+    rig.shot("refused");
+
+    // Nothing changed: not the valid value either, over Modbus and the API.
+    let (poll, timeout, mask) = rig.modbus(async |plc| {
+        (
+            plc.read1(r::CONFIG_POLL_MS).await,
+            plc.read1(r::CONFIG_REPLY_TIMEOUT_MS).await,
+            plc.read(r::NET_MASK, 2).await,
+        )
+    });
+    assert_eq!((poll, timeout), (100, 1000));
+    assert_eq!(mask, [0xffff, 0xff00]);
+    assert_eq!(rig.config_doc(), before);
+
+    // Corrected, the same edit goes through and the errors go away.
+    rig.type_in("f-CFG_POLL_MS", "50");
+    rig.type_in("f-NET_MASK", "255.255.0.0");
+    rig.click("cfg-apply");
+    rig.wait_data("cfg-msg", "result", "ok");
+    assert_eq!(rig.text("e-CFG_POLL_MS"), "");
+    let (poll, timeout) = rig.modbus(async |plc| {
+        (
+            plc.read1(r::CONFIG_POLL_MS).await,
+            plc.read1(r::CONFIG_REPLY_TIMEOUT_MS).await,
+        )
+    });
+    assert_eq!((poll, timeout), (50, 2000));
+    rig.shot("corrected");
+    rig.finish();
+}
+
+#[test]
+fn the_trigger_editor_stores_an_entry_that_fires_from_its_bit() {
+    let mut rig = WebRig::start("trigger");
+    rig.wait_live();
+    rig.set_first_password(PW);
+    rig.type_in("t-text-3", "SetBoxDO,2,1,;");
+    rig.click("t-save-3");
+    rig.wait_text("t-err-3", "entry 3 stored", |t| t.starts_with("stored"));
+    // The grammar's refusal beside its entry; nothing stored there.
+    rig.type_in("t-text-4", "Not a message");
+    rig.click("t-save-4");
+    rig.wait_text("t-err-4", "entry 4 refused", |t| !t.is_empty());
+    assert_eq!(rig.text("t-err-4"), "not a protocol message: not stored");
+    rig.shot("edited");
+
+    let texts = rig.modbus(async |plc| {
+        (
+            plc.read(r::trigger_text(3), 8).await,
+            plc.read(r::trigger_text(4), 1).await,
+        )
+    });
+    assert_eq!(hans_e2e::words_text(&texts.0), "SetBoxDO,2,1,;");
+    assert_eq!(texts.1, [0]);
+
+    // Its bit fires it; Done over Modbus, the robot got it, the page shows it.
+    let done = rig.modbus(async |plc| {
+        plc.write(r::TRIG_BITS, &[1 << 3]).await;
+        plc.wait_reg(r::TRIG_DONE, "trigger 3 Done", |v| v & (1 << 3) != 0)
+            .await
+    });
+    assert_eq!(done & (1 << 3), 1 << 3);
+    assert_eq!(
+        rig.sim
+            .received()
+            .iter()
+            .filter(|m| m.starts_with("SetBoxDO,2,1"))
+            .count(),
+        1
+    );
+    rig.wait_data("trig-3", "phase", "done");
+    rig.wait_data("t-bit-3", "on", "1");
+    rig.wait_text("io-box_do", "box DO2 on the page", |t| t.starts_with("○○●"));
+    rig.wait_js(
+        "the trigger in the command log",
+        "[...document.querySelectorAll('#log-body tr[data-kind=command]')].some(t => \
+         t.children[1].textContent === 'TRIG3' && t.children[4].textContent === 'Done')",
+    );
+    rig.shot("fired");
+    rig.modbus(async |plc| plc.write(r::TRIG_BITS, &[0]).await);
+    rig.wait_data("trig-3", "phase", "idle");
+    rig.finish();
+}
+
+#[test]
+fn export_then_import_gives_the_same_configuration() {
+    let mut rig = WebRig::start("export-import");
+    rig.wait_live();
+    rig.set_first_password(PW);
+    rig.type_in("f-CFG_POLL_MS", "50");
+    rig.type_in("f-MODBUS_ALLOW", "127.0.0.0/8, 10.1.2.3");
+    rig.click("cfg-apply");
+    rig.wait_data("cfg-msg", "result", "ok");
+    rig.type_in("t-text-0", "GrpStop,0,;");
+    rig.click("t-save-0");
+    rig.wait_text("t-err-0", "entry 0 stored", |t| t.starts_with("stored"));
+
+    // Export: the page's link, fetched as the browser downloads it.
+    assert_eq!(
+        rig.attr("export", "download").as_deref(),
+        Some("hans-gateway-config.json")
+    );
+    let exported = rig
+        .js("fetch(document.getElementById('export').href).then(r => r.text())")
+        .as_str()
+        .expect("the export's text")
+        .to_string();
+    assert_eq!(exported, rig.config_doc());
+    assert!(exported.contains(r#""CFG_POLL_MS":"50""#), "{exported}");
+    assert!(exported.contains(r#""GrpStop,0,;""#), "{exported}");
+    let dir = hans_web_e2e::screenshot_dir().join("files");
+    std::fs::create_dir_all(&dir).expect("a directory for the files");
+    let file = dir.join("export-import-exported.json");
+    std::fs::write(&file, &exported).expect("writing the export");
+    rig.shot("exported");
+
+    // Changed after the export ...
+    rig.type_in("f-CFG_POLL_MS", "70");
+    rig.type_in("f-MODBUS_ALLOW", "");
+    rig.click("cfg-apply");
+    rig.wait_text("cfg-msg", "the change after the export", |t| {
+        t.starts_with("CFG_POLL_MS, MODBUS_ALLOW:")
+    });
+    rig.type_in("t-text-0", "");
+    rig.click("t-save-0");
+    rig.wait_for("entry 0 cleared", |r| {
+        r.config_doc().contains(r#""triggers":["","#).then_some(())
+    });
+    assert_ne!(rig.config_doc(), exported);
+
+    // ... and the import through the page's file input brings it back.
+    rig.set_file("import-file", &file);
+    rig.click("import-btn");
+    rig.wait_data("import-msg", "result", "ok");
+    assert_eq!(rig.config_doc(), exported);
+    let (poll, trig0) = rig.modbus(async |plc| {
+        (
+            plc.read1(r::CONFIG_POLL_MS).await,
+            plc.read(r::trigger_text(0), 8).await,
+        )
+    });
+    assert_eq!(poll, 50);
+    assert_eq!(hans_e2e::words_text(&trig0), "GrpStop,0,;");
+    rig.wait_for("the form showing the import", |r| {
+        (r.js("document.getElementById('f-CFG_POLL_MS').value") == "50").then_some(())
+    });
+    rig.shot("imported");
+
+    // A file with a bad value: refused with its reason, nothing applied.
+    let bad = exported.replace(r#""CFG_POLL_MS":"50""#, r#""CFG_POLL_MS":"5""#);
+    let bad_file = dir.join("export-import-bad.json");
+    std::fs::write(&bad_file, bad).expect("writing the bad file");
+    rig.set_file("import-file", &bad_file);
+    rig.click("import-btn");
+    rig.wait_data("import-msg", "result", "refused");
+    assert!(rig.text("import-msg").starts_with("Nothing was applied"));
+    assert_eq!(rig.text("e-CFG_POLL_MS"), "out of range");
+    assert_eq!(rig.config_doc(), exported);
+    rig.shot("import-refused");
+    rig.finish();
+}
+
+#[test]
+fn a_fresh_device_asks_for_a_password_and_wrong_ones_show_the_wait() {
+    let mut rig = WebRig::start("access");
+    rig.wait_live();
+    // Fresh: the page asks for a password first, and nothing can change.
+    rig.wait_for("the first-password form", |r| {
+        (r.session() == "fresh" && r.visible("pw-first")).then_some(())
+    });
+    for id in ["cfg-apply", "f-CFG_POLL_MS", "t-save-0", "import-btn"] {
+        assert!(rig.disabled(id), "#{id} usable before a password is set");
+    }
+    assert!(rig.text("access-flags").contains("NO PASSWORD"));
+    rig.shot("fresh");
+    // Too short, then two that differ: refused, still fresh.
+    rig.type_in("pw-new", "short");
+    rig.type_in("pw-new2", "short");
+    rig.click("pw-set");
+    rig.wait_text("pw-first-msg", "the length refused", |t| {
+        t.contains("at least 8 characters")
+    });
+    rig.type_in("pw-new", "commission-1");
+    rig.type_in("pw-new2", "commission-2");
+    rig.click("pw-set");
+    rig.wait_text("pw-first-msg", "the difference found", |t| {
+        t.contains("differ")
+    });
+    assert_eq!(rig.session(), "fresh");
+    rig.set_first_password(PW);
+    assert!(!rig.disabled("cfg-apply") && !rig.disabled("t-save-0"));
+    rig.wait_text("access-flags", "the status showing the password", |t| {
+        t.contains("password set")
+    });
+
+    // Logged out: a login form, changes locked again.
+    rig.click("logout-btn");
+    rig.wait_for("the login form", |r| {
+        (r.session() == "login" && r.visible("login-form")).then_some(())
+    });
+    assert!(rig.disabled("cfg-apply"));
+    // Wrong passwords: after three the page shows the wait and holds the
+    // button until it is over.
+    let mut tries = 0;
+    rig.wait_for("the rate limit's wait on the page", |r| {
+        if r.data("login-msg", "wait").parse::<u32>().unwrap_or(0) > 0 {
+            return Some(());
+        }
+        if !r.disabled("login-btn") && tries < 8 {
+            tries += 1;
+            let before = r.data("login-msg", "answers");
+            r.type_in("login-pw", "not-the-password");
+            r.click("login-btn");
+            // The answer takes a hash's time: wait for it (bounded).
+            let start = std::time::Instant::now();
+            while r.data("login-msg", "answers") == before && start.elapsed() < hans_web_e2e::WAIT {
+                std::thread::sleep(hans_web_e2e::PAGE_POLL);
+            }
+        }
+        None
+    });
+    assert!(tries >= 3, "the wait came after {tries} wrong passwords");
+    let msg = rig.text("login-msg");
+    assert!(msg.starts_with("Too many wrong passwords: wait "), "{msg}");
+    assert!(rig.disabled("login-btn"));
+    rig.shot_at("access", "wait");
+    // Another client gets 429 with the wait: the limit is the device's,
+    // not the page's. (Each wrong try after the third doubles the wait, so
+    // a try that came just after a wait ended is answered 401 and the next
+    // one 429.)
+    let mut answers = Vec::new();
+    for _ in 0..4 {
+        let a = rig.http("POST", "/api/login", "not-the-password");
+        let limited = a.status == 429;
+        answers.push(a);
+        if limited {
+            break;
+        }
+    }
+    let last = answers.last().expect("an answer");
+    assert_eq!(last.status, 429, "{answers:?}");
+    assert!(last.body.contains("\"retry_after_s\":"), "{}", last.body);
+    // Once the wait is over (the device says so, and the page lets the
+    // button go), the right password opens a session.
+    rig.wait_for("the device's wait to end", |r| {
+        let s = r.http("GET", "/api/session", "");
+        s.body.contains("\"retry_after_s\":0").then_some(())
+    });
+    rig.wait_for("the page's wait to end", |r| {
+        (!r.disabled("login-btn")).then_some(())
+    });
+    rig.type_in("login-pw", PW);
+    rig.click("login-btn");
+    rig.wait_for("logged in", |r| (r.session() == "open").then_some(()));
+
+    // Change the password, log out, log in with the new one.
+    rig.type_in("pw-cur", PW);
+    rig.type_in("pw-chg-new", "commission-2027");
+    rig.type_in("pw-chg-new2", "commission-2027");
+    rig.click("pw-chg-btn");
+    rig.wait_data("access-msg", "result", "ok");
+    rig.click("logout-btn");
+    rig.wait_for("the login form", |r| (r.session() == "login").then_some(()));
+    rig.type_in("login-pw", "commission-2027");
+    rig.click("login-btn");
+    rig.wait_for("logged in with the new password", |r| {
+        (r.session() == "open").then_some(())
+    });
+    rig.shot("logged-in");
+    rig.finish();
+}
