@@ -45,6 +45,16 @@ bash scripts/firmware-size.sh --budget \
   gateway-mps2-an386="$BIN_DIR/gateway" \
   gateway-nucleo-f767zi="$BIN_DIR/nucleo-f767zi"
 
+# The field-device firmware's web page in headless Chromium (host-tests/web-e2e,
+# tests/web_qemu.rs): the page loads from the firmware under QEMU with the live
+# status of hans-sim, follows a move and takes a form edit; its load time is
+# printed, not asserted. Screenshots in $HOST_TARGET/screenshots/.
+echo "==> web page from the QEMU field-device firmware (headless Chromium)"
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
+FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \
+  timeout --kill-after=10 600 \
+  cargo test -p hans-web-e2e --features qemu --test web_qemu --locked -- --nocapture
+
 echo "==> QEMU tests"
 LOG=$(mktemp)
 trap 'rm -f "$LOG"' EXIT

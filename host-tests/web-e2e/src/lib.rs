@@ -14,11 +14,15 @@
 //! * One browser at a time: the tests of a binary take turns
 //!   ([`WebRig::start`] holds a lock), so that two cores are not shared by
 //!   several Chromiums at once.
+//! * The gateway is the host library in the test's process
+//!   ([`WebRig::start`]) or the QEMU board's field-device firmware
+//!   ([`WebRig::start_qemu`], [`Qemu`]).
 
 use std::future::Future;
 use std::io::{Read, Write};
-use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -111,31 +115,50 @@ pub struct HttpAnswer {
 /// browser), read to its end: for reading the API back independently of
 /// the page.
 pub fn http(addr: SocketAddrV4, method: &str, path: &str, body: &str) -> HttpAnswer {
-    let mut s = TcpStream::connect(addr).unwrap_or_else(|e| panic!("connect to {addr}: {e}"));
-    s.set_read_timeout(Some(WAIT)).expect("read timeout");
+    try_http(addr, method, path, body, WAIT)
+        .unwrap_or_else(|e| panic!("{method} http://{addr}{path}: {e}"))
+}
+
+/// [`http`] that says why it failed instead of panicking; the whole
+/// exchange takes at most `limit`.
+pub fn try_http(
+    addr: SocketAddrV4,
+    method: &str,
+    path: &str,
+    body: &str,
+    limit: Duration,
+) -> std::io::Result<HttpAnswer> {
+    let start = Instant::now();
+    let mut s = TcpStream::connect_timeout(&SocketAddr::V4(addr), limit)?;
+    s.set_read_timeout(Some(limit))?;
     let req = format!(
         "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{body}",
         body.len()
     );
-    s.write_all(req.as_bytes()).expect("send the request");
-    let start = Instant::now();
+    s.write_all(req.as_bytes())?;
     let mut buf = Vec::new();
     let mut chunk = [0u8; 4096];
     loop {
         if let Some(a) = parse_http(&buf) {
-            return a;
+            return Ok(a);
         }
-        assert!(
-            start.elapsed() < WAIT,
-            "{method} {path}: no complete answer in {WAIT:?}"
-        );
-        match s.read(&mut chunk) {
-            Ok(0) => panic!(
-                "{method} {path}: connection closed before the answer ended: {:?}",
-                String::from_utf8_lossy(&buf)
-            ),
-            Ok(n) => buf.extend_from_slice(&chunk[..n]),
-            Err(e) => panic!("{method} {path}: {e}"),
+        if start.elapsed() > limit {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::TimedOut,
+                format!("no complete answer in {limit:?}"),
+            ));
+        }
+        match s.read(&mut chunk)? {
+            0 => {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::UnexpectedEof,
+                    format!(
+                        "closed before the answer ended: {:?}",
+                        String::from_utf8_lossy(&buf)
+                    ),
+                ))
+            }
+            n => buf.extend_from_slice(&chunk[..n]),
         }
     }
 }
@@ -182,6 +205,183 @@ pub fn js_str(s: &str) -> String {
     Value::String(s.to_string()).to_string()
 }
 
+/// The field-device firmware of the QEMU board (`mps2-an386`):
+/// `$FIRMWARE_BIN_DIR/field-device`, else the firmware workspace's release
+/// build. Panics, saying how to build it, when it is not there.
+pub fn field_device_elf() -> PathBuf {
+    let elf = match std::env::var_os("FIRMWARE_BIN_DIR") {
+        Some(dir) => PathBuf::from(dir).join("field-device"),
+        None => Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../firmware/target/thumbv7em-none-eabihf/release/field-device"),
+    };
+    assert!(
+        elf.exists(),
+        "{} not found: build the QEMU field-device firmware first \
+         (cd firmware && cargo build --release -p board-mps2-an386 --features field-device \
+         --bin field-device), or set FIRMWARE_BIN_DIR to the directory that has it",
+        elf.display()
+    );
+    elf
+}
+
+/// A port on 127.0.0.1 that was free a moment ago.
+pub fn free_port() -> u16 {
+    TcpListener::bind((Ipv4Addr::LOCALHOST, 0))
+        .and_then(|l| l.local_addr())
+        .expect("a free port on 127.0.0.1")
+        .port()
+}
+
+/// Longest life of a QEMU run ([`Qemu`]): `timeout(1)` ends it even if the
+/// test process dies without stopping it.
+pub const QEMU_LIFE: Duration = Duration::from_secs(300);
+
+/// A QEMU running a firmware ELF on the `mps2-an386` board, as
+/// `scripts/qemu-run.sh` runs it (user networking, `restrict=on`: the only
+/// ways in and out are the forwards), with the web page forwarded too:
+/// host `127.0.0.1:modbus` → guest port 502, `127.0.0.1:web` → guest port
+/// 80, and the guest's robot address 10.0.2.100:10003 → the simulator on
+/// `127.0.0.1:sim_port`. Stopped on drop.
+pub struct Qemu {
+    child: Child,
+    /// Where the firmware's Modbus server is reached.
+    pub modbus: SocketAddrV4,
+    /// Where the firmware's web page is reached.
+    pub web: SocketAddrV4,
+    /// The firmware's raw defmt log.
+    pub log: PathBuf,
+}
+
+impl Qemu {
+    /// Starts `elf`, its robot being the simulator on `sim_port`.
+    pub fn start(elf: &Path, sim_port: u16, log: PathBuf) -> Qemu {
+        for tool in ["qemu-system-arm", "socat", "timeout"] {
+            let found = Command::new("sh")
+                .args(["-c", &format!("command -v {tool}")])
+                .stdout(Stdio::null())
+                .status()
+                .is_ok_and(|s| s.success());
+            assert!(
+                found,
+                "{tool} not found (bash scripts/setup.sh installs it)"
+            );
+        }
+        let lo = Ipv4Addr::LOCALHOST;
+        let modbus = SocketAddrV4::new(lo, free_port());
+        let web = SocketAddrV4::new(lo, free_port());
+        let nic = format!(
+            "user,model=lan9118,restrict=on,hostfwd=tcp:{modbus}-10.0.2.15:502,\
+             hostfwd=tcp:{web}-10.0.2.15:80,\
+             guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:{sim_port}"
+        );
+        if let Some(dir) = log.parent() {
+            std::fs::create_dir_all(dir).expect("the log directory");
+        }
+        let out = std::fs::File::create(&log).expect("the QEMU log file");
+        let err = out.try_clone().expect("the QEMU log file");
+        let child = Command::new("timeout")
+            .arg("--kill-after=5")
+            .arg(QEMU_LIFE.as_secs().to_string())
+            .args([
+                "qemu-system-arm",
+                "-machine",
+                "mps2-an386",
+                "-cpu",
+                "cortex-m4",
+            ])
+            .args(["-nographic", "-monitor", "none", "-serial", "none"])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .arg("-nic")
+            .arg(nic)
+            .arg("-kernel")
+            .arg(elf)
+            .stdin(Stdio::null())
+            .stdout(out)
+            .stderr(err)
+            .spawn()
+            .expect("start QEMU");
+        Qemu {
+            child,
+            modbus,
+            web,
+            log,
+        }
+    }
+
+    /// Waits until the firmware's page answers `/api/status` (bounded by
+    /// [`WAIT`]).
+    pub fn wait_web(&mut self) {
+        let start = Instant::now();
+        loop {
+            let a = try_http(self.web, "GET", "/api/status", "", Duration::from_secs(2));
+            if a.as_ref().is_ok_and(|a| a.status == 200) {
+                return;
+            }
+            if let Ok(Some(status)) = self.child.try_wait() {
+                panic!(
+                    "QEMU ended ({status}) before its page answered; log {}",
+                    self.log.display()
+                );
+            }
+            assert!(
+                start.elapsed() < WAIT,
+                "the firmware's page did not answer in {WAIT:?} ({a:?}); log {}",
+                self.log.display()
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        // SIGTERM to `timeout`, which passes it on to QEMU; SIGKILL if that
+        // was not enough within 5 s.
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A PLC connected to `addr` once the server there answers a read (a
+/// firmware under QEMU may take its connection before its Modbus server
+/// is up: QEMU's forward accepts at once). Retries for at most [`WAIT`].
+pub async fn connect_plc(addr: SocketAddrV4) -> Plc {
+    use tokio_modbus::client::Reader;
+    let start = Instant::now();
+    loop {
+        let attempt = tokio::time::timeout(Duration::from_secs(2), async {
+            let mut ctx = tokio_modbus::client::tcp::connect(SocketAddr::V4(addr))
+                .await
+                .map_err(|e| e.to_string())?;
+            match ctx.read_holding_registers(0, 1).await {
+                Ok(Ok(_)) => Ok(ctx),
+                Ok(Err(e)) => Err(format!("exception {e:?}")),
+                Err(e) => Err(e.to_string()),
+            }
+        })
+        .await
+        .unwrap_or_else(|_| Err("no answer in 2 s".to_string()));
+        match attempt {
+            Ok(ctx) => return Plc { ctx },
+            Err(e) => assert!(
+                start.elapsed() < WAIT,
+                "the Modbus server at {addr} did not answer in {WAIT:?}: {e}"
+            ),
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+}
+
 /// hans-sim, the host gateway with its page, a PLC and the page in
 /// headless Chromium.
 pub struct WebRig {
@@ -191,8 +391,11 @@ pub struct WebRig {
     pub plc: Plc,
     /// The simulated robot.
     pub sim: Sim,
-    /// The gateway (`None` once [`WebRig::stop_gateway`] stopped it).
+    /// The host gateway (`None` once [`WebRig::stop_gateway`] stopped it,
+    /// or when the gateway is the QEMU firmware).
     pub gw: Option<RunningGateway>,
+    /// The QEMU running the firmware ([`WebRig::start_qemu`]).
+    pub qemu: Option<Qemu>,
     /// Where the page is served.
     pub web: SocketAddrV4,
     /// The runtime of the simulator and the PLC: `rig.rt.block_on(rig.plc.…)`.
@@ -208,6 +411,17 @@ impl WebRig {
     /// prefix) and opens the page; returns once the robot link is up and
     /// the page is loaded.
     pub fn start(test: &'static str) -> WebRig {
+        Self::start_with(test, None)
+    }
+
+    /// As [`WebRig::start`], the gateway being the firmware `elf` on the
+    /// QEMU board ([`Qemu`]; its log in the screenshot directory as
+    /// `<test>.defmt`).
+    pub fn start_qemu(test: &'static str, elf: &Path) -> WebRig {
+        Self::start_with(test, Some(elf))
+    }
+
+    fn start_with(test: &'static str, elf: Option<&Path>) -> WebRig {
         // A test that failed while holding the lock poisons it; the next
         // one may still run.
         let one = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
@@ -229,11 +443,24 @@ impl WebRig {
             SocketAddr::V4(a) => a,
             SocketAddr::V6(_) => panic!("simulator not on IPv4"),
         };
-        let mut opts = HostOptions::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0), robot);
-        opts.web_listen = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0));
-        let gw = RunningGateway::start(opts).expect("start the gateway");
-        let web = gw.web_addr().expect("the page is served");
-        let mut plc = rt.block_on(Plc::connect(gw.modbus_addr()));
+        let (gw, qemu, web, modbus) = match elf {
+            None => {
+                let mut opts = HostOptions::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0), robot);
+                opts.web_listen = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0));
+                let gw = RunningGateway::start(opts).expect("start the gateway");
+                let web = gw.web_addr().expect("the page is served");
+                let modbus = gw.modbus_addr();
+                (Some(gw), None, web, modbus)
+            }
+            Some(elf) => {
+                let log = screenshot_dir().join(format!("{test}.defmt"));
+                let mut q = Qemu::start(elf, robot.port(), log);
+                q.wait_web();
+                let (web, modbus) = (q.web, q.modbus);
+                (None, Some(q), web, modbus)
+            }
+        };
+        let mut plc = rt.block_on(connect_plc(modbus));
         rt.block_on(plc.wait_link());
         let tab = browser.new_tab().expect("a browser tab");
         tab.set_default_timeout(WAIT);
@@ -241,7 +468,8 @@ impl WebRig {
             tab,
             plc,
             sim,
-            gw: Some(gw),
+            gw,
+            qemu,
             web,
             rt,
             test,
@@ -254,6 +482,28 @@ impl WebRig {
             .and_then(|t| t.wait_until_navigated())
             .unwrap_or_else(|e| panic!("opening {}: {e:#}", rig.url()));
         rig
+    }
+
+    /// How long the page took to load, from the browser's navigation
+    /// timing (ms from the start of the navigation): `ttfb` (first byte of
+    /// the page), `response` (last byte), `dom` (DOMContentLoaded), `load`
+    /// (load event), `live` (the first status shown, the page's
+    /// `data-first-live-ms`; waits for it), and the page's `bytes` on the
+    /// wire and `decoded`.
+    pub fn load_times(&mut self) -> Value {
+        self.wait_js(
+            "the first status shown",
+            "document.body.dataset.firstLiveMs !== undefined && \
+             performance.getEntriesByType('navigation')[0].loadEventEnd > 0",
+        );
+        self.js(
+            "(() => { const n = performance.getEntriesByType('navigation')[0]; \
+             const r = x => Math.round(x * 10) / 10; \
+             return {ttfb: r(n.responseStart - n.startTime), response: r(n.responseEnd - n.startTime), \
+             dom: r(n.domContentLoadedEventEnd - n.startTime), load: r(n.loadEventEnd - n.startTime), \
+             live: r(+document.body.dataset.firstLiveMs - n.startTime), \
+             bytes: n.encodedBodySize, decoded: n.decodedBodySize}; })()",
+        )
     }
 
     /// The page's address.
@@ -550,11 +800,12 @@ impl WebRig {
         a.body
     }
 
-    /// Stops the gateway (the page then gets no answer).
+    /// Stops the gateway, host or QEMU (the page then gets no answer).
     pub fn stop_gateway(&mut self) {
         if let Some(gw) = self.gw.take() {
             gw.stop();
         }
+        drop(self.qemu.take());
     }
 
     /// Stops everything; returns the screenshots taken.
@@ -564,6 +815,7 @@ impl WebRig {
             plc,
             sim,
             gw,
+            qemu,
             rt,
             shots,
             _browser,
@@ -574,6 +826,7 @@ impl WebRig {
         drop(_browser);
         drop(plc);
         drop(gw);
+        drop(qemu);
         rt.block_on(sim.shutdown());
         drop(rt);
         drop(_one);

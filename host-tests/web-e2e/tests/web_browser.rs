@@ -22,6 +22,8 @@ fn page_joints(rig: &WebRig) -> Option<[f32; 6]> {
 #[test]
 fn the_page_shows_the_live_status_and_follows_a_move() {
     let mut rig = WebRig::start("live-status");
+    let t = rig.load_times();
+    println!("page load from the host gateway (ms from navigation start): {t}");
     rig.wait_live();
     rig.wait_data("fsm", "code", "33");
     assert_eq!(rig.text("fsm"), "StandBy (33)");
