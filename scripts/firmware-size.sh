@@ -1,32 +1,48 @@
 #!/usr/bin/env bash
 # Size report of firmware ELFs: flash (vector table + text + rodata + data)
-# and static RAM (data + bss + uninit), against the gateway's budget.
+# and static RAM (data + bss + uninit), against a budget.
 #
-#   scripts/firmware-size.sh [--budget] NAME=ELF...
+#   scripts/firmware-size.sh [--budget core|field-device] NAME=ELF...
 #
-# With --budget, every ELF is checked against the gateway goal (128 KiB
-# flash, 64 KiB static RAM) and the script exits 1 if one is over.
+# With --budget, every ELF given is checked against that budget and the
+# script exits 1 if one is over:
+#   core          the core gateway (Modbus and the robot link; no web page,
+#                 no DHCP, no DataSheet reader): 128 KiB flash, 64 KiB static RAM
+#   field-device  with the web page and its access control, DHCP and the
+#                 DataSheet reader: 256 KiB flash, 128 KiB static RAM
+# (`--budget` alone means `core`.) Without it the table is printed only.
 # The stack is not static RAM: its high-water mark is measured at run time
 # (painted stack) and printed by the QEMU tests.
 set -euo pipefail
 
-FLASH_BUDGET=$((128 * 1024))
-RAM_BUDGET=$((64 * 1024))
-
-budget=0
+budget=""
 if [ "${1:-}" = "--budget" ]; then
-  budget=1
   shift
+  case "${1:-}" in
+    core | field-device) budget=$1; shift ;;
+    *) budget=core ;;
+  esac
 fi
-[ $# -gt 0 ] || { echo "usage: $0 [--budget] NAME=ELF..." >&2; exit 2; }
+[ $# -gt 0 ] || { echo "usage: $0 [--budget core|field-device] NAME=ELF..." >&2; exit 2; }
+
+case "$budget" in
+  core) FLASH_KIB=128; RAM_KIB=64 ;;
+  field-device) FLASH_KIB=256; RAM_KIB=128 ;;
+  *) FLASH_KIB=0; RAM_KIB=0 ;;
+esac
+FLASH_BUDGET=$((FLASH_KIB * 1024))
+RAM_BUDGET=$((RAM_KIB * 1024))
 
 size_tool=$(command -v llvm-size || command -v size || true)
 [ -n "$size_tool" ] || { echo "firmware-size: need llvm-size or binutils' size" >&2; exit 2; }
 
 kib() { awk -v b="$1" 'BEGIN { printf "%.1f", b / 1024 }'; }
 
+if [ -n "$budget" ]; then
+  echo "budget $budget: $FLASH_KIB KiB flash, $RAM_KIB KiB static RAM"
+fi
 over=0
-printf '%-28s %10s %10s %10s %10s %10s %12s\n' firmware text rodata data bss flash static-RAM
+printf '%-32s %10s %10s %10s %10s %10s %12s\n' firmware text rodata data bss flash static-RAM
 for arg in "$@"; do
   name=${arg%%=*}
   elf=${arg#*=}
@@ -38,18 +54,18 @@ for arg in "$@"; do
     END { print v+0, t+0, r+0, d+0, b+0, u+0 }')
   flash=$((vec + text + rodata + data))
   ram=$((data + bss + uninit))
-  printf '%-28s %10d %10d %10d %10d %7s KiB %9s KiB\n' "$name" $((vec + text)) "$rodata" "$data" \
+  printf '%-32s %10d %10d %10d %10d %7s KiB %9s KiB\n' "$name" $((vec + text)) "$rodata" "$data" \
     $((bss + uninit)) "$(kib $flash)" "$(kib $ram)"
-  if [ $budget = 1 ]; then
+  if [ -n "$budget" ]; then
     if [ $flash -gt $FLASH_BUDGET ] || [ $ram -gt $RAM_BUDGET ]; then
-      echo "  OVER BUDGET: $name needs $(kib $flash) KiB flash (max 128) and $(kib $ram) KiB static RAM (max 64)"
+      echo "  OVER BUDGET ($budget): $name needs $(kib $flash) KiB flash (max $FLASH_KIB) and $(kib $ram) KiB static RAM (max $RAM_KIB)"
       over=1
     fi
   fi
 done
-if [ $budget = 1 ]; then
+if [ -n "$budget" ]; then
   if [ $over = 1 ]; then
     exit 1
   fi
-  echo "budget: every firmware above is within 128 KiB flash and 64 KiB static RAM"
+  echo "budget $budget: every firmware above is within $FLASH_KIB KiB flash and $RAM_KIB KiB static RAM"
 fi

@@ -11,6 +11,9 @@
 #                10.0.2.100:10003 (default 10003), through socat
 #   ADMIN_PORT   host port forwarded to the firmware's test/diagnostics port
 #                5021, if set (QEMU gateway firmware only)
+#   WEB_PORT     host port forwarded to the firmware's web page on port 80, if
+#                set (the field-device firmware serves it; open
+#                http://127.0.0.1:WEB_PORT/)
 #   DEFMT_OUT    file to write the raw defmt log stream to; when unset the
 #                stream is decoded with defmt-print if it is installed, else
 #                written raw to stdout
@@ -28,6 +31,9 @@ nic="user,model=lan9118,restrict=on"
 nic+=",hostfwd=tcp:127.0.0.1:${modbus_port}-10.0.2.15:502"
 if [ -n "${ADMIN_PORT:-}" ]; then
   nic+=",hostfwd=tcp:127.0.0.1:${ADMIN_PORT}-10.0.2.15:5021"
+fi
+if [ -n "${WEB_PORT:-}" ]; then
+  nic+=",hostfwd=tcp:127.0.0.1:${WEB_PORT}-10.0.2.15:80"
 fi
 # `cmd:` spawns one relay per guest connection, so every connection the
 # firmware opens is a new connection to the simulator, and one attempted

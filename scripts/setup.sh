@@ -43,6 +43,13 @@ if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
   rustup target add thumbv7em-none-eabihf
 fi
 
+# defmt-print turns the firmware's log (defmt frames) into text: scripts/qemu-run.sh
+# pipes QEMU's output through it, the QEMU tests decode their logs with it.
+if ! command -v defmt-print >/dev/null; then
+  echo "setup: cargo install defmt-print --locked"
+  cargo install --locked --quiet defmt-print
+fi
+
 if [ "${SETUP_FUZZ:-1}" = 1 ]; then
   if ! rustup toolchain list | grep -q '^nightly'; then
     echo "setup: rustup toolchain install nightly --profile minimal"

@@ -5,6 +5,9 @@
 //! * [`Process`] does the same for any host program (the robot simulator).
 //! * [`Plc`] is a blocking Modbus TCP session (tokio-modbus's client, every
 //!   request bounded by a timeout), as a PLC drives the gateway.
+//! * [`HttpClient`] is a small blocking HTTP/1.1 client (keep-alive,
+//!   `Content-Length` and chunked answers) for the field-device firmware's
+//!   web page, as a browser holds one connection; [`http_get`] is one request.
 //! * [`free_port`] picks an unused port on 127.0.0.1.
 //!
 //! Every socket here binds or connects to 127.0.0.1 only.
@@ -153,15 +156,19 @@ pub struct Ports {
     pub sim: u16,
     /// Forwarded to the firmware's diagnostics port 5021.
     pub admin: u16,
+    /// Forwarded to the firmware's web page on port 80 (the field-device
+    /// firmware serves it; for the core firmware nothing answers there).
+    pub web: u16,
 }
 
 impl Ports {
-    /// Three free ports.
+    /// Four free ports.
     pub fn pick() -> Ports {
         Ports {
             modbus: free_port(),
             sim: free_port(),
             admin: free_port(),
+            web: free_port(),
         }
     }
 }
@@ -197,6 +204,7 @@ impl Qemu {
                 ("MODBUS_PORT", ports.modbus.to_string()),
                 ("SIM_PORT", ports.sim.to_string()),
                 ("ADMIN_PORT", ports.admin.to_string()),
+                ("WEB_PORT", ports.web.to_string()),
                 ("DEFMT_OUT", log.display().to_string()),
             ],
             &stderr,
@@ -403,4 +411,192 @@ pub fn f32_from_words(hi: u16, lo: u16) -> f32 {
 pub fn f32_to_words(v: f32) -> [u16; 2] {
     let bits = v.to_bits();
     [(bits >> 16) as u16, bits as u16]
+}
+
+/// One HTTP answer.
+#[derive(Debug, Clone)]
+pub struct HttpResponse {
+    /// Status code.
+    pub status: u16,
+    /// Header lines as sent (name, value).
+    pub headers: Vec<(String, String)>,
+    /// The body (chunked transfer already undone; not decompressed).
+    pub body: Vec<u8>,
+}
+
+impl HttpResponse {
+    /// The value of header `name` (case-insensitive).
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(n, _)| n.eq_ignore_ascii_case(name))
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// The body as text (lossy UTF-8).
+    pub fn text(&self) -> String {
+        String::from_utf8_lossy(&self.body).into_owned()
+    }
+}
+
+/// A kept-alive HTTP/1.1 connection to 127.0.0.1:`port`, as a browser
+/// holds one: requests one after the other, every read bounded.
+pub struct HttpClient {
+    stream: TcpStream,
+    /// Bytes read past the last answer.
+    pending: Vec<u8>,
+    port: u16,
+}
+
+/// The longest a single read of an HTTP answer may wait.
+const HTTP_READ_TIMEOUT: Duration = Duration::from_secs(10);
+/// The longest header block accepted.
+const HTTP_HEAD_MAX: usize = 16 * 1024;
+/// The longest body accepted.
+const HTTP_BODY_MAX: usize = 1024 * 1024;
+
+fn bad(what: &str) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidData, what.to_string())
+}
+
+impl HttpClient {
+    /// Connects (retrying until `limit` while nothing answers yet).
+    pub fn connect(port: u16, limit: Duration) -> io::Result<HttpClient> {
+        let stream = connect_retry(port, limit)?;
+        stream.set_read_timeout(Some(HTTP_READ_TIMEOUT))?;
+        stream.set_nodelay(true)?;
+        Ok(HttpClient {
+            stream,
+            pending: Vec::new(),
+            port,
+        })
+    }
+
+    /// `GET path` on this connection.
+    pub fn get(&mut self, path: &str) -> io::Result<HttpResponse> {
+        self.request("GET", path, b"")
+    }
+
+    /// `method path` with `body` on this connection; reads the whole answer.
+    pub fn request(&mut self, method: &str, path: &str, body: &[u8]) -> io::Result<HttpResponse> {
+        let head = format!(
+            "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nAccept-Encoding: gzip\r\nContent-Length: {}\r\n\r\n",
+            self.port,
+            body.len()
+        );
+        self.stream.write_all(head.as_bytes())?;
+        self.stream.write_all(body)?;
+        self.read_response()
+    }
+
+    /// Reads until `pending` holds `n` bytes.
+    fn fill(&mut self, n: usize) -> io::Result<()> {
+        let mut buf = [0u8; 4096];
+        while self.pending.len() < n {
+            let k = self.stream.read(&mut buf)?;
+            if k == 0 {
+                return Err(io::Error::new(
+                    io::ErrorKind::UnexpectedEof,
+                    "connection closed before the answer ended",
+                ));
+            }
+            self.pending.extend_from_slice(&buf[..k]);
+        }
+        Ok(())
+    }
+
+    /// Reads until `pending` holds `pat`; returns the index after it.
+    fn fill_until(&mut self, pat: &[u8], max: usize) -> io::Result<usize> {
+        loop {
+            if let Some(i) = self.pending.windows(pat.len()).position(|w| w == pat) {
+                return Ok(i + pat.len());
+            }
+            if self.pending.len() > max {
+                return Err(bad("answer line or header block too long"));
+            }
+            let want = self.pending.len() + 1;
+            self.fill(want)?;
+        }
+    }
+
+    fn take(&mut self, n: usize) -> Vec<u8> {
+        self.pending.drain(..n).collect()
+    }
+
+    fn read_response(&mut self) -> io::Result<HttpResponse> {
+        let end = self.fill_until(b"\r\n\r\n", HTTP_HEAD_MAX)?;
+        let head = String::from_utf8_lossy(&self.take(end)).into_owned();
+        let mut lines = head.split("\r\n");
+        let status_line = lines.next().unwrap_or("");
+        let status = status_line
+            .split(' ')
+            .nth(1)
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| bad("no status code"))?;
+        let headers: Vec<(String, String)> = lines
+            .filter(|l| !l.is_empty())
+            .filter_map(|l| l.split_once(':'))
+            .map(|(n, v)| (n.trim().to_string(), v.trim().to_string()))
+            .collect();
+        let mut response = HttpResponse {
+            status,
+            headers,
+            body: Vec::new(),
+        };
+        let chunked = response
+            .header("Transfer-Encoding")
+            .is_some_and(|v| v.eq_ignore_ascii_case("chunked"));
+        if chunked {
+            loop {
+                let end = self.fill_until(b"\r\n", 64)?;
+                let line = String::from_utf8_lossy(&self.take(end)).into_owned();
+                let size = line.trim().split(';').next().unwrap_or("");
+                let size = usize::from_str_radix(size, 16).map_err(|_| bad("bad chunk size"))?;
+                if response.body.len() + size > HTTP_BODY_MAX {
+                    return Err(bad("body too long"));
+                }
+                self.fill(size + 2)?;
+                let mut chunk = self.take(size + 2);
+                chunk.truncate(size);
+                response.body.extend_from_slice(&chunk);
+                if size == 0 {
+                    break;
+                }
+            }
+        } else if let Some(len) = response.header("Content-Length") {
+            let len: usize = len.parse().map_err(|_| bad("bad Content-Length"))?;
+            if len > HTTP_BODY_MAX {
+                return Err(bad("body too long"));
+            }
+            self.fill(len)?;
+            response.body = self.take(len);
+        } else {
+            // Until the server closes.
+            let mut buf = [0u8; 4096];
+            loop {
+                let k = self.stream.read(&mut buf)?;
+                if k == 0 || self.pending.len() > HTTP_BODY_MAX {
+                    break;
+                }
+                self.pending.extend_from_slice(&buf[..k]);
+            }
+            response.body = std::mem::take(&mut self.pending);
+        }
+        Ok(response)
+    }
+}
+
+/// `GET path` on a fresh connection to 127.0.0.1:`port`, retrying until
+/// `limit` while the guest does not answer yet (slirp accepts a forwarded
+/// connection before the guest does, then closes it).
+pub fn http_get(port: u16, path: &str, limit: Duration) -> io::Result<HttpResponse> {
+    let start = Instant::now();
+    loop {
+        let attempt = HttpClient::connect(port, limit).and_then(|mut c| c.get(path));
+        match attempt {
+            Ok(r) => return Ok(r),
+            Err(e) if start.elapsed() >= limit => return Err(e),
+            Err(_) => std::thread::sleep(Duration::from_millis(300)),
+        }
+    }
 }
