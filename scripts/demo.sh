@@ -1,33 +1,40 @@
 #!/usr/bin/env bash
-# The whole system with no hardware: the gateway firmware on an emulated
-# field device (QEMU mps2-an386) connected to the robot simulator.
+# The whole system with no hardware: the field-device firmware (gateway, web
+# page, DHCP, DataSheet reader) on an emulated board (QEMU mps2-an386)
+# connected to the robot simulator.
 #
 #   scripts/demo.sh
 #
 # Installs what it needs (scripts/setup.sh), builds the firmware and hans-sim,
-# starts both, prints the Modbus address to point a PLC or mbpoll at, and
-# stops everything on Ctrl-C. If either process ends by itself (a port already
-# taken, say), the other is stopped too and the script exits with its status.
+# starts both, prints the web page's address and the Modbus address to point
+# a PLC or mbpoll at, and stops everything on Ctrl-C. The firmware's log is
+# decoded to text by defmt-print (installed by setup; without it the raw
+# frames go to a file, not the terminal). If either process ends by itself
+# (a port already taken, say), the other is stopped too and the script exits
+# with its status.
 #
-# Environment: MODBUS_PORT (default 5020), SIM_PORT (default 10003),
-# ADMIN_PORT (default 5021). Everything listens on 127.0.0.1 only.
+# Environment: WEB_PORT (default 8080), MODBUS_PORT (default 5020), SIM_PORT
+# (default 10003), ADMIN_PORT (default 5021). Everything listens on 127.0.0.1
+# only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 
+WEB_PORT=${WEB_PORT:-8080}
 MODBUS_PORT=${MODBUS_PORT:-5020}
 SIM_PORT=${SIM_PORT:-10003}
 ADMIN_PORT=${ADMIN_PORT:-5021}
-export MODBUS_PORT SIM_PORT ADMIN_PORT
+export WEB_PORT MODBUS_PORT SIM_PORT ADMIN_PORT
 
 SETUP_FUZZ=0 bash scripts/setup.sh
 
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
-ELF="$FW_TARGET/thumbv7em-none-eabihf/release/gateway"
+ELF="$FW_TARGET/thumbv7em-none-eabihf/release/field-device"
 
 echo "demo: building the firmware and the simulator"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --bin gateway)
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 \
+  --features field-device --bin field-device)
 CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release -p hans-sim
 
 pids=()
@@ -49,13 +56,25 @@ trap cleanup EXIT
 
 "$HOST_TARGET/release/hans-sim" --host 127.0.0.1 --command-port "$SIM_PORT" --datasheet-ports "" &
 pids+=($!)
-bash scripts/qemu-run.sh "$ELF" &
+if command -v defmt-print >/dev/null; then
+  # qemu-run.sh pipes the log through defmt-print: text in the terminal.
+  bash scripts/qemu-run.sh "$ELF" &
+else
+  # Raw defmt frames are binary: keep them out of the terminal.
+  DEFMT_OUT=$(mktemp --suffix=.defmt)
+  echo "demo: defmt-print not installed: the firmware's raw log goes to $DEFMT_OUT" \
+    "(decode: defmt-print -e $ELF < $DEFMT_OUT)"
+  DEFMT_OUT=$DEFMT_OUT bash scripts/qemu-run.sh "$ELF" &
+fi
 pids+=($!)
 
 cat <<MSG
 
-  Gateway firmware running under QEMU (mps2-an386), robot simulator on 127.0.0.1:$SIM_PORT.
+  Field-device firmware running under QEMU (mps2-an386), robot simulator on 127.0.0.1:$SIM_PORT.
 
+  Web page:           http://127.0.0.1:$WEB_PORT/
+                      (a fresh device asks for a password before any change; the session
+                      tokens of this emulated board are predictable: a demo, not a plant)
   Modbus TCP server:  127.0.0.1:$MODBUS_PORT   (unit id: any)
   Try:                mbpoll -m tcp -p $MODBUS_PORT -0 -r 0 -c 8 -1 127.0.0.1
   Diagnostics:        echo report | socat - TCP:127.0.0.1:$ADMIN_PORT
