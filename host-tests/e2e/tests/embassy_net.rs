@@ -179,7 +179,9 @@ async fn plc(stack: Stack<'_>, received: &RefCell<Vec<String>>) {
 async fn web_status(stack: Stack<'_>) {
     let (mut rxb, mut txb) = ([0u8; 4096], [0u8; 1024]);
     let mut s = TcpSocket::new(stack, &mut rxb, &mut txb);
-    s.connect((GW_IP, 80)).await.expect("connect to the web page");
+    s.connect((GW_IP, 80))
+        .await
+        .expect("connect to the web page");
     let mut out: &[u8] = b"GET /api/status HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n";
     while !out.is_empty() {
         let k = s.write(out).await.expect("write");
