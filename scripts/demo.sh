@@ -73,8 +73,7 @@ cat <<MSG
   Field-device firmware running under QEMU (mps2-an386), robot simulator on 127.0.0.1:$SIM_PORT.
 
   Web page:           http://127.0.0.1:$WEB_PORT/
-                      (a fresh device asks for a password before any change; the session
-                      tokens of this emulated board are predictable: a demo, not a plant)
+                      (a fresh device asks for a password before any change)
   Modbus TCP server:  127.0.0.1:$MODBUS_PORT   (unit id: any)
   Try:                mbpoll -m tcp -p $MODBUS_PORT -0 -r 0 -c 8 -1 127.0.0.1
   Diagnostics:        echo report | socat - TCP:127.0.0.1:$ADMIN_PORT

@@ -14,6 +14,9 @@
 #   WEB_PORT     host port forwarded to the firmware's web page on port 80, if
 #                set (the field-device firmware serves it; open
 #                http://127.0.0.1:WEB_PORT/)
+#   FIRMWARE_ARGS  words the firmware reads as its command line (semihosting;
+#                QEMU's -append): `dhcp` makes the QEMU board's factory network
+#                setting DHCP (QEMU's user network has a DHCP server)
 #   DEFMT_OUT    file to write the raw defmt log stream to; when unset the
 #                stream is decoded with defmt-print if it is installed, else
 #                written raw to stdout
@@ -46,6 +49,9 @@ nic+=",guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:${sim_port}"
 
 qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
   -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$elf")
+if [ -n "${FIRMWARE_ARGS:-}" ]; then
+  qemu+=(-append "$FIRMWARE_ARGS")
+fi
 
 if [ -n "${DEFMT_OUT:-}" ]; then
   exec "${qemu[@]}" >"$DEFMT_OUT"

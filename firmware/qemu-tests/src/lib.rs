@@ -185,6 +185,19 @@ pub struct Qemu {
 impl Qemu {
     /// Starts `elf` with `ports`, alive for at most `max`.
     pub fn start(name: &str, elf: &Path, ports: Ports, max: Duration) -> io::Result<Qemu> {
+        Qemu::start_with_args(name, elf, ports, max, "")
+    }
+
+    /// As [`Qemu::start`], with `args` as the firmware's command line
+    /// (`FIRMWARE_ARGS` of `scripts/qemu-run.sh`; the QEMU board reads
+    /// `dhcp` there).
+    pub fn start_with_args(
+        name: &str,
+        elf: &Path,
+        ports: Ports,
+        max: Duration,
+        args: &str,
+    ) -> io::Result<Qemu> {
         assert!(
             elf.exists(),
             "firmware {} not built (run scripts/firmware-tests.sh)",
@@ -206,6 +219,7 @@ impl Qemu {
                 ("ADMIN_PORT", ports.admin.to_string()),
                 ("WEB_PORT", ports.web.to_string()),
                 ("DEFMT_OUT", log.display().to_string()),
+                ("FIRMWARE_ARGS", args.to_string()),
             ],
             &stderr,
         )?;

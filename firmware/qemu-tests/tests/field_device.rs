@@ -1,7 +1,8 @@
 //! The field-device firmware under QEMU (web page, DHCP client, DataSheet
 //! reader): its web page and JSON API over HTTP through QEMU's port
 //! forward, the live status of the simulated robot, the page's load time
-//! (printed, not asserted), and the Modbus allow-list on the board.
+//! (printed, not asserted), the Modbus allow-list on the board, and the
+//! address from QEMU's DHCP server.
 //!
 //! What the firmware sees of a forwarded client: QEMU's user-mode network
 //! (slirp) presents every connection that comes in through a `hostfwd` from
@@ -56,6 +57,12 @@ struct Rig {
 
 impl Rig {
     fn start(name: &'static str) -> Rig {
+        Rig::start_with_args(name, "")
+    }
+
+    /// With `args` as the firmware's command line (`dhcp`: DHCP as the
+    /// factory network setting).
+    fn start_with_args(name: &'static str, args: &str) -> Rig {
         let ports = Ports::pick();
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -63,11 +70,12 @@ impl Rig {
             .build()
             .expect("tokio runtime");
         let sim = rt.block_on(start_sim(ports.sim));
-        let qemu = Qemu::start(
+        let qemu = Qemu::start_with_args(
             name,
             &firmware_elf("field-device"),
             ports,
             Duration::from_secs(300),
+            args,
         )
         .expect("start QEMU");
         Rig {
@@ -111,22 +119,21 @@ impl Rig {
     }
 
     /// Ends the firmware through the diagnostics port (the stack report is
-    /// printed), prints its log, expects exit status 0.
-    fn finish(mut self) {
+    /// printed), prints its log, expects exit status 0. Returns the log
+    /// (text if `defmt-print` is installed).
+    fn finish(mut self) -> String {
         let report = request_line(self.qemu.ports.admin, "exit\n", Duration::from_secs(30))
             .expect("diagnostics report");
         println!("{}: {}", self.name, report.trim());
         let status = self.qemu.process().wait(Duration::from_secs(30));
-        println!(
-            "--- {} firmware log ---\n{}",
-            self.name,
-            self.qemu.log_text()
-        );
+        let log = self.qemu.log_text();
+        println!("--- {} firmware log ---\n{log}", self.name);
         if let Some(sim) = self.sim.take() {
             self.rt.block_on(sim.shutdown());
         }
         assert!(report.starts_with("stack_used="), "report: {report}");
         assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
+        log
     }
 }
 
@@ -301,7 +308,7 @@ fn the_field_device_serves_its_page_and_the_live_status_of_the_robot() {
         );
     }
 
-    rig.finish();
+    let _ = rig.finish();
 }
 
 /// A Modbus client whose connection comes from `local` (127.0.0.x).
@@ -419,5 +426,31 @@ fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees(
     assert!(served_from(Ipv4Addr::LOCALHOST, port), "127.0.0.1 served");
 
     drop(admin);
-    rig.finish();
+    let _ = rig.finish();
+}
+
+#[test]
+fn the_field_device_takes_its_address_from_dhcp() {
+    // DHCP as the factory network setting (as HANS_GW_NET=dhcp on the
+    // NUCLEO); QEMU's user network has a DHCP server that leases 10.0.2.15,
+    // the address the ports are forwarded to.
+    let rig = Rig::start_with_args("field-device-dhcp", "dhcp");
+    let config = wait_for("/api/config", STEP, || {
+        let r = http_get(rig.web(), "/api/config", STEP).ok()?;
+        serde_json::from_slice::<Value>(&r.body).ok()
+    });
+    assert_eq!(config["settings"]["NET_DHCP"], "1", "{config}");
+    // The page answers at the leased address, and the robot link is up
+    // over it.
+    wait_for("the robot link over the leased address", STEP, || {
+        (rig.status()["link"]["state"] == "connected").then_some(())
+    });
+    let log = rig.finish();
+    if !log.starts_with("(raw defmt") {
+        assert!(log.contains("network: DHCP"), "DHCP asked for");
+        assert!(
+            log.contains("network: address 10.0.2.15/24"),
+            "the lease logged"
+        );
+    }
 }

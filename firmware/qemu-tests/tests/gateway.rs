@@ -60,6 +60,12 @@ struct Rig {
 
 impl Rig {
     fn start(name: &'static str) -> Rig {
+        Rig::start_with_args(name, "")
+    }
+
+    /// With `args` as the firmware's command line (`dhcp`: DHCP as the
+    /// factory network setting).
+    fn start_with_args(name: &'static str, args: &str) -> Rig {
         let ports = Ports::pick();
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -67,11 +73,12 @@ impl Rig {
             .build()
             .expect("tokio runtime");
         let sim = rt.block_on(start_sim(ports.sim));
-        let qemu = Qemu::start(
+        let qemu = Qemu::start_with_args(
             name,
             &firmware_elf("gateway"),
             ports,
             Duration::from_secs(300),
+            args,
         )
         .expect("start QEMU");
         Rig {
@@ -513,6 +520,30 @@ fn a_client_that_vanishes_mid_request_frees_its_session() {
 
     drop(clients);
     drop(newcomer);
+    rig.finish(End::Exit);
+}
+
+#[test]
+fn without_a_dhcp_client_a_dhcp_setting_falls_back_to_the_static_address() {
+    // DHCP as the factory setting, on the core firmware, which has no DHCP
+    // client: it runs on the static address (so this session reaches it),
+    // keeps NET_DHCP = 1, and ACCESS bit 2 says the setting is not what runs.
+    const NET_DHCP: u16 = 166;
+    const ACCESS: u16 = 50;
+    const ACCESS_NOT_RUNNING: u16 = 1 << 2;
+    let rig = Rig::start_with_args("gateway-dhcp-fallback", "dhcp");
+    let mut plc = rig.modbus();
+    assert_eq!(
+        must(plc.read_holding_registers(NET_DHCP, 1), "NET_DHCP")[0],
+        1
+    );
+    let access = must(plc.read_input_registers(ACCESS, 1), "ACCESS")[0];
+    assert_eq!(
+        access & ACCESS_NOT_RUNNING,
+        ACCESS_NOT_RUNNING,
+        "ACCESS {access:#06x}"
+    );
+    drop(plc);
     rig.finish(End::Exit);
 }
 

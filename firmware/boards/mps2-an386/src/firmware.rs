@@ -52,11 +52,11 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
         defaults: Config {
             robot_ip: board::SIM_IP,
             robot_port: board::SIM_PORT,
-            net: board::FACTORY_NET,
+            net: board::factory_net(),
             ..Config::default()
         },
         network_managed: true,
-        // No random source on this board: predictable (see `seed`).
+        // The host's /dev/urandom through semihosting (see `seed`).
         seed: board::seed(stack),
         restart: Some(board::restart),
         // No button to hold: never a recovery start (and nothing stored to

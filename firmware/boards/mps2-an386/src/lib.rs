@@ -10,7 +10,8 @@
 //!   network settings, whose factory defaults ([`FACTORY_NET`]) are what
 //!   QEMU's user-mode network expects (10.0.2.15/24, gateway 10.0.2.2);
 //!   the smoke firmware sets that address itself ([`guest_config`]);
-//! * no random source: [`seed`] derives what it can (predictable, see
+//! * no random source of its own: [`seed`] reads the host's
+//!   `/dev/urandom` through semihosting (with a predictable fallback, see
 //!   there);
 //! * logs: `defmt` over semihosting (QEMU writes the frames to its stdout;
 //!   decode with `defmt-print -e <elf>`);
@@ -63,6 +64,22 @@ pub const FACTORY_NET: NetConfig = NetConfig {
     gateway: GATEWAY_IP,
     ..NetConfig::DEFAULT
 };
+
+/// The factory network settings this start: [`FACTORY_NET`], with DHCP
+/// when QEMU's command line holds the word `dhcp` (`-append dhcp`; set by
+/// `FIRMWARE_ARGS=dhcp scripts/qemu-run.sh`), as `HANS_GW_NET=dhcp` does at
+/// build time on the NUCLEO. QEMU's user-mode network has a DHCP server,
+/// which hands out 10.0.2.15 first: the forwarded ports still reach the
+/// firmware. The firmware reads its command line through semihosting.
+pub fn factory_net() -> NetConfig {
+    let dhcp = semihosting::experimental::env::args::<128>()
+        .map(|args| (&args).any(|a| a == Ok("dhcp")))
+        .unwrap_or(false);
+    NetConfig {
+        dhcp,
+        ..FACTORY_NET
+    }
+}
 
 /// The address `scripts/qemu-run.sh` forwards (`guestfwd`) to the robot
 /// simulator on the host's loopback.
@@ -136,9 +153,14 @@ pub fn init(spawner: Spawner, config: embassy_net::Config) -> Result<Stack<'stat
 
     static RESOURCES: ConstStaticCell<StackResources<SOCKETS>> =
         ConstStaticCell::new(StackResources::new());
-    // QEMU has no entropy source; the seed only varies TCP initial sequence
-    // numbers and local ports, so derive it from the MAC (unique per -nic).
-    let seed = u64::from_le_bytes([mac[0], mac[1], mac[2], mac[3], mac[4], mac[5], 0x48, 0x53]);
+    // TCP initial sequence numbers and local ports: from the host's
+    // /dev/urandom through semihosting (see `seed`), else from the MAC
+    // (unique per -nic).
+    let mut random = [0u8; 8];
+    let seed = match semihosting::experimental::random::fill_bytes(&mut random) {
+        Ok(()) => u64::from_le_bytes(random),
+        Err(_) => u64::from_le_bytes([mac[0], mac[1], mac[2], mac[3], mac[4], mac[5], 0x48, 0x53]),
+    };
     let (stack, runner) = embassy_net::new(eth, config, RESOURCES.take(), seed);
     spawner.spawn(net_task(runner).map_err(|_| BoardError::Spawn)?);
     Ok(stack)
@@ -151,14 +173,26 @@ async fn net_task(mut runner: embassy_net::Runner<'static, Lan9118<'static>>) ->
 
 /// The seed of the web page's session tokens and password salts.
 ///
-/// QEMU's `mps2-an386` has no random source (no TRNG, and the emulated
-/// cycle counter does not run), so this mixes what varies a little from
-/// run to run: the SysTick counter and the uptime at the moment of the
-/// call (both follow the host's clock), with the MAC address. That is
-/// **predictable**: session tokens and salts on this demo board can be
-/// guessed by anyone who knows the firmware. A real board takes the seed
-/// from its hardware random generator (the NUCLEO: the STM32 RNG).
+/// QEMU's `mps2-an386` has no random source of its own (no TRNG, and the
+/// emulated cycle counter does not run). Under QEMU the board reads the
+/// host's `/dev/urandom` through semihosting (QEMU runs with
+/// `-semihosting-config target=native`, and the firmware already logs and
+/// exits through it): unpredictable, but a debugger's facility, which an
+/// MPS2 board without a debugger attached would not have. If that read
+/// fails, the seed is derived from what varies a little from run to run:
+/// the SysTick counter and the uptime at the moment of the call (both
+/// follow the host's clock), mixed with the MAC address. That fallback is
+/// **predictable** (session tokens and salts could be guessed by anyone who
+/// knows the firmware), and logged as a warning. A real board takes the
+/// seed from its hardware random generator (the NUCLEO: the STM32 RNG).
 pub fn seed(stack: Stack<'_>) -> [u8; 32] {
+    let mut seed = [0u8; 32];
+    if semihosting::experimental::random::fill_bytes(&mut seed).is_ok() {
+        return seed;
+    }
+    defmt::warn!(
+        "seed: the host's /dev/urandom is not readable through semihosting: web session tokens are predictable"
+    );
     let mut mac = [0u8; 8];
     for (m, b) in mac.iter_mut().zip(stack.hardware_address().as_bytes()) {
         *m = *b;
@@ -166,7 +200,6 @@ pub fn seed(stack: Stack<'_>) -> [u8; 32] {
     let systick = u64::from(cortex_m::peripheral::SYST::get_current());
     let uptime = embassy_time::Instant::now().as_ticks();
     let mut state = u64::from_le_bytes(mac) ^ systick.rotate_left(40) ^ uptime;
-    let mut seed = [0u8; 32];
     for chunk in seed.chunks_mut(8) {
         // splitmix64: spreads the few varying bits over every byte.
         state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
