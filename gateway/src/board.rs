@@ -50,6 +50,7 @@
 use core::convert::Infallible;
 use core::net::Ipv4Addr;
 
+#[cfg(feature = "dhcp")]
 use embassy_futures::join::join;
 use embassy_net::{ConfigV4, Ipv4Cidr, Stack, StaticConfigV4};
 
@@ -98,12 +99,15 @@ pub async fn run<S: Storage>(
         apply_network(stack, &gateway);
     }
     let net = EmbassyNet::new(stack);
-    let (never, _) = join(
-        gateway.serve(&net, &clock, storage),
-        announce(stack, options.network_managed),
-    )
-    .await;
-    never
+    // With DHCP the address comes (and may go) while the gateway runs: a
+    // second future logs it. Without, apply_network has logged it.
+    #[cfg(feature = "dhcp")]
+    {
+        let (never, _) = join(gateway.serve(&net, &clock, storage), announce(stack)).await;
+        never
+    }
+    #[cfg(not(feature = "dhcp"))]
+    gateway.serve(&net, &clock, storage).await
 }
 
 /// Applies the loaded network settings to the stack (see the module docs).
@@ -128,7 +132,10 @@ fn apply_network(stack: Stack<'_>, gateway: &Gateway) {
         // bit 2: the configuration differs from what runs).
         gateway.hub().with(|m| m.access.running.dhcp = false);
     }
-    stack.set_config_v4(ConfigV4::Static(static_config(&net)));
+    let config = static_config(&net);
+    #[cfg(not(feature = "dhcp"))]
+    log_address(&config);
+    stack.set_config_v4(ConfigV4::Static(config));
 }
 
 /// The static IPv4 setting of `net` (address, mask, gateway; `0.0.0.0` as
@@ -141,27 +148,32 @@ fn static_config(net: &NetConfig) -> StaticConfigV4 {
     }
 }
 
+/// Logs an IPv4 setting.
+fn log_address(c: &StaticConfigV4) {
+    let [a, b, cc, d] = c.address.address().octets();
+    let [g0, g1, g2, g3] = c.gateway.unwrap_or(Ipv4Addr::UNSPECIFIED).octets();
+    info!(
+        "network: address {}.{}.{}.{}/{}, gateway {}.{}.{}.{}",
+        a,
+        b,
+        cc,
+        d,
+        c.address.prefix_len(),
+        g0,
+        g1,
+        g2,
+        g3
+    );
+}
+
 /// Logs the address each time the stack gets one (at once for a static
 /// address; when the lease comes with DHCP) and when it loses it.
-async fn announce(stack: Stack<'_>, managed: bool) -> Infallible {
+#[cfg(feature = "dhcp")]
+async fn announce(stack: Stack<'_>) -> Infallible {
     loop {
         stack.wait_config_up().await;
         if let Some(c) = stack.config_v4() {
-            let [a, b, cc, d] = c.address.address().octets();
-            let [g0, g1, g2, g3] = c.gateway.unwrap_or(Ipv4Addr::UNSPECIFIED).octets();
-            info!(
-                "network: address {}.{}.{}.{}/{}, gateway {}.{}.{}.{}{}",
-                a,
-                b,
-                cc,
-                d,
-                c.address.prefix_len(),
-                g0,
-                g1,
-                g2,
-                g3,
-                if managed { "" } else { " (set by the board)" }
-            );
+            log_address(&c);
         }
         stack.wait_config_down().await;
         warn!("network: address lost (DHCP lease ended); waiting for a new one");
