@@ -96,6 +96,10 @@ step "gateway library builds for thumbv7em-none-eabihf (core, and with the DataS
     cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,datasheet --locked'
 step "clippy (gateway, embassy-net + defmt + flash + datasheet, thumbv7em)" \
   cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet --locked -- -D warnings
+# The field-device build of the library (the board crates compile it, but
+# clippy lints only their own workspace): web page and DHCP client.
+step "clippy (gateway as in the field-device firmware: + web + dhcp, thumbv7em)" \
+  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,web,dhcp --locked -- -D warnings
 
 # --- the footprint goal, benchmark builds (run them with cargo bench) and bounded fuzzing
 step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check
