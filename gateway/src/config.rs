@@ -56,6 +56,20 @@ pub enum StatusSource {
     DataSheet = 1,
 }
 
+/// Which protocol the controller speaks (`CFG_PROTOCOL`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ProtocolSetting {
+    /// Ask the controller at each connection (`PackageVersion`: its
+    /// version is the level; a controller without the command is V5).
+    #[default]
+    Detect = 0,
+    /// HR-TCP V1.0.0.3 (controllers before HR5.50.3).
+    V5 = 1,
+    /// The V6 document (V1.0.19.1, HR6.6.1).
+    V6 = 2,
+}
+
 /// The gateway's own network settings. On a board they are applied at
 /// start (a change takes effect at the next start); on Linux the operating
 /// system owns the interface and the command line the listening addresses,
@@ -197,6 +211,8 @@ pub struct Config {
     pub datasheet_port: u16,
     /// Robot id, 0-5.
     pub robot_id: u8,
+    /// The controller's protocol level, or detect it.
+    pub protocol: ProtocolSetting,
     /// The gateway's network settings.
     pub net: NetConfig,
     /// The configuration registers (and the trigger texts) are
@@ -234,6 +250,7 @@ impl Config {
         status_source: StatusSource::Polling,
         datasheet_port: 10005,
         robot_id: 0,
+        protocol: ProtocolSetting::Detect,
         net: NetConfig::DEFAULT,
         write_protect: false,
         modbus_allow: AllowList::EVERYONE,
@@ -386,7 +403,7 @@ const fn field(
 const STATUS_SOURCES: u16 = if cfg!(feature = "datasheet") { 2 } else { 1 };
 
 /// Every setting, in register order.
-pub const FIELDS: [Field; 24] = [
+pub const FIELDS: [Field; 25] = [
     field(
         "CFG_ROBOT_IP",
         r::CONFIG_ROBOT_IP,
@@ -491,6 +508,13 @@ pub const FIELDS: [Field; 24] = [
         Domain::Range(0, 5),
         "",
         "robot id nRbtID",
+    ),
+    field(
+        "CFG_PROTOCOL",
+        r::CONFIG_PROTOCOL,
+        Domain::Range(0, 2),
+        "",
+        "0 = detect at each connection (PackageVersion), 1 = V5 (HR-TCP 1.0.0.3), 2 = V6",
     ),
     field(
         "NET_IP",
@@ -802,6 +826,7 @@ impl Config {
                 self.status_source as u16,
                 self.datasheet_port,
                 u16::from(self.robot_id),
+                self.protocol as u16,
             ],
         );
         let n = &self.net;
@@ -872,6 +897,11 @@ impl Config {
             },
             datasheet_port: at(r::CONFIG_DATASHEET_PORT),
             robot_id: at(r::CONFIG_ROBOT_ID) as u8,
+            protocol: match at(r::CONFIG_PROTOCOL) {
+                0 => ProtocolSetting::Detect,
+                1 => ProtocolSetting::V5,
+                _ => ProtocolSetting::V6,
+            },
             net: NetConfig {
                 ip: ip_at(r::NET_IP),
                 mask: ip_at(r::NET_MASK),

@@ -52,11 +52,15 @@ pub enum GatewayError {
     /// step leads to within [`crate::engine::bringup::STATE_TIMEOUT`], or
     /// went to a fault state instead (`FSM_STATE` shows where it is).
     StateNotReached = 39607,
+    /// 39608: the command is not available: the controller's protocol
+    /// level lacks it (jogging needs HR6.2.17), or this build of the
+    /// gateway does (the core firmwares have no jogging).
+    NotSupported = 39608,
 }
 
 impl GatewayError {
     /// Every code, in order (for documentation checks and views).
-    pub const ALL: [GatewayError; 14] = [
+    pub const ALL: [GatewayError; 15] = [
         GatewayError::NotConnected,
         GatewayError::BadParameter,
         GatewayError::BadReply,
@@ -71,6 +75,7 @@ impl GatewayError {
         GatewayError::EmergencyStop,
         GatewayError::SafetyGuard,
         GatewayError::StateNotReached,
+        GatewayError::NotSupported,
     ];
 
     /// The numeric code.
@@ -100,6 +105,7 @@ impl GatewayError {
             GatewayError::EmergencyStop => "emergency stop",
             GatewayError::SafetyGuard => "safety guard",
             GatewayError::StateNotReached => "state not reached",
+            GatewayError::NotSupported => "not supported by the controller or this build",
         }
     }
 }

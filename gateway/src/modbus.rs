@@ -647,7 +647,7 @@ mod tests {
             [0, 1, 0, 0, 0, 3, 1, 0x90, 1]
         );
         assert_eq!(
-            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 54, 0, 1]),
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 55, 0, 1]),
             [0, 1, 0, 0, 0, 3, 1, 0x83, 2]
         );
         assert_eq!(
@@ -660,13 +660,13 @@ mod tests {
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
             [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x02, 0x01]
         );
-        // FC 2 from bit 4, 860 bits (up to register 53): 108 bytes; bit 4
+        // FC 2 from bit 4, 876 bits (up to register 54): 110 bytes; bit 4
         // of the reply is bit 8 of register 0.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x5C]);
-        assert_eq!((r[7], r[8], r.len()), (2, 108, 9 + 108));
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x6C]);
+        assert_eq!((r[7], r[8], r.len()), (2, 110, 9 + 110));
         assert_eq!(r[9], 1 << 4);
-        // One bit more reaches register 54, unmapped: 02.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x5D]);
+        // One bit more reaches register 55, unmapped: 02.
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0x6D]);
         assert_eq!(&r[7..], [0x82, 2]);
         // FC 16 shorter than its header says -> 03, never a panic.
         assert_eq!(

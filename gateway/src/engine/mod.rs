@@ -8,21 +8,28 @@
 //!
 //! 1. the link is down: bring it up (connect, listen, or wait out the
 //!    backoff of [`MIN_BACKOFF`] doubling to [`MAX_BACKOFF`]);
-//! 2. the watchdog expired during a motion: act;
-//! 3. a job may go: send it (urgent jobs first; while a motion runs a
+//! 2. the watchdog expired during a motion (or the heartbeat a jog needs
+//!    stopped): act;
+//! 3. the controller's protocol level is to be detected (once per
+//!    connection, `CFG_PROTOCOL` 0): ask it (`PackageVersion`);
+//! 4. a held jog was released: stop it; its keep-alive is due: send it
+//!    ([`jog`]);
+//! 5. a job may go: send it (urgent jobs first; while a motion runs a
 //!    motion at the head of the queue waits; while a bring-up step waits
 //!    for its state only urgent jobs go);
-//! 4. the motion poll is due ([`motion::MOTION_POLL`]);
-//! 5. the bring-up poll is due ([`bringup::STATE_POLL`]);
-//! 6. the status round has a read left (one round per `CFG_POLL_MS`);
-//! 7. else wait for the earliest deadline, a wake from the PLC side, or a
-//!    link event (lost, or a new controller connection in listen mode).
+//! 6. the motion poll is due ([`motion::MOTION_POLL`]);
+//! 7. the bring-up poll is due ([`bringup::STATE_POLL`]);
+//! 8. a robot error code wants its text (`GetErrorCodeStr`, V6);
+//! 9. the status round has a read left (one round per `CFG_POLL_MS`);
+//! 10. else wait for the earliest deadline, a wake from the PLC side, or a
+//!     link event (lost, or a new controller connection in listen mode).
 //!
 //! One request is in flight at a time. A reply timeout ends the command in
 //! Error and resets the link; when the link drops, every queued and running
 //! command ends in Error (link lost) and nothing is re-sent.
 
 pub mod bringup;
+pub mod jog;
 pub mod motion;
 pub mod plc;
 pub mod poll;
@@ -32,18 +39,20 @@ use core::convert::Infallible;
 
 use embassy_futures::select::{select, select3, Either3};
 use embassy_time::{Duration, Instant};
-use hans_codec::{response, CommandId, FsmState, ParseError, Reply, Response};
+use hans_codec::{
+    response, CommandId, ErrorCode, FsmState, ParseError, ProtocolLevel, Reply, Response,
+};
 
 pub use crate::error::{ErrorSource, GatewayError, Outcome};
 
 use crate::clock::{millis, Clock};
-use crate::config::{Config, LinkMode, StatusSource, WatchdogAction};
+use crate::config::{Config, LinkMode, ProtocolSetting, StatusSource, WatchdogAction};
 use crate::hub::Hub;
 use crate::job::{Gate, Job, JobKind, Message, Source, Urgent};
 use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
 use crate::state::history::LogEvent;
-use crate::state::LinkState;
+use crate::state::{LinkState, TextSource};
 use bringup::{StepWait, Verdict};
 use motion::{Judgement, Motion, MOTION_POLL};
 use poll::{PollStep, UNTYPED};
@@ -69,9 +78,15 @@ struct Pending {
 enum Step {
     BringUp,
     Watchdog,
+    Detect,
+    #[cfg(feature = "v6")]
+    JogStop,
+    #[cfg(feature = "v6")]
+    JogKeepAlive,
     Job(Gate),
     MotionPoll,
     BringUpPoll,
+    Explain(i32),
     StatusPoll(PollStep),
     Wait(Instant),
 }
@@ -128,6 +143,9 @@ pub(crate) async fn run<S: Socket, C: Clock>(hub: &Hub, clock: &C, a: S, b: S) -
         retry_at: now,
         backoff: MIN_BACKOFF,
         buf: [0; MSG_BUF],
+        detect: false,
+        explain: core::cell::Cell::new(None),
+        explained: 0,
     };
     loop {
         e.step(&mut link).await;
@@ -151,6 +169,12 @@ pub(crate) struct Engine<'a, C: Clock> {
     retry_at: Instant,
     backoff: Duration,
     buf: [u8; MSG_BUF],
+    /// The protocol level is to be asked on this connection.
+    detect: bool,
+    /// A robot error code whose text is wanted (set where commands end).
+    explain: core::cell::Cell<Option<i32>>,
+    /// The robot error code (`ROBOT_ERROR_CODE`) last explained.
+    explained: i32,
 }
 
 impl<C: Clock> Engine<'_, C> {
@@ -161,6 +185,12 @@ impl<C: Clock> Engine<'_, C> {
         match self.choose(link.is_up(), now) {
             Step::BringUp => self.bring_up(link).await,
             Step::Watchdog => self.watchdog(link).await,
+            Step::Detect => self.detect_level(link).await,
+            #[cfg(feature = "v6")]
+            Step::JogStop => self.jog_stop(link).await,
+            #[cfg(feature = "v6")]
+            Step::JogKeepAlive => self.jog_keep_alive(link).await,
+            Step::Explain(code) => self.explain_error(link, code).await,
             Step::Job(gate) => {
                 let job = self.hub.with(|m| {
                     let job = m.queue.take(gate)?;
@@ -196,11 +226,28 @@ impl<C: Clock> Engine<'_, C> {
         if !link_up {
             return Step::BringUp;
         }
-        let period = self.config.watchdog_ms;
+        let period = self.watch_period();
         let last_beat = self.hub.with(|m| m.plc.last_beat);
         if let Some(mo) = &self.motion {
             if watchdog::expired(mo, last_beat, period, now) {
                 return Step::Watchdog;
+            }
+        }
+        if self.detect {
+            return Step::Detect;
+        }
+        #[cfg(feature = "v6")]
+        if let Some(mo) = &self.motion {
+            if let Some(j) = mo.jog.filter(|j| !j.stopping) {
+                let released = self.hub.with(|m| {
+                    !m.execute_held(mo.source) || m.handshake(mo.source).is_some_and(|h| h.released)
+                });
+                if released {
+                    return Step::JogStop;
+                }
+                if now >= j.next_event {
+                    return Step::JogKeepAlive;
+                }
             }
         }
         let gate = if self.pending.is_some() {
@@ -219,6 +266,9 @@ impl<C: Clock> Engine<'_, C> {
         if self.pending.is_some() && now >= self.next_state_poll {
             return Step::BringUpPoll;
         }
+        if let Some(code) = self.error_to_explain() {
+            return Step::Explain(code);
+        }
         if let Some(step) = self.round.and_then(|i| PollStep::ROUND.get(i)) {
             return Step::StatusPoll(*step);
         }
@@ -228,6 +278,10 @@ impl<C: Clock> Engine<'_, C> {
         }
         if self.pending.is_some() {
             due = due.min(self.next_state_poll);
+        }
+        #[cfg(feature = "v6")]
+        if let Some(j) = self.motion.and_then(|mo| mo.jog).filter(|j| !j.stopping) {
+            due = due.min(j.next_event);
         }
         if let Some(w) = self
             .motion
@@ -239,11 +293,65 @@ impl<C: Clock> Engine<'_, C> {
         Step::Wait(due)
     }
 
+    /// The heartbeat period the watchdog holds the running motion to:
+    /// `CFG_WATCHDOG_MS`, and for a jog [`jog::HEARTBEAT`] when that is off.
+    fn watch_period(&self) -> u16 {
+        match self.motion {
+            Some(mo) if mo.jog.is_some() && self.config.watchdog_ms == 0 => jog::HEARTBEAT,
+            _ => self.config.watchdog_ms,
+        }
+    }
+
+    /// A robot error code that wants its text: one a command ended with,
+    /// or a new `ROBOT_ERROR_CODE`. Codes the controller cannot explain
+    /// (V5, or a build without the V6 commands) are explained from the
+    /// gateway's table at once, without a request.
+    fn error_to_explain(&mut self) -> Option<i32> {
+        let code = match self.explain.take() {
+            Some(c) => c,
+            None => {
+                let now_code = self.hub.with(|m| m.robot.error_code);
+                if now_code == self.explained {
+                    return None;
+                }
+                self.explained = now_code;
+                if now_code == 0 {
+                    return None;
+                }
+                now_code
+            }
+        };
+        if self.controller_explains() {
+            return Some(code);
+        }
+        let (source, text) = match ErrorCode::from(code).text() {
+            Some(t) => (TextSource::Table, t),
+            None => (TextSource::Unknown, "unknown error code"),
+        };
+        self.hub
+            .with(|m| m.error_text.set(code, source, text.as_bytes()));
+        None
+    }
+
+    /// The controller has `GetErrorCodeStr` (and this build can ask it).
+    fn controller_explains(&self) -> bool {
+        #[cfg(feature = "v6")]
+        {
+            let level = self.hub.with(|m| m.link.level);
+            level.is_some_and(|l| l >= CommandId::GetErrorCodeStr.since())
+        }
+        #[cfg(not(feature = "v6"))]
+        false
+    }
+
     fn set_link_state(&self, st: LinkState) {
         self.hub.with(|m| m.link.state = st);
     }
 
     fn end(&self, source: Source, outcome: Outcome) {
+        if let Outcome::Error(ErrorSource::RobotFail | ErrorSource::RobotMotion, code) = outcome {
+            self.explain.set(Some(code));
+        }
         let now = self.clock.now();
         self.hub.with(|m| m.finish(source, outcome, now));
     }
@@ -289,7 +397,17 @@ impl<C: Clock> Engine<'_, C> {
             return;
         }
         self.generation = generation;
+        let protocol_changed = config.protocol != self.config.protocol;
         self.config = config;
+        if protocol_changed && link.is_up() {
+            self.detect = config.protocol == ProtocolSetting::Detect;
+            let level = match config.protocol {
+                ProtocolSetting::Detect => None,
+                ProtocolSetting::V5 => Some(ProtocolLevel::V5),
+                ProtocolSetting::V6 => Some(ProtocolLevel::V6),
+            };
+            self.hub.with(|m| m.link.level = level);
+        }
         let target = target_of(&config);
         if target != self.target {
             info!("robot link: target changed");
@@ -367,10 +485,17 @@ impl<C: Clock> Engine<'_, C> {
         }
         let peer = link.peer().map(|p| *p.ip());
         let now = self.clock.now();
+        let level = match self.config.protocol {
+            ProtocolSetting::Detect => None,
+            ProtocolSetting::V5 => Some(ProtocolLevel::V5),
+            ProtocolSetting::V6 => Some(ProtocolLevel::V6),
+        };
+        self.detect = level.is_none();
         self.hub.with(|m| {
             m.link.state = LinkState::Connected;
             m.link.peer = peer;
             m.link.connects = m.link.connects.wrapping_add(1);
+            m.link.level = level;
             m.log.link(LogEvent::LinkUp(peer), now);
         });
         if self.config.status_source == StatusSource::Polling {
@@ -399,6 +524,7 @@ impl<C: Clock> Engine<'_, C> {
             // No controller is connected now (listen mode: the DataSheet
             // follows the next one, from wherever it connects).
             m.link.peer = None;
+            m.link.level = None;
             m.link.losses = m.link.losses.wrapping_add(1);
             m.robot.invalidate();
         });
@@ -432,6 +558,32 @@ impl<C: Clock> Engine<'_, C> {
     /// shows the step's state ([`Self::poll_bringup`]).
     async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job, from: u8) {
         let source = job.source;
+        #[cfg(feature = "v6")]
+        if job.jog().is_some() {
+            let released = self.hub.with(|m| {
+                !m.execute_held(source) || m.handshake(source).is_some_and(|h| h.released)
+            });
+            if released {
+                // Released before it could start: a jog of no length.
+                info!(
+                    "{} {}: jog released before it started",
+                    source.name(),
+                    source.index()
+                );
+                self.end(source, Outcome::Done);
+                return;
+            }
+            let level = self.hub.with(|m| m.link.level).unwrap_or(ProtocolLevel::V5);
+            if level < crate::job::command::Jog::since() {
+                warn!(
+                    "{} {}: no jogging at this protocol level",
+                    source.name(),
+                    source.index()
+                );
+                self.end(source, Outcome::gateway(GatewayError::NotSupported));
+                return;
+            }
+        }
         let mut last = None;
         for step in from..job.steps() {
             let Some(msg) = job.encode(step, &mut self.buf) else {
@@ -493,7 +645,9 @@ impl<C: Clock> Engine<'_, C> {
         let now = self.clock.now();
         if job.is_motion() {
             self.hub.with(|m| m.set_moving(source));
-            self.motion = Some(Motion::new(source, now));
+            let mut mo = Motion::new(source, now);
+            mo.jog = job.jog().map(|j| jog::JogRun::new(j, job.robot, now));
+            self.motion = Some(mo);
             self.next_motion_poll = now + MOTION_POLL;
             return;
         }
@@ -657,6 +811,11 @@ impl<C: Clock> Engine<'_, C> {
             return;
         };
         self.end(mo.source, outcome);
+        #[cfg(feature = "v6")]
+        if let Some(j) = mo.jog.filter(|j| !j.stopping) {
+            // A jog that failed while held: make sure it does not resume.
+            self.send_jog_stop(link, j).await;
+        }
         if matches!(outcome, Outcome::Error(..)) && self.config.auto_reset {
             info!("auto-reset: GrpReset after the motion error");
             self.send_internal(link, Urgent::Reset).await;
@@ -779,6 +938,22 @@ impl<C: Clock> Engine<'_, C> {
             m.plc.watchdog_tripped = true;
             m.plc.watchdog_trips = m.plc.watchdog_trips.wrapping_add(1);
         });
+        #[cfg(feature = "v6")]
+        if let Some(j) = mo.jog {
+            // A jog stops whatever the action says: it runs only while the
+            // PLC is there to hold it.
+            let source = mo.source;
+            self.motion = None;
+            let now = self.clock.now();
+            self.hub.with(|m| {
+                m.finish(source, Outcome::gateway(GatewayError::Watchdog), now);
+                m.abort_queued_motions(now);
+            });
+            if !j.stopping {
+                self.send_jog_stop(link, j).await;
+            }
+            return;
+        }
         let urgent = match self.config.watchdog_action {
             WatchdogAction::ReportOnly => {
                 mo.watchdog_fired = true;
@@ -797,5 +972,144 @@ impl<C: Clock> Engine<'_, C> {
             m.abort_queued_motions(now);
         });
         self.send_internal(link, urgent).await;
+    }
+
+    /// Asks the controller its version (`PackageVersion`, HR6.2.17 and
+    /// later); a controller without it (a `Fail`, `errorcmd`, an
+    /// unreadable answer) speaks V5.
+    async fn detect_level<S: Socket>(&mut self, link: &mut Link<S>) {
+        self.detect = false;
+        const ASK: &[u8] = b"PackageVersion,;";
+        let Some(dst) = self.buf.get_mut(..ASK.len()) else {
+            return;
+        };
+        dst.copy_from_slice(ASK);
+        let level = match self.transact(link, ASK.len()).await {
+            Ok(text) => match Reply::parse(text, UNTYPED) {
+                Ok(Reply::Ok(Response::Unknown(raw))) => {
+                    raw.fields().next().and_then(ProtocolLevel::parse)
+                }
+                _ => None,
+            },
+            Err(GatewayError::BadReply) => None,
+            Err(cause) => {
+                warn!("protocol level: {}", cause.as_str());
+                self.link_lost(link, cause).await;
+                return;
+            }
+        };
+        let level = level.unwrap_or(ProtocolLevel::V5);
+        let (major, minor, patch) = level.parts();
+        info!("robot link: protocol level {}.{}.{}", major, minor, patch);
+        self.hub.with(|m| m.link.level = Some(level));
+    }
+
+    /// Sends the stop of `j` (`LongJogJ/L,…,0`); its reply is only logged.
+    #[cfg(feature = "v6")]
+    async fn send_jog_stop<S: Socket>(&mut self, link: &mut Link<S>, j: jog::JogRun) {
+        let Some(msg) = j.jog.request(j.robot, false, &mut self.buf) else {
+            return;
+        };
+        match self.transact(link, msg.len).await {
+            Ok(text) => match Reply::parse(text, msg.expect) {
+                Ok(Reply::Ok(_)) => info!("jog: stopped"),
+                Ok(Reply::Fail(f)) => warn!("jog: stop refused, code {}", f.code.code()),
+                _ => warn!("jog: unreadable reply to the stop"),
+            },
+            Err(GatewayError::BadReply) => warn!("jog: unreadable reply to the stop"),
+            Err(cause) => {
+                warn!("jog: stop: {}", cause.as_str());
+                self.link_lost(link, cause).await;
+            }
+        }
+    }
+
+    /// Execute fell while the jog ran: stop it; Done once the robot stands
+    /// still (the motion poll decides).
+    #[cfg(feature = "v6")]
+    async fn jog_stop<S: Socket>(&mut self, link: &mut Link<S>) {
+        let Some(j) = self.motion.as_mut().and_then(|mo| mo.jog.as_mut()) else {
+            return;
+        };
+        j.stopping = true;
+        let j = *j;
+        self.send_jog_stop(link, j).await;
+        self.next_motion_poll = self.clock.now();
+    }
+
+    /// The jog's keep-alive (`LongMoveEvent`). A refusal ends the jog in
+    /// Error (the robot's code) and stops it.
+    #[cfg(feature = "v6")]
+    async fn jog_keep_alive<S: Socket>(&mut self, link: &mut Link<S>) {
+        let now = self.clock.now();
+        let Some(j) = self.motion.as_mut().and_then(|mo| mo.jog.as_mut()) else {
+            return;
+        };
+        j.next_event = now + jog::KEEP_ALIVE;
+        let Some(msg) = crate::job::command::Jog::keep_alive(j.robot, &mut self.buf) else {
+            return;
+        };
+        let failed = match self.transact(link, msg.len).await {
+            Ok(text) => match Reply::parse(text, msg.expect) {
+                Ok(Reply::Fail(f)) => Some(f.code.code()),
+                _ => None,
+            },
+            Err(GatewayError::BadReply) => None,
+            Err(cause) => {
+                warn!("jog: keep-alive: {}", cause.as_str());
+                self.link_lost(link, cause).await;
+                return;
+            }
+        };
+        if let Some(code) = failed {
+            warn!("jog: keep-alive refused, code {}", code);
+            if let Some(mo) = self.motion.take() {
+                self.end(mo.source, Outcome::Error(ErrorSource::RobotFail, code));
+                if let Some(j) = mo.jog {
+                    self.send_jog_stop(link, j).await;
+                }
+            }
+        }
+    }
+
+    /// The controller's text for robot error `code` (`GetErrorCodeStr`),
+    /// into the error text registers; the gateway's table if the answer is
+    /// not a text.
+    async fn explain_error<S: Socket>(&mut self, link: &mut Link<S>, code: i32) {
+        #[cfg(feature = "v6")]
+        {
+            let req = hans_codec::request::GetErrorCodeStr {
+                code: ErrorCode::from(code),
+            };
+            let Some(msg) = crate::job::Wire::wire(&req, &mut self.buf) else {
+                return;
+            };
+            let text = match self.transact(link, msg.len).await {
+                Ok(text) => match Reply::parse(text, msg.expect) {
+                    Ok(Reply::Ok(Response::GetErrorCodeStr(r))) => {
+                        let t = r.text.as_str();
+                        self.hub
+                            .with(|m| m.error_text.set(code, TextSource::Controller, t.as_bytes()));
+                        return;
+                    }
+                    _ => None::<()>,
+                },
+                Err(GatewayError::BadReply) => None,
+                Err(cause) => {
+                    warn!("error text: {}", cause.as_str());
+                    self.link_lost(link, cause).await;
+                    return;
+                }
+            };
+            let _ = text;
+        }
+        #[cfg(not(feature = "v6"))]
+        let _ = link;
+        let (source, text) = match ErrorCode::from(code).text() {
+            Some(t) => (TextSource::Table, t),
+            None => (TextSource::Unknown, "unknown error code"),
+        };
+        self.hub
+            .with(|m| m.error_text.set(code, source, text.as_bytes()));
     }
 }

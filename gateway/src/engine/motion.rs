@@ -45,6 +45,8 @@ pub struct Motion {
     pub seen_moving: bool,
     /// The watchdog has acted on it (report only: it runs on).
     pub watchdog_fired: bool,
+    /// A jog: kept alive while Execute is held ([`super::jog`]).
+    pub jog: Option<super::jog::JogRun>,
 }
 
 /// What a `ReadRobotState` reply says about the running motion.
@@ -68,7 +70,14 @@ impl Motion {
             grace_from: now,
             seen_moving: false,
             watchdog_fired: false,
+            jog: None,
         }
+    }
+
+    /// A jog still held (not yet stopping): only its release, the
+    /// heartbeat, a failure or a Stop end it.
+    pub fn is_held_jog(&self) -> bool {
+        self.jog.is_some_and(|j| !j.stopping)
     }
 
     /// Judges one `ReadRobotState` reply at `now`.
@@ -95,6 +104,10 @@ impl Motion {
         let grace_over =
             now.saturating_duration_since(self.grace_from) >= millis(config.start_grace_ms);
         if !(self.seen_moving || grace_over) {
+            return Judgement::Running;
+        }
+        if self.is_held_jog() {
+            // A jog standing still (at a limit) runs until it is released.
             return Judgement::Running;
         }
         let blend_ok = !config.wait_blending_done || rs.blending_done != 0;

@@ -64,6 +64,7 @@
 //! | `link.status_source` | CFG_STATUS_SOURCE | `"polling"` (0), `"datasheet"` (1) |
 //! | `link.poll_ms` | CFG_POLL_MS | integer |
 //! | `link.datasheet_port` | CFG_DATASHEET_PORT | integer |
+//! | `link.protocol` | CFG_PROTOCOL | `"detect"` (0), `"v5"` (1), `"v6"` (2) |
 //! | `motion.wait_blending_done` | CFG_MOTION_POLICY bit 0 | `true` / `false` |
 //! | `motion.wait_in_position` | CFG_MOTION_POLICY bit 1 | `true` / `false` |
 //! | `motion.start_grace_ms` | CFG_START_GRACE_MS | integer |
@@ -135,7 +136,7 @@ const fn key(table: &'static str, key: &'static str, register: &'static str, for
 /// Every key, in the order a save writes them (a table's keys together).
 /// A test checks that they cover every setting of [`FIELDS`](crate::config::FIELDS) and match the
 /// table of the module's documentation.
-const KEYS: [Key; 25] = [
+const KEYS: [Key; 26] = [
     key("robot", "address", "CFG_ROBOT_IP", Form::Address),
     key("robot", "port", "CFG_ROBOT_PORT", Form::Number),
     key("robot", "id", "CFG_ROBOT_ID", Form::Number),
@@ -160,6 +161,12 @@ const KEYS: [Key; 25] = [
     ),
     key("link", "poll_ms", "CFG_POLL_MS", Form::Number),
     key("link", "datasheet_port", "CFG_DATASHEET_PORT", Form::Number),
+    key(
+        "link",
+        "protocol",
+        "CFG_PROTOCOL",
+        Form::Word(&["detect", "v5", "v6"]),
+    ),
     key(
         "motion",
         "wait_blending_done",

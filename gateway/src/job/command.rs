@@ -24,6 +24,8 @@
 //! | 31-33 | `StopScript`, `PauseScript`, `ContinueScript` (urgent) | — |
 //! | 34 | `RunFunc` | TEXT1 function, TEXT2 parameters separated by `,` |
 //! | 40 | `ReadActPos` | results R0-R5 joints, R6-R11 pose, R12-R17 tool, R18-R23 frame |
+//! | 60-71 | joint jog (`LongJogJ` + `LongMoveEvent`, V6): 60 + 2 × axis + direction (J1- = 60, J1+ = 61, ..., J6+ = 71) | — (runs while Execute is held) |
+//! | 80-91 | Cartesian jog (`LongJogL` + `LongMoveEvent`, V6): 80 + 2 × axis + direction (X- = 80, X+ = 81, Y, Z, Rx, Ry, Rz+ = 91) | — |
 //!
 //! Numbers the PLC gives are sent with three decimals (`50.000`); fields
 //! the gateway fills itself are sent as integers (`0`, `1`), except the IK
@@ -82,7 +84,13 @@ pub mod code {
     pub const RUN_FUNC: u16 = 34;
     /// `ReadActPos`.
     pub const READ_ACT_POS: u16 = 40;
-    /// Every code, in order.
+    /// Joint jog: `JOG_J + 2 × axis + direction` (axis 0-5 = J1-J6,
+    /// direction 1 = positive).
+    pub const JOG_J: u16 = 60;
+    /// Cartesian jog: `JOG_L + 2 × axis + direction` (axis 0-5 = X, Y, Z,
+    /// Rx, Ry, Rz).
+    pub const JOG_L: u16 = 80;
+    /// Every code but the jog ones, in order.
     pub const ALL: [u16; 23] = [
         POWER_ON,
         POWER_OFF,
@@ -215,6 +223,76 @@ pub enum Command {
     },
     /// Code 40: `ReadActPos`, into the result registers.
     ReadActPos,
+    /// Codes 60-71 and 80-91: a long jog, running while Execute is held.
+    Jog(Jog),
+}
+
+/// A jog (codes 60-71, 80-91): MC_Jog's hold semantics, see
+/// `REGISTERS.md` (Jogging).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Jog {
+    /// Cartesian (`LongJogL`) rather than joint (`LongJogJ`).
+    pub cartesian: bool,
+    /// Joint J1-J6 or direction X-Rz as 0-5.
+    pub axis: u8,
+    /// The positive direction.
+    pub positive: bool,
+}
+
+impl Jog {
+    /// The jog of command `code`, if it is a jog code.
+    pub fn of(code: u16) -> Option<Jog> {
+        let (cartesian, off) = match code {
+            c if (code::JOG_J..code::JOG_J + 12).contains(&c) => (false, c - code::JOG_J),
+            c if (code::JOG_L..code::JOG_L + 12).contains(&c) => (true, c - code::JOG_L),
+            _ => return None,
+        };
+        Some(Jog {
+            cartesian,
+            axis: (off / 2) as u8,
+            positive: off % 2 == 1,
+        })
+    }
+
+    /// The jog request: start (`on`) or stop.
+    #[cfg(feature = "v6")]
+    pub fn request(&self, robot: u8, on: bool, buf: &mut [u8]) -> Option<Message> {
+        let (rbt_id, axis) = (RobotId(i32::from(robot)), i32::from(self.axis));
+        let (direction, state) = (i32::from(self.positive), i32::from(on));
+        if self.cartesian {
+            request::LongJogL {
+                rbt_id,
+                axis,
+                direction,
+                state,
+            }
+            .wire(buf)
+        } else {
+            request::LongJogJ {
+                rbt_id,
+                axis,
+                direction,
+                state,
+            }
+            .wire(buf)
+        }
+    }
+
+    /// The keep-alive, `LongMoveEvent`.
+    #[cfg(feature = "v6")]
+    pub fn keep_alive(robot: u8, buf: &mut [u8]) -> Option<Message> {
+        request::LongMoveEvent {
+            rbt_id: RobotId(i32::from(robot)),
+        }
+        .wire(buf)
+    }
+
+    /// The controller version that has long jogs.
+    #[cfg(feature = "v6")]
+    pub fn since() -> hans_codec::ProtocolLevel {
+        hans_codec::CommandId::LongJogJ.since()
+    }
 }
 
 /// What a channel's registers hold when Execute rises.
@@ -355,7 +433,12 @@ pub fn build(inp: &Inputs<'_>, robot: u8) -> Result<JobKind, GatewayError> {
             }
         }
         code::READ_ACT_POS => Command::ReadActPos,
-        _ => return Err(BAD),
+        c => match Jog::of(c) {
+            // Without the V6 commands (the core firmwares) there is no jog.
+            Some(_) if !cfg!(feature = "v6") => return Err(GatewayError::NotSupported),
+            Some(j) => Command::Jog(j),
+            None => return Err(BAD),
+        },
     };
     // Every step's request must pass the document's ranges.
     for step in 0..cmd.steps() {
@@ -370,7 +453,10 @@ impl Command {
     pub fn is_motion(&self) -> bool {
         matches!(
             self,
-            Command::Move(_) | Command::MoveRelJ { .. } | Command::MoveRelL { .. }
+            Command::Move(_)
+                | Command::MoveRelJ { .. }
+                | Command::MoveRelL { .. }
+                | Command::Jog(_)
         )
     }
 
@@ -486,6 +572,27 @@ impl Command {
                 })
             }
             Command::ReadActPos => f(&request::ReadActPos { rbt_id }),
+            #[cfg(feature = "v6")]
+            Command::Jog(j) => {
+                let (axis, direction) = (i32::from(j.axis), i32::from(j.positive));
+                if j.cartesian {
+                    f(&request::LongJogL {
+                        rbt_id,
+                        axis,
+                        direction,
+                        state: 1,
+                    })
+                } else {
+                    f(&request::LongJogJ {
+                        rbt_id,
+                        axis,
+                        direction,
+                        state: 1,
+                    })
+                }
+            }
+            #[cfg(not(feature = "v6"))]
+            Command::Jog(_) => return None,
         })
     }
 }

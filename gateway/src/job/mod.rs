@@ -254,6 +254,14 @@ impl Job {
         }
     }
 
+    /// The jog it starts (codes 60-71, 80-91).
+    pub fn jog(&self) -> Option<command::Jog> {
+        match &self.kind {
+            JobKind::Command(Command::Jog(j)) => Some(*j),
+            _ => None,
+        }
+    }
+
     /// Its result registers are filled from the reply (code 40).
     pub fn fills_results(&self) -> bool {
         matches!(self.kind, JobKind::Command(Command::ReadActPos))

@@ -148,6 +148,9 @@ pub const STATUS_MODBUS_REFUSED: u16 = 51;
 pub const STATUS_WEB_REFUSED: u16 = 52;
 /// Modbus writes refused by the write protection since start (wraps).
 pub const STATUS_WRITES_REFUSED: u16 = 53;
+/// The controller's protocol level in use: major × 100 + minor (606 for
+/// HR6.6.x, 500 for V5), 0 = not known yet.
+pub const STATUS_PROTOCOL: u16 = 54;
 
 /// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
 /// write-protected ([`CONFIG_WRITE_PROTECT`]).
@@ -223,8 +226,10 @@ pub const CONFIG_STATUS_SOURCE: u16 = 113;
 pub const CONFIG_DATASHEET_PORT: u16 = 114;
 /// Robot id sent in commands (`nRbtID`), 0-5.
 pub const CONFIG_ROBOT_ID: u16 = 115;
+/// Protocol level: 0 detect, 1 V5, 2 V6.
+pub const CONFIG_PROTOCOL: u16 = 116;
 /// Number of configuration registers from [`CONFIG_ROBOT_IP`].
-pub const CONFIG_LEN: u16 = 16;
+pub const CONFIG_LEN: u16 = 17;
 
 // ------------------------------------------- network and access settings
 // Settings like the ones above: edited, then applied with CONFIG_COMMAND 1.
@@ -342,6 +347,19 @@ pub const RAW_REPLY: u16 = 737;
 pub const RAW_REPLY_REGS: u16 = 256;
 
 // --------------------------------------------------------------- triggers
+// ------------------------------------------------------------ error text
+/// The robot error code whose text is shown (i32).
+pub const ERROR_TEXT_CODE: u16 = 1000;
+/// Where the text comes from: 0 none yet, 1 the controller
+/// (`GetErrorCodeStr`), 2 the gateway's table, 3 unknown code.
+pub const ERROR_TEXT_SOURCE: u16 = 1002;
+/// Texts stored since start (wraps): a new one has come.
+pub const ERROR_TEXT_COUNT: u16 = 1003;
+/// The text, 64 registers (128 characters).
+pub const ERROR_TEXT: u16 = 1004;
+/// Registers of the error text.
+pub const ERROR_TEXT_REGS: u16 = 64;
+
 /// Number of trigger-table entries.
 pub const TRIGGERS: usize = 16;
 /// Trigger bits: a rising edge of bit `i` fires entry `i`.
@@ -551,6 +569,7 @@ pub const TABLE: &[Area] = &[
     area!("MODBUS_REFUSED", STATUS_MODBUS_REFUSED, 1, Ro, U16),
     area!("WEB_REFUSED", STATUS_WEB_REFUSED, 1, Ro, U16),
     area!("WRITES_REFUSED", STATUS_WRITES_REFUSED, 1, Ro, U16),
+    area!("PROTOCOL_LEVEL", STATUS_PROTOCOL, 1, Ro, U16),
     area!("CFG_ROBOT_IP", CONFIG_ROBOT_IP, 2, Rw, U16),
     area!("CFG_ROBOT_PORT", CONFIG_ROBOT_PORT, 1, Rw, U16),
     area!("CFG_LINK_MODE", CONFIG_LINK_MODE, 1, Rw, U16),
@@ -566,6 +585,7 @@ pub const TABLE: &[Area] = &[
     area!("CFG_STATUS_SOURCE", CONFIG_STATUS_SOURCE, 1, Rw, U16),
     area!("CFG_DATASHEET_PORT", CONFIG_DATASHEET_PORT, 1, Rw, U16),
     area!("CFG_ROBOT_ID", CONFIG_ROBOT_ID, 1, Rw, U16),
+    area!("CFG_PROTOCOL", CONFIG_PROTOCOL, 1, Rw, U16),
     area!("PLC_HEARTBEAT", CONTROL_HEARTBEAT, 1, Rw, U16),
     area!("CONFIG_COMMAND", CONTROL_CONFIG_COMMAND, 1, Rw, U16),
     area!("CONFIG_RESULT", CONTROL_CONFIG_RESULT, 1, Ro, U16),
@@ -616,6 +636,10 @@ pub const TABLE: &[Area] = &[
     area!("RAW_REPLY_LEN", RAW_REPLY_LEN, 1, Ro, U16),
     area!("RAW_REPLY_TRUNCATED", RAW_REPLY_TRUNCATED, 1, Ro, U16),
     area!("RAW_REPLY", RAW_REPLY, RAW_REPLY_REGS, Ro, Text),
+    area!("ERROR_TEXT_CODE", ERROR_TEXT_CODE, 2, Ro, I32),
+    area!("ERROR_TEXT_SOURCE", ERROR_TEXT_SOURCE, 1, Ro, U16),
+    area!("ERROR_TEXT_COUNT", ERROR_TEXT_COUNT, 1, Ro, U16),
+    area!("ERROR_TEXT", ERROR_TEXT, ERROR_TEXT_REGS, Ro, Text),
     area!("TRIG_BITS", TRIG_BITS, 1, Rw, Bits),
     area!("TRIG_BUSY", TRIG_BUSY, 1, Ro, Bits),
     area!("TRIG_DONE", TRIG_DONE, 1, Ro, Bits),
@@ -694,9 +718,9 @@ mod tests {
     #[test]
     fn area_lookup_and_access_checks() {
         assert_eq!(area_of(STATUS_JOINTS + 11).unwrap().name, "ACT_JOINTS");
-        assert!(area_of(54).is_none());
-        assert!(check(0, 54, false).is_ok());
-        assert_eq!(check(0, 55, false), Err(AccessError::IllegalAddress));
+        assert!(area_of(55).is_none());
+        assert!(check(0, 55, false).is_ok());
+        assert_eq!(check(0, 56, false), Err(AccessError::IllegalAddress));
         assert!(check(NET_IP, NET_LEN, true).is_ok());
         assert!(check(NET_IP, NET_LEN + 1, true).is_err());
         assert_eq!(check(0, 1, true), Err(AccessError::IllegalAddress));

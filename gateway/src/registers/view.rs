@@ -152,6 +152,9 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
     if let Some(s) = crate::config::slot_of(addr) {
         return m.config.edit.get(s).copied().unwrap_or(0);
     }
+    if let Some(o) = in_area(r::ERROR_TEXT, r::ERROR_TEXT_REGS) {
+        return m.error_text.text.word(usize::from(o));
+    }
     for (i, ch) in m.channels.iter().enumerate() {
         let Some(o) = in_area(r::channel_base(i), r::CH_RESULTS + 2 * RESULTS as u16) else {
             continue;
@@ -243,6 +246,15 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         r::STATUS_MODBUS_REFUSED => m.access.modbus_refused,
         r::STATUS_WEB_REFUSED => m.access.web_refused,
         r::STATUS_WRITES_REFUSED => m.access.writes_refused,
+        r::STATUS_PROTOCOL => m.link.level.map_or(0, |l| {
+            let (major, minor, _) = l.parts();
+            u16::from(major) * 100 + u16::from(minor)
+        }),
+        a if a == r::ERROR_TEXT_CODE || a == r::ERROR_TEXT_CODE + 1 => {
+            half(m.error_text.code as u32, a - r::ERROR_TEXT_CODE, order)
+        }
+        r::ERROR_TEXT_SOURCE => m.error_text.source as u16,
+        r::ERROR_TEXT_COUNT => m.error_text.count,
         r::CONTROL_HEARTBEAT => m.plc.heartbeat,
         r::CONTROL_CONFIG_COMMAND => 0,
         r::CONTROL_CONFIG_RESULT => m.config.result as u16,

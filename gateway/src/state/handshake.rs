@@ -35,6 +35,9 @@ pub struct Handshake {
     /// Messages of the current command sent to the robot so far (a job is
     /// never sent twice: at most its number of steps).
     pub sends: u8,
+    /// Execute fell while the command was Busy (a jog stops on it, even if
+    /// Execute rose again at once: an edge while Busy is ignored).
+    pub released: bool,
 }
 
 /// Status bit: the command is queued or running.
@@ -92,6 +95,7 @@ impl Handshake {
             seq_echo: seq,
             command_echo: command,
             sends: 0,
+            released: false,
         };
     }
 
@@ -104,7 +108,9 @@ impl Handshake {
     /// still runs shows its outcome until the next rising edge). The echoes
     /// stay.
     pub fn release(&mut self) {
-        if !self.is_busy() {
+        if self.is_busy() {
+            self.released = true;
+        } else {
             self.phase = Phase::Idle;
         }
     }

@@ -72,12 +72,57 @@ pub struct LinkStatus {
     pub losses: u16,
     /// The controller's address while connected.
     pub peer: Option<Ipv4Addr>,
+    /// The controller's protocol level in use: configured, or detected on
+    /// this connection (`None` until then, and while the link is down in
+    /// detect mode).
+    pub level: Option<hans_codec::ProtocolLevel>,
 }
 
 impl LinkStatus {
     /// Commands can be sent.
     pub fn is_up(&self) -> bool {
         self.state == LinkState::Connected
+    }
+}
+
+/// Where an error text comes from (register `ERROR_TEXT_SOURCE`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TextSource {
+    /// No text yet.
+    #[default]
+    None = 0,
+    /// The controller's own (`GetErrorCodeStr`).
+    Controller = 1,
+    /// The gateway's table of known codes.
+    Table = 2,
+    /// A code neither knows.
+    Unknown = 3,
+}
+
+/// Characters of an error text.
+pub const ERROR_TEXT: usize = 128;
+
+/// The text of the last robot error (registers `ERROR_TEXT_*`).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ErrorText {
+    /// The code explained.
+    pub code: i32,
+    /// Where the text comes from.
+    pub source: TextSource,
+    /// Texts stored since start (wraps).
+    pub count: u16,
+    /// The text.
+    pub text: Text<ERROR_TEXT>,
+}
+
+impl ErrorText {
+    /// Stores `text` for `code`.
+    pub fn set(&mut self, code: i32, source: TextSource, text: &[u8]) {
+        self.code = code;
+        self.source = source;
+        self.text.set(text);
+        self.count = self.count.wrapping_add(1);
     }
 }
 
@@ -156,6 +201,8 @@ pub struct Model {
     pub access: AccessState,
     /// The last commands and link events.
     pub log: history::CommandLog,
+    /// The text of the last robot error.
+    pub error_text: ErrorText,
 }
 
 impl Model {
@@ -190,6 +237,7 @@ impl Model {
             modbus_peers: heapless::Vec::new(),
             access: AccessState::new(config.net),
             log: history::CommandLog::default(),
+            error_text: ErrorText::default(),
         }
     }
 
@@ -210,6 +258,19 @@ impl Model {
                 .map(|c| &mut c.handshake),
             Source::Raw => Some(&mut self.raw.handshake),
             Source::Trigger(i) => self.triggers.handshakes.get_mut(usize::from(i)),
+        }
+    }
+
+    /// The source's Execute (a channel's bit 0, RAW's; a trigger entry's
+    /// bit) is high.
+    pub fn execute_held(&self, source: Source) -> bool {
+        match source {
+            Source::Channel(i) => self
+                .channels
+                .get(usize::from(i))
+                .is_some_and(|c| c.inputs.execute()),
+            Source::Raw => self.raw.execute(),
+            Source::Trigger(i) => self.triggers.bits & (1 << i) != 0,
         }
     }
 

@@ -38,7 +38,9 @@ const TRIGGER_BYTES: usize = TRIGGER_WORDS * 2;
 pub const IMAGE_LEN: usize = 8 + 4 * CONFIG_WORDS + TRIGGER_BYTES + STORED_LEN + 4;
 /// The longest image read (a newer version's, with more settings).
 pub const IMAGE_MAX: usize = 8 + 4 * 256 + TRIGGER_BYTES + STORED_LEN + 4;
-const V1_WORDS: usize = r::CONFIG_LEN as usize + TRIGGER_WORDS;
+/// Settings registers of a format-1 image (100-115).
+const V1_CONFIG: usize = 16;
+const V1_WORDS: usize = V1_CONFIG + TRIGGER_WORDS;
 const V1_LEN: usize = 8 + V1_WORDS * 2 + 4;
 
 /// The trigger entries as stored.
@@ -146,7 +148,7 @@ pub fn decode(
     let format = word(image, 4);
     let n = usize::from(word(image, 6));
     let (settings_end, expected_len) = match format {
-        1 if n == V1_WORDS => (8 + 2 * usize::from(r::CONFIG_LEN), V1_LEN),
+        1 if n == V1_WORDS => (8 + 2 * V1_CONFIG, V1_LEN),
         2 => (8 + 4 * n, 8 + 4 * n + TRIGGER_BYTES + STORED_LEN + 4),
         _ => return Err(ImageError::Format),
     };

@@ -66,6 +66,25 @@ pub struct RandomFaults {
     pub guard: u32,
 }
 
+/// A controller stops a long jog when no `LongMoveEvent` came for this
+/// long (V6 document 4.10.18).
+pub const JOG_TIMEOUT: Duration = Duration::from_millis(200);
+
+/// A long jog under way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct JogState {
+    /// `LongJogL` rather than `LongJogJ`.
+    pub cartesian: bool,
+    /// Axis 0-5.
+    pub axis: i32,
+    /// Direction 0/1.
+    pub direction: i32,
+    /// When it started.
+    pub since: Instant,
+    /// The last keep-alive (or the start).
+    pub last_event: Instant,
+}
+
 /// What a motion is doing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Motion {
@@ -107,6 +126,17 @@ pub struct Model {
     pub io: [u16; 6],
     /// The joints `ReadActPos` reports.
     pub joints: [i32; 6],
+    /// The controller's version (`PackageVersion`); `None`: a V5
+    /// controller, which refuses the V6 commands with `Fail,20005`.
+    pub version: Option<&'static str>,
+    /// A long jog under way.
+    pub jog: Option<JogState>,
+    /// Long jogs the controller stopped itself because `LongMoveEvent`
+    /// stopped coming for [`JOG_TIMEOUT`].
+    pub jog_timeouts: u32,
+    /// The longest gap between two keep-alives of a jog (or from its
+    /// start to the first one).
+    pub max_event_gap: Duration,
     motion: Option<Motion>,
     /// The last motion ended (for the lagging flag).
     last_end: Option<Instant>,
@@ -126,6 +156,10 @@ impl Default for Model {
             motion_time: Duration::from_millis(300),
             io: [0; 6],
             joints: [0, 0, 90, 0, 90, 0],
+            version: Some("6.3.6.20240305"),
+            jog: None,
+            jog_timeouts: 0,
+            max_event_gap: Duration::from_ticks(0),
             motion: None,
             last_end: None,
             step: None,
@@ -160,7 +194,7 @@ impl Model {
 
     /// The emergency stop is pressed now: the motion under way stops.
     pub fn emergency_stop(&mut self, now: Instant) {
-        if self.motion.take().is_some() {
+        if self.motion.take().is_some() || self.jog.take().is_some() {
             self.last_end = Some(now);
         }
         self.estop = true;
@@ -176,13 +210,24 @@ impl Model {
         self.error = None;
         self.step = None;
         if self.motion.is_none() {
-            self.fsm = 33;
+            self.fsm = if self.jog.is_some() { 26 } else { 33 };
         }
     }
 
     /// Moves the model to `now`: motions and bring-up steps end, faults
     /// strike.
     pub fn advance(&mut self, now: Instant) {
+        if let Some(j) = self.jog {
+            let end = j.last_event + JOG_TIMEOUT;
+            if now >= end {
+                self.jog = None;
+                self.jog_timeouts += 1;
+                self.last_end = Some(end);
+                if self.fsm == 26 {
+                    self.fsm = 33;
+                }
+            }
+        }
         if let Some((at, to)) = self.step {
             if now >= at {
                 self.fsm = to;
@@ -219,6 +264,9 @@ impl Model {
     }
 
     fn moving_flag(&self, now: Instant) -> bool {
+        if self.jog.is_some_and(|j| now >= j.since + self.flag_lag) {
+            return true;
+        }
         match self.motion {
             Some(m) => m.paused.is_none() && now >= m.start + self.flag_lag,
             None => self.last_end.is_some_and(|e| now < e + self.flag_lag),
@@ -232,7 +280,7 @@ impl Model {
     /// The `ReadRobotState` values.
     fn state_values(&self, now: Instant) -> [i32; 13] {
         let b = |v: bool| i32::from(v);
-        let idle = self.motion.is_none() && !self.moving_flag(now);
+        let idle = self.motion.is_none() && self.jog.is_none() && !self.moving_flag(now);
         [
             b(self.moving_flag(now)),
             b(self.enabled()),
@@ -554,10 +602,81 @@ impl SimRobot {
         }
     }
 
+    /// The V6 commands the gateway uses (matched by name, whatever the
+    /// codec's features): the protocol level, error texts, long jogs. A V5
+    /// controller ([`Model::version`] `None`) refuses them with 20005.
+    fn reply_v6(&mut self, now: Instant, name: &str, text: &str) -> Option<Vec<u8>> {
+        const V6: [&str; 5] = [
+            "PackageVersion",
+            "GetErrorCodeStr",
+            "LongJogJ",
+            "LongJogL",
+            "LongMoveEvent",
+        ];
+        if !V6.contains(&name) {
+            return None;
+        }
+        let m = &mut self.model;
+        let Some(version) = m.version else {
+            return Some(format!("{name},Fail,20005,;").into_bytes());
+        };
+        let ints: Vec<i32> = text
+            .trim_end_matches(';')
+            .split(',')
+            .skip(1)
+            .filter_map(|x| x.trim().parse().ok())
+            .collect();
+        let ok = format!("{name},OK,;").into_bytes();
+        Some(match (name, ints.as_slice()) {
+            ("PackageVersion", _) => format!("{name},OK,{version},;").into_bytes(),
+            ("GetErrorCodeStr", [code]) => {
+                let t = hans_codec::ErrorCode::from(*code)
+                    .text()
+                    .unwrap_or("unkown error");
+                format!("{name},OK,{t},;").into_bytes()
+            }
+            ("LongJogJ" | "LongJogL", [_, axis, direction, state]) => {
+                if *state == 0 {
+                    if m.jog.take().is_some() {
+                        m.last_end = Some(now);
+                        m.set_fsm(33);
+                    }
+                    ok
+                } else if m.fsm != 33 || m.motion.is_some() || m.jog.is_some() || m.error.is_some()
+                {
+                    format!("{name},Fail,20018,;").into_bytes()
+                } else {
+                    m.jog = Some(JogState {
+                        cartesian: name == "LongJogL",
+                        axis: *axis,
+                        direction: *direction,
+                        since: now,
+                        last_event: now,
+                    });
+                    m.set_fsm(26);
+                    ok
+                }
+            }
+            ("LongMoveEvent", _) => match &mut m.jog {
+                Some(j) => {
+                    let gap = now.saturating_duration_since(j.last_event);
+                    m.max_event_gap = m.max_event_gap.max(gap);
+                    j.last_event = now;
+                    ok
+                }
+                None => format!("{name},Fail,20018,;").into_bytes(),
+            },
+            _ => format!("{name},Fail,20006,;").into_bytes(),
+        })
+    }
+
     /// The proper reply to `text`, and what it does to the model.
     fn reply(&mut self, now: Instant, name: &str, id: Option<CommandId>, text: &str) -> Vec<u8> {
         let fail = |code: i32| format!("{name},Fail,{code},;").into_bytes();
         let ok = || format!("{name},OK,;").into_bytes();
+        if let Some(reply) = self.reply_v6(now, name, text) {
+            return reply;
+        }
         let Some(id) = id else { return ok() };
         let Ok(req) = Request::parse(text) else {
             return fail(20006);
@@ -567,7 +686,7 @@ impl SimRobot {
         }
         let m = &mut self.model;
         if id.is_motion() {
-            if m.fsm != 33 || m.motion.is_some() || m.error.is_some() {
+            if m.fsm != 33 || m.motion.is_some() || m.jog.is_some() || m.error.is_some() {
                 return fail(20018);
             }
             m.set_fsm(25);
@@ -660,6 +779,10 @@ impl SimRobot {
                 ok()
             }
             CommandId::GrpStop => {
+                if m.jog.take().is_some() {
+                    m.last_end = Some(now);
+                    m.set_fsm(33);
+                }
                 if m.motion.take().is_some() {
                     m.last_end = Some(now);
                     m.set_fsm(33);

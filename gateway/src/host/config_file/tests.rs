@@ -1,7 +1,7 @@
 use super::write::toml_string;
 use super::*;
 use crate::access::password::PasswordHash;
-use crate::config::{AllowEntry, AllowList, LinkMode, NetConfig, StatusSource};
+use crate::config::{AllowEntry, AllowList, LinkMode, NetConfig, ProtocolSetting, StatusSource};
 use crate::config::{WatchdogAction, WordOrder, FIELDS};
 use crate::state::inputs::TRIGGER_TEXT;
 use crate::storage::IMAGE_LEN;
@@ -39,6 +39,7 @@ fn full() -> Contents {
         status_source: StatusSource::DataSheet,
         datasheet_port: 10006,
         robot_id: 2,
+        protocol: ProtocolSetting::V6,
         net: NetConfig {
             ip: ip(10, 0, 0, 2),
             mask: ip(255, 255, 0, 0),
