@@ -22,6 +22,12 @@
 //! * no request is sent twice, nothing is sent after its command ended
 //!   (so no motion goes out after a Stop aborted it), at most one request is
 //!   in flight on a connection;
+//! * jogs (codes 60-91): a keep-alive (`LongMoveEvent`) reaches the robot
+//!   only while a jog command is Busy, never later than one reply time
+//!   after its Execute fell, and never once the PLC heartbeat has been
+//!   gone for the watch period; after Execute falls the stop
+//!   (`LongJog…,0`) reaches the robot within one reply time unless the
+//!   command ended otherwise or the link was lost;
 //! * the queue's bounds (8 + the urgent lane; 39600 exactly when the
 //!   ordinary queue is full, never for urgent commands), 39500 exactly when
 //!   the link is not up, and the link-loss codes (39601, 39503, 39505) only
@@ -35,6 +41,7 @@ use std::fmt::Write as _;
 
 use embassy_time::{Duration, Instant};
 use hans_gateway::config::{Config, WatchdogAction, WordOrder};
+use hans_gateway::engine::jog::{HEARTBEAT as JOG_HEARTBEAT, KEEP_ALIVE};
 use hans_gateway::error::{ErrorSource, GatewayError, Outcome};
 use hans_gateway::job::{Source, QUEUE_DEPTH, URGENT_DEPTH};
 use hans_gateway::registers::{self as r, view};
@@ -111,6 +118,10 @@ struct Track {
     bring_up: bool,
     /// It is a `GrpStop` (its Done aborts the motions waiting).
     stop: bool,
+    /// It is a jog (codes 60-71, 80-91).
+    jog: bool,
+    /// Its Execute fell while it ran (once is what stops it).
+    released: bool,
     /// Messages it may send.
     steps: u8,
     /// The link was lost (or reset) since it was fired.
@@ -136,6 +147,29 @@ pub struct Checker {
     firings: u64,
     busy: Vec<(u16, u64)>,
     watchdog: bool,
+    /// The robot's requests already looked at.
+    log_seen: usize,
+    /// Jogs whose Execute fell while they were Busy: source, firing, when,
+    /// by when the stop must have reached the robot, and whether the jog
+    /// ran then (else it was queued: it must not start, or must stop).
+    releases: Vec<(u16, u64, Instant, Instant, bool)>,
+    /// The configuration's reply timeout and the heartbeat period a jog
+    /// needs (ms), the longest since start (a change applies to what is
+    /// sent after it).
+    reply_timeout_ms: u16,
+    jog_period_ms: u16,
+    /// When the robot last accepted the start of a jog (the heartbeat is
+    /// counted from the later of it and the last beat).
+    jog_start: Instant,
+}
+
+/// The heartbeat period a jog needs with `CFG_WATCHDOG_MS` = `watchdog_ms`.
+fn jog_period(watchdog_ms: u16) -> u16 {
+    if watchdog_ms == 0 {
+        JOG_HEARTBEAT
+    } else {
+        watchdog_ms
+    }
 }
 
 fn key(s: Source) -> u16 {
@@ -166,7 +200,127 @@ impl Checker {
             firings: 0,
             busy: Vec::new(),
             watchdog,
+            log_seen: w.robot.log.len(),
+            releases: Vec::new(),
+            reply_timeout_ms: w.model(|m| m.config.active.reply_timeout_ms),
+            jog_period_ms: jog_period(w.model(|m| m.config.active.watchdog_ms)),
+            jog_start: Instant::from_ticks(0),
         }
+    }
+
+    /// The configuration changed (watchdog, reply timeout).
+    fn config_changed(&mut self, w: &World) {
+        let (watchdog_ms, reply) = w.model(|m| {
+            (
+                m.config.active.watchdog_ms,
+                m.config.active.reply_timeout_ms,
+            )
+        });
+        self.watchdog = watchdog_ms != 0;
+        // A timeout can only have grown or shrunk for requests sent after
+        // the change: keep the larger for the bounds on earlier ones.
+        self.reply_timeout_ms = self.reply_timeout_ms.max(reply);
+        self.jog_period_ms = self.jog_period_ms.max(jog_period(watchdog_ms));
+    }
+
+    /// The PLC let go of `source`'s Execute at `now`: if it is a jog that
+    /// runs, its stop must follow.
+    fn released(&mut self, source: Source, w: &World) {
+        let Some(t) = self.tracks.get_mut(&key(source)) else {
+            return;
+        };
+        let (busy, moving) = w.model(|m| {
+            (
+                m.is_busy(source),
+                m.handshake(source).map(|h| h.phase) == Some(Phase::Moving),
+            )
+        });
+        if t.jog && busy && !t.released {
+            t.released = true;
+            let now = w.now();
+            let by = now + ms(u64::from(self.reply_timeout_ms) + 20);
+            self.releases.push((key(source), t.id, now, by, moving));
+        }
+    }
+
+    /// The jog invariants of the module documentation, on the robot's
+    /// requests since the last check.
+    fn check_jogs(&mut self, w: &World) -> Result<(), String> {
+        let now = w.now();
+        let log = &w.robot.log;
+        let new = log.get(self.log_seen..).unwrap_or(&[]);
+        self.log_seen = log.len();
+        let (last_beat, jog_busy) = w.model(|m| {
+            let busy = Source::all()
+                .any(|s| m.is_busy(s) && self.tracks.get(&key(s)).is_some_and(|t| t.jog));
+            (m.plc.last_beat, busy)
+        });
+        let period = self.jog_period_ms;
+        let reply = ms(u64::from(self.reply_timeout_ms));
+        for m in new {
+            if m.text.starts_with("LongJog") && m.text.ends_with(",1,;") {
+                self.jog_start = m.at;
+            }
+            if m.text.starts_with("LongMoveEvent") {
+                if !jog_busy && now.saturating_duration_since(m.at) > reply {
+                    return Err(format!(
+                        "a keep-alive at {} ms with no jog Busy",
+                        m.at.as_millis()
+                    ));
+                }
+                if let Some((k, ..)) = self
+                    .releases
+                    .iter()
+                    .find(|(_, _, at, _, _)| m.at > *at + reply + KEEP_ALIVE)
+                {
+                    return Err(format!(
+                        "a keep-alive at {} ms, after source {k}'s jog was released",
+                        m.at.as_millis()
+                    ));
+                }
+                // The watchdog is judged before every keep-alive: none may
+                // leave once the period has passed (margin: the robot's
+                // reply latency, counted twice).
+                let from = last_beat.max(self.jog_start);
+                let gone = from + ms(u64::from(period)) + ms(10);
+                if m.at > gone {
+                    return Err(format!(
+                        "a keep-alive at {} ms, the PLC heartbeat gone since {} ms",
+                        m.at.as_millis(),
+                        last_beat.as_millis()
+                    ));
+                }
+            }
+        }
+        let tracks = &self.tracks;
+        let mut kept = Vec::new();
+        for (k, id, at, by, ran) in self.releases.drain(..) {
+            let after = |suffix: &str| {
+                log.iter().any(|m| {
+                    m.at >= at && m.text.starts_with("LongJog") && m.text.ends_with(suffix)
+                })
+            };
+            // A jog released while queued must not start (or must stop).
+            let stopped = after(",0,;") || (!ran && !after(",1,;"));
+            let t = tracks.get(&k).filter(|t| t.id == id);
+            let excused = t.is_none_or(|t| {
+                t.link_lost
+                    || matches!(t.phase, Phase::Ended(Outcome::Aborted | Outcome::Error(..)))
+            });
+            if stopped || excused {
+                continue;
+            }
+            if now > by {
+                return Err(format!(
+                    "source {k}: jog released at {} ms, no stop by {} ms",
+                    at.as_millis(),
+                    by.as_millis()
+                ));
+            }
+            kept.push((k, id, at, by, ran));
+        }
+        self.releases = kept;
+        Ok(())
     }
 
     /// The PLC is about to fire `source` with a command of this kind.
@@ -178,6 +332,8 @@ impl Checker {
                 motion: kind.motion,
                 bring_up: kind.bring_up,
                 stop: kind.stop,
+                jog: kind.jog,
+                released: false,
                 steps: kind.steps,
                 id: self.firings,
                 link_lost: false,
@@ -276,7 +432,11 @@ impl Checker {
                     // A motion is Done only once the robot has finished it: the
                     // robot is idle, or in a motion it did not run at the
                     // last check (the next one, taken since).
-                    if t.motion && h.phase == Phase::Ended(Outcome::Done) {
+                    // (A jog released before it started is Done unsent.)
+                    if t.motion
+                        && h.phase == Phase::Ended(Outcome::Done)
+                        && !(t.jog && h.sends == 0)
+                    {
                         if let Some(start) = robot_motion {
                             if robot_motion_before == Some(start) {
                                 return Err(format!(
@@ -335,7 +495,7 @@ impl Checker {
                 .collect()
         });
         self.busy = busy;
-        Ok(())
+        self.check_jogs(w)
     }
 }
 
@@ -410,7 +570,7 @@ fn check_outcome(
             Some(GatewayError::ReplyTimeout | GatewayError::ReplyMismatch) if sends == 0 => {
                 bad("but its request was never sent")
             }
-            Some(GatewayError::Watchdog) if !(t.motion && watchdog) => {
+            Some(GatewayError::Watchdog) if !(t.motion && (watchdog || t.jog)) => {
                 bad("without a watched motion")
             }
             Some(
@@ -419,6 +579,7 @@ fn check_outcome(
                 | GatewayError::RobotErrorNoCode,
             ) if !(t.motion || t.bring_up) => bad("but neither a motion nor a bring-up step"),
             Some(GatewayError::StateNotReached) if !t.bring_up => bad("but not a bring-up step"),
+            Some(GatewayError::NotSupported) if !t.jog => bad("but not a jog"),
             Some(GatewayError::ConnectFailed) => bad("(a link code only)"),
             Some(_) => Ok(()),
         },
@@ -468,6 +629,7 @@ struct Kind {
     bring_up: bool,
     urgent: bool,
     stop: bool,
+    jog: bool,
     steps: u8,
 }
 
@@ -489,6 +651,7 @@ fn text_kind(t: &str) -> Kind {
                 | "ContinueScript"
         ),
         stop: name == "GrpStop",
+        jog: false,
         steps: 1,
     }
 }
@@ -559,6 +722,7 @@ impl Scenario {
             config,
             plcs: 3,
             storage: MemStorage::default(),
+            web: false,
         });
         let mut p = || rng.below(12) as u32;
         world.robot.faults = RandomFaults {
@@ -714,7 +878,7 @@ impl Scenario {
     fn channel(&mut self, ch: u8) -> Result<(), String> {
         const CODES: &[u16] = &[
             1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 13, 14, 14, 20, 21, 22, 23, 30, 31, 32, 33, 34,
-            40, 99,
+            40, 99, 60, 67, 71, 80, 85, 91,
         ];
         let code = *self.rng.pick(CODES);
         let r = &mut self.rng;
@@ -750,15 +914,17 @@ impl Scenario {
         self.note(format!("ch{ch}: code {code} {params:?}"));
         if high {
             // A rising edge needs Execute low first.
+            self.checker.released(Source::Channel(ch), &self.world);
             self.write(i, base, &[0]);
         }
         self.fire(
             Source::Channel(ch),
             Kind {
-                motion: matches!(code, 10..=14),
+                motion: matches!(code, 10..=14 | 60..=71 | 80..=91),
                 bring_up: matches!(code, 1 | 3),
                 urgent: matches!(code, 4..=8 | 31..=33),
                 stop: code == 6,
+                jog: matches!(code, 60..=71 | 80..=91),
                 steps: if code == 1 { 3 } else { 1 },
             },
         )
@@ -774,6 +940,9 @@ impl Scenario {
             };
             (m.is_busy(source), high)
         });
+        if high {
+            self.checker.released(source, &self.world);
+        }
         match source {
             Source::Channel(c) => {
                 self.write(i, r::channel_base(usize::from(c)), &[0]);
@@ -858,7 +1027,7 @@ impl Scenario {
         let cmd = *self.rng.pick(&[1u16, 1, 1, 2, 3]);
         let a = self.write(i, r::CONTROL_CONFIG_COMMAND, &[cmd]);
         self.note(format!("config {reg} = {value}, command {cmd}: {a:?}"));
-        self.checker.watchdog = self.world.model(|m| m.config.active.watchdog_ms != 0);
+        self.checker.config_changed(&self.world);
     }
 
     fn robot_fault(&mut self) {
@@ -955,7 +1124,14 @@ impl Scenario {
         result
             .and_then(|()| self.checker.check(&self.world))
             .map_err(|e| self.fail(n, e))?;
+        // A jog held: sometimes the PLC falls silent for a while (no
+        // heartbeat, no release), as a hung PLC does.
+        let jogging = self.world.model(|m| {
+            m.active_motion
+                .is_some_and(|a| self.checker.tracks.get(&key(a)).is_some_and(|t| t.jog))
+        });
         let wait = match self.rng.below(20) {
+            _ if jogging && self.rng.chance(300) => ms(900 + self.rng.below(2000)),
             0 => ms(500 + self.rng.below(3000)),
             1..=5 => ms(self.rng.below(200)),
             _ => ms(self.rng.below(30)),
@@ -978,6 +1154,13 @@ impl Scenario {
         w.robot.script.clear();
         w.robot.set_offline(false);
         w.robot.model.motion_time = ms(200);
+        // Jogs run while Execute is held: the PLC lets go of both channels.
+        for ch in 0..2 {
+            if w.model(|m| m.channels[ch].inputs.execute()) {
+                self.checker.released(Source::Channel(ch as u8), w);
+                w.request(0, &pdu::write(r::channel_base(ch), &[0]));
+            }
+        }
         let end = w.now() + Duration::from_secs(45);
         let mut beat = self.heartbeat;
         while w.now() < end {
