@@ -431,12 +431,13 @@ impl Rig {
     }
 
     /// Messages the simulator received other than the gateway's status
-    /// reads (`Read...`), in order.
+    /// reads (`Read...`) and its question for the protocol level
+    /// (`PackageVersion`), in order.
     pub fn commands_received(&self) -> Vec<String> {
         self.sim
             .received()
             .into_iter()
-            .filter(|m| !m.starts_with("Read"))
+            .filter(|m| !m.starts_with("Read") && !m.starts_with("PackageVersion"))
             .collect()
     }
 

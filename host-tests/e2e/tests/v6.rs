@@ -1,0 +1,165 @@
+//! The gateway against hans-sim speaking V6 (and V5): the protocol level
+//! detected, jogging from the PLC with its stop conditions (release,
+//! heartbeat loss, link loss), the refusal at V5, and the robot error's
+//! text from the controller. Real sockets on 127.0.0.1, real time; every
+//! wait bounded.
+
+use std::time::{Duration, Instant};
+
+use hans_codec::{FsmState, ProtocolLevel};
+use hans_e2e::{f32_of, words_text, Plc, Rig};
+use hans_gateway::job::command::code;
+use hans_gateway::registers as r;
+
+const CH0: usize = 0;
+
+/// Keeps the PLC heartbeat changing for `d` (every 100 ms).
+async fn beat_for(plc: &mut Plc, d: Duration) {
+    let end = Instant::now() + d;
+    let mut beat = plc.read1(r::CONTROL_HEARTBEAT).await;
+    while Instant::now() < end {
+        beat = beat.wrapping_add(1);
+        plc.write(r::CONTROL_HEARTBEAT, &[beat]).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
+async fn joint(plc: &mut Plc, i: u16) -> f32 {
+    let w = plc.read(r::STATUS_JOINTS + 2 * i, 2).await;
+    f32_of(&w)
+}
+
+async fn v6_rig() -> Rig {
+    let mut rig = Rig::start(hans_sim::Config::ready()).await;
+    rig.plc
+        .wait_reg(r::STATUS_PROTOCOL, "protocol level detected", |v| v == 606)
+        .await;
+    rig
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_jog_moves_the_robot_while_execute_is_held_and_stops_at_release() {
+    let mut rig = v6_rig().await;
+    rig.plc.wait_status().await;
+    let before = joint(&mut rig.plc, 0).await;
+    rig.plc.command(CH0, code::JOG_J + 1, &[], 1).await; // J1+
+    beat_for(&mut rig.plc, Duration::from_millis(1200)).await;
+    let st = rig.plc.read1(Plc::ch_status(CH0)).await;
+    assert_eq!(st, r::ST_BUSY | r::ST_ACTIVE, "Busy and Active while held");
+    assert_eq!(rig.sim.fsm(), FsmState::LongJogMoving);
+    let during = joint(&mut rig.plc, 0).await;
+    assert!(during > before + 3.0, "J1 moved: {before} -> {during}");
+    // Release: Done once it stands still; it no longer moves.
+    rig.plc.write(r::channel_base(CH0), &[0]).await;
+    let e = rig.plc.wait_end(Plc::ch_status(CH0)).await;
+    assert!(e.done(), "{e:?}");
+    assert_eq!(
+        rig.received("LongJogJ"),
+        ["LongJogJ,0,0,1,1,;", "LongJogJ,0,0,1,0,;"]
+    );
+    assert!(rig.received("LongMoveEvent").len() >= 8);
+    let stopped = joint(&mut rig.plc, 0).await;
+    tokio::time::sleep(Duration::from_millis(400)).await;
+    rig.plc.wait_status().await;
+    let later = joint(&mut rig.plc, 0).await;
+    assert!(
+        (later - stopped).abs() < 0.5,
+        "still moving: {stopped} -> {later}"
+    );
+    assert_ne!(rig.sim.fsm(), FsmState::LongJogMoving);
+    rig.stop().await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_jog_stops_when_the_plc_heartbeat_stops() {
+    let mut rig = v6_rig().await;
+    rig.plc.command(CH0, code::JOG_L + 4, &[], 1).await; // Z-
+    beat_for(&mut rig.plc, Duration::from_millis(400)).await;
+    let last_beat = Instant::now();
+    // Execute stays high; the heartbeat stops (watchdog off: 1000 ms).
+    let e = rig.plc.wait_end(Plc::ch_status(CH0)).await;
+    let after = last_beat.elapsed();
+    assert_eq!((e.error_id, e.error_source), (39602, 3), "{e:?}");
+    assert!(
+        after >= Duration::from_millis(900),
+        "stopped after {after:?}"
+    );
+    assert_eq!(
+        rig.received("LongJogL").last().map(String::as_str),
+        Some("LongJogL,0,2,0,0,;")
+    );
+    assert_ne!(rig.sim.fsm(), FsmState::LongJogMoving);
+    rig.stop().await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_jog_stops_when_the_link_drops() {
+    let mut rig = v6_rig().await;
+    rig.plc.command(CH0, code::JOG_J + 5, &[], 1).await; // J3+
+    beat_for(&mut rig.plc, Duration::from_millis(400)).await;
+    assert_eq!(rig.sim.fsm(), FsmState::LongJogMoving);
+    rig.sim.drop_connections();
+    let e = rig.plc.wait_end(Plc::ch_status(CH0)).await;
+    assert_eq!((e.error_id, e.error_source), (39601, 3), "{e:?}");
+    // The controller stops by itself once the keep-alives stop (200 ms).
+    let start = Instant::now();
+    while rig.sim.fsm() == FsmState::LongJogMoving {
+        assert!(
+            start.elapsed() < Duration::from_secs(2),
+            "the robot still jogs"
+        );
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    rig.stop().await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn a_v5_controller_gets_no_jog_and_errors_are_explained_from_the_table() {
+    let mut rig = Rig::start(hans_sim::Config {
+        protocol: ProtocolLevel::V5,
+        ..hans_sim::Config::ready()
+    })
+    .await;
+    rig.plc
+        .wait_reg(r::STATUS_PROTOCOL, "protocol level detected", |v| v == 500)
+        .await;
+    let e = rig.plc.run(CH0, code::JOG_J, &[], 1).await;
+    assert_eq!((e.error_id, e.error_source), (39608, 3), "{e:?}");
+    assert!(rig.received("LongJogJ").is_empty());
+    // A robot refusal: its text from the gateway's table (source 2).
+    let (e, _) = rig.plc.raw("SetBoxDO,9,1,;", 2).await;
+    assert_eq!(e.error_source, 1, "{e:?}");
+    let code = rig
+        .plc
+        .wait_reg(r::ERROR_TEXT_COUNT, "an error text", |v| v >= 1)
+        .await;
+    assert!(code >= 1);
+    let w = rig.plc.read(r::ERROR_TEXT_CODE, 4).await;
+    assert_eq!(hans_e2e::i32_of(&w[..2]), e.error_id);
+    assert_eq!(w[2], 2, "from the table");
+    assert!(rig.received("GetErrorCodeStr").is_empty());
+    rig.stop().await;
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn at_v6_the_controller_explains_its_error_codes() {
+    let mut rig = v6_rig().await;
+    let (e, _) = rig.plc.raw("SetBoxDO,9,1,;", 1).await;
+    assert_eq!(e.error_source, 1, "{e:?}");
+    rig.plc
+        .wait_reg(r::ERROR_TEXT_COUNT, "an error text", |v| v >= 1)
+        .await;
+    let w = rig
+        .plc
+        .read(r::ERROR_TEXT_CODE, 4 + r::ERROR_TEXT_REGS)
+        .await;
+    assert_eq!(hans_e2e::i32_of(&w[..2]), e.error_id);
+    assert_eq!(w[2], 1, "the controller's own text");
+    let text = words_text(&w[4..]);
+    assert!(!text.is_empty());
+    assert_eq!(
+        rig.received("GetErrorCodeStr"),
+        [format!("GetErrorCodeStr,{},;", e.error_id)]
+    );
+    rig.stop().await;
+}
