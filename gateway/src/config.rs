@@ -570,14 +570,14 @@ pub const FIELDS: [Field; 25] = [
         r::MODBUS_ALLOW,
         Domain::AllowList,
         "",
-        "Modbus clients allowed: 4 × (address, prefix length 1-32, 0 = unused); all unused = everyone",
+        "Modbus clients allowed: up to 4 entries a.b.c.d or a.b.c.d/prefix (1-32); none = everyone",
     ),
     field(
         "WEB_ALLOW",
         r::WEB_ALLOW,
         Domain::AllowList,
         "",
-        "web clients allowed, as MODBUS_ALLOW",
+        "web clients allowed: up to 4 entries a.b.c.d or a.b.c.d/prefix (1-32); none = everyone",
     ),
 ];
 

@@ -400,3 +400,39 @@ fn malformed_and_oversized_requests_get_4xx_and_the_connection_closes() {
     .unwrap();
     assert_eq!(a.status, 403);
 }
+
+#[test]
+fn a_recovery_start_lets_a_forgotten_password_be_replaced() {
+    let mut w = world();
+    set_password(&mut w);
+    let token = post(&mut w, "/api/login", None, b"correct horse").token();
+    // Lock out the web page (an allow-list without this PC) and protect the
+    // registers: then forget the password.
+    let a = post(
+        &mut w,
+        "/api/config",
+        Some(&token),
+        br#"{"settings":{"WEB_ALLOW":"10.9.9.9","CFG_WRITE_PROTECT":"1"}}"#,
+    );
+    assert_eq!(a.status, 200);
+    assert!(send(&mut w, PC, &request("GET", "/api/session", &[], b"")).is_none());
+    // Without the old password: refused, until the board starts in
+    // recovery (factory network and access settings, the old password
+    // not needed).
+    w.config.recovery = true;
+    w.restart();
+    w.run_for(ms(300));
+    assert_ne!(w.reg(r::STATUS_ACCESS) & r::ACCESS_RECOVERY, 0);
+    assert_eq!(w.reg(r::CONFIG_WRITE_PROTECT), 0, "factory access settings");
+    let s = get(&mut w, "/api/session").json();
+    assert_eq!(s["recovery"], true);
+    let a = post(&mut w, "/api/password", None, b"\nbattery staple");
+    assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+    w.config.recovery = false;
+    w.restart();
+    w.run_for(ms(300));
+    assert_eq!(
+        post(&mut w, "/api/login", None, b"battery staple").status,
+        200
+    );
+}

@@ -145,6 +145,16 @@ impl Sessions {
         false
     }
 
+    /// `true` if `token` is an open session at `now`, without counting
+    /// this as a use (a page that only looks must not keep a session
+    /// alive).
+    pub fn peek(&self, token: &Token, now: Instant) -> bool {
+        self.open
+            .iter()
+            .flatten()
+            .any(|(t, used)| t.same(token) && now.saturating_duration_since(*used) < IDLE)
+    }
+
     /// Ends the session of `token`.
     pub fn close(&mut self, token: &Token) {
         for s in self.open.iter_mut() {

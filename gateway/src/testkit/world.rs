@@ -86,6 +86,9 @@ pub struct WorldConfig {
     pub storage: MemStorage,
     /// Serve the web page on [`WEB_PORT`] (feature `web`).
     pub web: bool,
+    /// Start (and restart) as a board held in recovery (its button held at
+    /// power-up: factory network and access settings).
+    pub recovery: bool,
 }
 
 /// The gateway's web port in the world (when [`WorldConfig::web`]).
@@ -100,6 +103,7 @@ impl Default for WorldConfig {
             plcs: 1,
             storage: MemStorage::default(),
             web: false,
+            recovery: false,
         }
     }
 }
@@ -161,6 +165,7 @@ impl World {
             robot_override: None,
             web_port: if config.web { WEB_PORT } else { 0 },
             seed: [config.seed as u8; 32],
+            recovery: config.recovery,
             ..Default::default()
         };
         let flag = Arc::new(Flag(AtomicBool::new(true)));
@@ -209,6 +214,7 @@ impl World {
             robot_override: None,
             web_port: if self.config.web { WEB_PORT } else { 0 },
             seed: [self.config.seed as u8 ^ 0x5a; 32],
+            recovery: self.config.recovery,
             ..Default::default()
         };
         self.robot.drop_connections();

@@ -341,6 +341,9 @@ fn status(m: &Model, now: Instant, i: usize, j: &mut Json) -> Result<Part, Full>
             j.raw(",")?.key("config")?.raw("{")?;
             j.key("result")?.uint(m.config.result as u64)?;
             j.raw(",")?.key("saves")?.uint(m.config.saves.into())?;
+            j.raw(",")?
+                .key("applied")?
+                .uint(m.config.generation.into())?;
             j.raw("}")?;
             Ok(Part::More)
         }

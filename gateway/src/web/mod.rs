@@ -299,6 +299,12 @@ impl<C: Clock> App<'_, C> {
         token(parts).is_some_and(|t| self.web.sessions.borrow_mut().check(&t, now))
     }
 
+    /// As [`Self::authorized`], without counting as a use of the session.
+    fn looks_authorized(&self, parts: &RequestParts<'_>) -> bool {
+        let now = self.clock.now();
+        token(parts).is_some_and(|t| self.web.sessions.borrow().peek(&t, now))
+    }
+
     fn password_set(&self) -> bool {
         self.hub.with(|m| m.access.password.is_some())
     }
@@ -358,6 +364,9 @@ impl<C: Clock> App<'_, C> {
             .and_then(|j| j.raw(","))
             .and_then(|j| j.key("restart"))
             .and_then(|j| j.bool(self.web.restart.is_some()))
+            .and_then(|j| j.raw(","))
+            .and_then(|j| j.key("recovery"))
+            .and_then(|j| j.bool(self.hub.with(|m| m.access.recovery)))
             .and_then(|j| j.raw("}"));
         j
     }
@@ -497,6 +506,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                         "Set-Cookie",
                         "hgw_session=; Max-Age=0; Path=/; HttpOnly; SameSite=Strict",
                     )
+                    .with_header("Cache-Control", "no-store")
                     .write_to(c, w)
                     .await
             }

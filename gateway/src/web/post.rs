@@ -232,6 +232,17 @@ pub fn read_config(
     Ok((words, triggers))
 }
 
+/// 429 with the wait: `{"error":…,"retry_after_s":n}`.
+fn too_many(wait: embassy_time::Duration) -> Reply {
+    let mut j = Json::new();
+    let _ = j
+        .raw("{\"error\":\"too many wrong passwords\",")
+        .and_then(|j| j.key("retry_after_s"))
+        .and_then(|j| j.uint(wait.as_secs() + 1))
+        .and_then(|j| j.raw("}"));
+    Reply::Json(StatusCode::TOO_MANY_REQUESTS, j)
+}
+
 impl<C: Clock> App<'_, C> {
     pub(super) async fn login<R: Read>(&self, request: &mut Request<'_, R>) -> Reply {
         let now = self.clock.now();
@@ -241,15 +252,7 @@ impl<C: Clock> App<'_, C> {
         match (hash, tried, body) {
             (_, _, Err(_)) => error(StatusCode::PAYLOAD_TOO_LARGE, "request too long"),
             (None, _, _) => error(StatusCode::CONFLICT, "no password is set"),
-            (_, Err(wait), _) => {
-                let mut j = Json::new();
-                let _ = j
-                    .raw("{\"error\":\"too many wrong passwords\",")
-                    .and_then(|j| j.key("retry_after_s"))
-                    .and_then(|j| j.uint(wait.as_secs() + 1))
-                    .and_then(|j| j.raw("}"));
-                Reply::Json(StatusCode::TOO_MANY_REQUESTS, j)
-            }
+            (_, Err(wait), _) => too_many(wait),
             (Some(h), Ok(()), Ok(pw)) => {
                 if h.verify(pw).await {
                     let mut s = self.web.sessions.borrow_mut();
@@ -284,9 +287,13 @@ impl<C: Clock> App<'_, C> {
             None => (&[][..], &body[..]),
         };
         let new = new.strip_suffix(b"\n").unwrap_or(new);
-        match (hash, tried) {
-            (Some(_), Err(_)) => {
-                return error(StatusCode::TOO_MANY_REQUESTS, "too many wrong passwords");
+        // A recovery start (the board's button held at power-up) is the
+        // way back from a forgotten password: whoever can press it may set
+        // a new one without the old.
+        let recovery = self.hub.with(|m| m.access.recovery);
+        match (hash.filter(|_| !recovery), tried) {
+            (Some(_), Err(wait)) => {
+                return too_many(wait);
             }
             (Some(h), Ok(())) => {
                 if !h.verify(current).await {
