@@ -388,7 +388,7 @@ impl<C: Clock> App<'_, C> {
             "/api/log" if get => Reply::Doc(Doc::Log),
             "/api/session" if get => Reply::Json(
                 StatusCode::OK,
-                self.session_json(self.authorized(&request.parts)),
+                self.session_json(self.looks_authorized(&request.parts)),
             ),
             "/api/login" if post => self.login(request).await,
             "/api/logout" if post => {

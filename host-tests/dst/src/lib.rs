@@ -723,6 +723,7 @@ impl Scenario {
             plcs: 3,
             storage: MemStorage::default(),
             web: false,
+            recovery: false,
         });
         let mut p = || rng.below(12) as u32;
         world.robot.faults = RandomFaults {
