@@ -9,7 +9,7 @@
 //!
 //! | from | to | what |
 //! |---|---|---|
-//! | a session (a PLC write) | engine | [`Hub::wake`]: a job was queued, the configuration changed |
+//! | a session (a PLC write) | engine | `Hub::wake`: a job was queued, the configuration changed |
 //! | a session (`CONFIG_COMMAND` 1) | storage task | `save_request`, answered by `save_done` ([`SaveOutcome`]) |
 //!
 //! Views: [`Hub::read_registers`] (Modbus) encodes registers from the

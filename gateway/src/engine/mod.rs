@@ -4,7 +4,7 @@
 //! [`plc`] (what the PLC's writes do), [`motion`] (when a motion is Done),
 //! [`watchdog`], [`bringup`] (Power on, Enable), [`poll`] (the status
 //! reads). This module runs them in time: one step at a time, chosen by
-//! [`Engine::choose`] in a fixed priority order:
+//! `Engine::choose` in a fixed priority order:
 //!
 //! 1. the link is down: bring it up (connect, listen, or wait out the
 //!    backoff of [`MIN_BACKOFF`] doubling to [`MAX_BACKOFF`]);

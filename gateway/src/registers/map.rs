@@ -91,7 +91,7 @@ pub const STATUS_HEARTBEAT: u16 = 1;
 /// Milliseconds since the robot status was last refreshed (65535 = never or
 /// longer).
 pub const STATUS_AGE_MS: u16 = 2;
-/// Robot link state, see [`LinkState`](crate::status::LinkState).
+/// Robot link state, see [`LinkState`](crate::state::LinkState).
 pub const STATUS_LINK_STATE: u16 = 3;
 /// Number of robot connections established since start (wraps).
 pub const STATUS_LINK_CONNECTS: u16 = 4;
@@ -280,7 +280,7 @@ pub const CHANNEL_BASE: u16 = 200;
 pub const CHANNEL_STRIDE: u16 = 200;
 /// Offset: control bits (bit 0 = Execute).
 pub const CH_CONTROL: u16 = 0;
-/// Offset: command code, see [`crate::engine::commands`].
+/// Offset: command code, see [`crate::job::command`].
 pub const CH_COMMAND: u16 = 1;
 /// Offset: sequence number, echoed in [`CH_SEQ_ECHO`].
 pub const CH_SEQUENCE: u16 = 2;

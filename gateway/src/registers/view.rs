@@ -1,4 +1,4 @@
-//! The registers as a view of the [`Model`]: [`read`] encodes, [`write`]
+//! The registers as a view of the [`Model`]: [`read()`] encodes, [`write()`]
 //! decodes.
 //!
 //! Encodings (REGISTERS.md, "Value types"): `f32` and `i32` in two

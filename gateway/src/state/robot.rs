@@ -141,7 +141,7 @@ pub struct RobotStatus {
     pub override_ratio: Option<f32>,
     /// Actual joints J1-J6 [°].
     pub joints: Option<[f32; 6]>,
-    /// Actual TCP pose X, Y, Z [mm], Rx, Ry, Rz [°] in the user frame.
+    /// Actual TCP pose X, Y, Z (mm), Rx, Ry, Rz (°) in the user frame.
     pub pose: Option<[f32; 6]>,
     /// The I/O groups, indexed by [`Io`]: bit `n` = channel `n`.
     pub io: [Option<u16>; 6],

@@ -2,7 +2,7 @@
 //!
 //! The stored image ([`image`]) holds the applied configuration, the
 //! sixteen trigger entries and the web password's hash, with a CRC. It is written by the storage task
-//! ([`task`]), one of the gateway's futures, so that a save never stops the
+//! (`task`), one of the gateway's futures, so that a save never stops the
 //! robot link, the watchdog or the Modbus sessions: the medium is driven
 //! through async calls that yield between flash operations.
 //!

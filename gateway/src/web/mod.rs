@@ -10,7 +10,7 @@
 //! socket abstraction beside the gateway's. picoserve runs here on the
 //! gateway's own [`Socket`] ([`io`]), so the page is the same code on
 //! Linux (tokio) and on boards (embassy-net). Routing is one match in
-//! [`App`] rather than picoserve's typed router: each route is one line
+//! `App` rather than picoserve's typed router: each route is one line
 //! to read, and a fuzz target drives the whole request path.
 //!
 //! * [`WEB_CONNECTIONS`] connections at once, each with an
