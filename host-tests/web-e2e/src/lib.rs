@@ -426,7 +426,6 @@ impl WebRig {
         // one may still run.
         let one = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
         remove_screenshots(test);
-        let browser = launch_chromium();
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(2)
             .enable_all()
@@ -462,6 +461,10 @@ impl WebRig {
         };
         let mut plc = rt.block_on(connect_plc(modbus));
         rt.block_on(plc.wait_link());
+        // The browser starts once the device is up: it closes its own
+        // connection after an idle period, which a slow QEMU start (on a
+        // loaded machine) could otherwise outlast.
+        let browser = launch_chromium();
         let tab = browser.new_tab().expect("a browser tab");
         tab.set_default_timeout(WAIT);
         let rig = WebRig {
