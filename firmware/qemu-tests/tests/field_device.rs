@@ -22,10 +22,7 @@
 use std::net::{Ipv4Addr, SocketAddr, TcpStream};
 use std::time::{Duration, Instant};
 
-use hans_sim::{Config as SimConfig, Sim, Timing};
-use qemu_tests::{
-    connect_retry, firmware_elf, http_get, must, request_line, HttpClient, Plc, Ports, Qemu,
-};
+use qemu_tests::{http_get, must, request_line, HttpClient, Plc};
 use serde_json::Value;
 
 const STATUS_FSM: u16 = 6;
@@ -45,45 +42,12 @@ const CMD_POWER_ON: u16 = 1;
 const CMD_ENABLE: u16 = 3;
 const FSM_STANDBY: u64 = 33;
 
-const STEP: Duration = Duration::from_secs(60);
-
-/// QEMU with the field-device firmware and the simulator.
-struct Rig {
-    rt: tokio::runtime::Runtime,
-    sim: Option<Sim>,
-    qemu: Qemu,
-    name: &'static str,
-}
+mod common;
+use common::{Rig, STEP};
 
 impl Rig {
-    fn start(name: &'static str) -> Rig {
-        Rig::start_with_args(name, "")
-    }
-
-    /// With `args` as the firmware's command line (`dhcp`: DHCP as the
-    /// factory network setting).
-    fn start_with_args(name: &'static str, args: &str) -> Rig {
-        let ports = Ports::pick();
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()
-            .expect("tokio runtime");
-        let sim = rt.block_on(start_sim(ports.sim));
-        let qemu = Qemu::start_with_args(
-            name,
-            &firmware_elf("field-device"),
-            ports,
-            Duration::from_secs(300),
-            args,
-        )
-        .expect("start QEMU");
-        Rig {
-            rt,
-            sim: Some(sim),
-            qemu,
-            name,
-        }
+    fn field_device(name: &'static str) -> Rig {
+        Rig::start("field-device", name, "")
     }
 
     fn web(&self) -> u16 {
@@ -104,20 +68,6 @@ impl Rig {
             .unwrap_or_else(|e| panic!("/api/status is not JSON ({e}): {}", r.text()))
     }
 
-    /// A Modbus session that has answered one request.
-    fn modbus(&self) -> Plc {
-        let start = Instant::now();
-        loop {
-            let stream = connect_retry(self.qemu.ports.modbus, STEP).expect("connect to :502");
-            let mut client = Plc::new(stream, Duration::from_secs(5)).expect("Modbus client");
-            if let Ok(Ok(_)) = client.read_holding_registers(0, 1) {
-                return client;
-            }
-            assert!(start.elapsed() < STEP, "{}: no Modbus session", self.name);
-            std::thread::sleep(Duration::from_millis(300));
-        }
-    }
-
     /// Ends the firmware through the diagnostics port (the stack report is
     /// printed), prints its log, expects exit status 0. Returns the log
     /// (text if `defmt-print` is installed).
@@ -125,47 +75,10 @@ impl Rig {
         let report = request_line(self.qemu.ports.admin, "exit\n", Duration::from_secs(30))
             .expect("diagnostics report");
         println!("{}: {}", self.name, report.trim());
-        let status = self.qemu.process().wait(Duration::from_secs(30));
-        let log = self.qemu.log_text();
-        println!("--- {} firmware log ---\n{log}", self.name);
-        if let Some(sim) = self.sim.take() {
-            self.rt.block_on(sim.shutdown());
-        }
+        let (status, log) = self.wait_end();
         assert!(report.starts_with("stack_used="), "report: {report}");
         assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
         log
-    }
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        if std::thread::panicking() {
-            println!(
-                "--- {} firmware log ---\n{}",
-                self.name,
-                self.qemu.log_text()
-            );
-        }
-    }
-}
-
-async fn start_sim(port: u16) -> Sim {
-    let config = SimConfig {
-        command_port: port,
-        datasheet_ports: Vec::new(),
-        timing: Timing::instant(),
-        ..SimConfig::default()
-    };
-    let start = Instant::now();
-    loop {
-        match Sim::start(config.clone()).await {
-            Ok(sim) => return sim,
-            Err(e) if start.elapsed() < Duration::from_secs(10) => {
-                eprintln!("simulator: {e}; retrying");
-                tokio::time::sleep(Duration::from_millis(200)).await;
-            }
-            Err(e) => panic!("simulator cannot listen on {port}: {e}"),
-        }
     }
 }
 
@@ -210,7 +123,7 @@ fn ms(d: Duration) -> f64 {
 
 #[test]
 fn the_field_device_serves_its_page_and_the_live_status_of_the_robot() {
-    let rig = Rig::start("field-device-web");
+    let rig = Rig::field_device("field-device-web");
 
     // The live status shows the simulator's robot: link connected, its FSM.
     let status = wait_for("the robot in /api/status", STEP, || {
@@ -360,7 +273,7 @@ fn clients(rig: &Rig) -> Vec<String> {
 
 #[test]
 fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees() {
-    let rig = Rig::start("field-device-allow");
+    let rig = Rig::field_device("field-device-allow");
     let port = rig.qemu.ports.modbus;
     let local2 = Ipv4Addr::new(127, 0, 0, 2);
 
@@ -434,7 +347,7 @@ fn the_field_device_takes_its_address_from_dhcp() {
     // DHCP as the factory network setting (as HANS_GW_NET=dhcp on the
     // NUCLEO); QEMU's user network has a DHCP server that leases 10.0.2.15,
     // the address the ports are forwarded to.
-    let rig = Rig::start_with_args("field-device-dhcp", "dhcp");
+    let rig = Rig::start("field-device", "field-device-dhcp", "dhcp");
     let config = wait_for("/api/config", STEP, || {
         let r = http_get(rig.web(), "/api/config", STEP).ok()?;
         serde_json::from_slice::<Value>(&r.body).ok()

@@ -10,10 +10,7 @@ use std::net::TcpStream;
 use std::os::fd::AsRawFd;
 use std::time::{Duration, Instant};
 
-use hans_sim::{Config as SimConfig, Sim, Timing};
-use qemu_tests::{
-    connect_retry, f32_from_words, f32_to_words, firmware_elf, must, request_line, Plc, Ports, Qemu,
-};
+use qemu_tests::{connect_retry, f32_from_words, f32_to_words, must, request_line, Plc};
 use tokio_modbus::ExceptionCode;
 
 // Status block.
@@ -48,69 +45,16 @@ const CMD_ENABLE: u16 = 3;
 const CMD_MOVE_J_JOINTS: u16 = 10;
 
 const MAX_SESSIONS: usize = 4;
-const STEP: Duration = Duration::from_secs(60);
 
-/// QEMU with the gateway firmware, the simulator, and a tokio runtime for it.
-struct Rig {
-    rt: tokio::runtime::Runtime,
-    sim: Option<Sim>,
-    qemu: Qemu,
-    name: &'static str,
-}
+mod common;
+use common::{start_sim, STEP};
+
+/// The gateway firmware's rig.
+type Rig = common::Rig;
 
 impl Rig {
-    fn start(name: &'static str) -> Rig {
-        Rig::start_with_args(name, "")
-    }
-
-    /// With `args` as the firmware's command line (`dhcp`: DHCP as the
-    /// factory network setting).
-    fn start_with_args(name: &'static str, args: &str) -> Rig {
-        let ports = Ports::pick();
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()
-            .expect("tokio runtime");
-        let sim = rt.block_on(start_sim(ports.sim));
-        let qemu = Qemu::start_with_args(
-            name,
-            &firmware_elf("gateway"),
-            ports,
-            Duration::from_secs(300),
-            args,
-        )
-        .expect("start QEMU");
-        Rig {
-            rt,
-            sim: Some(sim),
-            qemu,
-            name,
-        }
-    }
-
-    fn sim(&self) -> &Sim {
-        self.sim.as_ref().expect("simulator running")
-    }
-
-    /// A Modbus session that has answered one request (the guest may not be
-    /// listening yet, or all its sessions may be busy: then QEMU accepts and
-    /// closes at once, and we try again).
-    fn modbus(&self) -> Plc {
-        let start = Instant::now();
-        loop {
-            let stream = connect_retry(self.qemu.ports.modbus, STEP).expect("connect to :502");
-            let mut client = Plc::new(stream, Duration::from_secs(5)).expect("Modbus client");
-            if let Ok(Ok(_)) = client.read_holding_registers(0, 1) {
-                return client;
-            }
-            assert!(
-                start.elapsed() < STEP,
-                "{}: no Modbus session within {STEP:?}",
-                self.name
-            );
-            std::thread::sleep(Duration::from_millis(300));
-        }
+    fn gateway(name: &'static str) -> Rig {
+        Rig::start("gateway", name, "")
     }
 
     /// Ends the firmware through the diagnostics port, prints its log, stops
@@ -133,12 +77,7 @@ impl Rig {
         if let Some(report) = &report {
             println!("{}: {}", self.name, report.trim());
         }
-        let status = self.qemu.process().wait(Duration::from_secs(30));
-        let log = self.qemu.log_text();
-        println!("--- {} firmware log ---\n{log}", self.name);
-        if let Some(sim) = self.sim.take() {
-            self.rt.block_on(sim.shutdown());
-        }
+        let (status, log) = self.wait_end();
         match end {
             End::Exit => {
                 let report = report.unwrap_or_default();
@@ -174,43 +113,6 @@ impl End {
         match self {
             End::Exit => 0,
             End::Panic => 1,
-        }
-    }
-}
-
-impl Drop for Rig {
-    fn drop(&mut self) {
-        if std::thread::panicking() {
-            println!(
-                "--- {} firmware log ---\n{}",
-                self.name,
-                self.qemu.log_text()
-            );
-            if let Some(sim) = self.sim.as_ref() {
-                println!("--- simulator received ---\n{:?}", sim.received());
-            }
-        }
-    }
-}
-
-async fn start_sim(port: u16) -> Sim {
-    let config = SimConfig {
-        command_port: port,
-        datasheet_ports: Vec::new(),
-        timing: Timing::instant(),
-        ..SimConfig::default()
-    };
-    // The port was free a moment ago, or the previous simulator just closed
-    // it: retry briefly.
-    let start = Instant::now();
-    loop {
-        match Sim::start(config.clone()).await {
-            Ok(sim) => return sim,
-            Err(e) if start.elapsed() < Duration::from_secs(10) => {
-                eprintln!("simulator: {e}; retrying");
-                tokio::time::sleep(Duration::from_millis(200)).await;
-            }
-            Err(e) => panic!("simulator cannot listen on {port}: {e}"),
         }
     }
 }
@@ -287,7 +189,7 @@ fn execute(client: &mut Plc, code: u16, seq: u16, params: &[f32]) -> u16 {
 
 #[test]
 fn plc_powers_on_moves_and_reads_status_through_the_firmware() {
-    let rig = Rig::start("gateway-motion");
+    let rig = Rig::gateway("gateway-motion");
     let mut plc = rig.modbus();
 
     wait_for_robot(&mut plc);
@@ -381,7 +283,7 @@ fn plc_powers_on_moves_and_reads_status_through_the_firmware() {
 
 #[test]
 fn firmware_reconnects_after_the_simulator_restarts() {
-    let mut rig = Rig::start("gateway-sim-restart");
+    let mut rig = Rig::gateway("gateway-sim-restart");
     let mut plc = rig.modbus();
     wait_for_robot(&mut plc);
     let connects_before = status(&mut plc)[usize::from(STATUS_LINK_CONNECTS)];
@@ -477,7 +379,7 @@ fn abort(stream: TcpStream) {
 
 #[test]
 fn a_client_that_vanishes_mid_request_frees_its_session() {
-    let rig = Rig::start("gateway-abrupt-client");
+    let rig = Rig::gateway("gateway-abrupt-client");
 
     // Take every session the firmware has.
     let mut clients: Vec<Plc> = (0..MAX_SESSIONS).map(|_| rig.modbus()).collect();
@@ -531,7 +433,7 @@ fn without_a_dhcp_client_a_dhcp_setting_falls_back_to_the_static_address() {
     const NET_DHCP: u16 = 166;
     const ACCESS: u16 = 50;
     const ACCESS_NOT_RUNNING: u16 = 1 << 2;
-    let rig = Rig::start_with_args("gateway-dhcp-fallback", "dhcp");
+    let rig = Rig::start("gateway", "gateway-dhcp-fallback", "dhcp");
     let mut plc = rig.modbus();
     assert_eq!(
         must(plc.read_holding_registers(NET_DHCP, 1), "NET_DHCP")[0],
@@ -549,7 +451,7 @@ fn without_a_dhcp_client_a_dhcp_setting_falls_back_to_the_static_address() {
 
 #[test]
 fn a_panic_in_the_firmware_ends_qemu_with_status_1() {
-    let rig = Rig::start("gateway-panic");
+    let rig = Rig::gateway("gateway-panic");
     // Up and serving; then the firmware panics instead of answering.
     let _ = rig.modbus();
     rig.finish(End::Panic);

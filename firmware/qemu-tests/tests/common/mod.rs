@@ -1,0 +1,133 @@
+//! The rig both firmware test files use: a firmware under QEMU, the robot
+//! simulator on 127.0.0.1 (in this process, on a tokio runtime of its own),
+//! and what ending them leaves to check.
+//!
+//! Each test file includes this module (`mod common;`) and uses part of it,
+//! hence the `dead_code` allowance.
+#![allow(dead_code)]
+
+use std::process::ExitStatus;
+use std::time::{Duration, Instant};
+
+use hans_sim::{Config as SimConfig, Sim, Timing};
+use qemu_tests::{connect_retry, firmware_elf, Plc, Ports, Qemu};
+
+/// The bound of every wait for the firmware (QEMU under load is slow).
+pub const STEP: Duration = Duration::from_secs(60);
+
+/// QEMU with one firmware, the simulator, and a tokio runtime for it.
+pub struct Rig {
+    /// The simulator's runtime.
+    pub rt: tokio::runtime::Runtime,
+    /// The simulator (taken by tests that restart it).
+    pub sim: Option<Sim>,
+    /// The firmware under QEMU.
+    pub qemu: Qemu,
+    /// The test's name, in logs and file names.
+    pub name: &'static str,
+}
+
+impl Rig {
+    /// Starts the simulator and `firmware` (a binary of the mps2-an386
+    /// board) with `args` as its command line (`dhcp`: DHCP as the factory
+    /// network setting).
+    pub fn start(firmware: &str, name: &'static str, args: &str) -> Rig {
+        let ports = Ports::pick();
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .enable_all()
+            .build()
+            .expect("tokio runtime");
+        let sim = rt.block_on(start_sim(ports.sim));
+        let qemu = Qemu::start_with_args(
+            name,
+            &firmware_elf(firmware),
+            ports,
+            Duration::from_secs(300),
+            args,
+        )
+        .expect("start QEMU");
+        Rig {
+            rt,
+            sim: Some(sim),
+            qemu,
+            name,
+        }
+    }
+
+    /// The simulator, which must be running.
+    pub fn sim(&self) -> &Sim {
+        self.sim.as_ref().expect("simulator running")
+    }
+
+    /// A Modbus session that has answered one request (the guest may not be
+    /// listening yet, or all its sessions may be busy: then QEMU accepts and
+    /// closes at once, and we try again).
+    pub fn modbus(&self) -> Plc {
+        let start = Instant::now();
+        loop {
+            let stream = connect_retry(self.qemu.ports.modbus, STEP).expect("connect to :502");
+            let mut client = Plc::new(stream, Duration::from_secs(5)).expect("Modbus client");
+            if let Ok(Ok(_)) = client.read_holding_registers(0, 1) {
+                return client;
+            }
+            assert!(
+                start.elapsed() < STEP,
+                "{}: no Modbus session within {STEP:?}",
+                self.name
+            );
+            std::thread::sleep(Duration::from_millis(300));
+        }
+    }
+
+    /// Waits (30 s at most) for QEMU to end after the firmware was told to,
+    /// prints the firmware's log and stops the simulator. Returns QEMU's
+    /// exit status and the log (text if `defmt-print` is installed).
+    pub fn wait_end(&mut self) -> (Option<ExitStatus>, String) {
+        let status = self.qemu.process().wait(Duration::from_secs(30));
+        let log = self.qemu.log_text();
+        println!("--- {} firmware log ---\n{log}", self.name);
+        if let Some(sim) = self.sim.take() {
+            self.rt.block_on(sim.shutdown());
+        }
+        (status, log)
+    }
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            println!(
+                "--- {} firmware log ---\n{}",
+                self.name,
+                self.qemu.log_text()
+            );
+            if let Some(sim) = self.sim.as_ref() {
+                println!("--- simulator received ---\n{:?}", sim.received());
+            }
+        }
+    }
+}
+
+/// The simulator on `port`, ready at once (no bring-up delays), without
+/// DataSheet ports. The port was free a moment ago, or the previous
+/// simulator just closed it: retry briefly.
+pub async fn start_sim(port: u16) -> Sim {
+    let config = SimConfig {
+        command_port: port,
+        datasheet_ports: Vec::new(),
+        timing: Timing::instant(),
+        ..SimConfig::default()
+    };
+    let start = Instant::now();
+    loop {
+        match Sim::start(config.clone()).await {
+            Ok(sim) => return sim,
+            Err(e) if start.elapsed() < Duration::from_secs(10) => {
+                eprintln!("simulator: {e}; retrying");
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+            Err(e) => panic!("simulator cannot listen on {port}: {e}"),
+        }
+    }
+}
