@@ -395,6 +395,81 @@ fn named<'a>(received: &'a [String], name: &str) -> Vec<&'a String> {
         .collect()
 }
 
+/// Hold-to-jog from a terminal: hansctl runs on a pseudo-terminal made by
+/// util-linux's `script` (Debian's essential package bsdutils), and the test plays
+/// a held key as a terminal delivers it: one byte, then repeats every
+/// 30 ms; then none (released), then `q`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jog_while_a_key_is_held_on_a_terminal() {
+    let sim = Sim::start(Config::ready()).await.unwrap();
+    let robot = sim.command_addr().to_string();
+    let line = format!("{BIN} --robot {robot} --timeout 3000 jog j3-");
+    let mut child = Command::new("script")
+        .args(["--quiet", "--return", "--command", &line, "/dev/null"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run hansctl under script(1) (util-linux)");
+    let mut keys = child.stdin.take().expect("script's stdin");
+    // Bounded: whatever happens below, the child is killed at the end.
+    let result = async {
+        // Up and waiting for a key (no request goes out before one).
+        tokio::time::sleep(Duration::from_millis(1500)).await;
+        if !named(&sim.received(), "LongJogJ").is_empty() {
+            return Err("jogged before any key".to_string());
+        }
+        let mut seen = false;
+        for _ in 0..25 {
+            keys.write_all(b"a").map_err(|e| e.to_string())?;
+            keys.flush().map_err(|e| e.to_string())?;
+            tokio::time::sleep(Duration::from_millis(30)).await;
+            seen |= sim.fsm() == FsmState::LongJogMoving;
+        }
+        let released = std::time::Instant::now();
+        // Released: hansctl stops the jog (150 ms without a repeat).
+        let mut stopped = None;
+        while released.elapsed() < Duration::from_secs(3) {
+            let r = sim.received();
+            if named(&r, "LongJogJ").last().map(|s| s.as_str()) == Some("LongJogJ,0,2,0,0,;") {
+                stopped = Some(released.elapsed());
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+        keys.write_all(b"q").map_err(|e| e.to_string())?;
+        keys.flush().map_err(|e| e.to_string())?;
+        Ok((seen, stopped))
+    }
+    .await;
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    let status = loop {
+        if let Some(st) = child.try_wait().expect("wait for script") {
+            break Some(st);
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    };
+    let (seen, stopped) = result.unwrap_or_else(|e| panic!("{e}"));
+    assert!(seen, "FSM 26 while the key was held");
+    let received = sim.received();
+    assert_eq!(named(&received, "LongJogJ")[0], "LongJogJ,0,2,0,1,;");
+    let stopped = stopped.unwrap_or_else(|| panic!("no stop after the release: {received:?}"));
+    assert!(
+        stopped < Duration::from_millis(1000),
+        "stopped {stopped:?} after the release"
+    );
+    assert!(!named(&received, "LongMoveEvent").is_empty(), "keep-alives");
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "hansctl quits on q: {status:?}"
+    );
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn jog_for_a_duration_keeps_the_jog_alive_then_releases_it() {
     // A long keep-alive: a slow machine that delays an event must not stop
