@@ -7,7 +7,7 @@
 //! The documents and their fields are described in `gateway/WEB.md`.
 
 use embassy_time::Instant;
-use hans_codec::{ErrorCode, FsmState};
+use hans_codec::{ErrorCode, FsmState, ProtocolLevel};
 
 use super::json::{Full, Json};
 use crate::config::{Field, FIELDS};
@@ -15,7 +15,7 @@ use crate::error::{ErrorSource, Outcome};
 use crate::job::{Source, QUEUE_DEPTH};
 use crate::registers::map as r;
 use crate::state::history::{LogEvent, LOG_LEN};
-use crate::state::{Handshake, Io, LinkState, Model, Phase};
+use crate::state::{Handshake, Io, LinkState, Model, Phase, TextSource};
 
 /// A JSON document of the API.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -182,6 +182,23 @@ fn status(m: &Model, now: Instant, i: usize, j: &mut Json) -> Result<Part, Full>
                 Some(p) => j.ip(p)?,
                 None => j.null()?,
             };
+            j.raw(",")?.key("protocol")?;
+            match l.level {
+                Some(level) if level == ProtocolLevel::V5 => {
+                    j.str(b"V5")?;
+                }
+                Some(level) => {
+                    let (major, minor, patch) = level.parts();
+                    j.raw("\"HR")?.uint(major.into())?.raw(".")?;
+                    j.uint(minor.into())?
+                        .raw(".")?
+                        .uint(patch.into())?
+                        .raw("\"")?;
+                }
+                None => {
+                    j.null()?;
+                }
+            }
             let c = &m.config.active;
             j.raw(",")?.key("robot")?.ip(c.robot_ip)?;
             j.raw(",")?.key("robot_port")?.uint(c.robot_port.into())?;
@@ -248,10 +265,28 @@ fn status(m: &Model, now: Instant, i: usize, j: &mut Json) -> Result<Part, Full>
                 Some(n) => j.str(n.as_bytes())?,
                 None => j.null()?,
             };
+            // The text the gateway fetched for this code (the controller's
+            // own at V6: ERROR_TEXT_*), else the protocol documents'.
+            let fetched = &m.error_text;
+            let own = (robot.error_code != 0
+                && fetched.code == robot.error_code
+                && fetched.source == TextSource::Controller)
+                .then_some(fetched.text.bytes());
+            let text = own.or_else(|| {
+                code.text()
+                    .filter(|_| robot.error_code != 0)
+                    .map(str::as_bytes)
+            });
             j.raw(",")?.key("text")?;
-            match code.text().filter(|_| robot.error_code != 0) {
-                Some(t) => j.str(t.as_bytes())?,
+            match text {
+                Some(t) => j.str(t)?,
                 None => j.null()?,
+            };
+            j.raw(",")?.key("text_source")?;
+            match (own, text) {
+                (Some(_), _) => j.str(b"controller")?,
+                (None, Some(_)) => j.str(b"table")?,
+                (None, None) => j.null()?,
             };
             j.raw("}")?;
             j.raw(",")?.key("override")?;
@@ -546,6 +581,7 @@ mod tests {
     use crate::config::Config;
     use crate::error::GatewayError;
     use crate::state::robot::RobotFlags;
+    use crate::state::ERROR_TEXT;
     use std::string::String;
 
     /// The whole document, parts joined (as the chunks arrive).
@@ -575,6 +611,9 @@ mod tests {
         m.robot.joints = Some([-1.0e12; 6]);
         m.robot.pose = Some([f32::MAX; 6]);
         m.robot.error_code = 20018;
+        m.error_text
+            .set(20018, TextSource::Controller, &[b'"'; ERROR_TEXT]);
+        m.link.level = Some(ProtocolLevel::new(255, 255, 255));
         for i in 0..LOG_LEN {
             let s = Source::Channel((i % 2) as u8);
             m.log.started(s, 9, Instant::from_millis(i as u64));
@@ -620,7 +659,25 @@ mod tests {
             status.contains(r#""joints":[-999999995904.000,"#),
             "{status}"
         );
-        assert!(status.contains(r#""error":{"code":20018,"axis":0,"name":"StateRefused","text":"command forbidden in this state"}"#), "{status}");
+        assert!(
+            status.contains(r#""protocol":"HR255.255.255","#),
+            "{status}"
+        );
+        // The controller's own text for the code shown wins over the table's.
+        assert!(
+            status
+                .contains(r#""error":{"code":20018,"axis":0,"name":"StateRefused","text":"\"\"\""#),
+            "{status}"
+        );
+        assert!(
+            status.contains(r#"","text_source":"controller"}"#),
+            "{status}"
+        );
+        m.error_text.set(20005, TextSource::Controller, b"other");
+        m.link.level = Some(ProtocolLevel::V5);
+        let status = render(Doc::Status, &m);
+        assert!(status.contains(r#""protocol":"V5","#), "{status}");
+        assert!(status.contains(r#""error":{"code":20018,"axis":0,"name":"StateRefused","text":"command forbidden in this state","text_source":"table"}"#), "{status}");
         assert!(status.ends_with("}]}"), "{status}");
         let config = render(Doc::Config, &m);
         assert!(config.contains(r#""CFG_POLL_MS":"100""#), "{config}");

@@ -29,6 +29,10 @@ fn the_page_shows_the_live_status_and_follows_a_move() {
     assert_eq!(rig.text("fsm"), "StandBy (33)");
     assert_eq!(rig.text("link-state"), "connected");
     assert_eq!(rig.text("robot-error"), "none");
+    // The simulator is a V6 controller: the level detected at connection.
+    rig.wait_text("link-protocol", "the protocol level", |t| {
+        t.starts_with("HR6.")
+    });
     assert_eq!(rig.data("flags-enabled", "on"), "1", "flag 'enabled'");
     assert!(rig.text("mb-clients").starts_with("127.0.0.1:"));
     // The joints on the page are those the PLC reads.
