@@ -34,7 +34,7 @@ pub async fn start(spawner: Spawner) {
     defmt::info!(
         "gateway ({=str}): robot at {}:{=u16}",
         if cfg!(feature = "field-device") {
-            "field device: web page, DHCP, DataSheet"
+            "field device: web page, DHCP, DataSheet, V6"
         } else {
             "core"
         },
