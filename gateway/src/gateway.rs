@@ -5,6 +5,7 @@
 
 use core::convert::Infallible;
 use core::net::Ipv4Addr;
+use core::pin::pin;
 
 use embassy_futures::join::{join5, join_array};
 
@@ -212,7 +213,11 @@ impl Gateway {
             let _ = web_port;
             core::future::pending::<Infallible>()
         };
-        let _ = join5(engine, join_array(sessions), datasheet, saver, page).await;
+        // Joined through pinned references: each part stays where it was
+        // built, instead of being moved into the join (through the stack).
+        let (engine, sessions) = (pin!(engine), pin!(join_array(sessions)));
+        let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
+        let _ = join5(engine, sessions, datasheet, saver, page).await;
         // The engine, the sessions, the reader and the saver loop forever.
         core::future::pending().await
     }
