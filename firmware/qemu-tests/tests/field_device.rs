@@ -43,7 +43,7 @@ const CMD_ENABLE: u16 = 3;
 const FSM_STANDBY: u64 = 33;
 
 mod common;
-use common::{Rig, STEP};
+use common::{wait_for, Rig, STEP};
 
 impl Rig {
     fn field_device(name: &'static str) -> Rig {
@@ -79,21 +79,6 @@ impl Rig {
         assert!(report.starts_with("stack_used="), "report: {report}");
         assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
         log
-    }
-}
-
-/// Polls `f` every 100 ms until it returns `Some`, for at most `limit`.
-fn wait_for<T>(what: &str, limit: Duration, mut f: impl FnMut() -> Option<T>) -> T {
-    let start = Instant::now();
-    loop {
-        if let Some(v) = f() {
-            return v;
-        }
-        assert!(
-            start.elapsed() < limit,
-            "timed out after {limit:?} waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(100));
     }
 }
 

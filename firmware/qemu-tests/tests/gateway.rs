@@ -8,7 +8,7 @@
 
 use std::net::TcpStream;
 use std::os::fd::AsRawFd;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use qemu_tests::{connect_retry, f32_from_words, f32_to_words, must, request_line, Plc};
 use tokio_modbus::ExceptionCode;
@@ -47,7 +47,7 @@ const CMD_MOVE_J_JOINTS: u16 = 10;
 const MAX_SESSIONS: usize = 4;
 
 mod common;
-use common::{start_sim, STEP};
+use common::{start_sim, wait_for, STEP};
 
 /// The gateway firmware's rig.
 type Rig = common::Rig;
@@ -114,21 +114,6 @@ impl End {
             End::Exit => 0,
             End::Panic => 1,
         }
-    }
-}
-
-/// Polls `f` every 100 ms until it returns `Some`, for at most `limit`.
-fn wait_for<T>(what: &str, limit: Duration, mut f: impl FnMut() -> Option<T>) -> T {
-    let start = Instant::now();
-    loop {
-        if let Some(v) = f() {
-            return v;
-        }
-        assert!(
-            start.elapsed() < limit,
-            "timed out after {limit:?} waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(100));
     }
 }
 

@@ -109,6 +109,21 @@ impl Drop for Rig {
     }
 }
 
+/// Polls `f` every 100 ms until it returns `Some`, for at most `limit`.
+pub fn wait_for<T>(what: &str, limit: Duration, mut f: impl FnMut() -> Option<T>) -> T {
+    let start = Instant::now();
+    loop {
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(
+            start.elapsed() < limit,
+            "timed out after {limit:?} waiting for {what}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
 /// The simulator on `port`, ready at once (no bring-up delays), without
 /// DataSheet ports. The port was free a moment ago, or the previous
 /// simulator just closed it: retry briefly.

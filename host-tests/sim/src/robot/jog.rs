@@ -104,6 +104,20 @@ impl Robot {
         self.accept(plan, now)
     }
 
+    /// What `LongJogJ`/`LongJogL` with `state` do before a new jog starts:
+    /// 0 brakes the running jog, 1 repeated for the jog that runs keeps it
+    /// alive. `None`: a new jog is to start.
+    fn jog_state(&mut self, hold: Hold, state: i32, now: f64) -> Option<Outcome<'static>> {
+        if state == 0 {
+            self.release(now);
+        } else if self.holding() == Some(hold) {
+            self.keep_alive(now);
+        } else {
+            return None;
+        }
+        Some(done())
+    }
+
     /// Brakes the hold-to-move motion now, if one runs.
     fn release(&mut self, now: f64) {
         if self.holding().is_some() {
@@ -180,13 +194,8 @@ impl Robot {
 
     pub(super) fn long_jog_j(&mut self, c: &rq::LongJogJ, now: f64) -> Outcome<'_> {
         let hold = Hold::JogJ(c.axis, c.direction);
-        if c.state == 0 {
-            self.release(now);
-            return done();
-        }
-        if self.holding() == Some(hold) {
-            self.keep_alive(now);
-            return done();
+        if let Some(answered) = self.jog_state(hold, c.state, now) {
+            return answered;
         }
         self.need_standby(now)?;
         let start = self.plan_start();
@@ -205,13 +214,8 @@ impl Robot {
 
     pub(super) fn long_jog_l(&mut self, c: &rq::LongJogL, now: f64) -> Outcome<'_> {
         let hold = Hold::JogL(c.axis, c.direction);
-        if c.state == 0 {
-            self.release(now);
-            return done();
-        }
-        if self.holding() == Some(hold) {
-            self.keep_alive(now);
-            return done();
+        if let Some(answered) = self.jog_state(hold, c.state, now) {
+            return answered;
         }
         self.need_standby(now)?;
         let axis = idx(c.axis);
