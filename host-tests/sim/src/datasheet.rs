@@ -18,10 +18,9 @@ use hans_codec::datasheet::{
 use hans_codec::Decimal;
 use tokio::io::AsyncWriteExt;
 use tokio::net::{TcpListener, TcpStream};
-use tokio::task::JoinSet;
 
 use crate::robot::Snapshot;
-use crate::server::Shared;
+use crate::server::{serve_clients, Shared};
 
 /// Most clients per DataSheet port.
 pub const MAX_CLIENTS: usize = 16;
@@ -150,24 +149,14 @@ fn packet(shared: &Shared) -> Vec<u8> {
 
 /// Accepts DataSheet clients on one port until shutdown.
 pub(crate) async fn accept_loop(shared: Arc<Shared>, listener: TcpListener, period: Duration) {
-    let mut tasks = JoinSet::new();
-    let mut shutdown = shared.shutdown.subscribe();
-    loop {
-        while tasks.try_join_next().is_some() {}
-        tokio::select! {
-            _ = shutdown.changed() => break,
-            r = listener.accept() => {
-                if let Ok((stream, _)) = r {
-                    if tasks.len() >= MAX_CLIENTS {
-                        drop(stream);
-                        continue;
-                    }
-                    tasks.spawn(push(shared.clone(), stream, period));
-                }
-            }
-        }
-    }
-    tasks.shutdown().await;
+    let pushing = shared.clone();
+    serve_clients(
+        &shared,
+        listener,
+        |n| n >= MAX_CLIENTS,
+        move |stream| push(pushing.clone(), stream, period),
+    )
+    .await;
 }
 
 async fn push(shared: Arc<Shared>, mut stream: TcpStream, period: Duration) {

@@ -280,6 +280,27 @@ pub const FAST_COMMANDS: &[CommandId] = &[
 
 /// Accepts connections on the fast command port until shutdown.
 pub(crate) async fn fast_accept_loop(shared: Arc<Shared>, listener: TcpListener) {
+    let counter = shared.clone();
+    let full = move |_: usize| counter.connections.load(Ordering::SeqCst) >= MAX_CONNECTIONS;
+    let serving = shared.clone();
+    serve_clients(&shared, listener, full, move |stream| {
+        serve(serving.clone(), stream, Port::Fast)
+    })
+    .await;
+}
+
+/// Accepts clients on `listener` until shutdown and runs `serve` for each
+/// (as a task, all stopped at shutdown). While `full(tasks running)` says
+/// so, a new client is closed at once.
+pub(crate) async fn serve_clients<F, Fut>(
+    shared: &Shared,
+    listener: TcpListener,
+    full: impl Fn(usize) -> bool,
+    mut serve: F,
+) where
+    F: FnMut(TcpStream) -> Fut,
+    Fut: std::future::Future<Output = ()> + Send + 'static,
+{
     let mut tasks = JoinSet::new();
     let mut shutdown = shared.shutdown.subscribe();
     loop {
@@ -288,11 +309,11 @@ pub(crate) async fn fast_accept_loop(shared: Arc<Shared>, listener: TcpListener)
             _ = shutdown.changed() => break,
             r = listener.accept() => {
                 if let Ok((stream, _)) = r {
-                    if shared.connections.load(Ordering::SeqCst) >= MAX_CONNECTIONS {
+                    if full(tasks.len()) {
                         drop(stream);
                         continue;
                     }
-                    tasks.spawn(serve(shared.clone(), stream, Port::Fast));
+                    tasks.spawn(serve(stream));
                 }
             }
         }
