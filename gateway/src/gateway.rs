@@ -284,7 +284,7 @@ impl Gateway {
                 }
             }
             m.config.active = config;
-            m.config.edit = config.to_words();
+            m.config.edit = None;
             m.plc.last_beat = now;
         });
     }

@@ -322,7 +322,8 @@ fn a_refused_config_file_stops_the_start_with_its_line_and_status_2() {
         config: Config::default(),
         password: None,
     };
-    image::encode(&stored, &[Text::EMPTY; 16], &mut damaged).expect("room for the image");
+    let n = image::encode(&stored, &[Text::EMPTY; 16], &mut damaged).expect("room for the image");
+    let damaged = &mut damaged[..n];
     damaged[50] ^= 1;
     for (contents, want) in [
         (
@@ -413,8 +414,8 @@ fn a_save_over_modbus_writes_toml_that_reads_back() {
     let mut triggers = [Text::EMPTY; 16];
     triggers[4].set(b"GrpStop,0,;");
     let mut bytes = [0u8; IMAGE_LEN];
-    image::encode(&old, &triggers, &mut bytes).expect("room for the image");
-    std::fs::write(&file.0, bytes).expect("write the old image");
+    let n = image::encode(&old, &triggers, &mut bytes).expect("room for the image");
+    std::fs::write(&file.0, &bytes[..n]).expect("write the old image");
 
     let args = [
         "--config",

@@ -162,7 +162,7 @@ fn a_fresh_device_asks_for_a_password_before_any_change() {
         &mut w,
         "/api/config",
         None,
-        br#"{"settings":{"CFG_POLL_MS":"50"}}"#,
+        br#"{"settings":{"link.poll_ms":"50"}}"#,
     );
     assert_eq!(a.status, 403);
     assert_eq!(a.json()["error"], "set a password first");
@@ -181,14 +181,14 @@ fn a_fresh_device_asks_for_a_password_before_any_change() {
         &mut w,
         "/api/config",
         None,
-        br#"{"settings":{"CFG_POLL_MS":"50"}}"#,
+        br#"{"settings":{"link.poll_ms":"50"}}"#,
     );
     assert_eq!(a.status, 401);
     let a = post(
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"CFG_POLL_MS":"50"}}"#,
+        br#"{"settings":{"link.poll_ms":"50"}}"#,
     );
     assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
     assert_eq!(
@@ -213,16 +213,16 @@ fn an_invalid_value_is_refused_with_its_reason_and_nothing_changes() {
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"CFG_POLL_MS":"60","CFG_WATCHDOG_MS":"10","NET_MASK":"255.0.255.0"}}"#,
+        br#"{"settings":{"link.poll_ms":"60","watchdog.period_ms":"10","network.mask":"255.0.255.0"}}"#,
     );
     assert_eq!(a.status, 400);
     let e = a.json();
-    assert_eq!(e["errors"]["CFG_WATCHDOG_MS"], "out of range");
+    assert_eq!(e["errors"]["watchdog.period_ms"], "out of range");
     assert_eq!(
-        e["errors"]["NET_MASK"],
+        e["errors"]["network.mask"],
         "not a network mask (e.g. 255.255.255.0)"
     );
-    assert!(e["errors"].get("CFG_POLL_MS").is_none());
+    assert!(e["errors"].get("link.poll_ms").is_none());
     assert_eq!(get(&mut w, "/api/config").json(), before);
     assert_eq!(w.reg(r::CONFIG_POLL_MS), 100);
 }
@@ -235,19 +235,19 @@ fn export_then_import_gives_the_same_configuration() {
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"CFG_POLL_MS":"40","WEB_ALLOW":"10.0.0.0/24","CFG_WATCHDOG_MS":"500"},"triggers":["SetBoxDO,2,1,;","","GrpStop,0,;"]}"#,
+        br#"{"settings":{"link.poll_ms":"40","access.web_allow":"10.0.0.0/24","watchdog.period_ms":"500"},"triggers":["SetBoxDO,2,1,;","","GrpStop,0,;"]}"#,
     );
     assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
     let exported = get(&mut w, "/api/config");
     let doc = exported.json();
-    assert_eq!(doc["settings"]["WEB_ALLOW"], "10.0.0.0/24");
+    assert_eq!(doc["settings"]["access.web_allow"], "10.0.0.0/24");
     assert_eq!(doc["triggers"][2], "GrpStop,0,;");
     // Change things, then import the export: all back.
     let a = post(
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"CFG_POLL_MS":"90"},"triggers":["","","","GrpReset,0,;"]}"#,
+        br#"{"settings":{"link.poll_ms":"90"},"triggers":["","","","GrpReset,0,;"]}"#,
     );
     assert_eq!(a.status, 200);
     assert_ne!(get(&mut w, "/api/config").json(), doc);
@@ -330,7 +330,7 @@ fn the_web_allow_list_refuses_other_clients_and_counts_them() {
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"WEB_ALLOW":"10.0.0.50"}}"#,
+        br#"{"settings":{"access.web_allow":"10.0.0.50"}}"#,
     );
     assert_eq!(a.status, 200);
     assert!(send(&mut w, OTHER, &request("GET", "/api/status", &[], b"")).is_none());
@@ -349,7 +349,7 @@ fn write_protection_is_lifted_only_from_the_page() {
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"CFG_POLL_MS":"20"}}"#,
+        br#"{"settings":{"link.poll_ms":"20"}}"#,
     );
     assert_eq!(a.status, 200, "the page still changes it");
     assert_eq!(w.reg(r::CONFIG_POLL_MS), 20);
@@ -357,7 +357,7 @@ fn write_protection_is_lifted_only_from_the_page() {
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"CFG_WRITE_PROTECT":"0"}}"#,
+        br#"{"settings":{"access.write_protect":"0"}}"#,
     );
     assert_eq!(a.status, 200);
     assert_eq!(w.write(r::CONFIG_POLL_MS, &[30]), Ok(()));
@@ -412,7 +412,7 @@ fn a_recovery_start_lets_a_forgotten_password_be_replaced() {
         &mut w,
         "/api/config",
         Some(&token),
-        br#"{"settings":{"WEB_ALLOW":"10.9.9.9","CFG_WRITE_PROTECT":"1"}}"#,
+        br#"{"settings":{"access.web_allow":"10.9.9.9","access.write_protect":"1"}}"#,
     );
     assert_eq!(a.status, 200);
     assert!(send(&mut w, PC, &request("GET", "/api/session", &[], b"")).is_none());

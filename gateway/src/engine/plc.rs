@@ -16,9 +16,10 @@
 
 use embassy_time::Instant;
 
-use crate::config::{Config, ConfigResult, InvalidValue};
+use crate::config::ConfigResult;
 use crate::error::{GatewayError, Outcome};
 use crate::job::{command, text, Job, JobKind, Source};
+use crate::registers::config::{self as reg_config, InvalidValue};
 use crate::registers::{Edge, PlcEvents};
 use crate::state::Model;
 
@@ -137,7 +138,10 @@ pub enum ConfigStep {
 pub fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
     let c = &mut m.config;
     match cmd {
-        1 => match Config::from_words(&c.edit) {
+        1 => match c
+            .edit
+            .map_or(Ok(c.active), |w| reg_config::decode(&w, &c.active))
+        {
             Err(bad) => {
                 c.result = ConfigResult::Invalid;
                 c.bad_addr = bad.addr;
@@ -150,12 +154,15 @@ pub fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
             }
         },
         2 => {
-            c.edit = c.active.to_words();
+            c.edit = None;
             c.result = ConfigResult::Ok;
             ConfigStep::Done
         }
         _ => {
-            c.edit = c.factory.to_words();
+            // Registers only: the settings without registers keep their
+            // values when the edit is applied (it is read over the active
+            // configuration).
+            c.edit = Some(reg_config::encode(&c.factory));
             c.result = ConfigResult::Ok;
             ConfigStep::Done
         }
@@ -165,6 +172,7 @@ pub fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::Config;
     use crate::registers::{self as r, write};
     use crate::state::{LinkState, Phase};
 

@@ -22,10 +22,10 @@
 //! the crate's `Cargo.toml`.
 //!
 //! ## Rules
-//! * Each key is one setting of [`FIELDS`](crate::config::FIELDS) (or one bit of it), named in the
-//!   table below. Its value becomes the setting's registers and is checked
-//!   by the same rule as a register write ([`Domain::check`] of its field,
-//!   then [`Config::from_words`] for the whole): no range is written twice.
+//! * Each key is one setting of the schema ([`crate::config::schema`]):
+//!   `[link] poll_ms` is the setting `link.poll_ms`. Its value is checked
+//!   by the setting's kind, the same rule as every other view's: no range
+//!   is written twice.
 //! * A key left out takes its factory default; a trigger entry left out is
 //!   empty; no `password` means none is set (the web page asks for one).
 //! * An unknown table or key, a value of the wrong type or out of range is
@@ -81,6 +81,7 @@
 //! | `access.write_protect` | CFG_WRITE_PROTECT | `true` / `false` |
 //! | `access.modbus_allow` | MODBUS_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `access.web_allow` | WEB_ALLOW | `["a.b.c.d/prefix", ...]` |
+//! | `mqtt.broker` | (none) | `"host"`, `""` = none |
 //! | `access.password` | (the web password) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |
 
@@ -94,134 +95,41 @@ use std::path::{Path, PathBuf};
 use std::string::String;
 use std::vec::Vec;
 
-use crate::config::{field_named, Config, Domain, Field, ALLOW_ENTRIES};
+use crate::config::{Config, Kind, Setting, ALLOW_ENTRIES, SETTINGS};
+use crate::registers::config::register_of;
 use crate::state::inputs::{Text, TRIGGERS};
 use crate::storage::image::{self, Entries, ImageError, Stored};
 
-/// How a key's value is written and becomes its setting's registers.
-#[derive(Clone, Copy, Debug)]
-enum Form {
-    /// An integer: the register's value.
-    Number,
-    /// `true` / `false`: 1 / 0.
-    Flag,
-    /// `true` / `false`: bit `n` of a register that several keys share.
-    Bit(u16),
-    /// A word: the register holds its place in the list.
-    Word(&'static [&'static str]),
-    /// `"a.b.c.d"`: two registers.
-    Address,
-    /// `["a.b.c.d/prefix", ...]`: the allow-list's registers.
-    AllowList,
+/// The tables: the groups of the settings' keys, in the order of
+/// [`SETTINGS`] (`access` also holds the password), then the trigger table.
+fn tables() -> Vec<&'static str> {
+    let mut t: Vec<&'static str> = Vec::new();
+    for s in SETTINGS {
+        if !t.contains(&s.group()) {
+            t.push(s.group());
+        }
+    }
+    t.push("triggers");
+    t
 }
 
-/// One key of the file: where it is, the setting ([`FIELDS`](crate::config::FIELDS)) it holds.
-#[derive(Debug)]
-struct Key {
-    table: &'static str,
-    key: &'static str,
-    register: &'static str,
-    form: Form,
+/// The setting of key `name` in table `table`.
+fn setting_of(table: &str, name: &str) -> Option<&'static Setting> {
+    SETTINGS
+        .iter()
+        .copied()
+        .find(|s| s.group() == table && s.name() == name)
 }
 
-const fn key(table: &'static str, key: &'static str, register: &'static str, form: Form) -> Key {
-    Key {
-        table,
-        key,
-        register,
-        form,
+/// The register a setting is shown by, for comments and messages:
+/// `CFG_POLL_MS`, `CFG_MOTION_POLICY bit 1`, or its key when it has none.
+fn register_name(s: &Setting) -> String {
+    match register_of(s) {
+        Some((g, Some(bit))) => format!("{} bit {bit}", g.name),
+        Some((g, None)) => g.name.to_owned(),
+        None => s.key.to_owned(),
     }
 }
-
-/// Every key, in the order a save writes them (a table's keys together).
-/// A test checks that they cover every setting of [`FIELDS`](crate::config::FIELDS) and match the
-/// table of the module's documentation.
-const KEYS: [Key; 26] = [
-    key("robot", "address", "CFG_ROBOT_IP", Form::Address),
-    key("robot", "port", "CFG_ROBOT_PORT", Form::Number),
-    key("robot", "id", "CFG_ROBOT_ID", Form::Number),
-    key(
-        "link",
-        "mode",
-        "CFG_LINK_MODE",
-        Form::Word(&["connect", "listen"]),
-    ),
-    key("link", "listen_port", "CFG_LISTEN_PORT", Form::Number),
-    key(
-        "link",
-        "reply_timeout_ms",
-        "CFG_REPLY_TIMEOUT_MS",
-        Form::Number,
-    ),
-    key(
-        "link",
-        "status_source",
-        "CFG_STATUS_SOURCE",
-        Form::Word(&["polling", "datasheet"]),
-    ),
-    key("link", "poll_ms", "CFG_POLL_MS", Form::Number),
-    key("link", "datasheet_port", "CFG_DATASHEET_PORT", Form::Number),
-    key(
-        "link",
-        "protocol",
-        "CFG_PROTOCOL",
-        Form::Word(&["detect", "v5", "v6"]),
-    ),
-    key(
-        "motion",
-        "wait_blending_done",
-        "CFG_MOTION_POLICY",
-        Form::Bit(0),
-    ),
-    key(
-        "motion",
-        "wait_in_position",
-        "CFG_MOTION_POLICY",
-        Form::Bit(1),
-    ),
-    key(
-        "motion",
-        "start_grace_ms",
-        "CFG_START_GRACE_MS",
-        Form::Number,
-    ),
-    key("motion", "auto_reset", "CFG_AUTO_RESET", Form::Flag),
-    key("watchdog", "period_ms", "CFG_WATCHDOG_MS", Form::Number),
-    key(
-        "watchdog",
-        "action",
-        "CFG_WATCHDOG_ACTION",
-        Form::Word(&["report-only", "stop", "pause"]),
-    ),
-    key(
-        "registers",
-        "word_order",
-        "CFG_FLOAT_WORD_ORDER",
-        Form::Word(&["high-first", "low-first"]),
-    ),
-    key("network", "address", "NET_IP", Form::Address),
-    key("network", "mask", "NET_MASK", Form::Address),
-    key("network", "gateway", "NET_GATEWAY", Form::Address),
-    key("network", "dhcp", "NET_DHCP", Form::Flag),
-    key("network", "modbus_port", "NET_MODBUS_PORT", Form::Number),
-    key("network", "web_port", "NET_WEB_PORT", Form::Number),
-    key("access", "write_protect", "CFG_WRITE_PROTECT", Form::Flag),
-    key("access", "modbus_allow", "MODBUS_ALLOW", Form::AllowList),
-    key("access", "web_allow", "WEB_ALLOW", Form::AllowList),
-];
-
-/// The tables, in the order a save writes them: those of [`KEYS`]
-/// (`access` also holds the password), then the trigger table.
-const TABLES: [&str; 8] = [
-    "robot",
-    "link",
-    "motion",
-    "watchdog",
-    "registers",
-    "network",
-    "access",
-    "triggers",
-];
 
 /// The web password's key in `[access]`.
 const PASSWORD: &str = "password";
@@ -365,10 +273,6 @@ pub fn read_bytes(bytes: &[u8], defaults: &Config) -> Result<(Contents, Format),
         .map_err(Error::Toml)
 }
 
-fn field_of_key(k: &Key) -> Option<&'static Field> {
-    field_named(k.register)
-}
-
 /// `"a", "b"`.
 fn quoted(words: &[&str]) -> String {
     words
@@ -378,29 +282,29 @@ fn quoted(words: &[&str]) -> String {
         .join(", ")
 }
 
-/// What a key may hold, from its field's domain: `10-100 ms`, `"polling"`.
-fn takes(k: &Key, f: &Field) -> String {
-    let unit = match f.unit {
-        "" | "bits" => String::new(),
+/// What a key may hold, from its setting's kind: `10-100 ms`, `"polling"`.
+fn takes(s: &Setting) -> String {
+    let unit = match s.unit {
+        "" => String::new(),
         u => format!(" {u}"),
     };
-    match (k.form, f.domain) {
-        (Form::Word(words), d) => {
-            let ok: Vec<&str> = words
-                .iter()
-                .enumerate()
-                .filter(|(i, _)| d.contains(*i as u16))
-                .map(|(_, w)| *w)
-                .collect();
-            quoted(&ok)
-        }
-        (Form::Flag | Form::Bit(_), _) => "true or false".to_owned(),
-        (_, Domain::Range(lo, hi)) => format!("{lo}-{hi}{unit}"),
-        (_, Domain::OffOrRange(lo, hi)) => format!("0 (off) or {lo}-{hi}{unit}"),
-        (_, Domain::Mask) => "a mask of contiguous ones".to_owned(),
-        (_, Domain::Ipv4) => "an address a.b.c.d".to_owned(),
-        (_, Domain::AllowList) => format!(
+    match s.kind {
+        Kind::Choice(words) => quoted(words),
+        Kind::Flag => "true or false".to_owned(),
+        Kind::Number {
+            min,
+            max,
+            off: false,
+        } => format!("{min}-{max}{unit}"),
+        Kind::Number { min, max, off: true } => format!("0 (off) or {min}-{max}{unit}"),
+        Kind::Mask => "a mask of contiguous ones".to_owned(),
+        Kind::Address => "an address a.b.c.d".to_owned(),
+        Kind::AllowList => format!(
             "up to {ALLOW_ENTRIES} networks \"a.b.c.d/prefix\", prefix 1-32 (\"a.b.c.d\" alone = /32); [] = everyone"
+        ),
+        Kind::Host => format!(
+            "a host name or address, up to {} characters; \"\" = none",
+            crate::config::HostName::MAX
         ),
     }
 }

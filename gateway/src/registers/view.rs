@@ -9,6 +9,7 @@
 
 use embassy_time::Instant;
 
+use super::config;
 use super::map::{self as r, AccessError};
 use crate::config::WordOrder;
 use crate::error::Outcome;
@@ -149,8 +150,12 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         let io = Io::ALL.get(usize::from(o)).and_then(|&g| robot.io(g));
         return io.unwrap_or(0);
     }
-    if let Some(s) = crate::config::slot_of(addr) {
-        return m.config.edit.get(s).copied().unwrap_or(0);
+    if let Some(s) = config::slot_of(addr) {
+        let words = m
+            .config
+            .edit
+            .unwrap_or_else(|| config::encode(&m.config.active));
+        return words.get(s).copied().unwrap_or(0);
     }
     if let Some(o) = in_area(r::ERROR_TEXT, r::ERROR_TEXT_REGS) {
         return m.error_text.text.word(usize::from(o));
@@ -358,7 +363,7 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
 /// and the trigger texts (stored configuration too). The heartbeat, the
 /// command channels, RAW and the trigger bits stay writable.
 pub fn is_protected(addr: u16) -> bool {
-    crate::config::slot_of(addr).is_some()
+    config::slot_of(addr).is_some()
         || addr == r::CONTROL_CONFIG_COMMAND
         || (r::TRIG_TEXT_BASE..r::MAP_LEN as u16).contains(&addr)
 }
@@ -385,8 +390,10 @@ fn with_half(v: u32, h: u16, w: u16, order: WordOrder) -> u32 {
 /// Stores one writable register (the access was checked).
 fn store(m: &mut Model, addr: u16, v: u16, order: WordOrder) {
     let in_area = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
-    if let Some(s) = crate::config::slot_of(addr) {
-        if let Some(w) = m.config.edit.get_mut(s) {
+    if let Some(s) = config::slot_of(addr) {
+        let active = &m.config.active;
+        let words = m.config.edit.get_or_insert_with(|| config::encode(active));
+        if let Some(w) = words.get_mut(s) {
             *w = v;
         }
         return;

@@ -139,14 +139,22 @@ pub struct PlcState {
     pub watchdog_trips: u16,
 }
 
+/// Words of the PLC's edit of the configuration registers.
+pub const PLC_EDIT_WORDS: usize = 51;
+
+/// The PLC's edit of the configuration registers: words as written, a
+/// value out of range included, until `CONFIG_COMMAND` 1 checks them.
+pub type PlcEdit = [u16; PLC_EDIT_WORDS];
+
 /// The configuration: the one in use and the PLC's edit of it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConfigState {
     /// The configuration in use.
     pub active: Config,
-    /// The `CFG_*` registers as the PLC wrote them: an edit, checked and
-    /// applied by `CONFIG_COMMAND` 1, discarded by 2.
-    pub edit: crate::config::Words,
+    /// The PLC's unapplied edit of the configuration registers, as the
+    /// register view wrote it (not interpreted here); `None`: no edit, the
+    /// registers show the configuration in use.
+    pub edit: Option<PlcEdit>,
     /// What the last `CONFIG_COMMAND` did.
     pub result: ConfigResult,
     /// The first invalid register of a refused edit.
@@ -165,7 +173,7 @@ impl ConfigState {
     /// woken); the registers show it.
     pub fn apply(&mut self, new: Config) {
         self.active = new;
-        self.edit = new.to_words();
+        self.edit = None;
         self.generation = self.generation.wrapping_add(1);
         info!("config: applied");
     }
@@ -217,7 +225,7 @@ impl Model {
             triggers: Triggers::default(),
             config: ConfigState {
                 active: config,
-                edit: config.to_words(),
+                edit: None,
                 result: ConfigResult::Ok,
                 bad_addr: 0,
                 saves: 0,

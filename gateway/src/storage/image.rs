@@ -1,43 +1,61 @@
 //! The stored image: the configuration, the trigger table and the web
 //! password's hash.
 //!
-//! Format 2 (written since register map 1.2):
+//! Format 3 (written since the settings schema, `config::schema`):
 //!
 //! | offset | bytes | content |
 //! |---|---|---|
 //! | 0 | 4 | magic `HGW1` |
-//! | 4 | 2 | format version 2 |
-//! | 6 | 2 | N, the number of settings registers that follow |
-//! | 8 | 4 × N | each: register address, value |
-//! | 8 + 4N | 3072 | the 16 trigger entries, 96 registers each |
-//! | 3080 + 4N | 52 | the password: PBKDF2 rounds (0 = no password), salt, hash |
-//! | 3132 + 4N | 4 | CRC-32 (IEEE) of everything before |
+//! | 4 | 2 | format version 3 |
+//! | 6 | 2 | S, the bytes of the settings that follow |
+//! | 8 | S | each setting: its stable id (2), the value's length L (1), the value (L) |
+//! | 8 + S | 3072 | the 16 trigger entries, 96 registers each |
+//! | 3080 + S | 52 | the password: PBKDF2 rounds (0 = no password), salt, hash |
+//! | 3132 + S | 4 | CRC-32 (IEEE) of everything before |
 //!
-//! Settings are stored by address, so a later version that adds settings
-//! reads an older image (the new settings take their defaults), and an
-//! older version reading a newer image ignores what it does not know.
-//! Format 1 (register map 1.1: the 16 registers 100-115 in order, the
-//! triggers, no password) is still read.
+//! A value is stored by its kind: a number as 2 bytes, a flag or a choice
+//! (its index) as 1, an address or mask as its 4 octets, an allow-list as
+//! 4 entries of 4 octets and a prefix, a host name as its bytes. Settings
+//! are keyed by id, so renumbering a register changes nothing here, a later
+//! version that adds settings reads an older image (the new settings take
+//! their defaults), and an older version skips ids it does not know.
 //!
-//! Words and numbers little-endian; a trigger entry's register holds two
-//! characters, the first in its high byte (as the PLC sees them). An image
-//! that fails any check (length, magic, version, CRC, a configuration value
-//! out of range) is refused as a whole: nothing of it is used.
+//! Formats 2 (register map 1.2: settings as register address and value
+//! pairs) and 1 (register map 1.1: the 16 registers 100-115 in order, no
+//! password) are read through the register view and migrated: the next
+//! save writes format 3.
+//!
+//! Numbers little-endian; a trigger entry's register holds two characters,
+//! the first in its high byte (as the PLC sees them). An image that fails
+//! any check (length, magic, version, CRC, a value out of range) is refused
+//! as a whole: nothing of it is used.
 
 use super::StorageError;
 use crate::access::password::{PasswordHash, STORED_LEN};
-use crate::config::{slot_of, Config, InvalidValue, Words, CONFIG_WORDS, FIELDS};
-use crate::registers::map as r;
+use crate::config::schema::{self, stored_len, Kind, Value};
+use crate::config::{AllowEntry, AllowList, Config, HostName, SETTINGS};
+use crate::registers::config::{self as reg, Layout};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 
 const MAGIC: &[u8; 4] = b"HGW1";
-const FORMAT: u16 = 2;
+const FORMAT: u16 = 3;
 const TRIGGER_WORDS: usize = TRIGGERS * TRIGGER_TEXT / 2;
 const TRIGGER_BYTES: usize = TRIGGER_WORDS * 2;
-/// Bytes of an image this version writes.
-pub const IMAGE_LEN: usize = 8 + 4 * CONFIG_WORDS + TRIGGER_BYTES + STORED_LEN + 4;
+
+/// Bytes of the settings section at their longest.
+const SETTINGS_MAX: usize = {
+    let mut n = 0;
+    let mut i = 0;
+    while i < SETTINGS.len() {
+        n += 3 + stored_len(&SETTINGS[i].kind);
+        i += 1;
+    }
+    n
+};
+/// The longest image this version writes (with the longest host names).
+pub const IMAGE_LEN: usize = 8 + SETTINGS_MAX + TRIGGER_BYTES + STORED_LEN + 4;
 /// The longest image read (a newer version's, with more settings).
-pub const IMAGE_MAX: usize = 8 + 4 * 256 + TRIGGER_BYTES + STORED_LEN + 4;
+pub const IMAGE_MAX: usize = IMAGE_LEN + 1024;
 /// Settings registers of a format-1 image (100-115).
 const V1_CONFIG: usize = 16;
 const V1_WORDS: usize = V1_CONFIG + TRIGGER_WORDS;
@@ -56,21 +74,17 @@ pub struct Stored {
 }
 
 /// Writes the image of `stored` and the trigger `entries` into `out` and
-/// returns its length ([`IMAGE_LEN`]); `out` must have room for it.
+/// returns its length (at most [`IMAGE_LEN`]).
 pub fn encode(stored: &Stored, entries: &Entries, out: &mut [u8]) -> Result<usize, StorageError> {
-    let out = out.get_mut(..IMAGE_LEN).ok_or(StorageError::TooLarge)?;
-    let mut w = Writer { out, at: 0 };
-    w.put(MAGIC);
-    w.put(&FORMAT.to_le_bytes());
-    w.put(&(CONFIG_WORDS as u16).to_le_bytes());
-    let words = stored.config.to_words();
-    for f in FIELDS {
-        for i in 0..f.len {
-            let v = words.get(usize::from(f.slot + i)).copied().unwrap_or(0);
-            w.put(&(f.addr + i).to_le_bytes());
-            w.put(&v.to_le_bytes());
-        }
+    let mut w = Writer { out, at: 8 };
+    for s in SETTINGS {
+        let mut v = [0u8; HostName::MAX];
+        let n = put_value(&s.get(&stored.config), &mut v);
+        w.put(&s.id.to_le_bytes());
+        w.put(&[n as u8]);
+        w.put(v.get(..n).unwrap_or(&[]));
     }
+    let settings = w.at - 8;
     for e in entries {
         for i in 0..TRIGGER_TEXT / 2 {
             w.put(&e.word(i).to_le_bytes());
@@ -81,12 +95,69 @@ pub fn encode(stored: &Stored, entries: &Entries, out: &mut [u8]) -> Result<usiz
         None => w.put(&[0; STORED_LEN]),
     }
     let body = w.at;
-    let crc = crc32(w.out.get(..body).unwrap_or(&[]));
+    w.at = 0;
+    w.put(MAGIC);
+    w.put(&FORMAT.to_le_bytes());
+    w.put(&(settings as u16).to_le_bytes());
+    let crc = crc32(w.out.get(..body).ok_or(StorageError::TooLarge)?);
+    w.at = body;
     w.put(&crc.to_le_bytes());
-    if w.at != IMAGE_LEN {
+    if w.at > w.out.len() {
         return Err(StorageError::TooLarge);
     }
-    Ok(IMAGE_LEN)
+    Ok(w.at)
+}
+
+/// Writes `v` as stored; returns its length.
+fn put_value(v: &Value, out: &mut [u8]) -> usize {
+    let mut w = Writer { out, at: 0 };
+    match v {
+        Value::Number(n) => w.put(&n.to_le_bytes()),
+        Value::Flag(b) => w.put(&[u8::from(*b)]),
+        Value::Choice(i) => w.put(&[*i]),
+        Value::Address(ip) => w.put(&ip.octets()),
+        Value::AllowList(l) => {
+            for e in &l.0 {
+                w.put(&e.ip.octets());
+                w.put(&[e.prefix]);
+            }
+        }
+        Value::Host(h) => w.put(h.as_bytes()),
+    }
+    w.at
+}
+
+/// Reads a stored value of `kind` (of exactly its length), unchecked.
+fn get_value(kind: &Kind, b: &[u8]) -> Option<Value> {
+    let fixed = stored_len(kind);
+    if !matches!(kind, Kind::Host) && b.len() != fixed {
+        return None;
+    }
+    let octets = |at: usize| -> Option<core::net::Ipv4Addr> {
+        let o: [u8; 4] = b.get(at..at + 4)?.try_into().ok()?;
+        Some(o.into())
+    };
+    Some(match kind {
+        Kind::Number { .. } => Value::Number(u16::from_le_bytes(b.try_into().ok()?)),
+        Kind::Flag => match b {
+            [0] => Value::Flag(false),
+            [1] => Value::Flag(true),
+            _ => return None,
+        },
+        Kind::Choice(_) => Value::Choice(*b.first()?),
+        Kind::Address | Kind::Mask => Value::Address(octets(0)?),
+        Kind::AllowList => {
+            let mut l = AllowList::EVERYONE;
+            for (k, e) in l.0.iter_mut().enumerate() {
+                *e = AllowEntry {
+                    ip: octets(5 * k)?,
+                    prefix: *b.get(5 * k + 4)?,
+                };
+            }
+            Value::AllowList(l)
+        }
+        Kind::Host => Value::Host(HostName::from_bytes(b)?),
+    })
 }
 
 struct Writer<'a> {
@@ -95,6 +166,8 @@ struct Writer<'a> {
 }
 
 impl Writer<'_> {
+    /// Writes `b` at the cursor; past the end nothing is written, but the
+    /// cursor moves on (the caller compares it with the buffer's length).
     fn put(&mut self, b: &[u8]) {
         if let Some(dst) = self.out.get_mut(self.at..self.at + b.len()) {
             dst.copy_from_slice(b);
@@ -111,8 +184,8 @@ pub enum ImageError {
     Format,
     /// The CRC does not match.
     Crc,
-    /// A configuration value is out of range.
-    Invalid(InvalidValue),
+    /// A setting's value is out of range (its key).
+    Invalid(&'static str),
 }
 
 impl ImageError {
@@ -141,7 +214,7 @@ pub fn decode(
     defaults: &Config,
     entries: &mut Entries,
 ) -> Result<Stored, ImageError> {
-    if image.len() < 8 + 4 || image.get(..4) != Some(&MAGIC[..]) {
+    if image.len() < 8 + 4 || image.len() > IMAGE_MAX || image.get(..4) != Some(&MAGIC[..]) {
         return Err(ImageError::Format);
     }
     let (body, crc) = image.split_at(image.len() - 4);
@@ -150,33 +223,21 @@ pub fn decode(
     let (settings_end, expected_len) = match format {
         1 if n == V1_WORDS => (8 + 2 * V1_CONFIG, V1_LEN),
         2 => (8 + 4 * n, 8 + 4 * n + TRIGGER_BYTES + STORED_LEN + 4),
+        3 => (8 + n, 8 + n + TRIGGER_BYTES + STORED_LEN + 4),
         _ => return Err(ImageError::Format),
     };
-    if image.len() != expected_len || expected_len > IMAGE_MAX {
+    if image.len() != expected_len {
         return Err(ImageError::Format);
     }
     if crc != crc32(body).to_le_bytes() {
         return Err(ImageError::Crc);
     }
-    let mut words: Words = defaults.to_words();
-    if format == 1 {
-        for (i, slot) in words
-            .iter_mut()
-            .take(usize::from(r::CONFIG_LEN))
-            .enumerate()
-        {
-            *slot = word(image, 8 + 2 * i);
-        }
-    } else {
-        for at in (8..settings_end).step_by(4) {
-            // Settings this version does not know are skipped.
-            if let Some(slot) = slot_of(word(image, at)).and_then(|s| words.get_mut(s)) {
-                *slot = word(image, at + 2);
-            }
-        }
-    }
-    let config = Config::from_words(&words).map_err(ImageError::Invalid)?;
-    let password = if format == 2 {
+    let settings = image.get(8..settings_end).unwrap_or(&[]);
+    let config = match format {
+        3 => read_settings(settings, defaults)?,
+        _ => migrate(format, settings, defaults)?,
+    };
+    let password = if format >= 2 {
         let at = settings_end + TRIGGER_BYTES;
         image
             .get(at..at + STORED_LEN)
@@ -191,6 +252,50 @@ pub fn decode(
         }
     }
     Ok(Stored { config, password })
+}
+
+/// Format 3's settings over `defaults`; ids this version does not know
+/// are skipped.
+fn read_settings(mut b: &[u8], defaults: &Config) -> Result<Config, ImageError> {
+    let mut c = *defaults;
+    while !b.is_empty() {
+        let (Some(&[i0, i1, len]), Some(rest)) = (b.get(..3), b.get(3..)) else {
+            return Err(ImageError::Format);
+        };
+        let id = u16::from_le_bytes([i0, i1]);
+        let value = rest.get(..usize::from(len)).ok_or(ImageError::Format)?;
+        b = rest.get(usize::from(len)..).unwrap_or(&[]);
+        let Some(s) = schema::by_id(id) else { continue };
+        let v = get_value(&s.kind, value).ok_or(ImageError::Invalid(s.key))?;
+        s.set(&mut c, v).map_err(|_| ImageError::Invalid(s.key))?;
+    }
+    Ok(c)
+}
+
+/// Formats 1 and 2 held the settings' registers: they are laid over the
+/// registers of `defaults` and read through the register view.
+fn migrate(format: u16, b: &[u8], defaults: &Config) -> Result<Config, ImageError> {
+    let mut words = reg::encode(defaults);
+    if format == 1 {
+        for (i, slot) in words.iter_mut().take(V1_CONFIG).enumerate() {
+            *slot = word(b, 2 * i);
+        }
+    } else {
+        for at in (0..b.len()).step_by(4) {
+            // Registers this version does not know are skipped.
+            if let Some(slot) = reg::slot_of(word(b, at)).and_then(|s| words.get_mut(s)) {
+                *slot = word(b, at + 2);
+            }
+        }
+    }
+    reg::decode(&words, defaults).map_err(|bad| {
+        let key = match reg::register_at(bad.addr).map(|g| g.layout) {
+            Some(Layout::Value(s)) => s.key,
+            Some(Layout::Bits(flags)) => flags.first().map_or("?", |s| s.key),
+            None => "?",
+        };
+        ImageError::Invalid(key)
+    })
 }
 
 /// CRC-32 (IEEE, reflected), bitwise: a few bytes of code for a check run
@@ -214,15 +319,16 @@ fn crc32(data: &[u8]) -> u32 {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::access::password::{HASH_LEN, SALT_LEN};
+    use crate::config::schema::{LINK_POLL_MS, MQTT_BROKER};
+    use crate::registers::map as r;
+    use core::net::Ipv4Addr;
+    use std::vec::Vec;
 
     #[test]
     fn crc_matches_the_standard_check_value() {
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
     }
-
-    use crate::access::password::{HASH_LEN, SALT_LEN};
-    use crate::config::AllowEntry;
-    use core::net::Ipv4Addr;
 
     fn sample() -> (Stored, Entries) {
         let mut entries: Entries = [Text::EMPTY; TRIGGERS];
@@ -246,20 +352,37 @@ mod tests {
         (Stored { config, password }, entries)
     }
 
+    fn image(stored: &Stored, entries: &Entries) -> Vec<u8> {
+        let mut img = std::vec![0u8; IMAGE_LEN];
+        let n = encode(stored, entries, &mut img).unwrap();
+        img.truncate(n);
+        img
+    }
+
+    /// Replaces the CRC after an edit.
+    fn reseal(img: &mut [u8]) {
+        let n = img.len() - 4;
+        let crc = crc32(&img[..n]);
+        img[n..].copy_from_slice(&crc.to_le_bytes());
+    }
+
     #[test]
     fn image_round_trip_and_corruption() {
-        let (stored, entries) = sample();
-        let mut img = [0u8; IMAGE_LEN];
-        assert_eq!(encode(&stored, &entries, &mut img), Ok(IMAGE_LEN));
+        let (mut stored, entries) = sample();
+        MQTT_BROKER
+            .parse_into("broker.plant.local", &mut stored.config)
+            .unwrap();
+        let img = image(&stored, &entries);
+        assert!(img.len() <= IMAGE_LEN);
+        assert_eq!(word(&img, 4), 3);
         assert_eq!(
             encode(&stored, &entries, &mut [0u8; 100]),
             Err(StorageError::TooLarge)
         );
         let mut back: Entries = [Text::EMPTY; TRIGGERS];
         assert_eq!(decode(&img, &Config::DEFAULT, &mut back), Ok(stored));
-        assert_eq!(back[3].bytes(), b"GrpStop,0,;");
         assert_eq!(back, entries);
-        let mut bad = img;
+        let mut bad = img.clone();
         bad[100] ^= 1;
         let mut untouched: Entries = [Text::EMPTY; TRIGGERS];
         assert_eq!(
@@ -275,8 +398,46 @@ mod tests {
             password: None,
             ..stored
         };
-        encode(&none, &entries, &mut img).unwrap();
-        assert_eq!(decode(&img, &Config::DEFAULT, &mut back), Ok(none));
+        assert_eq!(
+            decode(&image(&none, &entries), &Config::DEFAULT, &mut back),
+            Ok(none)
+        );
+        // The longest image fits IMAGE_LEN exactly.
+        let mut longest = stored;
+        let name = "h".repeat(HostName::MAX);
+        MQTT_BROKER.parse_into(&name, &mut longest.config).unwrap();
+        assert_eq!(image(&longest, &entries).len(), IMAGE_LEN);
+    }
+
+    #[test]
+    fn settings_are_keyed_by_id_unknown_ids_skipped_bad_values_refused() {
+        let (stored, entries) = sample();
+        let img = image(&stored, &entries);
+        let n = usize::from(word(&img, 6));
+        // A "newer" image: one more setting (id 999, 3 bytes) in front.
+        let mut newer = img[..8].to_vec();
+        newer[6..8].copy_from_slice(&(n as u16 + 6).to_le_bytes());
+        newer.extend_from_slice(&[0xE7, 0x03, 3, 1, 2, 3]);
+        newer.extend_from_slice(&img[8..]);
+        reseal(&mut newer);
+        let mut back: Entries = [Text::EMPTY; TRIGGERS];
+        assert_eq!(decode(&newer, &Config::DEFAULT, &mut back), Ok(stored));
+        // The poll period stored as 5 ms (below 10) refuses the whole image.
+        let mut bad = img.clone();
+        let mut at = 8;
+        while word(&bad, at) != LINK_POLL_MS.id {
+            at += 3 + usize::from(bad[at + 2]);
+        }
+        bad[at + 3..at + 5].copy_from_slice(&5u16.to_le_bytes());
+        reseal(&mut bad);
+        assert_eq!(
+            decode(&bad, &Config::DEFAULT, &mut back),
+            Err(ImageError::Invalid("link.poll_ms"))
+        );
+        // A value of the wrong length is refused too.
+        let mut bad = img;
+        bad[at + 2] = 1;
+        assert!(decode(&bad, &Config::DEFAULT, &mut back).is_err());
     }
 
     /// A format-1 image (register map 1.1), built byte by byte as that
@@ -284,11 +445,11 @@ mod tests {
     #[test]
     fn a_format_1_image_is_read_with_defaults_for_the_new_settings() {
         let (stored, entries) = sample();
-        let mut img = std::vec::Vec::new();
+        let mut img = Vec::new();
         img.extend_from_slice(b"HGW1");
         img.extend_from_slice(&1u16.to_le_bytes());
         img.extend_from_slice(&(V1_WORDS as u16).to_le_bytes());
-        for w in &stored.config.to_words()[..16] {
+        for w in &reg::encode(&stored.config)[..16] {
             img.extend_from_slice(&w.to_le_bytes());
         }
         for e in &entries {
@@ -310,51 +471,76 @@ mod tests {
         assert_eq!(back, entries);
     }
 
+    /// Images written by the firmware of register map 1.2 (format 2),
+    /// stored as files by that build: a factory one and one with every
+    /// setting changed, three trigger entries and a password.
     #[test]
-    fn settings_are_found_by_address_and_unknown_ones_skipped() {
-        let (stored, entries) = sample();
-        // A "newer" image: one extra setting at an address this version
-        // does not know, the known ones in another order.
-        let mut img = std::vec::Vec::new();
-        img.extend_from_slice(b"HGW1");
-        img.extend_from_slice(&2u16.to_le_bytes());
-        img.extend_from_slice(&(CONFIG_WORDS as u16 + 1).to_le_bytes());
-        let words = stored.config.to_words();
-        img.extend_from_slice(&117u16.to_le_bytes());
-        img.extend_from_slice(&7u16.to_le_bytes());
-        for f in FIELDS.iter().rev() {
-            for i in 0..f.len {
-                img.extend_from_slice(&(f.addr + i).to_le_bytes());
-                img.extend_from_slice(&words[usize::from(f.slot + i)].to_le_bytes());
-            }
-        }
-        for e in &entries {
-            for i in 0..TRIGGER_TEXT / 2 {
-                img.extend_from_slice(&e.word(i).to_le_bytes());
-            }
-        }
-        img.extend_from_slice(&stored.password.unwrap().to_bytes());
-        let crc = crc32(&img);
-        img.extend_from_slice(&crc.to_le_bytes());
+    fn format_2_images_of_the_previous_firmware_are_migrated() {
+        let factory = include_bytes!("../../tests/fixtures/image-format2-factory.bin");
+        let full = include_bytes!("../../tests/fixtures/image-format2-full.bin");
+        assert_eq!(word(full, 4), 2);
         let mut back: Entries = [Text::EMPTY; TRIGGERS];
-        assert_eq!(decode(&img, &Config::DEFAULT, &mut back), Ok(stored));
-        // An out-of-range setting refuses the whole image.
-        let at = img.len() - 4 - STORED_LEN - TRIGGER_BYTES - 4 * CONFIG_WORDS;
-        let mut bad = img.clone();
-        // Find the pair of CFG_POLL_MS and make it 5 ms (below 10).
-        let mut i = at;
-        while word(&bad, i) != r::CONFIG_POLL_MS {
-            i += 4;
+        let got = decode(factory, &Config::DEFAULT, &mut back).unwrap();
+        assert_eq!(got.config, Config::DEFAULT);
+        assert_eq!(got.password, None);
+        assert_eq!(back, [Text::EMPTY; TRIGGERS]);
+
+        let got = decode(full, &Config::DEFAULT, &mut back).unwrap();
+        let c = &got.config;
+        let ip = Ipv4Addr::new;
+        assert_eq!(
+            c.robot(),
+            core::net::SocketAddrV4::new(ip(192, 168, 0, 10), 10004)
+        );
+        assert_eq!(c.link_mode, crate::config::LinkMode::Listen);
+        assert_eq!(
+            (c.listen_port, c.poll_ms, c.reply_timeout_ms),
+            (10007, 50, 2500)
+        );
+        assert_eq!(c.word_order, crate::config::WordOrder::LowFirst);
+        assert_eq!(c.watchdog_ms, 500);
+        assert_eq!(c.watchdog_action, crate::config::WatchdogAction::Pause);
+        assert!(c.wait_blending_done && !c.wait_in_position && c.auto_reset);
+        assert_eq!(c.start_grace_ms, 300);
+        assert_eq!(c.status_source, crate::config::StatusSource::DataSheet);
+        assert_eq!((c.datasheet_port, c.robot_id), (10006, 2));
+        assert_eq!(c.protocol, crate::config::ProtocolSetting::V6);
+        assert_eq!(c.net.ip, ip(10, 20, 30, 40));
+        assert_eq!(c.net.mask, ip(255, 255, 0, 0));
+        assert_eq!(c.net.gateway, ip(10, 20, 0, 1));
+        assert!(c.net.dhcp && c.write_protect);
+        assert_eq!((c.net.modbus_port, c.net.web_port), (5020, 8080));
+        let mut text = std::string::String::new();
+        c.modbus_allow.format(&mut text).unwrap();
+        assert_eq!(text, "10.20.0.0/16 127.0.0.1/32");
+        assert_eq!(c.web_allow.0[1].ip, ip(192, 168, 7, 0));
+        assert_eq!(c.mqtt_broker, HostName::EMPTY, "new settings take defaults");
+        let p = got.password.unwrap();
+        assert_eq!(
+            (p.iterations, p.salt, p.hash),
+            (10000, [0x5a; SALT_LEN], [0xc3; HASH_LEN])
+        );
+        assert_eq!(back[0].bytes(), b"GrpStop,0,;");
+        assert_eq!(back[7].bytes(), b"SetBoxDO,0,3,1,;");
+        assert_eq!(back[15].bytes(), b"SetOverride,0,0.5,;");
+        assert!(back[1].is_empty());
+        // Saved again, it is format 3 and reads back the same.
+        let again = image(&got, &back);
+        assert_eq!(word(&again, 4), 3);
+        let mut back2: Entries = [Text::EMPTY; TRIGGERS];
+        assert_eq!(decode(&again, &Config::DEFAULT, &mut back2), Ok(got));
+        assert_eq!(back2, back);
+        // Format 2 names a bad register's setting.
+        let mut bad = full.to_vec();
+        let mut at = 8;
+        while word(&bad, at) != r::CONFIG_POLL_MS {
+            at += 4;
         }
-        bad[i + 2..i + 4].copy_from_slice(&5u16.to_le_bytes());
-        let n = bad.len() - 4;
-        let crc = crc32(&bad[..n]);
-        bad[n..].copy_from_slice(&crc.to_le_bytes());
+        bad[at + 2..at + 4].copy_from_slice(&5u16.to_le_bytes());
+        reseal(&mut bad);
         assert_eq!(
             decode(&bad, &Config::DEFAULT, &mut back),
-            Err(ImageError::Invalid(InvalidValue {
-                addr: r::CONFIG_POLL_MS
-            }))
+            Err(ImageError::Invalid("link.poll_ms"))
         );
     }
 }

@@ -10,9 +10,10 @@ use embassy_time::Instant;
 use hans_codec::{ErrorCode, FsmState, ProtocolLevel};
 
 use super::json::{Full, Json};
-use crate::config::{Field, FIELDS};
+use crate::config::{Kind, Setting, SETTINGS};
 use crate::error::{ErrorSource, Outcome};
 use crate::job::{Source, QUEUE_DEPTH};
+use crate::registers::config::register_of;
 use crate::registers::map as r;
 use crate::state::history::{LogEvent, LOG_LEN};
 use crate::state::{Handshake, Io, LinkState, Model, Phase, TextSource};
@@ -426,20 +427,19 @@ fn status(m: &Model, now: Instant, i: usize, j: &mut Json) -> Result<Part, Full>
 }
 
 fn config(m: &Model, i: usize, j: &mut Json) -> Result<Part, Full> {
-    let words = m.config.active.to_words();
     match i {
         0 => {
             j.raw("{")?
                 .key("format")?
                 .str(super::post::FORMAT.as_bytes())?;
             j.raw(",")?.key("settings")?.raw("{")?;
-            for (k, f) in FIELDS.iter().enumerate() {
+            for (k, s) in SETTINGS.iter().enumerate() {
                 if k > 0 {
                     j.raw(",")?;
                 }
-                j.key(f.name)?;
+                j.key(s.key)?;
                 let mut v: heapless::String<96> = heapless::String::new();
-                f.format(&words, &mut v).map_err(|_| Full)?;
+                s.format(&m.config.active, &mut v).map_err(|_| Full)?;
                 j.str(v.as_bytes())?;
             }
             j.raw("},")?.key("triggers")?.raw("[")?;
@@ -463,21 +463,15 @@ fn config(m: &Model, i: usize, j: &mut Json) -> Result<Part, Full> {
     }
 }
 
-fn range(j: &mut Json, f: &Field) -> Result<(), Full> {
-    use crate::config::Domain;
-    match f.domain {
-        Domain::Range(lo, hi) => {
-            j.raw("{")?.key("min")?.uint(lo.into())?;
-            j.raw(",")?.key("max")?.uint(hi.into())?.raw("}")?;
-        }
-        Domain::OffOrRange(lo, hi) => {
-            j.raw("{")?
-                .key("off")?
-                .uint(0)?
-                .raw(",")?
-                .key("min")?
-                .uint(lo.into())?;
-            j.raw(",")?.key("max")?.uint(hi.into())?.raw("}")?;
+fn range(j: &mut Json, s: &Setting) -> Result<(), Full> {
+    match s.kind {
+        Kind::Number { min, max, off } => {
+            j.raw("{")?;
+            if off {
+                j.key("off")?.uint(0)?.raw(",")?;
+            }
+            j.key("min")?.uint(min.into())?;
+            j.raw(",")?.key("max")?.uint(max.into())?.raw("}")?;
         }
         _ => {
             j.null()?;
@@ -487,26 +481,57 @@ fn range(j: &mut Json, f: &Field) -> Result<(), Full> {
 }
 
 fn fields(i: usize, j: &mut Json) -> Result<Part, Full> {
-    use crate::config::Domain;
-    let Some(f) = FIELDS.get(i) else {
+    let Some(s) = SETTINGS.get(i) else {
         return Err(Full);
     };
     j.raw(if i == 0 { "[" } else { "," })?;
-    j.raw("{")?.key("name")?.str(f.name.as_bytes())?;
-    j.raw(",")?.key("address")?.uint(f.addr.into())?;
-    j.raw(",")?.key("registers")?.uint(f.len.into())?;
-    let kind = match f.domain {
-        Domain::Ipv4 => "address",
-        Domain::Mask => "mask",
-        Domain::AllowList => "allow-list",
-        _ => "number",
-    };
-    j.raw(",")?.key("kind")?.str(kind.as_bytes())?;
-    j.raw(",")?.key("unit")?.str(f.unit.as_bytes())?;
+    j.raw("{")?.key("key")?.str(s.key.as_bytes())?;
+    j.raw(",")?.key("kind")?.str(s.kind.name().as_bytes())?;
+    j.raw(",")?.key("unit")?.str(s.unit.as_bytes())?;
     j.raw(",")?.key("range")?;
-    range(j, f)?;
-    j.raw(",")?.key("help")?.str(f.help.as_bytes())?.raw("}")?;
-    let last = i + 1 == FIELDS.len();
+    range(j, s)?;
+    j.raw(",")?.key("choices")?;
+    match s.kind {
+        Kind::Choice(words) => {
+            j.raw("[")?;
+            for (k, w) in words.iter().enumerate() {
+                if k > 0 {
+                    j.raw(",")?;
+                }
+                j.str(w.as_bytes())?;
+            }
+            j.raw("]")?;
+        }
+        Kind::Flag => {
+            j.raw("[\"false\",\"true\"]")?;
+        }
+        _ => {
+            j.null()?;
+        }
+    }
+    let mut d: heapless::String<96> = heapless::String::new();
+    s.kind
+        .format(&s.default_value(), &mut d)
+        .map_err(|_| Full)?;
+    j.raw(",")?.key("default")?.str(d.as_bytes())?;
+    j.raw(",")?.key("restart")?.bool(s.restart)?;
+    j.raw(",")?.key("register")?;
+    match register_of(s) {
+        Some((g, bit)) => {
+            j.raw("{")?.key("name")?.str(g.name.as_bytes())?;
+            j.raw(",")?.key("address")?.uint(g.addr.into())?;
+            j.raw(",")?.key("count")?.uint(g.count().into())?;
+            if let Some(b) = bit {
+                j.raw(",")?.key("bit")?.uint(b.into())?;
+            }
+            j.raw("}")?;
+        }
+        None => {
+            j.null()?;
+        }
+    }
+    j.raw(",")?.key("help")?.str(s.help.as_bytes())?.raw("}")?;
+    let last = i + 1 == SETTINGS.len();
     if last {
         j.raw("]")?;
     }
@@ -680,11 +705,13 @@ mod tests {
         assert!(status.contains(r#""error":{"code":20018,"axis":0,"name":"StateRefused","text":"command forbidden in this state","text_source":"table"}"#), "{status}");
         assert!(status.ends_with("}]}"), "{status}");
         let config = render(Doc::Config, &m);
-        assert!(config.contains(r#""CFG_POLL_MS":"100""#), "{config}");
-        assert!(config.contains(r#""MODBUS_ALLOW":"""#), "{config}");
+        assert!(config.contains(r#""link.poll_ms":"100""#), "{config}");
+        assert!(config.contains(r#""access.modbus_allow":"""#), "{config}");
         assert!(config.ends_with("]}"), "{config}");
         let fields = render(Doc::Fields, &m);
-        assert!(fields.contains(r#"{"name":"CFG_POLL_MS","address":105,"registers":1,"kind":"number","unit":"ms","range":{"min":10,"max":100},"#), "{fields}");
+        assert!(fields.contains(r#"{"key":"link.poll_ms","kind":"number","unit":"ms","range":{"min":10,"max":100},"choices":null,"default":"100","restart":false,"register":{"name":"CFG_POLL_MS","address":105,"count":1},"#), "{fields}");
+        assert!(fields.contains(r#"{"key":"motion.wait_in_position","kind":"flag","unit":"","range":null,"choices":["false","true"],"default":"false","restart":false,"register":{"name":"CFG_MOTION_POLICY","address":110,"count":1,"bit":1},"#), "{fields}");
+        assert!(fields.contains(r#"{"key":"mqtt.broker","kind":"host","unit":"","range":null,"choices":null,"default":"","restart":false,"register":null,"#), "{fields}");
         let log = render(Doc::Log, &Model::new(Config::default(), Config::default()));
         assert_eq!(
             log,

@@ -14,12 +14,17 @@ use super::json::Json;
 use super::{error, error_json, App, Reply};
 use crate::access::password::{self, PasswordHash, SALT_LEN};
 use crate::clock::Clock;
-use crate::config::{field_named, Config, Words, FIELDS};
+use crate::config::{schema, Config, Value, SETTINGS};
+use crate::registers::config::{Layout, REGISTERS};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 use crate::storage::SaveOutcome;
 
-/// The format name of an exported configuration.
-pub const FORMAT: &str = "hans-gateway-config-1";
+/// The format name of an exported configuration: settings by their stable
+/// key (`link.poll_ms`).
+pub const FORMAT: &str = "hans-gateway-config-2";
+/// The format of the previous version's exports: settings by register
+/// name (`CFG_POLL_MS`), still imported.
+pub const FORMAT_1: &str = "hans-gateway-config-1";
 
 /// `{"ok":true}`.
 pub fn ok_json() -> Json {
@@ -47,7 +52,7 @@ fn saved_json(outcome: SaveOutcome, restart_pending: bool) -> Json {
 }
 
 /// The settings of an import: name and text, in the order given.
-struct Settings<'a>(heapless::Vec<(&'a str, &'a str), { FIELDS.len() }>);
+struct Settings<'a>(heapless::Vec<(&'a str, &'a str), { SETTINGS.len() }>);
 
 /// The trigger entries of an import.
 struct Triggers<'a>(heapless::Vec<&'a str, TRIGGERS>);
@@ -172,15 +177,40 @@ pub fn check_trigger(t: &str) -> Result<Text<TRIGGER_TEXT>, &'static str> {
     Ok(text)
 }
 
-/// Reads a posted configuration into settings words (from `base`) and
-/// trigger texts; every problem is named.
+/// Sets the setting named `name` (its key, or in a format-1 export its
+/// register name) in `c` from its text.
+fn set_named(name: &str, text: &str, c: &mut Config) -> Result<(), &'static str> {
+    if let Some(s) = schema::by_key(name) {
+        return s.parse_into(text, c).map_err(|e| e.as_str());
+    }
+    let Some(g) = REGISTERS.iter().find(|g| g.name == name) else {
+        return Err("unknown setting");
+    };
+    match g.layout {
+        Layout::Value(s) => s.parse_into(text, c).map_err(|e| e.as_str()),
+        Layout::Bits(flags) => {
+            let bits: u16 = text.trim().parse().map_err(|_| "not a whole number")?;
+            if u32::from(bits) >> flags.len() != 0 {
+                return Err("out of range");
+            }
+            for (b, s) in flags.iter().enumerate() {
+                s.set(c, Value::Flag(bits >> b & 1 == 1))
+                    .map_err(|e| e.as_str())?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Reads a posted configuration over `base`, and the trigger texts; every
+/// problem is named.
 // The error is the answer to send (1 KiB of JSON; no heap to box it in),
 // smaller than the success value (the trigger texts, 3 KiB).
 #[allow(clippy::type_complexity, clippy::result_large_err)]
 pub fn read_config(
     body: &[u8],
     base: &Config,
-) -> Result<(Words, Option<[Text<TRIGGER_TEXT>; TRIGGERS]>), Json> {
+) -> Result<(Config, Option<[Text<TRIGGER_TEXT>; TRIGGERS]>), Json> {
     let doc = match serde_json_core::from_slice::<ConfigDoc<'_>>(body) {
         Ok((d, _)) => d,
         Err(e) => {
@@ -190,18 +220,13 @@ pub fn read_config(
         }
     };
     let mut errors = Errors::new();
-    if doc.format.is_some_and(|f| f != FORMAT) {
+    if doc.format.is_some_and(|f| f != FORMAT && f != FORMAT_1) {
         errors.add("format", FORMAT);
     }
-    let mut words = base.to_words();
+    let mut config = *base;
     for (name, text) in doc.settings.as_ref().map_or(&[][..], |s| &s.0) {
-        match field_named(name) {
-            None => errors.add(name, "unknown setting"),
-            Some(f) => {
-                if let Err(e) = f.parse(text, &mut words) {
-                    errors.add(name, e.as_str());
-                }
-            }
+        if let Err(e) = set_named(name, text, &mut config) {
+            errors.add(name, e);
         }
     }
     let mut triggers = None;
@@ -222,14 +247,7 @@ pub fn read_config(
     if let Some(j) = errors.finish() {
         return Err(j);
     }
-    if let Err(bad) = Config::from_words(&words) {
-        // Every field was checked above; kept for safety.
-        let name = crate::config::field_of(bad.addr).map_or("?", |f| f.name);
-        let mut e = Errors::new();
-        e.add(name, "out of range");
-        return Err(e.finish().unwrap_or_default());
-    }
-    Ok((words, triggers))
+    Ok((config, triggers))
 }
 
 /// 429 with the wait: `{"error":…,"retry_after_s":n}`.
@@ -339,8 +357,7 @@ impl<C: Clock> App<'_, C> {
         let saved = self
             .hub
             .change(|m| {
-                let (words, triggers) = read_config(body, &m.config.active)?;
-                let new = Config::from_words(&words).map_err(|_| error_json("invalid"))?;
+                let (new, triggers) = read_config(body, &m.config.active)?;
                 m.config.apply(new);
                 if let Some(t) = triggers {
                     m.triggers.entries = t;
@@ -406,13 +423,14 @@ mod tests {
     #[test]
     fn a_posted_configuration_is_checked_whole() {
         let base = Config::default();
-        let (w, t) = read_config(
-            br#"{"settings":{"CFG_POLL_MS":"50","NET_IP":"10.0.0.2","MODBUS_ALLOW":"127.0.0.1"},"triggers":["GrpStop,0,;",""]}"#,
+        let (c, t) = read_config(
+            br#"{"format":"hans-gateway-config-2","settings":{"link.poll_ms":"50","network.address":"10.0.0.2","access.modbus_allow":"127.0.0.1","link.mode":"listen","mqtt.broker":"broker.plant"},"triggers":["GrpStop,0,;",""]}"#,
             &base,
         )
         .unwrap();
-        let c = Config::from_words(&w).unwrap();
         assert_eq!(c.poll_ms, 50);
+        assert_eq!(c.link_mode, crate::config::LinkMode::Listen);
+        assert_eq!(c.mqtt_broker.as_str(), "broker.plant");
         assert!(c.modbus_allow.permits(core::net::Ipv4Addr::LOCALHOST));
         assert!(!c
             .modbus_allow
@@ -421,17 +439,17 @@ mod tests {
         assert_eq!(t[0].bytes(), b"GrpStop,0,;");
         assert!(t[1].is_empty() && t[15].is_empty());
         let e = read_config(
-            br#"{"settings":{"CFG_POLL_MS":"5","CFG_NOPE":"1","NET_MASK":"255.0.255.0"},"triggers":["Not a message"]}"#,
+            br#"{"settings":{"link.poll_ms":"5","link.nope":"1","network.mask":"255.0.255.0"},"triggers":["Not a message"]}"#,
             &base,
         )
         .unwrap_err();
         assert_eq!(
             text(&e),
-            r#"{"ok":false,"errors":{"CFG_POLL_MS":"out of range","CFG_NOPE":"unknown setting","NET_MASK":"not a network mask (e.g. 255.255.255.0)","TRIG0":"not a protocol message"}}"#
+            r#"{"ok":false,"errors":{"link.poll_ms":"out of range","link.nope":"unknown setting","network.mask":"not a network mask (e.g. 255.255.255.0)","TRIG0":"not a protocol message"}}"#
         );
         for bad in [
             &b"not json"[..],
-            br#"{"settings":{"CFG_POLL_MS":50}}"#,
+            br#"{"settings":{"link.poll_ms":50}}"#,
             br#"{"settings":{},"extra":1}"#,
             br#"{"triggers":["a\"b"]}"#,
             br#"{"format":"other"}"#,
@@ -442,6 +460,30 @@ mod tests {
                 core::str::from_utf8(bad).unwrap()
             );
         }
+    }
+
+    /// What the previous version's page exported (settings by register
+    /// name, numbers for choices and flags) still imports.
+    #[test]
+    fn a_format_1_export_imports() {
+        let (c, _) = read_config(
+            br#"{"format":"hans-gateway-config-1","settings":{"CFG_POLL_MS":"40","CFG_LINK_MODE":"1","CFG_MOTION_POLICY":"3","CFG_WRITE_PROTECT":"1","WEB_ALLOW":"10.0.0.0/8"}}"#,
+            &Config::default(),
+        )
+        .unwrap();
+        assert_eq!(c.poll_ms, 40);
+        assert_eq!(c.link_mode, crate::config::LinkMode::Listen);
+        assert!(c.wait_blending_done && c.wait_in_position && c.write_protect);
+        assert!(!c.web_allow.is_empty());
+        let e = read_config(
+            br#"{"settings":{"CFG_MOTION_POLICY":"4"}}"#,
+            &Config::default(),
+        )
+        .unwrap_err();
+        assert_eq!(
+            text(&e),
+            r#"{"ok":false,"errors":{"CFG_MOTION_POLICY":"out of range"}}"#
+        );
     }
 
     #[test]

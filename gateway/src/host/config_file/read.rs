@@ -1,11 +1,10 @@
-//! Reading the file: toml's spanned parse tree, walked key by key with
-//! [`KEYS`]; each value becomes its setting's registers and is checked by
-//! the setting's domain where it is written, so that every problem is
-//! reported with its place.
+//! Reading the file: toml's spanned parse tree, walked key by key; each
+//! value becomes its setting's typed value and is checked by the
+//! setting's kind where it is written, so that every problem is reported
+//! with its place.
 
 extern crate std;
 
-use core::net::Ipv4Addr;
 use std::borrow::{Cow, ToOwned};
 use std::format;
 use std::string::{String, ToString};
@@ -15,10 +14,12 @@ use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
 use super::{
-    field_of_key, quoted, takes, Contents, Form, Key, Problem, KEYS, PASSWORD, SCHEME, TABLES,
+    quoted, register_name, setting_of, tables, takes, Contents, Problem, PASSWORD, SCHEME,
 };
 use crate::access::password::{PasswordHash, HASH_LEN, ITERATIONS, SALT_LEN};
-use crate::config::{field_of, ipv4_words, Config, Field, Words, ALLOW_ENTRIES};
+use crate::config::{
+    AllowEntry, AllowList, Config, HostName, Kind, Setting, Value, ALLOW_ENTRIES, SETTINGS,
+};
 use crate::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
 /// The line and column of byte `offset` of `text`, and the reason.
@@ -42,32 +43,11 @@ pub fn parse(text: &str, defaults: &Config) -> Result<Contents, Vec<Problem>> {
     })?;
     let mut r = Reader {
         text,
-        words: defaults.to_words(),
         contents: Contents::new(*defaults),
-        found: [None; KEYS.len()],
         problems: Vec::new(),
     };
     for (name, value) in doc.get_ref().iter() {
         r.table(name, value);
-    }
-    match Config::from_words(&r.words) {
-        Ok(config) => r.contents.stored.config = config,
-        // A key out of range was reported where it was read.
-        Err(_) if !r.problems.is_empty() => {}
-        Err(e) => {
-            // Each key's registers were checked as it was read; the whole
-            // check stays the last word (and names the key if it differs).
-            let at = KEYS
-                .iter()
-                .zip(&r.found)
-                .find(|(k, _)| {
-                    field_of_key(k).is_some_and(|f| f.addr <= e.addr && e.addr < f.addr + f.len)
-                })
-                .and_then(|(_, at)| *at);
-            let name = field_of(e.addr).map_or("a setting", |f| f.name);
-            let reason = format!("{name} (register {}) is out of range", e.addr);
-            r.problems.push(problem(text, at.unwrap_or(0), reason));
-        }
     }
     if r.problems.is_empty() {
         Ok(r.contents)
@@ -81,21 +61,18 @@ type Span = core::ops::Range<usize>;
 
 /// The tables that have a key named `key`: `[robot] or [network]`.
 fn tables_of(key: &str) -> Option<String> {
-    let tables: Vec<String> = KEYS
+    let tables: Vec<String> = SETTINGS
         .iter()
-        .filter(|k| k.key == key)
-        .map(|k| format!("[{}]", k.table))
+        .filter(|s| s.name() == key)
+        .map(|s| format!("[{}]", s.group()))
         .collect();
     (!tables.is_empty()).then(|| tables.join(" or "))
 }
 
-/// The state of a read: the settings' registers so far, what was found.
+/// The state of a read: the contents so far, the problems found.
 struct Reader<'t> {
     text: &'t str,
-    words: Words,
     contents: Contents,
-    /// Where each key of [`KEYS`] was found.
-    found: [Option<usize>; KEYS.len()],
     problems: Vec<Problem>,
 }
 
@@ -111,14 +88,18 @@ impl Reader<'_> {
 
     fn table(&mut self, name: &Spanned<Cow<'_, str>>, value: &Spanned<DeValue<'_>>) {
         let n = name.get_ref().as_ref();
-        if !TABLES.contains(&n) {
+        let all = tables();
+        if !all.contains(&n) {
             let reason = match tables_of(n) {
                 Some(tables) => {
                     format!("unknown key \"{n}\" outside the tables (it goes in {tables})")
                 }
                 None => format!(
                     "unknown table [{n}]; the tables are {}",
-                    TABLES.map(|t| format!("[{t}]")).join(", ")
+                    all.iter()
+                        .map(|t| format!("[{t}]"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
             };
             self.refuse(&name.span(), reason);
@@ -138,16 +119,16 @@ impl Reader<'_> {
                 self.trigger(kn, &k.span(), v);
             } else if n == "access" && kn == PASSWORD {
                 self.password(v);
-            } else if let Some(i) = KEYS.iter().position(|x| x.table == n && x.key == kn) {
-                self.setting(i, v);
+            } else if let Some(s) = setting_of(n, kn) {
+                self.setting(s, v);
             } else {
                 let reason = match tables_of(kn) {
                     Some(tables) => format!("unknown key \"{kn}\" in [{n}] (it goes in {tables})"),
                     None => {
-                        let mut keys: Vec<&str> = KEYS
+                        let mut keys: Vec<&str> = SETTINGS
                             .iter()
-                            .filter(|x| x.table == n)
-                            .map(|x| x.key)
+                            .filter(|s| s.group() == n)
+                            .map(|s| s.name())
                             .collect();
                         if n == "access" {
                             keys.push(PASSWORD);
@@ -163,61 +144,34 @@ impl Reader<'_> {
         }
     }
 
-    /// Key `i` of [`KEYS`]: its value into its setting's registers, checked
-    /// by the setting's domain.
-    fn setting(&mut self, i: usize, value: &Spanned<DeValue<'_>>) {
-        let (Some(k), Some(f)) = (KEYS.get(i), KEYS.get(i).and_then(field_of_key)) else {
+    /// A setting's value, checked by its kind, into the configuration.
+    fn setting(&mut self, s: &'static Setting, value: &Spanned<DeValue<'_>>) {
+        let Some((v, at)) = self.value(s, value) else {
             return;
         };
-        let span = value.span();
-        if let Some(slot) = self.found.get_mut(i) {
-            *slot = Some(span.start);
-        }
-        let name = format!("{}.{}", k.table, k.key);
-        let Some(words) = self.value_words(k, f, &name, value) else {
-            return;
-        };
-        let s = usize::from(f.slot);
-        if let Some(regs) = self.words.get_mut(s..s + usize::from(f.len)) {
-            for (r, w) in regs.iter_mut().zip(&words) {
-                *r = *w;
-            }
-        }
-        let regs = self.words.get(s..s + usize::from(f.len)).unwrap_or(&[]);
-        if let Err(rel) = f.domain.check(regs) {
-            // An allow-list names its entry (three registers each).
-            let at = match (k.form, value.get_ref().as_array()) {
-                (Form::AllowList, Some(a)) => a
-                    .get(usize::from(rel / 3))
-                    .map_or(span.clone(), |e| e.span()),
-                _ => span.clone(),
-            };
+        if s.set(&mut self.contents.stored.config, v).is_err() {
             let written = self.written(&at).to_owned();
             let reason = format!(
-                "{name} = {written}: out of range, {} takes {} ({})",
-                f.name,
-                takes(k, f),
-                f.help
+                "{} = {written}: out of range, {} takes {} ({})",
+                s.key,
+                register_name(s),
+                takes(s),
+                s.help
             );
             self.refuse(&at, reason);
         }
     }
 
-    /// The registers of a key's value (for a bit: its whole register), or
-    /// `None` after reporting why there are none.
-    fn value_words(
-        &mut self,
-        k: &Key,
-        f: &Field,
-        name: &str,
-        value: &Spanned<DeValue<'_>>,
-    ) -> Option<Vec<u16>> {
+    /// A key's typed value and where to point at if it is out of range
+    /// (an allow-list's bad entry), or `None` after reporting why there is
+    /// none.
+    fn value(&mut self, s: &Setting, value: &Spanned<DeValue<'_>>) -> Option<(Value, Span)> {
         let span = value.span();
         let v = value.get_ref();
+        let name = s.key;
         let wrong_type = |what: &str| format!("{name}: expected {what}, found {}", v.type_str());
-        let at = usize::from(f.slot);
-        match k.form {
-            Form::Number => {
+        let got = match s.kind {
+            Kind::Number { .. } => {
                 let Some(n) = v.as_integer() else {
                     self.refuse(&span, wrong_type("an integer"));
                     return None;
@@ -226,67 +180,76 @@ impl Reader<'_> {
                     .ok()
                     .and_then(|n| u16::try_from(n).ok())
                 {
-                    Some(n) => Some(std::vec![n]),
+                    Some(n) => Value::Number(n),
                     None => {
                         let reason = format!(
                             "{name} = {}: out of range, {} takes {} ({})",
                             self.written(&span),
-                            f.name,
-                            takes(k, f),
-                            f.help
+                            register_name(s),
+                            takes(s),
+                            s.help
                         );
                         self.refuse(&span, reason);
-                        None
+                        return None;
                     }
                 }
             }
-            Form::Flag | Form::Bit(_) => {
+            Kind::Flag => {
                 let Some(on) = v.as_bool() else {
                     self.refuse(&span, wrong_type("true or false"));
                     return None;
                 };
-                Some(std::vec![match k.form {
-                    Form::Bit(b) => {
-                        let w = self.words.get(at).copied().unwrap_or(0) & !(1 << b);
-                        w | (u16::from(on) << b)
-                    }
-                    _ => u16::from(on),
-                }])
+                Value::Flag(on)
             }
-            Form::Word(words) => {
+            Kind::Choice(words) => {
                 let choices = quoted(words);
-                let Some(s) = v.as_str() else {
+                let Some(t) = v.as_str() else {
                     self.refuse(&span, wrong_type(&format!("one of {choices}")));
                     return None;
                 };
-                match words.iter().position(|w| *w == s) {
-                    Some(i) => Some(std::vec![i as u16]),
+                match words.iter().position(|w| *w == t) {
+                    Some(i) => Value::Choice(i as u8),
                     None => {
-                        let reason = format!("{name} = \"{s}\" is not one of {choices}");
+                        let reason = format!("{name} = \"{t}\" is not one of {choices}");
                         self.refuse(&span, reason);
-                        None
+                        return None;
                     }
                 }
             }
-            Form::Address => {
-                let Some(s) = v.as_str() else {
+            Kind::Address | Kind::Mask => {
+                let Some(t) = v.as_str() else {
                     self.refuse(&span, wrong_type("an address \"a.b.c.d\""));
                     return None;
                 };
-                match s.parse::<Ipv4Addr>() {
-                    Ok(ip) => Some(ipv4_words(ip).to_vec()),
+                match t.parse() {
+                    Ok(ip) => Value::Address(ip),
                     Err(_) => {
-                        let reason = format!("{name} = \"{s}\" is not an IPv4 address a.b.c.d");
+                        let reason = format!("{name} = \"{t}\" is not an IPv4 address a.b.c.d");
                         self.refuse(&span, reason);
-                        None
+                        return None;
                     }
                 }
             }
-            Form::AllowList => self.allow_list(name, value),
-        }
+            Kind::AllowList => Value::AllowList(self.allow_list(name, value)?),
+            Kind::Host => {
+                let Some(t) = v.as_str() else {
+                    self.refuse(&span, wrong_type("a host name"));
+                    return None;
+                };
+                match HostName::new(t) {
+                    Some(h) => Value::Host(h),
+                    None => {
+                        let reason = format!("{name} = \"{t}\": {}", takes(s));
+                        self.refuse(&span, reason);
+                        return None;
+                    }
+                }
+            }
+        };
+        Some((got, span))
     }
 
-    fn allow_list(&mut self, name: &str, value: &Spanned<DeValue<'_>>) -> Option<Vec<u16>> {
+    fn allow_list(&mut self, name: &str, value: &Spanned<DeValue<'_>>) -> Option<AllowList> {
         let Some(entries) = value.get_ref().as_array() else {
             let reason = format!(
                 "{name}: expected an array of \"a.b.c.d/prefix\" strings, found {}",
@@ -295,16 +258,16 @@ impl Reader<'_> {
             self.refuse(&value.span(), reason);
             return None;
         };
-        let mut words = std::vec![0u16; 3 * ALLOW_ENTRIES];
+        let mut list = AllowList::EVERYONE;
         let mut ok = true;
         for (i, e) in entries.iter().enumerate() {
             let span = e.span();
-            if i >= ALLOW_ENTRIES {
+            let Some(slot) = list.0.get_mut(i) else {
                 let reason = format!("{name}: at most {ALLOW_ENTRIES} entries");
                 self.refuse(&span, reason);
                 return None;
-            }
-            let Some(s) = e.get_ref().as_str() else {
+            };
+            let Some(t) = e.get_ref().as_str() else {
                 let reason = format!(
                     "{name}: expected a network \"a.b.c.d/prefix\", found {}",
                     e.get_ref().type_str()
@@ -313,26 +276,19 @@ impl Reader<'_> {
                 ok = false;
                 continue;
             };
-            let (ip, prefix) = s.split_once('/').unwrap_or((s, "32"));
-            // The prefix is checked by the list's domain (1-32 here: 0
-            // would be an unused entry).
-            match (ip.parse::<Ipv4Addr>(), prefix.parse::<u16>()) {
-                (Ok(ip), Ok(p)) if p > 0 => {
-                    let [a, b] = ipv4_words(ip);
-                    for (w, v) in words.iter_mut().skip(3 * i).zip([a, b, p]) {
-                        *w = v;
-                    }
-                }
-                _ => {
+            // The one allow-list grammar (the web form's too).
+            match AllowEntry::parse(t) {
+                Ok(entry) => *slot = entry,
+                Err(_) => {
                     let reason = format!(
-                        "{name}: \"{s}\" is not a network a.b.c.d/prefix (prefix 1-32; a.b.c.d alone = /32)"
+                        "{name}: \"{t}\" is not a network a.b.c.d/prefix (prefix 1-32; a.b.c.d alone = /32)"
                     );
                     self.refuse(&span, reason);
                     ok = false;
                 }
             }
         }
-        ok.then_some(words)
+        ok.then_some(list)
     }
 
     fn trigger(&mut self, key: &str, key_span: &Span, value: &Spanned<DeValue<'_>>) {

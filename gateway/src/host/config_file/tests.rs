@@ -2,7 +2,8 @@ use super::write::toml_string;
 use super::*;
 use crate::access::password::PasswordHash;
 use crate::config::{AllowEntry, AllowList, LinkMode, NetConfig, ProtocolSetting, StatusSource};
-use crate::config::{WatchdogAction, WordOrder, FIELDS};
+use crate::config::{Kind, WatchdogAction, WordOrder, SETTINGS};
+use crate::registers::config::register_of;
 use crate::state::inputs::TRIGGER_TEXT;
 use crate::storage::IMAGE_LEN;
 use core::net::Ipv4Addr;
@@ -61,6 +62,7 @@ fn full() -> Contents {
             net(ip(172, 16, 0, 0), 12),
             net(ip(0, 0, 0, 0), 1),
         ]),
+        mqtt_broker: crate::config::HostName::new("broker.plant.local").unwrap(),
     });
     c.stored.password = Some(PasswordHash {
         iterations: 10_000,
@@ -125,32 +127,30 @@ fn the_written_file_is_readable() {
 /// the line, the key and (for a range) the register.
 #[test]
 fn every_setting_out_of_range_is_refused_with_its_line() {
-    for k in &KEYS {
-        let f = field_of_key(k).unwrap();
-        let (bad, names_register) = match (k.form, f.domain) {
-            (Form::Number, Domain::Range(_, hi)) if hi < u16::MAX => ((hi + 1).to_string(), true),
-            (Form::Number, Domain::Range(lo, _)) if lo > 0 => ((lo - 1).to_string(), true),
-            (Form::Number, Domain::Range(..)) => ("65536".to_owned(), true),
-            (Form::Number, Domain::OffOrRange(lo, _)) => ((lo - 1).to_string(), true),
-            (Form::Number, d) => panic!("{d:?}"),
-            (Form::Word(_), _) => ("\"bogus\"".to_owned(), false),
-            (Form::Flag | Form::Bit(_), _) => ("1".to_owned(), false),
-            (Form::Address, Domain::Mask) => ("\"255.0.255.0\"".to_owned(), true),
-            (Form::Address, _) => ("\"192.168.0\"".to_owned(), false),
-            (Form::AllowList, _) => ("[\"10.0.0.0/8\", \"1.2.3.4/33\"]".to_owned(), false),
+    for s in SETTINGS {
+        let (bad, names_register) = match s.kind {
+            Kind::Number { max, .. } if max < u16::MAX => ((max + 1).to_string(), true),
+            Kind::Number { min, .. } if min > 0 => ((min - 1).to_string(), true),
+            Kind::Number { .. } => ("65536".to_owned(), true),
+            Kind::Choice(_) => ("\"bogus\"".to_owned(), false),
+            Kind::Flag => ("1".to_owned(), false),
+            Kind::Mask => ("\"255.0.255.0\"".to_owned(), true),
+            Kind::Address => ("\"192.168.0\"".to_owned(), false),
+            Kind::AllowList => ("[\"10.0.0.0/8\", \"1.2.3.4/33\"]".to_owned(), false),
+            Kind::Host => ("\"two words\"".to_owned(), false),
         };
         let text = format!(
             "# a comment\n[triggers]\n0 = \"x\"\n\n[{}]\n{} = {bad}\n",
-            k.table, k.key
+            s.group(),
+            s.name()
         );
         let err = parse(&text, &Config::DEFAULT).expect_err(&text);
         assert_eq!(err.len(), 1, "{err:?}");
         let p = &err[0];
         assert_eq!(p.line, 6, "{text}{p}");
-        let name = format!("{}.{}", k.table, k.key);
-        assert!(p.reason.contains(&name), "{p}");
+        assert!(p.reason.contains(s.key), "{p}");
         if names_register {
-            assert!(p.reason.contains(f.name), "{p}");
+            assert!(p.reason.contains(&register_name(s)), "{p}");
             assert!(p.reason.contains("out of range"), "{p}");
         }
     }
@@ -206,7 +206,7 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
             "1:1: unknown key \"poll_ms\" outside the tables (it goes in [link])",
             "2:1: unknown key \"port\" outside the tables (it goes in [robot])",
             "4:1: unknown key \"adress\" in [robot]; its keys are address, port, id",
-            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [triggers]",
+            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [mqtt], [triggers]",
             "8:1: unknown key \"address\" in [link] (it goes in [robot] or [network])",
         ]
     );
@@ -360,12 +360,13 @@ fn every_problem_is_reported_in_the_order_of_the_file() {
 fn a_binary_image_of_an_older_version_is_read() {
     let c = full();
     let mut img = [0u8; IMAGE_LEN];
-    image::encode(&c.stored, &c.triggers, &mut img).unwrap();
-    let (back, format) = read_bytes(&img, &Config::DEFAULT).unwrap();
+    let n = image::encode(&c.stored, &c.triggers, &mut img).unwrap();
+    let img = &mut img[..n];
+    let (back, format) = read_bytes(img, &Config::DEFAULT).unwrap();
     assert_eq!((back, format), (c, Format::BinaryImage));
     img[100] ^= 1;
     assert!(matches!(
-        read_bytes(&img, &Config::DEFAULT),
+        read_bytes(img, &Config::DEFAULT),
         Err(Error::Image(ImageError::Crc))
     ));
     let e = FileError {
@@ -380,36 +381,31 @@ fn a_binary_image_of_an_older_version_is_read() {
 
 #[test]
 fn the_keys_cover_every_setting_once_and_the_documentation_lists_them() {
-    for f in FIELDS {
-        let n = KEYS.iter().filter(|k| k.register == f.name).count();
-        let want = if f.name == "CFG_MOTION_POLICY" { 2 } else { 1 };
-        assert_eq!(n, want, "{}", f.name);
-    }
-    for (i, k) in KEYS.iter().enumerate() {
-        assert!(field_of_key(k).is_some(), "{}", k.register);
-        assert!(TABLES.contains(&k.table), "{}", k.table);
-        assert!(!KEYS[..i]
-            .iter()
-            .any(|x| x.table == k.table && x.key == k.key));
-        // A table's keys are together, tables in the order of TABLES.
-        if let Some(prev) = i.checked_sub(1).map(|p| &KEYS[p]) {
-            let at = |t| TABLES.iter().position(|x| *x == t).unwrap();
-            assert!(at(prev.table) <= at(k.table), "{}", k.table);
+    // Every setting is a key once (the schema's own key).
+    let all = tables();
+    for (i, s) in SETTINGS.iter().enumerate() {
+        assert!(all.contains(&s.group()), "{}", s.key);
+        assert!(setting_of(s.group(), s.name()).is_some_and(|x| x.id == s.id));
+        // A table's keys are together, tables in the order of tables().
+        if let Some(prev) = i.checked_sub(1).map(|p| SETTINGS[p]) {
+            let at = |t| all.iter().position(|x| *x == t).unwrap();
+            assert!(at(prev.group()) <= at(s.group()), "{}", s.key);
         }
     }
-    assert_eq!(KEYS.last().map(|k| k.table), Some("access"));
+    assert_eq!(all.last(), Some(&"triggers"));
     let doc = include_str!("../config_file.rs");
-    for k in &KEYS {
-        let register = match k.form {
-            Form::Bit(b) => format!("{} bit {b}", k.register),
-            _ => k.register.to_owned(),
+    for s in SETTINGS {
+        let register = match register_of(s) {
+            Some((g, Some(b))) => format!("{} bit {b}", g.name),
+            Some((g, None)) => g.name.to_owned(),
+            None => "(none)".to_owned(),
         };
-        let row = format!("//! | `{}.{}` | {register} |", k.table, k.key);
+        let row = format!("//! | `{}` | {register} |", s.key);
         assert!(
             doc.contains(&row),
             "{row} not in the module's documentation"
         );
-        if let Form::Word(words) = k.form {
+        if let Kind::Choice(words) = s.kind {
             for (i, w) in words.iter().enumerate() {
                 assert!(doc.contains(&format!("`\"{w}\"` ({i})")), "{w}");
             }

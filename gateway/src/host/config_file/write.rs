@@ -3,13 +3,12 @@
 
 extern crate std;
 
-use std::borrow::ToOwned;
 use std::format;
 use std::string::{String, ToString};
 use std::vec::Vec;
 
-use super::{field_of_key, takes, Contents, Form, Key, KEYS, PASSWORD, SCHEME};
-use crate::config::{ipv4, Field, Words, CONFIG_WORDS};
+use super::{register_name, takes, Contents, PASSWORD, SCHEME};
+use crate::config::{Kind, Setting, Value, SETTINGS};
 use crate::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
 fn hex(bytes: &[u8]) -> String {
@@ -53,40 +52,34 @@ const HEADER: &str = "\
 /// The file's text for `contents`: every key, with a comment naming its
 /// register and what it takes; empty trigger entries are left out.
 pub fn render(contents: &Contents) -> String {
-    let words: Words = contents.stored.config.to_words();
+    let config = &contents.stored.config;
     let mut out = String::from(HEADER);
     let mut table = "";
-    for k in &KEYS {
-        let Some(f) = field_of_key(k) else { continue };
-        if k.table != table {
-            table = k.table;
+    for s in SETTINGS {
+        if s.group() != table {
+            if table == "access" {
+                password(contents, &mut out);
+            }
+            table = s.group();
             out.push_str(&format!("\n[{table}]\n"));
         }
-        let register = match k.form {
-            Form::Bit(b) => format!("{} bit {b}", f.name),
-            _ => f.name.to_owned(),
+        let about = match s.kind {
+            Kind::AllowList => "clients allowed",
+            _ => s.help,
         };
-        let about = match k.form {
-            Form::AllowList => String::from("clients allowed"),
-            _ => f.help.to_owned(),
-        };
-        out.push_str(&format!("# {register}: {about}; takes {}\n", takes(k, f)));
-        out.push_str(&format!("{} = {}\n", k.key, value_text(k, f, &words)));
+        out.push_str(&format!(
+            "# {}: {about}; takes {}\n",
+            register_name(s),
+            takes(s)
+        ));
+        out.push_str(&format!(
+            "{} = {}\n",
+            s.name(),
+            value_text(s, &s.get(config))
+        ));
     }
-    // `[access]` is the last table of KEYS: the password goes in it.
-    out.push_str(&format!(
-        "# The web password as a salted hash, never the password itself: \"{SCHEME}$ROUNDS$SALT$HASH\"\n\
-         # (PBKDF2-HMAC-SHA256; salt and hash in hex). Set it on the web page; without it the page\n\
-         # asks for one before any change.\n"
-    ));
-    match &contents.stored.password {
-        Some(h) => out.push_str(&format!(
-            "{PASSWORD} = \"{SCHEME}${}${}${}\"\n",
-            h.iterations,
-            hex(&h.salt),
-            hex(&h.hash)
-        )),
-        None => out.push_str(&format!("# {PASSWORD} = (none set)\n")),
+    if table == "access" {
+        password(contents, &mut out);
     }
     out.push_str(&format!(
         "\n[triggers]\n# TRIGn_TEXT: entry n (0-{}), fired by bit n of TRIG_BITS: one protocol message,\n\
@@ -109,28 +102,41 @@ pub fn render(contents: &Contents) -> String {
     out
 }
 
+/// The password's lines, in `[access]`.
+fn password(contents: &Contents, out: &mut String) {
+    out.push_str(&format!(
+        "# The web password as a salted hash, never the password itself: \"{SCHEME}$ROUNDS$SALT$HASH\"\n\
+         # (PBKDF2-HMAC-SHA256; salt and hash in hex). Set it on the web page; without it the page\n\
+         # asks for one before any change.\n"
+    ));
+    match &contents.stored.password {
+        Some(h) => out.push_str(&format!(
+            "{PASSWORD} = \"{SCHEME}${}${}${}\"\n",
+            h.iterations,
+            hex(&h.salt),
+            hex(&h.hash)
+        )),
+        None => out.push_str(&format!("# {PASSWORD} = (none set)\n")),
+    }
+}
+
 /// A key's value as written in the file.
-fn value_text(k: &Key, f: &Field, words: &Words) -> String {
-    let s = usize::from(f.slot);
-    let regs = words
-        .get(s..(s + usize::from(f.len)).min(CONFIG_WORDS))
-        .unwrap_or(&[]);
-    let w = regs.first().copied().unwrap_or(0);
-    match k.form {
-        Form::Number => w.to_string(),
-        Form::Flag => (w != 0).to_string(),
-        Form::Bit(b) => (w >> b & 1 != 0).to_string(),
-        Form::Word(names) => match names.get(usize::from(w)) {
-            Some(name) => format!("\"{name}\""),
-            None => w.to_string(),
-        },
-        Form::Address => format!("\"{}\"", ipv4(regs)),
-        Form::AllowList => {
-            let used: Vec<String> = regs
-                .chunks(3)
-                .filter(|e| e.get(2).copied().unwrap_or(0) != 0)
-                .map(|e| format!("\"{}/{}\"", ipv4(e), e.get(2).copied().unwrap_or(0)))
-                .collect();
+fn value_text(s: &Setting, v: &Value) -> String {
+    match v {
+        Value::Number(n) => n.to_string(),
+        Value::Flag(b) => b.to_string(),
+        Value::Choice(_) | Value::Host(_) => {
+            let mut t = String::new();
+            let _ = s.kind.format(v, &mut t);
+            toml_string(&t)
+        }
+        Value::Address(ip) => format!("\"{ip}\""),
+        Value::AllowList(l) => {
+            let used: Vec<String> =
+                l.0.iter()
+                    .filter(|e| e.prefix != 0)
+                    .map(|e| format!("\"{}/{}\"", e.ip, e.prefix))
+                    .collect();
             format!("[{}]", used.join(", "))
         }
     }
