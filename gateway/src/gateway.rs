@@ -14,7 +14,7 @@ use crate::config::{self, Config};
 use crate::hub::{Hub, PlcPort};
 use crate::net::Net;
 use crate::state::Model;
-use crate::storage::{self, Storage};
+use crate::storage::{self, image, Image, SaveOutcome, Storage, StorageError, Stored};
 
 /// Number of Modbus clients served at once ([`Gateway::run`] starts one
 /// session future for each). Change it here: nothing else depends on it.
@@ -196,7 +196,7 @@ impl Gateway {
         let datasheet = crate::datasheet::run(hub, clock, net.socket(&mut ds_rx, &mut ds_tx));
         #[cfg(not(feature = "datasheet"))]
         let datasheet = core::future::pending::<Infallible>();
-        let saver = storage::task(hub, &mut storage);
+        let saver = storage_task(hub, &mut storage);
         #[cfg(feature = "web")]
         let web = crate::web::Web::new(self.opts.seed, self.opts.restart);
         #[cfg(feature = "web")]
@@ -299,4 +299,36 @@ pub async fn run<N: Net, C: Clock, S: Storage>(
     opts: Options,
 ) -> Infallible {
     Gateway::new(opts).run(net, clock, storage).await
+}
+
+/// The image of the hub's configuration and trigger table as they are.
+struct Current<'a>(&'a Hub);
+
+impl Image for Current<'_> {
+    fn write(&self, out: &mut [u8]) -> Result<usize, StorageError> {
+        self.0.with(|m| {
+            let stored = Stored {
+                config: m.config.active,
+                password: m.access.password,
+            };
+            image::encode(&stored, &m.triggers.entries, out)
+        })
+    }
+}
+
+/// The storage task (here, where the hub and the storage meet, so that
+/// neither imports the other): waits for save requests, has the medium write the
+/// image of the configuration and trigger table as they are now, and
+/// reports the result. One save at a time (the hub serializes requests).
+async fn storage_task<S: Storage>(hub: &Hub, storage: &mut S) -> Infallible {
+    loop {
+        hub.save_request.wait().await;
+        let result = storage.save(&Current(hub)).await;
+        let result = match (result, storage.is_persistent()) {
+            (Ok(()), true) => SaveOutcome::Saved,
+            (Ok(()), false) => SaveOutcome::NotPersistent,
+            (Err(e), _) => SaveOutcome::Failed(e),
+        };
+        hub.save_done.signal(result);
+    }
 }

@@ -25,8 +25,8 @@ use embassy_time::Instant;
 
 use crate::clock::Clock;
 use crate::config::ConfigResult;
-use crate::engine::plc::{self, ConfigStep};
 use crate::modbus::{Pending, Registers};
+use crate::plc::{self, ConfigStep};
 use crate::registers::{view, AccessError, WriteError};
 use crate::state::Model;
 use crate::storage::SaveOutcome;

@@ -18,7 +18,8 @@
 //! | [`state`] | the typed state: robot status, link, inputs, handshakes, queue, configuration |
 //! | [`registers`] | the Modbus register map, a view of the state (`map`: addresses; `view`: encode / decode) |
 //! | [`job`] | typed jobs: channel command codes, RAW and trigger texts, urgent commands, the queue |
-//! | [`engine`] | the rules in time: PLC events, motion completion, watchdog, bring-up, status polls |
+//! | [`plc`] | what a PLC's register write means: edges into jobs, the heartbeat, `CONFIG_COMMAND` |
+//! | [`engine`] | the rules in time: motion completion, watchdog, bring-up, status polls |
 //! | [`hub`] | the shared state and the signals between the tasks |
 //! | [`link`] | robot link: connect or listen, one request in flight, framing, reply timeout |
 //! | [`modbus`] | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
@@ -100,6 +101,7 @@ pub mod job;
 pub mod link;
 pub mod modbus;
 pub mod net;
+pub mod plc;
 pub mod registers;
 pub mod state;
 pub mod storage;

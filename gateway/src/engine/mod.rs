@@ -31,7 +31,6 @@
 pub mod bringup;
 pub mod jog;
 pub mod motion;
-pub mod plc;
 pub mod poll;
 pub mod watchdog;
 

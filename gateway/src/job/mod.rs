@@ -27,7 +27,12 @@ pub use queue::{Gate, JobQueue, QUEUE_DEPTH, URGENT_DEPTH};
 pub use text::{TextJob, TEXT_MAX};
 
 use crate::error::GatewayError;
-use crate::registers::map as r;
+
+/// Number of command channels (the sizes of the state: the registers and
+/// the page are views of them).
+pub const CHANNELS: usize = 2;
+/// Entries of the trigger table.
+pub const TRIGGERS: usize = 16;
 
 /// Where a command came from, and so where its outputs go.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,10 +49,10 @@ pub enum Source {
 impl Source {
     /// Every source: the channels, RAW, the trigger entries.
     pub fn all() -> impl Iterator<Item = Source> {
-        (0..r::CHANNELS as u8)
+        (0..CHANNELS as u8)
             .map(Source::Channel)
             .chain(core::iter::once(Source::Raw))
-            .chain((0..r::TRIGGERS as u8).map(Source::Trigger))
+            .chain((0..TRIGGERS as u8).map(Source::Trigger))
     }
 
     /// The value of register `ACTIVE_MOTION` for this source.

@@ -8,13 +8,13 @@
 //! lane cannot fill up.
 
 use super::{Job, JobKind, Source, Urgent};
-use crate::registers::map as r;
+use super::{CHANNELS, TRIGGERS};
 
 /// Ordinary jobs the queue holds.
 pub const QUEUE_DEPTH: usize = 8;
 /// Room of the urgent lane: one job per source (two channels, RAW, sixteen
 /// trigger entries).
-pub const URGENT_DEPTH: usize = r::CHANNELS + 1 + r::TRIGGERS;
+pub const URGENT_DEPTH: usize = CHANNELS + 1 + TRIGGERS;
 
 /// An urgent job: small, so that the lane that is never full costs little.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

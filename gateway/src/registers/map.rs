@@ -272,8 +272,8 @@ pub const CONTROL_CONFIG_BAD_ADDR: u16 = 143;
 pub const CONTROL_SAVES: u16 = 144;
 
 // ------------------------------------------------------- command channels
-/// Number of command channels.
-pub const CHANNELS: usize = 2;
+/// Number of command channels (a size of the state).
+pub use crate::state::CHANNELS;
 /// First address of command channel 0.
 pub const CHANNEL_BASE: u16 = 200;
 /// Distance between channels.
@@ -313,7 +313,18 @@ pub const CH_RESULTS: u16 = 66;
 /// Number of `f32` results.
 pub const CH_RESULT_COUNT: usize = 24;
 
-pub use crate::state::handshake::{ST_ABORTED, ST_ACTIVE, ST_BUSY, ST_DONE, ST_ERROR, ST_QUEUED};
+/// Status bit: the command is queued or running.
+pub const ST_BUSY: u16 = 1 << 0;
+/// Status bit: the command finished successfully.
+pub const ST_DONE: u16 = 1 << 1;
+/// Status bit: the command failed; see ErrorID and error source.
+pub const ST_ERROR: u16 = 1 << 2;
+/// Status bit: the command was aborted by another command (`GrpStop`).
+pub const ST_ABORTED: u16 = 1 << 3;
+/// Status bit: its motion is running on the robot.
+pub const ST_ACTIVE: u16 = 1 << 4;
+/// Status bit: waiting in the queue.
+pub const ST_QUEUED: u16 = 1 << 5;
 
 /// First address of command channel `i`.
 pub const fn channel_base(i: usize) -> u16 {
@@ -360,8 +371,8 @@ pub const ERROR_TEXT: u16 = 1004;
 /// Registers of the error text.
 pub const ERROR_TEXT_REGS: u16 = 64;
 
-/// Number of trigger-table entries.
-pub const TRIGGERS: usize = 16;
+/// Number of trigger-table entries (a size of the state).
+pub use crate::state::inputs::TRIGGERS;
 /// Trigger bits: a rising edge of bit `i` fires entry `i`.
 pub const TRIG_BITS: u16 = 1100;
 /// Busy bits, one per entry.

@@ -125,7 +125,7 @@ fn flag_bits(f: Option<RobotFlags>) -> u16 {
 fn handshake_word(h: &Handshake, off: u16, order: WordOrder) -> u16 {
     let (id, src) = h.error();
     match off {
-        0 => h.status_bits(),
+        0 => status_bits(h),
         1 => h.seq_echo,
         2 | 3 => half(id as u32, off - 2, order),
         4 => src,
@@ -133,6 +133,40 @@ fn handshake_word(h: &Handshake, off: u16, order: WordOrder) -> u16 {
         _ => 0,
     }
 }
+
+/// The status bits of a handshake (`CHn_STATUS`, `RAW_STATUS`).
+pub fn status_bits(h: &Handshake) -> u16 {
+    use crate::state::Phase;
+    use r::{ST_ABORTED, ST_ACTIVE, ST_BUSY, ST_DONE, ST_ERROR, ST_QUEUED};
+    match h.phase {
+        Phase::Idle => 0,
+        Phase::Queued => ST_BUSY | ST_QUEUED,
+        Phase::Running => ST_BUSY,
+        Phase::Moving => ST_BUSY | ST_ACTIVE,
+        Phase::Ended(Outcome::Done) => ST_DONE,
+        Phase::Ended(Outcome::Error(..)) => ST_ERROR,
+        Phase::Ended(Outcome::Aborted) => ST_ABORTED,
+    }
+}
+
+/// The `ACCESS` register.
+fn access_bits(m: &Model) -> u16 {
+    let a = &m.access;
+    let c = &m.config.active;
+    let b = |on: bool, bit: u16| if on { bit } else { 0 };
+    b(c.write_protect, r::ACCESS_WRITE_PROTECTED)
+        | b(a.password.is_some(), r::ACCESS_PASSWORD_SET)
+        | b(a.restart_pending(&c.net), r::ACCESS_RESTART_PENDING)
+        | b(a.recovery, r::ACCESS_RECOVERY)
+        | b(a.web_on, r::ACCESS_WEB_ON)
+}
+
+// The map has room for every channel and trigger entry of the state: the
+// channels' blocks end before RAW's, the trigger bits fit one register.
+const _: () = assert!(r::TRIGGERS <= 16);
+const _: () = assert!(
+    r::CHANNEL_BASE as usize + r::CHANNEL_STRIDE as usize * r::CHANNELS <= r::RAW_CONTROL as usize
+);
 
 /// One register as the PLC reads it (0 for unmapped addresses; the caller
 /// checks the access first).
@@ -245,9 +279,7 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         }
         r::STATUS_WATCHDOG_TRIPS => m.plc.watchdog_trips,
         r::STATUS_ACTIVE_MOTION => m.active_motion.map_or(0, Source::code),
-        r::STATUS_ACCESS => m
-            .access
-            .flags(&m.config.active.net, m.config.active.write_protect),
+        r::STATUS_ACCESS => access_bits(m),
         r::STATUS_MODBUS_REFUSED => m.access.modbus_refused,
         r::STATUS_WEB_REFUSED => m.access.web_refused,
         r::STATUS_WRITES_REFUSED => m.access.writes_refused,
@@ -305,7 +337,7 @@ pub fn read_into(m: &Model, start: u16, out: &mut [u16], now: Instant) -> Result
 /// Stores a write of `values` from `start` in the model (all or nothing:
 /// unmapped or read-only addresses refuse the whole write, and so does a
 /// `CONFIG_COMMAND` above 3) and returns what it asks for. The events are
-/// for [`crate::engine::plc`] to act on.
+/// for [`crate::plc`] to act on.
 pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, WriteError> {
     let count = u16::try_from(values.len()).map_err(|_| WriteError::Value)?;
     r::check(start, count, true)?;
@@ -327,23 +359,24 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
         }
     }
     let order = m.config.active.word_order;
-    let old_exec = [
-        m.channels[0].inputs.execute(),
-        m.channels[1].inputs.execute(),
-        m.raw.execute(),
-    ];
+    // Execute of every channel, then RAW's.
+    let execute = |m: &Model| -> [bool; r::CHANNELS + 1] {
+        core::array::from_fn(|i| match m.channels.get(i) {
+            Some(ch) => ch.inputs.execute(),
+            None => m.raw.execute(),
+        })
+    };
+    let old_exec = execute(m);
     let old_bits = m.triggers.bits;
     let old_beat = m.plc.heartbeat;
     for (addr, &v) in (start..).zip(values) {
         store(m, addr, v, order);
     }
     ev.heartbeat = m.plc.heartbeat != old_beat;
-    let new_exec = [
-        m.channels[0].inputs.execute(),
-        m.channels[1].inputs.execute(),
-        m.raw.execute(),
-    ];
-    let sources = [Source::Channel(0), Source::Channel(1), Source::Raw];
+    let new_exec = execute(m);
+    let sources = (0..r::CHANNELS as u8)
+        .map(Source::Channel)
+        .chain(core::iter::once(Source::Raw));
     for ((old, new), source) in old_exec.into_iter().zip(new_exec).zip(sources) {
         edge(&mut ev, source, old, new);
     }

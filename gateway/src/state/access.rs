@@ -3,7 +3,6 @@
 
 use crate::access::password::PasswordHash;
 use crate::config::NetConfig;
-use crate::registers::map as r;
 
 /// Access state (register `ACCESS` and the refusal counters; the web
 /// page's access section).
@@ -45,17 +44,6 @@ impl AccessState {
             web_refused: 0,
             writes_refused: 0,
         }
-    }
-
-    /// The `ACCESS` register, given the active configuration's network
-    /// settings and write protection.
-    pub fn flags(&self, net: &NetConfig, write_protect: bool) -> u16 {
-        let b = |on: bool, bit: u16| if on { bit } else { 0 };
-        b(write_protect, r::ACCESS_WRITE_PROTECTED)
-            | b(self.password.is_some(), r::ACCESS_PASSWORD_SET)
-            | b(self.restart_pending(net), r::ACCESS_RESTART_PENDING)
-            | b(self.recovery, r::ACCESS_RECOVERY)
-            | b(self.web_on, r::ACCESS_WEB_ON)
     }
 
     /// The configured network settings differ from the running ones (on

@@ -40,19 +40,6 @@ pub struct Handshake {
     pub released: bool,
 }
 
-/// Status bit: the command is queued or running.
-pub const ST_BUSY: u16 = 1 << 0;
-/// Status bit: the command finished successfully.
-pub const ST_DONE: u16 = 1 << 1;
-/// Status bit: the command failed; see ErrorID and error source.
-pub const ST_ERROR: u16 = 1 << 2;
-/// Status bit: the command was aborted by another command (`GrpStop`).
-pub const ST_ABORTED: u16 = 1 << 3;
-/// Status bit: its motion is running on the robot.
-pub const ST_ACTIVE: u16 = 1 << 4;
-/// Status bit: waiting in the queue.
-pub const ST_QUEUED: u16 = 1 << 5;
-
 impl Handshake {
     /// Busy: queued, being sent, or its motion runs.
     pub fn is_busy(&self) -> bool {
@@ -64,19 +51,6 @@ impl Handshake {
         match self.phase {
             Phase::Ended(o) => Some(o),
             _ => None,
-        }
-    }
-
-    /// The status bits (`CHn_STATUS`, `RAW_STATUS`).
-    pub fn status_bits(&self) -> u16 {
-        match self.phase {
-            Phase::Idle => 0,
-            Phase::Queued => ST_BUSY | ST_QUEUED,
-            Phase::Running => ST_BUSY,
-            Phase::Moving => ST_BUSY | ST_ACTIVE,
-            Phase::Ended(Outcome::Done) => ST_DONE,
-            Phase::Ended(Outcome::Error(..)) => ST_ERROR,
-            Phase::Ended(Outcome::Aborted) => ST_ABORTED,
         }
     }
 
@@ -139,24 +113,32 @@ impl ErrorSource {
 mod tests {
     use super::*;
     use crate::error::GatewayError;
+    use crate::registers::map::{ST_ACTIVE, ST_BUSY, ST_ERROR, ST_QUEUED};
 
     #[test]
     fn outputs_follow_the_handshake() {
         let mut h = Handshake::default();
         h.start(7, 3);
         assert!(h.is_busy());
-        assert_eq!(h.status_bits(), ST_BUSY | ST_QUEUED);
+        assert_eq!(crate::registers::view::status_bits(&h), ST_BUSY | ST_QUEUED);
         h.phase = Phase::Moving;
-        assert_eq!(h.status_bits(), ST_BUSY | ST_ACTIVE);
+        assert_eq!(crate::registers::view::status_bits(&h), ST_BUSY | ST_ACTIVE);
         // Execute falls while Busy: nothing changes.
         h.release();
         assert!(h.is_busy());
         h.finish(Outcome::Error(ErrorSource::RobotFail, 20018));
-        assert_eq!(h.status_bits(), ST_ERROR);
+        assert_eq!(crate::registers::view::status_bits(&h), ST_ERROR);
         assert_eq!(h.error(), (20018, 1));
         assert_eq!(h.seq_echo, 7);
         h.release();
-        assert_eq!((h.status_bits(), h.error(), h.seq_echo), (0, (0, 0), 7));
+        assert_eq!(
+            (
+                crate::registers::view::status_bits(&h),
+                h.error(),
+                h.seq_echo
+            ),
+            (0, (0, 0), 7)
+        );
         h.start(8, 3);
         h.finish(Outcome::gateway(GatewayError::QueueFull));
         assert_eq!(h.error(), (39600, 3));

@@ -172,8 +172,7 @@ impl RawState {
     }
 }
 
-/// Entries of the trigger table.
-pub const TRIGGERS: usize = 16;
+pub use crate::job::TRIGGERS;
 /// Bytes of a trigger entry's text.
 pub const TRIGGER_TEXT: usize = 192;
 

@@ -7,7 +7,7 @@
 //! web page's JSON) read the same values without knowing any register.
 //!
 //! The rules that change it live with their concerns: what a PLC event does
-//! in [`crate::engine::plc`], what the robot's replies do in
+//! in [`crate::plc`], what the robot's replies do in
 //! [`crate::engine`]. The methods here keep the handshakes consistent
 //! (Busy, then exactly one outcome).
 
@@ -29,7 +29,6 @@ pub use robot::{Io, RobotFlags, RobotStatus};
 use crate::config::{Config, ConfigResult};
 use crate::error::{GatewayError, Outcome};
 use crate::job::{JobQueue, Source};
-use crate::registers::map as r;
 
 /// Robot link state (register `LINK_STATE`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -139,6 +138,8 @@ pub struct PlcState {
     pub watchdog_trips: u16,
 }
 
+pub use crate::job::CHANNELS;
+
 /// Words of the PLC's edit of the configuration registers.
 pub const PLC_EDIT_WORDS: usize = 51;
 
@@ -186,7 +187,7 @@ pub struct Model {
     /// The robot link.
     pub link: LinkStatus,
     /// The command channels.
-    pub channels: [ChannelState; r::CHANNELS],
+    pub channels: [ChannelState; CHANNELS],
     /// The RAW channel.
     pub raw: RawState,
     /// The trigger table.

@@ -20,8 +20,6 @@
 pub mod flash;
 pub mod image;
 
-use core::convert::Infallible;
-
 pub use image::{ImageError, Stored, IMAGE_LEN, IMAGE_MAX};
 
 /// Why storage failed.
@@ -94,37 +92,6 @@ impl Storage for NoStorage {
 
     async fn save(&mut self, _image: &dyn Image) -> Result<(), StorageError> {
         Ok(())
-    }
-}
-
-/// The image of the hub's configuration and trigger table as they are.
-struct Current<'a>(&'a crate::hub::Hub);
-
-impl Image for Current<'_> {
-    fn write(&self, out: &mut [u8]) -> Result<usize, StorageError> {
-        self.0.with(|m| {
-            let stored = Stored {
-                config: m.config.active,
-                password: m.access.password,
-            };
-            image::encode(&stored, &m.triggers.entries, out)
-        })
-    }
-}
-
-/// The storage task: waits for save requests, has the medium write the
-/// image of the configuration and trigger table as they are now, and
-/// reports the result. One save at a time (the hub serializes requests).
-pub(crate) async fn task<S: Storage>(hub: &crate::hub::Hub, storage: &mut S) -> Infallible {
-    loop {
-        hub.save_request.wait().await;
-        let result = storage.save(&Current(hub)).await;
-        let result = match (result, storage.is_persistent()) {
-            (Ok(()), true) => SaveOutcome::Saved,
-            (Ok(()), false) => SaveOutcome::NotPersistent,
-            (Err(e), _) => SaveOutcome::Failed(e),
-        };
-        hub.save_done.signal(result);
     }
 }
 
