@@ -159,9 +159,9 @@ pub async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C, sock:
     loop {
         // Header first, then as many bytes as its length field says.
         let need = match buf.get(..7) {
-            Some(h) if len >= 7 => {
-                let proto = u16::from_be_bytes([h[2], h[3]]);
-                let length = usize::from(u16::from_be_bytes([h[4], h[5]]));
+            Some(&[_, _, p0, p1, l0, l1, _]) if len >= 7 => {
+                let proto = u16::from_be_bytes([p0, p1]);
+                let length = usize::from(u16::from_be_bytes([l0, l1]));
                 if proto != 0 || length < 2 {
                     info!(
                         "modbus: not a Modbus frame (protocol {}, length {}), closing",

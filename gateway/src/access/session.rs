@@ -45,8 +45,11 @@ impl Token {
         const HEX: &[u8; 16] = b"0123456789abcdef";
         let mut out = [0u8; TOKEN_CHARS];
         for (pair, b) in out.chunks_exact_mut(2).zip(self.0) {
-            pair[0] = HEX[usize::from(b >> 4)];
-            pair[1] = HEX[usize::from(b & 15)];
+            let digit = |n: u8| HEX.get(usize::from(n & 15)).copied().unwrap_or(b'0');
+            if let [hi, lo] = pair {
+                *hi = digit(b >> 4);
+                *lo = digit(b);
+            }
         }
         out
     }

@@ -519,6 +519,8 @@ macro_rules! channel_areas {
 const CH0: [Area; 13] = channel_areas!(0);
 const CH1: [Area; 13] = channel_areas!(1);
 
+// Only called from constants (an index out of bounds fails the build).
+#[allow(clippy::indexing_slicing)]
 const fn trigger_text_area(i: usize) -> Area {
     const NAMES: [&str; TRIGGERS] = [
         "TRIG0_TEXT",
@@ -539,7 +541,7 @@ const fn trigger_text_area(i: usize) -> Area {
         "TRIG15_TEXT",
     ];
     Area {
-        name: NAMES[i],
+        name: if i < TRIGGERS { NAMES[i] } else { "TRIG?_TEXT" },
         start: trigger_text(i),
         len: TRIG_TEXT_REGS,
         access: Access::Rw,

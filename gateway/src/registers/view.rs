@@ -79,7 +79,12 @@ fn join(w: [u16; 2], order: WordOrder) -> u32 {
 
 /// Register `half` (0, 1) of a 32-bit value.
 fn half(v: u32, half: u16, order: WordOrder) -> u16 {
-    halves(v, order)[usize::from(half & 1)]
+    let [first, second] = halves(v, order);
+    if half & 1 == 0 {
+        first
+    } else {
+        second
+    }
 }
 
 /// A value the gateway reports: zero as +0.0 (the controller sends

@@ -43,6 +43,8 @@ const TRIGGER_WORDS: usize = TRIGGERS * TRIGGER_TEXT / 2;
 const TRIGGER_BYTES: usize = TRIGGER_WORDS * 2;
 
 /// Bytes of the settings section at their longest.
+// Evaluated by the compiler: an index out of bounds fails the build.
+#[allow(clippy::indexing_slicing)]
 const SETTINGS_MAX: usize = {
     let mut n = 0;
     let mut i = 0;

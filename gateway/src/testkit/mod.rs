@@ -19,7 +19,12 @@
 //! ```
 
 // A test harness: a panic is a failed test, with its reason.
-#![allow(clippy::panic, clippy::unwrap_used, clippy::expect_used)]
+#![allow(
+    clippy::panic,
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::indexing_slicing
+)]
 
 pub mod clock;
 pub mod net;
