@@ -4,7 +4,7 @@
 # gateway and the field-device firmware (feature `field-device`: web page,
 # DHCP, DataSheet reader), plus the QEMU board's smoke firmware. Prints the
 # size report with its two budgets (fails if a core firmware exceeds 128 KiB
-# flash / 64 KiB static RAM, or a field-device firmware 256 KiB / 128 KiB),
+# flash / 64 KiB static RAM, or a field-device firmware 384 KiB / 160 KiB),
 # then runs the QEMU tests (firmware/qemu-tests: smoke firmware; gateway
 # firmware with the robot simulator, run in-process, and a Modbus client;
 # field-device firmware over HTTP), which print the stack high-water marks

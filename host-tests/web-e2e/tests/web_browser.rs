@@ -118,15 +118,15 @@ fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() 
         "!document.getElementById('cfg-fs').disabled",
     );
     // Units, ranges and help come from /api/fields.
-    let help = rig.text("h-CFG_POLL_MS");
+    let help = rig.text("h-link.poll_ms");
     assert!(
-        help.contains("10–100 ms") && help.contains("register 105"),
+        help.contains("10–100 ms") && help.contains("register CFG_POLL_MS (105)"),
         "{help}"
     );
-    rig.type_in("f-CFG_POLL_MS", "40");
-    rig.type_in("f-CFG_REPLY_TIMEOUT_MS", "2500");
-    rig.type_in("f-MODBUS_ALLOW", "127.0.0.0/8");
-    rig.choose("f-CFG_WRITE_PROTECT", "1");
+    rig.type_in("f-link.poll_ms", "40");
+    rig.type_in("f-link.reply_timeout_ms", "2500");
+    rig.type_in("f-access.modbus_allow", "127.0.0.0/8");
+    rig.choose("f-access.write_protect", "true");
     rig.click("cfg-apply");
     rig.wait_data("cfg-msg", "result", "ok");
     let msg = rig.text("cfg-msg");
@@ -154,10 +154,10 @@ fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() 
     });
     assert_eq!(refused, Err(tokio_modbus::ExceptionCode::IllegalFunction));
     // ... until the page lifts the protection.
-    rig.choose("f-CFG_WRITE_PROTECT", "0");
+    rig.choose("f-access.write_protect", "false");
     rig.click("cfg-apply");
     rig.wait_text("cfg-msg", "the second apply", |t| {
-        t.starts_with("CFG_WRITE_PROTECT:")
+        t.starts_with("access.write_protect:")
     });
     assert_eq!(rig.data("cfg-msg", "result"), "ok");
     let poll = rig.modbus(async |plc| {
@@ -175,23 +175,23 @@ fn an_invalid_value_shows_its_error_beside_the_field_and_changes_nothing() {
     rig.wait_live();
     rig.set_first_password(PW);
     let before = rig.config_doc();
-    rig.type_in("f-CFG_POLL_MS", "5");
-    rig.type_in("f-CFG_REPLY_TIMEOUT_MS", "2000");
-    rig.type_in("f-NET_MASK", "255.0.255.0");
+    rig.type_in("f-link.poll_ms", "5");
+    rig.type_in("f-link.reply_timeout_ms", "2000");
+    rig.type_in("f-network.mask", "255.0.255.0");
     rig.click("cfg-apply");
     rig.wait_data("cfg-msg", "result", "refused");
-    assert_eq!(rig.text("e-CFG_POLL_MS"), "out of range");
+    assert_eq!(rig.text("e-link.poll_ms"), "out of range");
     assert_eq!(
-        rig.text("e-NET_MASK"),
+        rig.text("e-network.mask"),
         "not a network mask (e.g. 255.255.255.0)"
     );
     assert_eq!(
-        rig.text("e-CFG_REPLY_TIMEOUT_MS"),
+        rig.text("e-link.reply_timeout_ms"),
         "",
         "a valid value has no error"
     );
     assert_eq!(
-        rig.attr("f-CFG_POLL_MS", "aria-invalid").as_deref(),
+        rig.attr("f-link.poll_ms", "aria-invalid").as_deref(),
         Some("true")
     );
     let msg = rig.text("cfg-msg");
@@ -214,11 +214,11 @@ fn an_invalid_value_shows_its_error_beside_the_field_and_changes_nothing() {
     assert_eq!(rig.config_doc(), before);
 
     // Corrected, the same edit goes through and the errors go away.
-    rig.type_in("f-CFG_POLL_MS", "50");
-    rig.type_in("f-NET_MASK", "255.255.0.0");
+    rig.type_in("f-link.poll_ms", "50");
+    rig.type_in("f-network.mask", "255.255.0.0");
     rig.click("cfg-apply");
     rig.wait_data("cfg-msg", "result", "ok");
-    assert_eq!(rig.text("e-CFG_POLL_MS"), "");
+    assert_eq!(rig.text("e-link.poll_ms"), "");
     let (poll, timeout) = rig.modbus(async |plc| {
         (
             plc.read1(r::CONFIG_POLL_MS).await,
@@ -288,8 +288,8 @@ fn export_then_import_gives_the_same_configuration() {
     let mut rig = WebRig::start("export-import");
     rig.wait_live();
     rig.set_first_password(PW);
-    rig.type_in("f-CFG_POLL_MS", "50");
-    rig.type_in("f-MODBUS_ALLOW", "127.0.0.0/8, 10.1.2.3");
+    rig.type_in("f-link.poll_ms", "50");
+    rig.type_in("f-access.modbus_allow", "127.0.0.0/8, 10.1.2.3");
     rig.click("cfg-apply");
     rig.wait_data("cfg-msg", "result", "ok");
     rig.type_in("t-text-0", "GrpStop,0,;");
@@ -307,7 +307,7 @@ fn export_then_import_gives_the_same_configuration() {
         .expect("the export's text")
         .to_string();
     assert_eq!(exported, rig.config_doc());
-    assert!(exported.contains(r#""CFG_POLL_MS":"50""#), "{exported}");
+    assert!(exported.contains(r#""link.poll_ms":"50""#), "{exported}");
     assert!(exported.contains(r#""GrpStop,0,;""#), "{exported}");
     let dir = hans_web_e2e::screenshot_dir().join("files");
     std::fs::create_dir_all(&dir).expect("a directory for the files");
@@ -316,11 +316,11 @@ fn export_then_import_gives_the_same_configuration() {
     rig.shot("exported");
 
     // Changed after the export ...
-    rig.type_in("f-CFG_POLL_MS", "70");
-    rig.type_in("f-MODBUS_ALLOW", "");
+    rig.type_in("f-link.poll_ms", "70");
+    rig.type_in("f-access.modbus_allow", "");
     rig.click("cfg-apply");
     rig.wait_text("cfg-msg", "the change after the export", |t| {
-        t.starts_with("CFG_POLL_MS, MODBUS_ALLOW:")
+        t.starts_with("link.poll_ms, access.modbus_allow:")
     });
     rig.type_in("t-text-0", "");
     rig.click("t-save-0");
@@ -343,19 +343,19 @@ fn export_then_import_gives_the_same_configuration() {
     assert_eq!(poll, 50);
     assert_eq!(hans_e2e::words_text(&trig0), "GrpStop,0,;");
     rig.wait_for("the form showing the import", |r| {
-        (r.js("document.getElementById('f-CFG_POLL_MS').value") == "50").then_some(())
+        (r.js("document.getElementById('f-link.poll_ms').value") == "50").then_some(())
     });
     rig.shot("imported");
 
     // A file with a bad value: refused with its reason, nothing applied.
-    let bad = exported.replace(r#""CFG_POLL_MS":"50""#, r#""CFG_POLL_MS":"5""#);
+    let bad = exported.replace(r#""link.poll_ms":"50""#, r#""link.poll_ms":"5""#);
     let bad_file = dir.join("export-import-bad.json");
     std::fs::write(&bad_file, bad).expect("writing the bad file");
     rig.set_file("import-file", &bad_file);
     rig.click("import-btn");
     rig.wait_data("import-msg", "result", "refused");
     assert!(rig.text("import-msg").starts_with("Nothing was applied"));
-    assert_eq!(rig.text("e-CFG_POLL_MS"), "out of range");
+    assert_eq!(rig.text("e-link.poll_ms"), "out of range");
     assert_eq!(rig.config_doc(), exported);
     rig.shot("import-refused");
     rig.finish();
@@ -369,7 +369,7 @@ fn a_fresh_device_asks_for_a_password_and_wrong_ones_show_the_wait() {
     rig.wait_for("the first-password form", |r| {
         (r.session() == "fresh" && r.visible("pw-first")).then_some(())
     });
-    for id in ["cfg-apply", "f-CFG_POLL_MS", "t-save-0", "import-btn"] {
+    for id in ["cfg-apply", "f-link.poll_ms", "t-save-0", "import-btn"] {
         assert!(rig.disabled(id), "#{id} usable before a password is set");
     }
     assert!(rig.text("access-flags").contains("NO PASSWORD"));

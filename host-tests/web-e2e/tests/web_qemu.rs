@@ -41,8 +41,8 @@ fn the_page_from_the_qemu_field_device_shows_the_live_status_and_takes_a_form_ed
     // First password and a form edit, read back over Modbus; the network
     // settings are the board's own here (restart pending once changed).
     rig.set_first_password("commission-2026");
-    rig.type_in("f-CFG_POLL_MS", "40");
-    rig.type_in("f-NET_WEB_PORT", "8080");
+    rig.type_in("f-link.poll_ms", "40");
+    rig.type_in("f-network.web_port", "8080");
     rig.click("cfg-apply");
     rig.wait_data("cfg-msg", "result", "ok");
     let (poll, web_port) = rig.modbus(async |p| {
