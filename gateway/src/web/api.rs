@@ -123,27 +123,50 @@ pub struct LogSnapshot {
 }
 
 impl Snapshot {
-    /// Copies what `doc` shows from `m` (the state at `now`): the one
-    /// moment under the state's lock.
-    pub fn take(doc: Doc, m: &Model, now: Instant) -> Snapshot {
+    /// Copies what `doc` shows from `m` (the state at `now`) into this
+    /// snapshot: the one moment, under the state's lock. Written in place,
+    /// field by field, so that no copy of a snapshot passes through the
+    /// stack.
+    pub fn take(&mut self, doc: Doc, m: &Model, now: Instant) {
         match doc {
-            Doc::Status => Snapshot::Status(StatusSnapshot::take(m, now)),
-            Doc::Config => Snapshot::Config(ConfigSnapshot {
-                config: m.config.active,
-                triggers: m.triggers.entries,
-            }),
-            Doc::Fields => Snapshot::Fields,
-            Doc::Log => {
-                let mut entries = heapless::Vec::new();
-                for e in m.log.iter() {
-                    // Cannot fail: the log holds at most LOG_LEN.
-                    let _ = entries.push(e.clone());
+            Doc::Status => {
+                if !matches!(self, Snapshot::Status(_)) {
+                    *self = Snapshot::Status(StatusSnapshot::new());
                 }
-                Snapshot::Log(LogSnapshot {
-                    now,
-                    total: m.log.total,
-                    entries,
-                })
+                if let Snapshot::Status(s) = self {
+                    s.take(m, now);
+                }
+            }
+            Doc::Config => {
+                if !matches!(self, Snapshot::Config(_)) {
+                    *self = Snapshot::Config(ConfigSnapshot {
+                        config: m.config.active,
+                        triggers: [Text::EMPTY; TRIGGERS],
+                    });
+                }
+                if let Snapshot::Config(c) = self {
+                    c.config = m.config.active;
+                    c.triggers = m.triggers.entries;
+                }
+            }
+            Doc::Fields => *self = Snapshot::Fields,
+            Doc::Log => {
+                if !matches!(self, Snapshot::Log(_)) {
+                    *self = Snapshot::Log(LogSnapshot {
+                        now,
+                        total: 0,
+                        entries: heapless::Vec::new(),
+                    });
+                }
+                if let Snapshot::Log(l) = self {
+                    l.now = now;
+                    l.total = m.log.total;
+                    l.entries.clear();
+                    for e in m.log.iter() {
+                        // Cannot fail: the log holds at most LOG_LEN.
+                        let _ = l.entries.push(e.clone());
+                    }
+                }
             }
         }
     }
@@ -181,44 +204,81 @@ impl Snapshot {
 }
 
 impl StatusSnapshot {
-    fn take(m: &Model, now: Instant) -> Self {
+    fn new() -> Self {
+        StatusSnapshot {
+            now: Instant::from_ticks(0),
+            ticks: 0,
+            link: LinkStatus::default(),
+            robot_ip: Ipv4Addr::UNSPECIFIED,
+            robot_port: 0,
+            watchdog_ms: 0,
+            write_protect: false,
+            age_ms: None,
+            robot: RobotStatus::UNKNOWN,
+            error_text: ErrorText::default(),
+            queue_used: 0,
+            active_motion: None,
+            watchdog_armed: false,
+            plc: PlcState {
+                heartbeat: 0,
+                last_beat: Instant::from_ticks(0),
+                watchdog_tripped: false,
+                watchdog_trips: 0,
+            },
+            sessions: 0,
+            modbus_peers: heapless::Vec::new(),
+            password_set: false,
+            restart_pending: false,
+            recovery: false,
+            network_managed: false,
+            modbus_refused: 0,
+            writes_refused: 0,
+            web_refused: 0,
+            config_result: 0,
+            config_saves: 0,
+            config_applied: 0,
+            channels: [(Handshake::default(), false); r::CHANNELS],
+            raw: (Handshake::default(), false),
+            triggers: Triggers::default(),
+        }
+    }
+
+    fn take(&mut self, m: &Model, now: Instant) {
         let c = &m.config.active;
         let a = &m.access;
-        let mut channels = [(Handshake::default(), false); r::CHANNELS];
-        for (dst, ch) in channels.iter_mut().zip(m.channels.iter()) {
+        self.now = now;
+        self.ticks = m.ticks;
+        self.link = m.link;
+        self.robot_ip = c.robot_ip;
+        self.robot_port = c.robot_port;
+        self.watchdog_ms = c.watchdog_ms;
+        self.write_protect = c.write_protect;
+        self.age_ms = m.status_age_ms(now);
+        self.robot.clone_from(&m.robot);
+        self.error_text.clone_from(&m.error_text);
+        self.queue_used = m.queue.len();
+        self.active_motion = m.active_motion;
+        self.watchdog_armed = m.watchdog_armed();
+        self.plc = m.plc;
+        self.sessions = m.sessions;
+        self.modbus_peers.clone_from(&m.modbus_peers);
+        self.password_set = a.password.is_some();
+        self.restart_pending = a.restart_pending(&c.net);
+        self.recovery = a.recovery;
+        self.network_managed = a.network_managed;
+        self.modbus_refused = a.modbus_refused;
+        self.writes_refused = a.writes_refused;
+        self.web_refused = a.web_refused;
+        self.config_result = m.config.result as u64;
+        self.config_saves = m.config.saves;
+        self.config_applied = m.config.generation;
+        for (dst, ch) in self.channels.iter_mut().zip(m.channels.iter()) {
             *dst = (ch.handshake, ch.inputs.execute());
         }
-        StatusSnapshot {
-            now,
-            ticks: m.ticks,
-            link: m.link,
-            robot_ip: c.robot_ip,
-            robot_port: c.robot_port,
-            watchdog_ms: c.watchdog_ms,
-            write_protect: c.write_protect,
-            age_ms: m.status_age_ms(now),
-            robot: m.robot.clone(),
-            error_text: m.error_text.clone(),
-            queue_used: m.queue.len(),
-            active_motion: m.active_motion,
-            watchdog_armed: m.watchdog_armed(),
-            plc: m.plc,
-            sessions: m.sessions,
-            modbus_peers: m.modbus_peers.clone(),
-            password_set: a.password.is_some(),
-            restart_pending: a.restart_pending(&c.net),
-            recovery: a.recovery,
-            network_managed: a.network_managed,
-            modbus_refused: a.modbus_refused,
-            writes_refused: a.writes_refused,
-            web_refused: a.web_refused,
-            config_result: m.config.result as u64,
-            config_saves: m.config.saves,
-            config_applied: m.config.generation,
-            channels,
-            raw: (m.raw.handshake, m.raw.execute()),
-            triggers: m.triggers.clone(),
-        }
+        self.raw = (m.raw.handshake, m.raw.execute());
+        self.triggers.bits = m.triggers.bits;
+        self.triggers.entries = m.triggers.entries;
+        self.triggers.handshakes = m.triggers.handshakes;
     }
 }
 
@@ -571,10 +631,16 @@ mod tests {
     const NOW: Instant = Instant::from_millis(5000);
     const DOCS: [Doc; 4] = [Doc::Status, Doc::Config, Doc::Fields, Doc::Log];
 
+    fn snapshot(doc: Doc, m: &Model) -> Snapshot {
+        let mut snap = Snapshot::Fields;
+        snap.take(doc, m, NOW);
+        snap
+    }
+
     /// The document as the server sends it: measured, then window by
     /// window (`window` bytes each), joined.
     fn send(doc: Doc, m: &Model, window: usize) -> String {
-        let snap = Snapshot::take(doc, m, NOW);
+        let snap = snapshot(doc, m);
         let len = snap.measure().expect("every value renders");
         let mut body = Vec::new();
         let mut buf = std::vec![0u8; window];
@@ -675,6 +741,22 @@ mod tests {
         assert_eq!(log.matches(r#""kind":"command""#).count(), LOG_LEN);
     }
 
+    /// A snapshot taken again (the connection's, from request to request)
+    /// holds the new document only.
+    #[test]
+    fn a_snapshot_taken_again_is_the_new_document() {
+        let (w, d) = (worst(), Model::new(Config::default(), Config::default()));
+        let mut snap = Snapshot::Fields;
+        for doc in [Doc::Log, Doc::Status, Doc::Status, Doc::Config, Doc::Log] {
+            for m in [&w, &d] {
+                snap.take(doc, m, NOW);
+                let mut body = std::vec![0u8; snap.measure().unwrap()];
+                assert_eq!(snap.window(0, &mut body), body.len());
+                assert_eq!(String::from_utf8(body).unwrap(), render(doc, m), "{doc:?}");
+            }
+        }
+    }
+
     /// A value that cannot be written makes the document unsendable (the
     /// server answers 500 before sending anything) rather than sent
     /// without it.
@@ -682,7 +764,7 @@ mod tests {
     fn a_value_that_fails_is_reported_before_sending() {
         assert_eq!(Snapshot::Failing.measure(), Err(Full));
         for doc in DOCS {
-            assert!(Snapshot::take(doc, &worst(), NOW).measure().is_ok());
+            assert!(snapshot(doc, &worst()).measure().is_ok());
         }
     }
 
@@ -691,7 +773,7 @@ mod tests {
     #[test]
     fn a_document_is_one_moment_of_the_state() {
         let mut m = worst();
-        let snap = Snapshot::take(Doc::Status, &m, NOW);
+        let snap = snapshot(Doc::Status, &m);
         let mut first = [0u8; 64];
         let n = snap.window(0, &mut first);
         m.ticks = 4242;
@@ -708,7 +790,7 @@ mod tests {
         }
         let mut whole = first[..n].to_vec();
         whole.extend_from_slice(&rest);
-        let before = Snapshot::take(Doc::Status, &worst(), NOW);
+        let before = snapshot(Doc::Status, &worst());
         let mut expected = std::vec![0u8; before.measure().unwrap()];
         assert_eq!(before.window(0, &mut expected), expected.len());
         assert_eq!(whole, expected);

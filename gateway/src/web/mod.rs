@@ -485,7 +485,8 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 // The one moment the document shows: the state's lock is
                 // taken once, for the copy.
                 let now = self.clock.now();
-                let snap = self.hub.with(|m| Snapshot::take(doc, m, now));
+                let mut snap = Snapshot::Fields;
+                self.hub.with(|m| snap.take(doc, m, now));
                 match doc_body(&snap) {
                     Some(body) => {
                         Response::new(StatusCode::OK, body)
