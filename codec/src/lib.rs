@@ -91,6 +91,13 @@
 //! Unknown command names are not errors: they pass through as
 //! [`Request::Unknown`] / [`Response::Unknown`], so commands of newer
 //! firmware keep working.
+//!
+//! ## On a board
+//! The crate needs no allocator, no `std` and no critical section; every
+//! buffer is the caller's ([`Framer`]`::<N>`, [`Deframer`]`::<N>`). The
+//! crate's `examples/robot_state.rs` is a client for an embassy-net TCP
+//! socket that reads `ReadRobotState` and `ReadActPos` from port 10003; its
+//! doc comment says how to wire it on a board. MSRV: Rust 1.87.
 
 #![no_std]
 #![forbid(unsafe_code)]
@@ -135,3 +142,8 @@ pub use number::Decimal;
 pub use types::{
     CountedList, FreeText, Joints, PointList, Pose, Range, RobotId, TextList, ValueGroups, Visitor,
 };
+
+/// The README's examples, compiled and run as doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

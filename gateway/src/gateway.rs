@@ -298,7 +298,12 @@ pub async fn run<N: Net, C: Clock, S: Storage>(
     storage: S,
     opts: Options,
 ) -> Infallible {
-    Gateway::new(opts).run(net, clock, storage).await
+    let gateway = Gateway::new(opts);
+    let run = gateway.run(net, clock, storage);
+    // On a host executor (tokio): see `steady_waker`.
+    #[cfg(feature = "std")]
+    let run = crate::clock::steady_waker(run);
+    run.await
 }
 
 /// The image of the hub's configuration and trigger table as they are.

@@ -22,7 +22,7 @@
 //! | 23 | `SetBoxCO` | P0 bit 0-7, P1 value 0/1 |
 //! | 30 | `StartScript` | — |
 //! | 31-33 | `StopScript`, `PauseScript`, `ContinueScript` (urgent) | — |
-//! | 34 | `RunFunc` | TEXT1 function, TEXT2 parameters separated by `,` |
+//! | 34 | `RunFunc` | TEXT1 function, TEXT2 parameters separated by `,` (at most [`RUN_FUNC_PARAMS`]) |
 //! | 40 | `ReadActPos` | results R0-R5 joints, R6-R11 pose, R12-R17 tool, R18-R23 frame |
 //! | 60-71 | joint jog (`LongJogJ` + `LongMoveEvent`, V6): 60 + 2 × axis + direction (J1- = 60, J1+ = 61, ..., J6+ = 71) | — (runs while Execute is held) |
 //! | 80-91 | Cartesian jog (`LongJogL` + `LongMoveEvent`, V6): 80 + 2 × axis + direction (X- = 80, X+ = 81, Y, Z, Rx, Ry, Rz+ = 91) | — |
@@ -30,6 +30,9 @@
 //! Numbers the PLC gives are sent with three decimals (`50.000`); fields
 //! the gateway fills itself are sent as integers (`0`, `1`), except the IK
 //! reference joints of codes 11 and 12 (`ACT_JOINTS`, three decimals).
+//!
+//! What each code builds, its motion class and its messages are one table,
+//! [`TABLE`].
 
 use hans_codec::{request, Decimal, RobotId, TextList};
 
@@ -90,32 +93,8 @@ pub mod code {
     /// Cartesian jog: `JOG_L + 2 × axis + direction` (axis 0-5 = X, Y, Z,
     /// Rx, Ry, Rz).
     pub const JOG_L: u16 = 80;
-    /// Every code but the jog ones, in order.
-    pub const ALL: [u16; 23] = [
-        POWER_ON,
-        POWER_OFF,
-        ENABLE,
-        DISABLE,
-        RESET,
-        STOP,
-        PAUSE,
-        CONTINUE,
-        MOVE_J_JOINTS,
-        MOVE_J_POSE,
-        MOVE_L_POSE,
-        MOVE_REL_J,
-        MOVE_REL_L,
-        SET_OVERRIDE,
-        SET_BOX_DO,
-        SET_END_DO,
-        SET_BOX_CO,
-        START_SCRIPT,
-        STOP_SCRIPT,
-        PAUSE_SCRIPT,
-        CONTINUE_SCRIPT,
-        RUN_FUNC,
-        READ_ACT_POS,
-    ];
+    /// Every code but the jog ones, in order (read from [`super::TABLE`]).
+    pub const ALL: [u16; super::count_codes()] = super::list_codes();
 }
 
 /// A name of 32 characters at most (tool, frame, function, its parameters).
@@ -258,24 +237,32 @@ impl Jog {
     /// The jog request: start (`on`) or stop.
     #[cfg(feature = "v6")]
     pub fn request(&self, robot: u8, on: bool, buf: &mut [u8]) -> Option<Message> {
-        let (rbt_id, axis) = (RobotId(i32::from(robot)), i32::from(self.axis));
+        let mut out = None;
+        self.with_request(RobotId(i32::from(robot)), on, &mut |r| {
+            out = r.wire(buf);
+        });
+        out
+    }
+
+    /// Calls `f` with the jog request: start (`on`) or stop.
+    #[cfg(feature = "v6")]
+    fn with_request(&self, rbt_id: RobotId, on: bool, f: &mut dyn FnMut(&dyn Wire)) {
+        let axis = i32::from(self.axis);
         let (direction, state) = (i32::from(self.positive), i32::from(on));
         if self.cartesian {
-            request::LongJogL {
+            f(&request::LongJogL {
                 rbt_id,
                 axis,
                 direction,
                 state,
-            }
-            .wire(buf)
+            })
         } else {
-            request::LongJogJ {
+            f(&request::LongJogJ {
                 rbt_id,
                 axis,
                 direction,
                 state,
-            }
-            .wire(buf)
+            })
         }
     }
 
@@ -344,102 +331,535 @@ fn signed(v: f32) -> Result<(i32, Decimal), GatewayError> {
     Ok((i32::from(v >= 0.0), dec(v.abs())?))
 }
 
-/// Builds the job of command code `inp.code`: a typed command (or urgent
-/// command), checked against the document's ranges. Unknown codes, values
-/// out of range and non-integers where integers are needed are
-/// [`GatewayError::BadParameter`].
-pub fn build(inp: &Inputs<'_>, robot: u8) -> Result<JobKind, GatewayError> {
-    let p = inp.params;
-    let urgent = |u| Ok(JobKind::Urgent(u));
-    let bit_value = || Ok::<_, GatewayError>((int(p[0])?, int(p[1])?));
-    let cmd = match inp.code {
-        code::POWER_ON => Command::PowerOn,
-        code::POWER_OFF => Command::PowerOff,
-        code::ENABLE => Command::Enable,
-        code::DISABLE => return urgent(Urgent::Disable),
-        code::RESET => return urgent(Urgent::Reset),
-        code::STOP => return urgent(Urgent::Stop),
-        code::PAUSE => return urgent(Urgent::Pause),
-        code::CONTINUE => return urgent(Urgent::Continue),
-        code::STOP_SCRIPT => return urgent(Urgent::StopScript),
-        code::PAUSE_SCRIPT => return urgent(Urgent::PauseScript),
-        code::CONTINUE_SCRIPT => return urgent(Urgent::ContinueScript),
-        code::MOVE_J_JOINTS | code::MOVE_J_POSE | code::MOVE_L_POSE => {
-            let kind = match inp.code {
-                code::MOVE_J_JOINTS => MoveKind::JointToJoints,
-                code::MOVE_J_POSE => MoveKind::JointToPose,
-                _ => MoveKind::LinearToPose,
-            };
-            let reference = match (kind, inp.joints) {
-                (MoveKind::JointToJoints, _) | (_, None) => [Decimal::ZERO; 6],
-                (_, Some(j)) => six(&j)?,
-            };
-            Command::Move(Move {
-                kind,
-                target: six(&p[..6])?,
-                reference,
-                tool: name(inp.text1, "TCP")?,
-                frame: name(inp.text2, "Base")?,
-                velocity: dec(p[6])?,
-                acc: dec(p[7])?,
-                radius: dec(p[8])?,
-                cmd_id: inp.seq,
+/// P0 bit, P1 value (codes 21-23).
+fn bit_value(p: &[f32; 12]) -> Result<(i32, i32), GatewayError> {
+    Ok((int(p[0])?, int(p[1])?))
+}
+
+/// Most parameters a `RunFunc` (code 34) sends. The limit is the
+/// gateway's own: the protocol document (4.3.1 `RunFunc`) gives none, and
+/// the codec's `TextList` takes any number. The gateway splits TEXT2
+/// (`CHn_TEXT2`: 16 registers, 32 characters) into a list of this many
+/// slices on the stack; 32 characters hold 16 parameters that are not empty
+/// (`1,2,...,6` is 31), a 17th is only there when some are empty (a
+/// trailing `,`, or `,,`). More parameters than this are refused
+/// (39501, nothing sent), never cut: a function must not run with
+/// parameters missing.
+pub const RUN_FUNC_PARAMS: usize = 16;
+
+/// The parameters of a `RunFunc`: TEXT2 split at `,`, each trimmed;
+/// [`GatewayError::BadParameter`] if there are more than
+/// [`RUN_FUNC_PARAMS`].
+fn run_func_params(params: &str) -> Result<heapless::Vec<&str, RUN_FUNC_PARAMS>, GatewayError> {
+    let mut items = heapless::Vec::new();
+    if !params.is_empty() {
+        for p in params.split(',') {
+            items.push(p.trim()).map_err(|_| BAD)?;
+        }
+    }
+    Ok(items)
+}
+
+/// How a command ends, as far as the queue and the engine care: its motion
+/// class.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Class {
+    /// Not a motion: Done at the robot's reply (the bring-up steps once
+    /// the robot is in the state they lead to).
+    Reply,
+    /// A motion: Done when the robot has finished it.
+    Motion,
+    /// A jog: a motion that runs while Execute is held (`REGISTERS.md`,
+    /// Jogging).
+    Held,
+}
+
+/// One message of a command: calls `f` with its codec request. `None`
+/// when the command is not the one of the entry, or has no request in this
+/// build.
+pub type Step = fn(&Command, RobotId, &mut dyn FnMut(&dyn Wire)) -> Option<()>;
+
+/// Calls `f` with `request`: the end of every [`Step`].
+fn emit(f: &mut dyn FnMut(&dyn Wire), request: &dyn Wire) -> Option<()> {
+    f(request);
+    Some(())
+}
+
+/// What an ordinary (not urgent) command code does.
+pub struct Spec {
+    /// Its motion class.
+    pub class: Class,
+    /// Builds the typed command from the registers, given the code fired.
+    /// [`build`] then checks each step's request against the document's
+    /// ranges.
+    pub build: fn(u16, &Inputs<'_>) -> Result<Command, GatewayError>,
+    /// `true` for the commands `build` makes (finds the entry of a
+    /// [`Command`]).
+    pub is: fn(&Command) -> bool,
+    /// Its messages, sent in turn: one per step.
+    pub steps: &'static [Step],
+}
+
+/// What a command code does.
+pub enum Does {
+    /// An urgent command: the urgent lane, sent in its canonical form
+    /// ([`Urgent::encode`]).
+    Urgent(Urgent),
+    /// An ordinary command, queued.
+    Send(Spec),
+}
+
+/// One entry of [`TABLE`]: a command code, or a run of codes that build
+/// alike.
+pub struct Entry {
+    /// The first code.
+    pub first: u16,
+    /// The last code (the same as `first` but for runs).
+    pub last: u16,
+    /// What it does.
+    pub does: Does,
+}
+
+impl Entry {
+    const fn urgent(code: u16, u: Urgent) -> Entry {
+        Entry {
+            first: code,
+            last: code,
+            does: Does::Urgent(u),
+        }
+    }
+
+    const fn send(first: u16, last: u16, spec: Spec) -> Entry {
+        Entry {
+            first,
+            last,
+            does: Does::Send(spec),
+        }
+    }
+
+    /// A jog run (it is left out of [`code::ALL`]).
+    const fn is_jog(&self) -> bool {
+        matches!(
+            self.does,
+            Does::Send(Spec {
+                class: Class::Held,
+                ..
             })
-        }
-        code::MOVE_REL_J => {
-            let (direction, distance) = signed(p[1])?;
-            Command::MoveRelJ {
-                axis: int(p[0])?,
-                direction,
-                distance,
-            }
-        }
-        code::MOVE_REL_L => {
-            let (direction, distance) = signed(p[1])?;
-            Command::MoveRelL {
-                axis: int(p[0])?,
-                direction,
-                distance,
-                tool_motion: int(p[2])?,
-            }
-        }
-        code::SET_OVERRIDE => Command::SetOverride(dec(p[0])?),
-        code::SET_BOX_DO => {
-            let (bit, value) = bit_value()?;
-            Command::SetBoxDo { bit, value }
-        }
-        code::SET_BOX_CO => {
-            let (bit, value) = bit_value()?;
-            Command::SetBoxCo { bit, value }
-        }
-        code::SET_END_DO => {
-            // The document allows bit 3 (older tool ends had four outputs),
-            // but tool ends have three and END_DO reads outputs 0-2 only
-            // (`ReadEO`): keep the code and the register in agreement.
-            let (bit, value) = bit_value()?;
-            if bit > 2 {
-                return Err(BAD);
-            }
-            Command::SetEndDo { bit, value }
-        }
-        code::START_SCRIPT => Command::StartScript,
-        code::RUN_FUNC => {
-            if inp.text1.is_empty() {
-                return Err(BAD);
-            }
-            Command::RunFunc {
-                name: name(inp.text1, "")?,
-                params: name(inp.text2, "")?,
-            }
-        }
-        code::READ_ACT_POS => Command::ReadActPos,
-        c => match Jog::of(c) {
-            // Without the V6 commands (the core firmwares) there is no jog.
-            Some(_) if !cfg!(feature = "v6") => return Err(GatewayError::NotSupported),
-            Some(j) => Command::Jog(j),
-            None => return Err(BAD),
+        )
+    }
+}
+
+/// Every command code: what it builds, its motion class and its messages
+/// (steps), in order of code. [`build`], [`Command::is_motion`],
+/// [`Command::steps`], [`Command::with_request`] and [`code::ALL`] read it:
+/// adding a code is one entry here (and, if it carries values, a variant of
+/// [`Command`]).
+pub const TABLE: &[Entry] = &[
+    Entry::send(
+        code::POWER_ON,
+        code::POWER_ON,
+        Spec {
+            class: Class::Reply,
+            build: |_, _| Ok(Command::PowerOn),
+            is: |c| matches!(c, Command::PowerOn),
+            steps: &[
+                |_, _, f| emit(f, &request::ConnectToBox {}),
+                |_, _, f| emit(f, &request::Electrify {}),
+                |_, _, f| emit(f, &request::StartMaster {}),
+            ],
         },
+    ),
+    Entry::send(
+        code::POWER_OFF,
+        code::POWER_OFF,
+        Spec {
+            class: Class::Reply,
+            build: |_, _| Ok(Command::PowerOff),
+            is: |c| matches!(c, Command::PowerOff),
+            steps: &[|_, _, f| emit(f, &request::BlackOut {})],
+        },
+    ),
+    Entry::send(
+        code::ENABLE,
+        code::ENABLE,
+        Spec {
+            class: Class::Reply,
+            build: |_, _| Ok(Command::Enable),
+            is: |c| matches!(c, Command::Enable),
+            steps: &[|_, rbt_id, f| emit(f, &request::GrpEnable { rbt_id })],
+        },
+    ),
+    Entry::urgent(code::DISABLE, Urgent::Disable),
+    Entry::urgent(code::RESET, Urgent::Reset),
+    Entry::urgent(code::STOP, Urgent::Stop),
+    Entry::urgent(code::PAUSE, Urgent::Pause),
+    Entry::urgent(code::CONTINUE, Urgent::Continue),
+    Entry::send(
+        code::MOVE_J_JOINTS,
+        code::MOVE_L_POSE,
+        Spec {
+            class: Class::Motion,
+            build: build_move,
+            is: |c| matches!(c, Command::Move(_)),
+            steps: &[way_point],
+        },
+    ),
+    Entry::send(
+        code::MOVE_REL_J,
+        code::MOVE_REL_J,
+        Spec {
+            class: Class::Motion,
+            build: |_, inp| {
+                let (direction, distance) = signed(inp.params[1])?;
+                Ok(Command::MoveRelJ {
+                    axis: int(inp.params[0])?,
+                    direction,
+                    distance,
+                })
+            },
+            is: |c| matches!(c, Command::MoveRelJ { .. }),
+            steps: &[|c, rbt_id, f| {
+                let &Command::MoveRelJ {
+                    axis,
+                    direction,
+                    distance,
+                } = c
+                else {
+                    return None;
+                };
+                emit(
+                    f,
+                    &request::MoveRelJ {
+                        rbt_id,
+                        axis,
+                        direction,
+                        distance,
+                    },
+                )
+            }],
+        },
+    ),
+    Entry::send(
+        code::MOVE_REL_L,
+        code::MOVE_REL_L,
+        Spec {
+            class: Class::Motion,
+            build: |_, inp| {
+                let (direction, distance) = signed(inp.params[1])?;
+                Ok(Command::MoveRelL {
+                    axis: int(inp.params[0])?,
+                    direction,
+                    distance,
+                    tool_motion: int(inp.params[2])?,
+                })
+            },
+            is: |c| matches!(c, Command::MoveRelL { .. }),
+            steps: &[|c, rbt_id, f| {
+                let &Command::MoveRelL {
+                    axis,
+                    direction,
+                    distance,
+                    tool_motion,
+                } = c
+                else {
+                    return None;
+                };
+                emit(
+                    f,
+                    &request::MoveRelL {
+                        rbt_id,
+                        axis,
+                        direction,
+                        distance,
+                        tool_motion: Some(tool_motion),
+                    },
+                )
+            }],
+        },
+    ),
+    Entry::send(
+        code::SET_OVERRIDE,
+        code::SET_OVERRIDE,
+        Spec {
+            class: Class::Reply,
+            build: |_, inp| Ok(Command::SetOverride(dec(inp.params[0])?)),
+            is: |c| matches!(c, Command::SetOverride(_)),
+            steps: &[|c, rbt_id, f| {
+                let &Command::SetOverride(ratio) = c else {
+                    return None;
+                };
+                emit(f, &request::SetOverride { rbt_id, ratio })
+            }],
+        },
+    ),
+    Entry::send(
+        code::SET_BOX_DO,
+        code::SET_BOX_DO,
+        Spec {
+            class: Class::Reply,
+            build: |_, inp| {
+                let (bit, value) = bit_value(inp.params)?;
+                Ok(Command::SetBoxDo { bit, value })
+            },
+            is: |c| matches!(c, Command::SetBoxDo { .. }),
+            steps: &[|c, _, f| {
+                let &Command::SetBoxDo { bit, value } = c else {
+                    return None;
+                };
+                emit(f, &request::SetBoxDO { bit, value })
+            }],
+        },
+    ),
+    Entry::send(
+        code::SET_END_DO,
+        code::SET_END_DO,
+        Spec {
+            class: Class::Reply,
+            build: |_, inp| {
+                // The document allows bit 3 (older tool ends had four
+                // outputs), but tool ends have three and END_DO reads
+                // outputs 0-2 only (`ReadEO`): keep the code and the
+                // register in agreement.
+                let (bit, value) = bit_value(inp.params)?;
+                if bit > 2 {
+                    return Err(BAD);
+                }
+                Ok(Command::SetEndDo { bit, value })
+            },
+            is: |c| matches!(c, Command::SetEndDo { .. }),
+            steps: &[|c, rbt_id, f| {
+                let &Command::SetEndDo { bit, value } = c else {
+                    return None;
+                };
+                emit(f, &request::SetEndDO { rbt_id, bit, value })
+            }],
+        },
+    ),
+    Entry::send(
+        code::SET_BOX_CO,
+        code::SET_BOX_CO,
+        Spec {
+            class: Class::Reply,
+            build: |_, inp| {
+                let (bit, value) = bit_value(inp.params)?;
+                Ok(Command::SetBoxCo { bit, value })
+            },
+            is: |c| matches!(c, Command::SetBoxCo { .. }),
+            steps: &[|c, _, f| {
+                let &Command::SetBoxCo { bit, value } = c else {
+                    return None;
+                };
+                emit(f, &request::SetBoxCO { bit, value })
+            }],
+        },
+    ),
+    Entry::send(
+        code::START_SCRIPT,
+        code::START_SCRIPT,
+        Spec {
+            class: Class::Reply,
+            build: |_, _| Ok(Command::StartScript),
+            is: |c| matches!(c, Command::StartScript),
+            steps: &[|_, _, f| emit(f, &request::StartScript {})],
+        },
+    ),
+    Entry::urgent(code::STOP_SCRIPT, Urgent::StopScript),
+    Entry::urgent(code::PAUSE_SCRIPT, Urgent::PauseScript),
+    Entry::urgent(code::CONTINUE_SCRIPT, Urgent::ContinueScript),
+    Entry::send(
+        code::RUN_FUNC,
+        code::RUN_FUNC,
+        Spec {
+            class: Class::Reply,
+            build: |_, inp| {
+                if inp.text1.is_empty() {
+                    return Err(BAD);
+                }
+                let params = name(inp.text2, "")?;
+                run_func_params(&params)?;
+                Ok(Command::RunFunc {
+                    name: name(inp.text1, "")?,
+                    params,
+                })
+            },
+            is: |c| matches!(c, Command::RunFunc { .. }),
+            steps: &[|c, _, f| {
+                let Command::RunFunc { name, params } = c else {
+                    return None;
+                };
+                let items = run_func_params(params).ok()?;
+                emit(
+                    f,
+                    &request::RunFunc {
+                        func_name: name,
+                        params: TextList::new(&items),
+                    },
+                )
+            }],
+        },
+    ),
+    Entry::send(
+        code::READ_ACT_POS,
+        code::READ_ACT_POS,
+        Spec {
+            class: Class::Reply,
+            build: |_, _| Ok(Command::ReadActPos),
+            is: |c| matches!(c, Command::ReadActPos),
+            steps: &[|_, rbt_id, f| emit(f, &request::ReadActPos { rbt_id })],
+        },
+    ),
+    Entry::send(
+        code::JOG_J,
+        code::JOG_J + 11,
+        Spec {
+            class: Class::Held,
+            build: build_jog,
+            is: |c| matches!(c, Command::Jog(j) if !j.cartesian),
+            steps: &[jog_start],
+        },
+    ),
+    Entry::send(
+        code::JOG_L,
+        code::JOG_L + 11,
+        Spec {
+            class: Class::Held,
+            build: build_jog,
+            is: |c| matches!(c, Command::Jog(j) if j.cartesian),
+            steps: &[jog_start],
+        },
+    ),
+];
+
+/// Codes 10-12.
+fn build_move(code: u16, inp: &Inputs<'_>) -> Result<Command, GatewayError> {
+    let p = inp.params;
+    let kind = match code {
+        code::MOVE_J_JOINTS => MoveKind::JointToJoints,
+        code::MOVE_J_POSE => MoveKind::JointToPose,
+        _ => MoveKind::LinearToPose,
     };
+    let reference = match (kind, inp.joints) {
+        (MoveKind::JointToJoints, _) | (_, None) => [Decimal::ZERO; 6],
+        (_, Some(j)) => six(&j)?,
+    };
+    Ok(Command::Move(Move {
+        kind,
+        target: six(&p[..6])?,
+        reference,
+        tool: name(inp.text1, "TCP")?,
+        frame: name(inp.text2, "Base")?,
+        velocity: dec(p[6])?,
+        acc: dec(p[7])?,
+        radius: dec(p[8])?,
+        cmd_id: inp.seq,
+    }))
+}
+
+/// The `WayPoint` of codes 10-12.
+fn way_point(c: &Command, rbt_id: RobotId, f: &mut dyn FnMut(&dyn Wire)) -> Option<()> {
+    let Command::Move(m) = c else {
+        return None;
+    };
+    let to_joints = m.kind == MoveKind::JointToJoints;
+    let mut id = itoa::Buffer::new();
+    emit(
+        f,
+        &request::WayPoint {
+            rbt_id,
+            pose: if to_joints {
+                [Decimal::ZERO; 6]
+            } else {
+                m.target
+            },
+            joints: if to_joints { m.target } else { m.reference },
+            tcp_name: &m.tool,
+            ucs_name: &m.frame,
+            velocity: m.velocity,
+            acc: m.acc,
+            radius: m.radius,
+            move_type: i32::from(m.kind == MoveKind::LinearToPose),
+            use_joint: i32::from(to_joints),
+            seek: 0,
+            io_bit: 0,
+            io_state: 0,
+            cmd_id: id.format(m.cmd_id),
+        },
+    )
+}
+
+/// Codes 60-71, 80-91.
+fn build_jog(code: u16, _: &Inputs<'_>) -> Result<Command, GatewayError> {
+    match Jog::of(code) {
+        // Without the V6 commands (the core firmwares) there is no jog.
+        Some(_) if !cfg!(feature = "v6") => Err(GatewayError::NotSupported),
+        Some(j) => Ok(Command::Jog(j)),
+        None => Err(BAD),
+    }
+}
+
+/// The jog's start (`LongJogJ` / `LongJogL`, state 1); none without V6.
+fn jog_start(c: &Command, rbt_id: RobotId, f: &mut dyn FnMut(&dyn Wire)) -> Option<()> {
+    let Command::Jog(j) = c else {
+        return None;
+    };
+    #[cfg(feature = "v6")]
+    {
+        j.with_request(rbt_id, true, f);
+        Some(())
+    }
+    #[cfg(not(feature = "v6"))]
+    {
+        let _ = (j, rbt_id, f);
+        None
+    }
+}
+
+/// The entry of command code `code`.
+pub fn entry(code: u16) -> Option<&'static Entry> {
+    TABLE.iter().find(|e| (e.first..=e.last).contains(&code))
+}
+
+/// How many codes [`code::ALL`] holds: those of [`TABLE`] but the jogs.
+const fn count_codes() -> usize {
+    let (mut n, mut rest) = (0, TABLE);
+    while let [e, tail @ ..] = rest {
+        if !e.is_jog() {
+            n += (e.last - e.first + 1) as usize;
+        }
+        rest = tail;
+    }
+    n
+}
+
+/// The codes of [`TABLE`] but the jogs, in order.
+const fn list_codes<const N: usize>() -> [u16; N] {
+    let (mut out, mut n, mut rest) = ([0; N], 0, TABLE);
+    while let [e, tail @ ..] = rest {
+        if !e.is_jog() {
+            let mut c = e.first;
+            while c <= e.last {
+                out[n] = c;
+                n += 1;
+                c += 1;
+            }
+        }
+        rest = tail;
+    }
+    out
+}
+
+/// Builds the job of command code `inp.code` as [`TABLE`] says: a typed
+/// command (or urgent command), checked against the document's ranges.
+/// Unknown codes, values out of range and non-integers where integers are
+/// needed are [`GatewayError::BadParameter`].
+pub fn build(inp: &Inputs<'_>, robot: u8) -> Result<JobKind, GatewayError> {
+    let spec = match entry(inp.code).map(|e| &e.does) {
+        None => return Err(BAD),
+        Some(Does::Urgent(u)) => return Ok(JobKind::Urgent(*u)),
+        Some(Does::Send(spec)) => spec,
+    };
+    let cmd = (spec.build)(inp.code, inp)?;
     // Every step's request must pass the document's ranges.
     for step in 0..cmd.steps() {
         cmd.with_request(step, robot, &mut |r| r.check().map_err(|_| BAD))
@@ -449,23 +869,22 @@ pub fn build(inp: &Inputs<'_>, robot: u8) -> Result<JobKind, GatewayError> {
 }
 
 impl Command {
+    /// Its entry in [`TABLE`] (every command built has one).
+    pub fn spec(&self) -> Option<&'static Spec> {
+        TABLE.iter().find_map(|e| match &e.does {
+            Does::Send(s) if (s.is)(self) => Some(s),
+            _ => None,
+        })
+    }
+
     /// A motion (Done when the robot has finished it).
     pub fn is_motion(&self) -> bool {
-        matches!(
-            self,
-            Command::Move(_)
-                | Command::MoveRelJ { .. }
-                | Command::MoveRelL { .. }
-                | Command::Jog(_)
-        )
+        self.spec().is_some_and(|s| s.class != Class::Reply)
     }
 
     /// Messages sent in turn.
     pub fn steps(&self) -> u8 {
-        match self {
-            Command::PowerOn => 3,
-            _ => 1,
-        }
+        self.spec().map_or(0, |s| s.steps.len() as u8)
     }
 
     /// Writes message `step` for robot `robot` into `buf`.
@@ -473,134 +892,27 @@ impl Command {
         self.with_request(step, robot, &mut |r| r.wire(buf))?
     }
 
-    /// Calls `f` with the codec request of message `step`: the one place
-    /// each command's request is built, for checking and for sending.
-    /// `None` for a step the command does not have.
+    /// Calls `f` with the codec request of message `step`, built by the
+    /// command's [`TABLE`] entry: the one place each command's request is
+    /// built, for checking and for sending. `None` for a step the command
+    /// does not have.
     pub fn with_request<R>(
         &self,
         step: u8,
         robot: u8,
         f: &mut dyn FnMut(&dyn Wire) -> R,
     ) -> Option<R> {
-        let rbt_id = RobotId(i32::from(robot));
-        if step >= self.steps() {
-            return None;
-        }
-        Some(match self {
-            Command::PowerOn => match step {
-                0 => f(&request::ConnectToBox {}),
-                1 => f(&request::Electrify {}),
-                _ => f(&request::StartMaster {}),
-            },
-            Command::PowerOff => f(&request::BlackOut {}),
-            Command::Enable => f(&request::GrpEnable { rbt_id }),
-            Command::Move(m) => {
-                let to_joints = m.kind == MoveKind::JointToJoints;
-                let mut id = itoa::Buffer::new();
-                f(&request::WayPoint {
-                    rbt_id,
-                    pose: if to_joints {
-                        [Decimal::ZERO; 6]
-                    } else {
-                        m.target
-                    },
-                    joints: if to_joints { m.target } else { m.reference },
-                    tcp_name: &m.tool,
-                    ucs_name: &m.frame,
-                    velocity: m.velocity,
-                    acc: m.acc,
-                    radius: m.radius,
-                    move_type: i32::from(m.kind == MoveKind::LinearToPose),
-                    use_joint: i32::from(to_joints),
-                    seek: 0,
-                    io_bit: 0,
-                    io_state: 0,
-                    cmd_id: id.format(m.cmd_id),
-                })
-            }
-            Command::MoveRelJ {
-                axis,
-                direction,
-                distance,
-            } => f(&request::MoveRelJ {
-                rbt_id,
-                axis: *axis,
-                direction: *direction,
-                distance: *distance,
-            }),
-            Command::MoveRelL {
-                axis,
-                direction,
-                distance,
-                tool_motion,
-            } => f(&request::MoveRelL {
-                rbt_id,
-                axis: *axis,
-                direction: *direction,
-                distance: *distance,
-                tool_motion: Some(*tool_motion),
-            }),
-            Command::SetOverride(ratio) => f(&request::SetOverride {
-                rbt_id,
-                ratio: *ratio,
-            }),
-            Command::SetBoxDo { bit, value } => f(&request::SetBoxDO {
-                bit: *bit,
-                value: *value,
-            }),
-            Command::SetBoxCo { bit, value } => f(&request::SetBoxCO {
-                bit: *bit,
-                value: *value,
-            }),
-            Command::SetEndDo { bit, value } => f(&request::SetEndDO {
-                rbt_id,
-                bit: *bit,
-                value: *value,
-            }),
-            Command::StartScript => f(&request::StartScript {}),
-            Command::RunFunc { name, params } => {
-                let mut items = heapless::Vec::<&str, 16>::new();
-                if !params.is_empty() {
-                    for p in params.split(',') {
-                        // 32 characters hold at most 16 parameters.
-                        let _ = items.push(p.trim());
-                    }
-                }
-                f(&request::RunFunc {
-                    func_name: name,
-                    params: TextList::new(&items),
-                })
-            }
-            Command::ReadActPos => f(&request::ReadActPos { rbt_id }),
-            #[cfg(feature = "v6")]
-            Command::Jog(j) => {
-                let (axis, direction) = (i32::from(j.axis), i32::from(j.positive));
-                if j.cartesian {
-                    f(&request::LongJogL {
-                        rbt_id,
-                        axis,
-                        direction,
-                        state: 1,
-                    })
-                } else {
-                    f(&request::LongJogJ {
-                        rbt_id,
-                        axis,
-                        direction,
-                        state: 1,
-                    })
-                }
-            }
-            #[cfg(not(feature = "v6"))]
-            Command::Jog(_) => return None,
-        })
+        let step = self.spec()?.steps.get(usize::from(step))?;
+        let mut out = None;
+        step(self, RobotId(i32::from(robot)), &mut |r| out = Some(f(r)))?;
+        out
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::job::{Job, Source};
+    use crate::job::{Job, JobKind, Source};
 
     fn inputs(code: u16, params: &[f32]) -> ([f32; 12], u16) {
         let mut p = [0.0; 12];
@@ -694,6 +1006,75 @@ mod tests {
     fn run_func_splits_its_parameters() {
         let j = job(code::RUN_FUNC, &[], "Pick", "1, a", 0).unwrap();
         assert_eq!(text(&j, 0), "RunFunc,Pick,1,a,;");
+    }
+
+    #[test]
+    fn run_func_over_its_parameter_limit_is_refused() {
+        // 16 parameters: all sent.
+        let sixteen = "1,2,3,4,5,6,7,8,9,0,1,2,3,4,5,6";
+        let j = job(code::RUN_FUNC, &[], "F", sixteen, 0).unwrap();
+        assert_eq!(text(&j, 0), format!("RunFunc,F,{sixteen},;"));
+        // A 17th (TEXT2's 32 characters hold one only when some are empty)
+        // was dropped and the rest sent: now the command is refused.
+        for seventeen in [",,,,,,,,,,,,,,,,", "1,2,3,4,5,6,7,8,9,0,1,2,3,4,5,6,"] {
+            let e = job(code::RUN_FUNC, &[], "F", seventeen, 0);
+            assert_eq!(e, Err(GatewayError::BadParameter), "{seventeen:?}");
+        }
+        // A command made some other way sends nothing either.
+        let c = Command::RunFunc {
+            name: Name::try_from("F").unwrap(),
+            params: Name::try_from(",,,,,,,,,,,,,,,,").unwrap(),
+        };
+        assert!(c.encode(0, 0, &mut [0u8; 300]).is_none());
+    }
+
+    #[test]
+    fn run_func_over_its_limit_ends_the_channel_in_error() {
+        use crate::config::Config;
+        use crate::plc::apply;
+        use crate::registers::{self as r, write};
+        use crate::state::{LinkState, Model};
+        let mut m = Model::new(Config::default(), Config::default());
+        m.link.state = LinkState::Connected;
+        let words = |t: &[u8]| -> Vec<u16> {
+            t.chunks(2)
+                .map(|c| u16::from_be_bytes([c[0], *c.get(1).unwrap_or(&0)]))
+                .collect()
+        };
+        let b = r::channel_base(0);
+        write(&mut m, b + r::CH_TEXT1, &words(b"F")).unwrap();
+        let params = b"1,2,3,4,5,6,7,8,9,0,1,2,3,4,5,6,";
+        write(&mut m, b + r::CH_TEXT2, &words(params)).unwrap();
+        let ev = write(&mut m, b, &[1, code::RUN_FUNC, 5]).unwrap();
+        apply(&mut m, &ev, embassy_time::Instant::from_millis(10));
+        let hs = m.handshake(Source::Channel(0)).unwrap();
+        assert_eq!(hs.error(), (39501, 3));
+        assert!(m.queue.is_empty());
+    }
+
+    #[test]
+    fn the_table_is_in_order_and_each_entry_knows_its_commands() {
+        for w in TABLE.windows(2) {
+            assert!(w[0].first <= w[0].last && w[0].last < w[1].first);
+        }
+        let all: Vec<u16> = TABLE.iter().flat_map(|e| e.first..=e.last).collect();
+        for c in all {
+            let e = entry(c).unwrap();
+            let j = job(c, &[1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 10.0, 10.0], "F", "", 0).unwrap();
+            match (&e.does, &j.kind) {
+                (Does::Urgent(u), JobKind::Urgent(k)) => assert_eq!(u, k),
+                (Does::Send(s), JobKind::Command(cmd)) => {
+                    assert!(core::ptr::eq(cmd.spec().unwrap(), s), "code {c}");
+                    assert_eq!(usize::from(cmd.steps()), s.steps.len());
+                    assert_eq!(cmd.is_motion(), s.class != Class::Reply);
+                }
+                _ => panic!("code {c}: {:?}", j.kind),
+            }
+        }
+        assert!(job(code::MOVE_REL_L, &[1.0, 1.0], "", "", 0)
+            .unwrap()
+            .is_motion());
+        assert!(!job(code::READ_ACT_POS, &[], "", "", 0).unwrap().is_motion());
     }
 
     #[test]

@@ -39,7 +39,6 @@ use embassy_futures::join::join3;
 use embassy_time::Duration;
 use picoserve::io::Read;
 use picoserve::request::{Path, Request, RequestParts};
-use picoserve::response::chunked::{ChunkWriter, ChunkedResponse, Chunks, ChunksWritten};
 use picoserve::response::{Content, IntoResponse, Response, ResponseWriter, StatusCode};
 use picoserve::routing::PathRouterService;
 use picoserve::{ResponseSent, Router};
@@ -48,7 +47,7 @@ use crate::access::session::{Sessions, Token};
 use crate::clock::Clock;
 use crate::hub::Hub;
 use crate::net::{Net, Socket};
-use api::{Doc, Part};
+use api::{Doc, Snapshot};
 use io::{ClockTimer, Conn};
 use json::Json;
 
@@ -61,6 +60,8 @@ pub const HTTP_BUF: usize = 6144;
 pub const WEB_RX: usize = 1024;
 /// Socket send buffer of a web connection.
 pub const WEB_TX: usize = 2048;
+/// Bytes of the window a JSON document is sent through (see [`api`]).
+pub const WINDOW: usize = 1024;
 /// Name of the session cookie.
 pub const COOKIE: &str = "hgw_session";
 
@@ -224,44 +225,48 @@ fn json_body(j: &Json) -> Bytes<'_> {
     }
 }
 
-/// A document streamed in chunks from the state.
-struct DocChunks<'a, C: Clock> {
-    hub: &'a Hub,
-    clock: &'a C,
-    doc: Doc,
+/// A document's body: its snapshot, rendered window by window (each
+/// window rendered again from the unchanging snapshot, see [`api`]).
+struct DocBody<'a> {
+    snap: &'a Snapshot,
+    len: usize,
 }
 
-impl<C: Clock> Chunks for DocChunks<'_, C> {
+impl Content for DocBody<'_> {
     fn content_type(&self) -> &'static str {
         "application/json"
     }
 
-    async fn write_chunks<W: picoserve::io::Write>(
-        self,
-        mut w: ChunkWriter<W>,
-    ) -> Result<ChunksWritten, W::Error> {
-        let mut j = Json::new();
-        for i in 0.. {
-            j.clear();
-            let now = self.clock.now();
-            let part = self.hub.with(|m| self.doc.part(m, now, i, &mut j));
-            match part {
-                Ok(p) => {
-                    w.write_chunk(j.as_bytes()).await?;
-                    if p == Part::Last {
-                        break;
-                    }
-                }
-                Err(_) => {
-                    // Cannot happen (every part's longest form is tested
-                    // to fit); the document ends here, cut.
-                    warn!("web: a part of {} did not fit", i);
-                    break;
-                }
-            }
-        }
-        w.finalize().await
+    fn content_length(&self) -> usize {
+        self.len
     }
+
+    async fn write_content<W: picoserve::io::Write>(self, mut writer: W) -> Result<(), W::Error> {
+        let mut window = [0; WINDOW];
+        let mut sent = 0;
+        while sent < self.len {
+            let n = self.snap.window(sent, &mut window);
+            if n == 0 {
+                // Cannot happen (the snapshot does not change between
+                // the measure and the windows); the length was promised.
+                break;
+            }
+            writer.write_all(window.get(..n).unwrap_or(&[])).await?;
+            sent += n;
+        }
+        Ok(())
+    }
+}
+
+/// Why a document is answered with 500 (see [`doc_body`]).
+const DOC_FAILED: &str = "the document could not be written";
+
+/// A document's body, or `None` if a value in it cannot be written (cannot
+/// happen: every document at its longest is tested): then it is answered
+/// with 500 and [`DOC_FAILED`] as JSON, before anything of it is sent.
+fn doc_body(snap: &Snapshot) -> Option<DocBody<'_>> {
+    let len = snap.measure().ok()?;
+    Some(DocBody { snap, len })
 }
 
 /// The session token a request carries (cookie or `Authorization:
@@ -322,7 +327,7 @@ impl<C: Clock> App<'_, C> {
 pub(crate) enum Reply {
     /// The page.
     Page,
-    /// A document streamed from the state.
+    /// A document of the API, from one snapshot of the state.
     Doc(Doc),
     /// A small JSON answer.
     Json(StatusCode, Json),
@@ -334,15 +339,11 @@ pub(crate) enum Reply {
     Restart(Json),
 }
 
-/// `{"error":"..."}`.
+/// `{"error":"..."}` (the text cut to fit).
 fn error_json(text: &str) -> Json {
-    let mut j = Json::new();
-    let _ = j
-        .raw("{")
-        .and_then(|j| j.key("error"))
-        .and_then(|j| j.str(text.as_bytes()))
-        .and_then(|j| j.raw("}"));
-    j
+    let text = text.as_bytes();
+    let fit = text.get(..json::ANSWER / 2 - 16).unwrap_or(text);
+    Json::value(|v| v.object(|j| j.key("error").str(fit))).unwrap_or_default()
 }
 
 fn error(status: StatusCode, text: &str) -> Reply {
@@ -481,15 +482,27 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 .await
             }
             Reply::Doc(doc) => {
-                ChunkedResponse::new(DocChunks {
-                    hub: self.hub,
-                    clock: self.clock,
-                    doc,
-                })
-                .into_response()
-                .with_header("Cache-Control", "no-store")
-                .write_to(c, w)
-                .await
+                // The one moment the document shows: the state's lock is
+                // taken once, for the copy.
+                let now = self.clock.now();
+                let mut snap = Snapshot::Fields;
+                self.hub.with(|m| snap.take(doc, m, now));
+                match doc_body(&snap) {
+                    Some(body) => {
+                        Response::new(StatusCode::OK, body)
+                            .with_header("Cache-Control", "no-store")
+                            .write_to(c, w)
+                            .await
+                    }
+                    None => {
+                        warn!("web: a document could not be written");
+                        let j = error_json(DOC_FAILED);
+                        Response::new(StatusCode::INTERNAL_SERVER_ERROR, json_body(&j))
+                            .with_header("Cache-Control", "no-store")
+                            .write_to(c, w)
+                            .await
+                    }
+                }
             }
             Reply::Json(status, j) => {
                 Response::new(status, json_body(&j))
@@ -529,5 +542,21 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 Ok(sent)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_document_that_cannot_be_written_is_answered_with_json() {
+        assert!(doc_body(&Snapshot::Failing).is_none());
+        let v: serde_json::Value =
+            serde_json::from_slice(error_json(DOC_FAILED).as_bytes()).unwrap();
+        assert_eq!(v["error"], DOC_FAILED);
+        let long = r#"\"x"#.repeat(2000);
+        let v: serde_json::Value = serde_json::from_slice(error_json(&long).as_bytes()).unwrap();
+        assert!(v["error"].as_str().unwrap().starts_with(r#"\"x"#));
     }
 }
