@@ -98,31 +98,31 @@ extern crate std;
 #[macro_use]
 mod fmt;
 
-pub mod access;
+pub(crate) mod access;
 #[cfg(feature = "embassy-net")]
 pub mod board;
-pub mod clock;
+pub(crate) mod clock;
 pub mod config;
 #[cfg(feature = "datasheet")]
-pub mod datasheet;
+pub(crate) mod datasheet;
 pub mod engine;
 pub mod error;
 mod gateway;
 #[cfg(feature = "std")]
 pub mod host;
-pub mod hub;
+pub(crate) mod hub;
 pub mod job;
-pub mod link;
-pub mod modbus;
-pub mod net;
-pub mod plc;
+pub(crate) mod link;
+pub(crate) mod modbus;
+pub(crate) mod net;
+pub(crate) mod plc;
 pub mod registers;
 pub mod state;
 pub mod storage;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
 #[cfg(feature = "web")]
-pub mod web;
+pub(crate) mod web;
 
 pub use clock::{Clock, SystemClock};
 pub use config::Config;

@@ -173,7 +173,8 @@ impl Sessions {
     }
 
     /// Sessions open at `now`.
-    pub fn count(&mut self, now: Instant) -> usize {
+    #[cfg(test)]
+    pub(crate) fn count(&mut self, now: Instant) -> usize {
         self.expire(now);
         self.open.iter().flatten().count()
     }
@@ -213,7 +214,8 @@ impl Sessions {
     }
 
     /// Wrong passwords in a row.
-    pub fn failures(&self) -> u32 {
+    #[cfg(test)]
+    pub(crate) fn failures(&self) -> u32 {
         self.failures
     }
 }

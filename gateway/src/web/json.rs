@@ -99,7 +99,8 @@ impl<'b> Out<'b> {
     }
 
     /// Bytes after the window were dropped (the slice was full).
-    pub fn dropped(&self) -> bool {
+    #[cfg(test)]
+    pub(crate) fn dropped(&self) -> bool {
         self.dropped
     }
 
@@ -401,10 +402,6 @@ impl Json {
         self.buf.get(..self.len).unwrap_or(&[])
     }
 
-    /// Starts again.
-    pub fn clear(&mut self) {
-        self.len = 0;
-    }
 
     /// Appends what `f` writes, all of it or (`Err`) nothing.
     fn append(&mut self, f: impl FnOnce(&mut Out<'_>)) -> Result<&mut Self, Full> {
@@ -441,20 +438,12 @@ impl Json {
         self.append(|o| o.value().uint(v))
     }
 
-    /// A signed integer.
-    pub fn int(&mut self, v: i64) -> Result<&mut Self, Full> {
-        self.append(|o| o.value().int(v))
-    }
 
     /// `true` or `false`.
     pub fn bool(&mut self, v: bool) -> Result<&mut Self, Full> {
         self.append(|o| o.value().bool(v))
     }
 
-    /// `null`.
-    pub fn null(&mut self) -> Result<&mut Self, Full> {
-        self.append(|o| o.value().null())
-    }
 }
 
 #[cfg(test)]
