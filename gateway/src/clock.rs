@@ -21,7 +21,7 @@
 use core::future::Future;
 
 use embassy_futures::select::{select, Either};
-pub use embassy_time::{Duration, Instant, TimeoutError};
+pub(crate) use embassy_time::{Duration, Instant, TimeoutError};
 
 /// A source of time for the gateway.
 pub trait Clock {
@@ -53,7 +53,7 @@ impl Clock for SystemClock {
 }
 
 /// Runs `fut` until `at`: its output, or [`TimeoutError`] if `at` came first.
-pub async fn with_deadline<C: Clock, F: Future>(
+pub(crate) async fn with_deadline<C: Clock, F: Future>(
     clock: &C,
     at: Instant,
     fut: F,
@@ -65,7 +65,7 @@ pub async fn with_deadline<C: Clock, F: Future>(
 }
 
 /// Runs `fut` for at most `d`.
-pub async fn with_timeout<C: Clock, F: Future>(
+pub(crate) async fn with_timeout<C: Clock, F: Future>(
     clock: &C,
     d: Duration,
     fut: F,
@@ -75,7 +75,7 @@ pub async fn with_timeout<C: Clock, F: Future>(
 }
 
 /// `ms` milliseconds (the configuration's unit).
-pub fn millis(ms: u16) -> Duration {
+pub(crate) fn millis(ms: u16) -> Duration {
     Duration::from_millis(u64::from(ms))
 }
 
@@ -96,7 +96,7 @@ pub fn millis(ms: u16) -> Duration {
 /// that its clones share its vtable; it forwards wakes to the executor's
 /// current waker.
 #[cfg(feature = "std")]
-pub async fn steady_waker<F: Future>(fut: F) -> F::Output {
+pub(crate) async fn steady_waker<F: Future>(fut: F) -> F::Output {
     use core::task::{Context, Waker};
     use std::sync::{Arc, Mutex};
     use std::task::Wake;

@@ -29,19 +29,19 @@ use crate::state::Model;
 
 /// Largest DataSheet payload accepted (a controller's is ~3 KiB). A larger
 /// packet is dropped.
-pub const PAYLOAD_MAX: usize = 6144;
+pub(crate) const PAYLOAD_MAX: usize = 6144;
 
 /// Silence that ends the connection: the slowest port (10006) sends every
 /// 200 ms, so a controller quiet this long is gone or stuck.
-pub const SILENCE_TIMEOUT: Duration = Duration::from_secs(2);
+pub(crate) const SILENCE_TIMEOUT: Duration = Duration::from_secs(2);
 
 /// Pause after a failed connection attempt (connect refused, or no answer
 /// within [`CONNECT_TIMEOUT`]).
-pub const RETRY_DELAY: Duration = Duration::from_secs(1);
+pub(crate) const RETRY_DELAY: Duration = Duration::from_secs(1);
 
 /// Pause after a connection ended, and between looks at the configuration
 /// while the DataSheet is not the status source (or has no address yet).
-pub const IDLE_DELAY: Duration = Duration::from_millis(200);
+pub(crate) const IDLE_DELAY: Duration = Duration::from_millis(200);
 
 /// Counts a dropped packet; true for the first of the connection (the one
 /// logged, so that a controller sending bad data cannot flood the log).

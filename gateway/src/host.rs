@@ -3,7 +3,7 @@
 //! benchmark).
 //!
 //! The no_std logic runs on a tokio current-thread runtime: tokio supplies
-//! the sockets (the [`TokioNet`] adapter) and embassy-time's std driver the
+//! the sockets (the `TokioNet` adapter) and embassy-time's std driver the
 //! timers (with a generic timer queue, so embassy timers work under tokio).
 //! One thread, one future: the same shape as one embassy task on a board.
 

@@ -209,7 +209,7 @@ impl Hub {
 
 /// The register map the Modbus sessions serve: the hub's model, read and
 /// written at the clock's time.
-pub struct PlcPort<'a, C: Clock> {
+pub(crate) struct PlcPort<'a, C: Clock> {
     /// The state.
     pub hub: &'a Hub,
     /// The time.

@@ -8,7 +8,7 @@
 //!
 //! The logic is `no_std`, allocation-free and board-independent; it runs on
 //! embassy (embassy-sync, embassy-time) over a small socket interface
-//! ([`net`]) with two adapters: tokio on Linux (feature `std`, used by the
+//! (`net`) with two adapters: tokio on Linux (feature `std`, used by the
 //! `hans-gateway` binary and the tests) and embassy-net on boards (feature
 //! `embassy-net`, entry point [`board::run`]).
 //!
@@ -18,17 +18,17 @@
 //! | [`state`] | the typed state: robot status, link, inputs, handshakes, queue, configuration |
 //! | [`registers`] | the Modbus register map, a view of the state (`map`: addresses; `view`: encode / decode) |
 //! | [`job`] | typed jobs: channel command codes, RAW and trigger texts, urgent commands, the queue |
-//! | [`plc`] | what a PLC's register write means: edges into jobs, the heartbeat, `CONFIG_COMMAND` |
+//! | `plc` | what a PLC's register write means: edges into jobs, the heartbeat, `CONFIG_COMMAND` |
 //! | [`engine`] | the rules in time: motion completion, watchdog, bring-up, status polls |
-//! | [`hub`] | the shared state and the signals between the tasks |
-//! | [`link`] | robot link: connect or listen, one request in flight, framing, reply timeout |
-//! | [`modbus`] | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
+//! | `hub` | the shared state and the signals between the tasks |
+//! | `link` | robot link: connect or listen, one request in flight, framing, reply timeout |
+//! | `modbus` | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
 //! | `datasheet` | the status from the DataSheet port (feature `datasheet`) |
 //! | [`config`] | the configuration and the table of its settings (network and allow-lists included) |
-//! | [`access`] | the web password (salted hash), web sessions, the rate limit of wrong passwords |
+//! | `access` | the web password (salted hash), web sessions, the rate limit of wrong passwords |
 //! | [`storage`] | the stored image, the storage task, RAM and flash storage |
-//! | [`clock`] | time: embassy-time on boards and Linux, a virtual clock in tests |
-//! | [`net`] | the socket interface and its adapters |
+//! | `clock` | time: embassy-time on boards and Linux, a virtual clock in tests |
+//! | `net` | the socket interface and its adapters |
 //! | `web` | the web page and its JSON API (feature `web`) |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
 //! | [`testkit`] | a virtual world for tests: clock, network, robot, PLC (feature `testkit`) |
@@ -38,15 +38,15 @@
 //! [`job::QUEUE_DEPTH`] queued commands (more end in Error 39600)
 //! plus [`job::URGENT_DEPTH`] urgent ones (one per source: never full),
 //! RAW requests of 256 characters and replies of 512 (longer replies are
-//! cut and flagged), robot replies up to [`link::REPLY_MAX`] bytes (longer:
+//! cut and flagged), robot replies up to `link::REPLY_MAX` (1 KiB) bytes (longer:
 //! Error 39502), Modbus ADUs of 260 bytes, DataSheet packets up to
 //! `datasheet::PAYLOAD_MAX` bytes (longer ones are dropped and logged).
 //!
-//! Time limits: a robot connect [`link::CONNECT_TIMEOUT`] (the
+//! Time limits: a robot connect `link::CONNECT_TIMEOUT` (the
 //! DataSheet connection too), a bring-up step [`engine::bringup::STATE_TIMEOUT`]
 //! (Error 39607), a DataSheet connection without data
 //! `datasheet::SILENCE_TIMEOUT`, a silent Modbus client
-//! [`modbus::IDLE_TIMEOUT`], and a robot reply the configured
+//! `modbus::IDLE_TIMEOUT`, and a robot reply the configured
 //! `CFG_REPLY_TIMEOUT_MS` (Error 39503).
 //!
 //! ## Stack
@@ -60,7 +60,7 @@
 //!
 //! ## Features
 //! * `std` (default): tokio adapter, `log` output, embassy-time's std driver.
-//! * `datasheet` (default): [`datasheet`], the status from the DataSheet
+//! * `datasheet` (default): `datasheet`, the status from the DataSheet
 //!   port (CFG_STATUS_SOURCE = 1; without it that value is refused).
 //! * `embassy-net`: the embassy-net adapter and [`board`].
 //! * `dhcp`: the DHCP client on boards ([`board::run`] applies `NET_DHCP`).

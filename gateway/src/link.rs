@@ -21,14 +21,14 @@ use crate::net::{NetError, Socket};
 
 /// Longest reply accepted (longer replies end the command in Error
 /// "bad reply"; the link stays up).
-pub const REPLY_MAX: usize = 1024;
+pub(crate) const REPLY_MAX: usize = 1024;
 /// Bound of one connection attempt.
-pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(3);
+pub(crate) const CONNECT_TIMEOUT: Duration = Duration::from_secs(3);
 
 /// Where the robot is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Target {
+pub(crate) enum Target {
     /// Connect to the controller.
     Connect(SocketAddrV4),
     /// Wait for the controller on this port.
@@ -40,7 +40,7 @@ pub enum Target {
 /// Why a request failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum LinkError {
+pub(crate) enum LinkError {
     /// No reply within the timeout.
     Timeout,
     /// The connection broke or was closed.
@@ -52,7 +52,7 @@ pub enum LinkError {
 /// What happened while the link was idle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum IdleEvent {
+pub(crate) enum IdleEvent {
     /// The connection was lost.
     Lost(NetError),
     /// The controller connected again; the new connection replaced the old.
@@ -60,7 +60,7 @@ pub enum IdleEvent {
 }
 
 /// The link.
-pub struct Link<S: Socket> {
+pub(crate) struct Link<S: Socket> {
     socks: [S; 2],
     cur: usize,
     up: bool,
@@ -71,7 +71,7 @@ pub struct Link<S: Socket> {
 
 impl<S: Socket> Link<S> {
     /// A link over two sockets (the second serves listen-mode reconnects).
-    pub fn new(a: S, b: S) -> Self {
+    pub(crate) fn new(a: S, b: S) -> Self {
         Link {
             socks: [a, b],
             cur: 0,
@@ -83,12 +83,12 @@ impl<S: Socket> Link<S> {
     }
 
     /// `true` while connected.
-    pub fn is_up(&self) -> bool {
+    pub(crate) fn is_up(&self) -> bool {
         self.up
     }
 
     /// The controller's address while connected.
-    pub fn peer(&self) -> Option<SocketAddrV4> {
+    pub(crate) fn peer(&self) -> Option<SocketAddrV4> {
         self.socks.get(self.cur).and_then(|s| s.remote())
     }
 
@@ -103,7 +103,11 @@ impl<S: Socket> Link<S> {
 
     /// One attempt to bring the link up: a connect bounded by
     /// [`CONNECT_TIMEOUT`], or an accept that waits as long as it is polled.
-    pub async fn establish<C: Clock>(&mut self, target: Target, clock: &C) -> Result<(), NetError> {
+    pub(crate) async fn establish<C: Clock>(
+        &mut self,
+        target: Target,
+        clock: &C,
+    ) -> Result<(), NetError> {
         match target {
             Target::None => core::future::pending().await,
             Target::Connect(addr) => {
@@ -141,14 +145,14 @@ impl<S: Socket> Link<S> {
     }
 
     /// Closes the connection (the socket can be used again).
-    pub async fn close(&mut self) {
+    pub(crate) async fn close(&mut self) {
         self.up = false;
         self.framer.reset();
         self.sock().close().await;
     }
 
     /// Closes both sockets, also one still listening (the target changed).
-    pub async fn close_all(&mut self) {
+    pub(crate) async fn close_all(&mut self) {
         self.up = false;
         self.framer.reset();
         for s in self.socks.iter_mut() {
@@ -158,7 +162,7 @@ impl<S: Socket> Link<S> {
 
     /// Sends one request and waits for its reply until `deadline`. The
     /// reply text (with its `;`) is valid until the next call.
-    pub async fn transact<C: Clock>(
+    pub(crate) async fn transact<C: Clock>(
         &mut self,
         request: &[u8],
         deadline: Instant,
@@ -221,7 +225,11 @@ impl<S: Socket> Link<S> {
 
     /// Waits while no request is in flight: returns when the connection is
     /// lost or, with `listen_port`, replaced by a new one. Cancel-safe.
-    pub async fn idle<C: Clock>(&mut self, listen_port: Option<u16>, clock: &C) -> IdleEvent {
+    pub(crate) async fn idle<C: Clock>(
+        &mut self,
+        listen_port: Option<u16>,
+        clock: &C,
+    ) -> IdleEvent {
         let cur = self.cur % 2;
         let (a, b) = self.socks.split_at_mut(1);
         let (current, spare) = match (a.first_mut(), b.first_mut()) {

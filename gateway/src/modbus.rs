@@ -47,7 +47,7 @@ use crate::registers::{self as r, AccessError, WriteError};
 /// await but its frame and its reply.
 // The futures are deliberately not `Send` (single-threaded executors).
 #[allow(async_fn_in_trait)]
-pub trait Registers {
+pub(crate) trait Registers {
     /// Reads `out.len()` registers from `start`.
     fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError>;
     /// Writes `values` from `start`: all or nothing. `Ok(Some(p))`: stored,
@@ -67,12 +67,12 @@ pub trait Registers {
 /// configuration command).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Pending(pub u16);
+pub(crate) struct Pending(pub u16);
 
 /// The answer to a write that waits for [`Registers::settle`]: what it
 /// will be if the write succeeds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Deferred {
+pub(crate) struct Deferred {
     hdr: Header,
     fc: u8,
     ok: DeferredOk,
@@ -90,7 +90,7 @@ enum DeferredOk {
 
 /// How a request is answered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Answer {
+pub(crate) enum Answer {
     /// The reply is in the output buffer: its length.
     Now(usize),
     /// The reply waits for the write's pending work: see [`finish`].
@@ -98,14 +98,14 @@ pub enum Answer {
 }
 
 /// Longest ADU: 7-byte MBAP header + 253-byte PDU.
-pub const MAX_ADU: usize = 260;
+pub(crate) const MAX_ADU: usize = 260;
 /// An exception reply: 7-byte MBAP header, function code, exception code.
 const EXCEPTION_ADU: usize = 9;
 /// A client that sends nothing for this long is disconnected.
-pub const IDLE_TIMEOUT: Duration = Duration::from_secs(120);
+pub(crate) const IDLE_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// Serves Modbus clients on `port`, one after the other, forever.
-pub async fn session<S: Socket, C: Clock, R: Registers>(
+pub(crate) async fn session<S: Socket, C: Clock, R: Registers>(
     regs: &R,
     clock: &C,
     mut sock: S,
@@ -152,7 +152,7 @@ pub async fn session<S: Socket, C: Clock, R: Registers>(
 
 /// Serves one client until it leaves, falls silent or sends what is not
 /// Modbus TCP.
-pub async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C, sock: &mut S) {
+pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C, sock: &mut S) {
     let mut buf = [0u8; MAX_ADU];
     let mut out = [0u8; MAX_ADU];
     let mut len = 0usize;
@@ -303,7 +303,7 @@ fn exception(e: WriteError) -> Exception {
 }
 
 /// Answers one complete ADU; `None` if nothing can be answered.
-pub fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Option<Answer> {
+pub(crate) fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Option<Answer> {
     let pdu_len = adu.len().checked_sub(7)?;
     let frame = modbus_core::tcp::extract_frame(adu, pdu_len).ok()??;
     let hdr = Header {
@@ -336,7 +336,7 @@ pub fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Option<Answ
 }
 
 /// Waits for a write's pending work, then writes its answer into `out`.
-pub async fn finish<R: Registers>(
+pub(crate) async fn finish<R: Registers>(
     regs: &R,
     p: Pending,
     d: Deferred,

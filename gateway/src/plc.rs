@@ -25,7 +25,7 @@ use crate::state::Model;
 
 /// Acts on the events of one write; `true` if a job was queued (the engine
 /// has work).
-pub fn apply(m: &mut Model, ev: &PlcEvents, now: Instant) -> bool {
+pub(crate) fn apply(m: &mut Model, ev: &PlcEvents, now: Instant) -> bool {
     if ev.heartbeat {
         m.plc.last_beat = now;
         m.plc.watchdog_tripped = false;
@@ -92,7 +92,7 @@ fn build(m: &Model, source: Source) -> (u16, u16, Result<Job, GatewayError>) {
 
 /// A rising edge at `now`: fires the source unless it is Busy. `true` if
 /// queued.
-pub fn fire(m: &mut Model, source: Source, now: Instant) -> bool {
+pub(crate) fn fire(m: &mut Model, source: Source, now: Instant) -> bool {
     if m.is_busy(source) {
         // PLCopen: a new edge while Busy is ignored.
         return false;
@@ -121,7 +121,7 @@ pub fn fire(m: &mut Model, source: Source, now: Instant) -> bool {
 /// What a configuration command asks of the caller next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ConfigStep {
+pub(crate) enum ConfigStep {
     /// Done (discard, defaults): nothing more.
     Done,
     /// The edit holds an invalid value: nothing applied (exception 03).
@@ -135,7 +135,7 @@ pub enum ConfigStep {
 /// A refused apply leaves the edit as it is (`CONFIG_BAD_ADDR` names the
 /// register to fix); every later apply is refused until it is fixed or
 /// discarded (2).
-pub fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
+pub(crate) fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
     let c = &mut m.config;
     match cmd {
         1 => match c

@@ -14,5 +14,7 @@
 //! The threat model (what this protects against on a plant network, and
 //! what it does not) is in the top-level README.
 
-pub mod password;
-pub mod session;
+pub(crate) mod password;
+// Sessions and the rate limit serve the web page only.
+#[cfg(feature = "web")]
+pub(crate) mod session;

@@ -13,24 +13,26 @@ use hmac::{KeyInit, Mac};
 type HmacSha256 = hmac::Hmac<sha2::Sha256>;
 
 /// Bytes of salt.
-pub const SALT_LEN: usize = 16;
+pub(crate) const SALT_LEN: usize = 16;
 /// Bytes of the derived hash.
-pub const HASH_LEN: usize = 32;
+pub(crate) const HASH_LEN: usize = 32;
 /// PBKDF2 rounds for new passwords (a stored hash keeps its own count).
-pub const ITERATIONS: u32 = 10_000;
+pub(crate) const ITERATIONS: u32 = 10_000;
 /// Rounds between two yields to the executor.
-pub const YIELD_EVERY: u32 = 200;
+pub(crate) const YIELD_EVERY: u32 = 200;
 /// Shortest password accepted.
-pub const MIN_LEN: usize = 8;
+#[cfg(feature = "web")]
+pub(crate) const MIN_LEN: usize = 8;
 /// Longest password accepted.
-pub const MAX_LEN: usize = 64;
+pub(crate) const MAX_LEN: usize = 64;
 /// Bytes of [`PasswordHash::to_bytes`].
-pub const STORED_LEN: usize = 4 + SALT_LEN + HASH_LEN;
+pub(crate) const STORED_LEN: usize = 4 + SALT_LEN + HASH_LEN;
 
 /// Why a new password is refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum PasswordError {
+#[cfg(feature = "web")]
+pub(crate) enum PasswordError {
     /// Shorter than [`MIN_LEN`] characters.
     TooShort,
     /// Longer than [`MAX_LEN`] characters.
@@ -39,9 +41,10 @@ pub enum PasswordError {
     NotPrintable,
 }
 
+#[cfg(feature = "web")]
 impl PasswordError {
     /// A text for the page.
-    pub fn as_str(self) -> &'static str {
+    pub(crate) fn as_str(self) -> &'static str {
         match self {
             PasswordError::TooShort => "at least 8 characters",
             PasswordError::TooLong => "at most 64 characters",
@@ -51,7 +54,8 @@ impl PasswordError {
 }
 
 /// Checks a new password against the rules.
-pub fn check_new(password: &[u8]) -> Result<(), PasswordError> {
+#[cfg(feature = "web")]
+pub(crate) fn check_new(password: &[u8]) -> Result<(), PasswordError> {
     if password.len() < MIN_LEN {
         return Err(PasswordError::TooShort);
     }
@@ -99,7 +103,7 @@ impl PasswordHash {
     }
 
     /// The stored form: rounds (little-endian), salt, hash.
-    pub fn to_bytes(&self) -> [u8; STORED_LEN] {
+    pub fn to_bytes(self) -> [u8; STORED_LEN] {
         let mut out = [0u8; STORED_LEN];
         let (it, rest) = out.split_at_mut(4);
         it.copy_from_slice(&self.iterations.to_le_bytes());
@@ -129,7 +133,7 @@ impl PasswordHash {
 
 /// PBKDF2-HMAC-SHA256 with one 32-byte block (RFC 8018, 5.2), yielding
 /// every [`YIELD_EVERY`] rounds.
-pub async fn derive(password: &[u8], salt: &[u8], iterations: u32) -> [u8; HASH_LEN] {
+pub(crate) async fn derive(password: &[u8], salt: &[u8], iterations: u32) -> [u8; HASH_LEN] {
     // HMAC accepts keys of any length (longer ones are hashed first).
     let Ok(prf) = HmacSha256::new_from_slice(password) else {
         return [0; HASH_LEN];

@@ -18,19 +18,19 @@ use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha20Rng;
 
 /// Sessions open at once.
-pub const SESSIONS: usize = 4;
+pub(crate) const SESSIONS: usize = 4;
 /// A session unused this long ends.
-pub const IDLE: Duration = Duration::from_secs(15 * 60);
+pub(crate) const IDLE: Duration = Duration::from_secs(15 * 60);
 /// Wrong passwords in a row before the waits begin.
-pub const FREE_TRIES: u32 = 3;
+pub(crate) const FREE_TRIES: u32 = 3;
 /// The longest wait between two attempts.
-pub const MAX_WAIT: Duration = Duration::from_secs(300);
+pub(crate) const MAX_WAIT: Duration = Duration::from_secs(300);
 /// Characters of a token in text (hex).
-pub const TOKEN_CHARS: usize = 32;
+pub(crate) const TOKEN_CHARS: usize = 32;
 
 /// A session token.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub struct Token([u8; 16]);
+pub(crate) struct Token([u8; 16]);
 
 impl core::fmt::Debug for Token {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -41,7 +41,7 @@ impl core::fmt::Debug for Token {
 
 impl Token {
     /// The token as 32 lowercase hex characters.
-    pub fn to_hex(&self) -> [u8; TOKEN_CHARS] {
+    pub(crate) fn to_hex(self) -> [u8; TOKEN_CHARS] {
         const HEX: &[u8; 16] = b"0123456789abcdef";
         let mut out = [0u8; TOKEN_CHARS];
         for (pair, b) in out.chunks_exact_mut(2).zip(self.0) {
@@ -55,7 +55,7 @@ impl Token {
     }
 
     /// Reads 32 hex characters.
-    pub fn from_hex(s: &[u8]) -> Option<Token> {
+    pub(crate) fn from_hex(s: &[u8]) -> Option<Token> {
         if s.len() != TOKEN_CHARS {
             return None;
         }
@@ -84,7 +84,7 @@ impl Token {
 
 /// The open sessions, the random generator behind tokens and salts, and
 /// the rate limit of wrong passwords.
-pub struct Sessions {
+pub(crate) struct Sessions {
     open: [Option<(Token, Instant)>; SESSIONS],
     rng: ChaCha20Rng,
     failures: u32,
@@ -95,7 +95,7 @@ impl Sessions {
     /// No session open; tokens and salts come from a ChaCha20 generator
     /// seeded with `seed` (from the board's random source: it must be
     /// unpredictable for the tokens to be).
-    pub fn new(seed: [u8; 32]) -> Self {
+    pub(crate) fn new(seed: [u8; 32]) -> Self {
         Sessions {
             open: [None; SESSIONS],
             rng: ChaCha20Rng::from_seed(seed),
@@ -105,7 +105,7 @@ impl Sessions {
     }
 
     /// Random bytes (salts).
-    pub fn random<const N: usize>(&mut self) -> [u8; N] {
+    pub(crate) fn random<const N: usize>(&mut self) -> [u8; N] {
         let mut b = [0u8; N];
         self.rng.fill_bytes(&mut b);
         b
@@ -113,7 +113,7 @@ impl Sessions {
 
     /// Opens a session at `now` (replacing the least recently used one if
     /// all are open).
-    pub fn open(&mut self, now: Instant) -> Token {
+    pub(crate) fn open(&mut self, now: Instant) -> Token {
         let token = Token(self.random());
         self.expire(now);
         let slot = self
@@ -137,7 +137,7 @@ impl Sessions {
     }
 
     /// `true` if `token` is an open session (and marks it used at `now`).
-    pub fn check(&mut self, token: &Token, now: Instant) -> bool {
+    pub(crate) fn check(&mut self, token: &Token, now: Instant) -> bool {
         self.expire(now);
         for (t, used) in self.open.iter_mut().flatten() {
             if t.same(token) {
@@ -151,7 +151,7 @@ impl Sessions {
     /// `true` if `token` is an open session at `now`, without counting
     /// this as a use (a page that only looks must not keep a session
     /// alive).
-    pub fn peek(&self, token: &Token, now: Instant) -> bool {
+    pub(crate) fn peek(&self, token: &Token, now: Instant) -> bool {
         self.open
             .iter()
             .flatten()
@@ -159,7 +159,7 @@ impl Sessions {
     }
 
     /// Ends the session of `token`.
-    pub fn close(&mut self, token: &Token) {
+    pub(crate) fn close(&mut self, token: &Token) {
         for s in self.open.iter_mut() {
             if s.is_some_and(|(t, _)| t.same(token)) {
                 *s = None;
@@ -168,7 +168,7 @@ impl Sessions {
     }
 
     /// Ends every session (the password changed).
-    pub fn close_all(&mut self) {
+    pub(crate) fn close_all(&mut self) {
         self.open = [None; SESSIONS];
     }
 
@@ -189,7 +189,7 @@ impl Sessions {
 
     /// May a password be checked at `now`? `Err(wait)`: not before `wait`
     /// has passed.
-    pub fn may_try(&self, now: Instant) -> Result<(), Duration> {
+    pub(crate) fn may_try(&self, now: Instant) -> Result<(), Duration> {
         if now < self.blocked_until {
             Err(self.blocked_until - now)
         } else {
@@ -198,7 +198,7 @@ impl Sessions {
     }
 
     /// A wrong password at `now`.
-    pub fn failed(&mut self, now: Instant) {
+    pub(crate) fn failed(&mut self, now: Instant) {
         self.failures = self.failures.saturating_add(1);
         if self.failures > FREE_TRIES {
             let doublings = (self.failures - FREE_TRIES - 1).min(16);
@@ -208,7 +208,7 @@ impl Sessions {
     }
 
     /// A correct password: the count starts again.
-    pub fn succeeded(&mut self) {
+    pub(crate) fn succeeded(&mut self) {
         self.failures = 0;
         self.blocked_until = Instant::from_ticks(0);
     }

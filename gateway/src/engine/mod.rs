@@ -1,7 +1,7 @@
 //! The command engine: the only user of the robot link.
 //!
 //! Its rules live in the submodules, each testable alone:
-//! [`plc`] (what the PLC's writes do), [`motion`] (when a motion is Done),
+//! `crate::plc` (what the PLC's writes do), [`motion`] (when a motion is Done),
 //! [`watchdog`], [`bringup`] (Power on, Enable), [`poll`] (the status
 //! reads). This module runs them in time: one step at a time, chosen by
 //! `Engine::choose` in a fixed priority order:

@@ -43,7 +43,7 @@
 //!   array of its byte values, so that a save loses nothing.
 //! * The password is `"pbkdf2-sha256$ROUNDS$SALT$HASH"` (salt 16 bytes and
 //!   hash 32 bytes, in hex): PBKDF2-HMAC-SHA256 of the password, never the
-//!   password itself ([`crate::access::password`]). Set or change it on the
+//!   password itself (`access::password`). Set or change it on the
 //!   web page; delete the line to remove it.
 //! * A save rewrites the whole file ([`render`]) with every key and a
 //!   comment naming its register and range. Comments written by hand are

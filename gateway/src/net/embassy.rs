@@ -15,19 +15,19 @@ use super::{Net, NetError, Socket};
 
 /// An embassy-net stack as the gateway's network.
 #[derive(Clone, Copy)]
-pub struct EmbassyNet<'d> {
+pub(crate) struct EmbassyNet<'d> {
     stack: Stack<'d>,
 }
 
 impl<'d> EmbassyNet<'d> {
     /// Wraps the board's stack.
-    pub fn new(stack: Stack<'d>) -> Self {
+    pub(crate) fn new(stack: Stack<'d>) -> Self {
         EmbassyNet { stack }
     }
 }
 
 /// An embassy-net TCP socket.
-pub struct EmbassySocket<'a> {
+pub(crate) struct EmbassySocket<'a> {
     socket: TcpSocket<'a>,
 }
 

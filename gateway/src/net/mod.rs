@@ -14,9 +14,9 @@
 use core::net::SocketAddrV4;
 
 #[cfg(feature = "embassy-net")]
-pub mod embassy;
+pub(crate) mod embassy;
 #[cfg(feature = "std")]
-pub mod tokio;
+pub(crate) mod tokio;
 
 /// Why a socket operation failed. Every failure ends the connection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

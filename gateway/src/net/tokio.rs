@@ -22,7 +22,7 @@ use tokio::net::{TcpListener, TcpStream};
 use super::{Net, NetError, Socket};
 
 /// Tokio networking for the gateway.
-pub struct TokioNet {
+pub(crate) struct TokioNet {
     bind_ip: core::net::Ipv4Addr,
     listeners: RefCell<Vec<(u16, Rc<TcpListener>)>>,
 }
@@ -30,7 +30,7 @@ pub struct TokioNet {
 impl TokioNet {
     /// A stack whose on-demand listeners bind to `bind_ip` (use
     /// `127.0.0.1` in tests).
-    pub fn new(bind_ip: core::net::Ipv4Addr) -> Self {
+    pub(crate) fn new(bind_ip: core::net::Ipv4Addr) -> Self {
         TokioNet {
             bind_ip,
             listeners: RefCell::new(Vec::new()),
@@ -39,7 +39,7 @@ impl TokioNet {
 
     /// Binds `addr` now and returns the port bound (useful with port 0).
     /// Sockets then accept on that port.
-    pub async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
+    pub(crate) async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
         let l = TcpListener::bind(addr).await?;
         let port = l.local_addr()?.port();
         self.listeners.borrow_mut().push((port, Rc::new(l)));
@@ -63,7 +63,7 @@ impl TokioNet {
 }
 
 /// A tokio TCP stream slot.
-pub struct TokioSocket<'a> {
+pub(crate) struct TokioSocket<'a> {
     net: &'a TokioNet,
     stream: Option<TcpStream>,
 }

@@ -342,7 +342,7 @@ pub fn read_into(m: &Model, start: u16, out: &mut [u16], now: Instant) -> Result
 /// Stores a write of `values` from `start` in the model (all or nothing:
 /// unmapped or read-only addresses refuse the whole write, and so does a
 /// `CONFIG_COMMAND` above 3) and returns what it asks for. The events are
-/// for [`crate::plc`] to act on.
+/// for `crate::plc` to act on.
 pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, WriteError> {
     let count = u16::try_from(values.len()).map_err(|_| WriteError::Value)?;
     r::check(start, count, true)?;

@@ -7,7 +7,7 @@
 //! web page's JSON) read the same values without knowing any register.
 //!
 //! The rules that change it live with their concerns: what a PLC event does
-//! in [`crate::plc`], what the robot's replies do in
+//! in `crate::plc`, what the robot's replies do in
 //! [`crate::engine`]. The methods here keep the handshakes consistent
 //! (Busy, then exactly one outcome).
 

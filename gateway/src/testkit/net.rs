@@ -1,4 +1,4 @@
-//! An in-memory TCP network for the gateway's [`Net`] interface.
+//! An in-memory TCP network for the gateway's `Net` interface.
 //!
 //! The gateway's sockets ([`SimSocket`]) connect, accept, read and write
 //! as on a real stack; the test's side of a connection is a [`SimStream`]

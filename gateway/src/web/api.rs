@@ -36,7 +36,7 @@ use crate::state::{
 
 /// A JSON document of the API.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Doc {
+pub(crate) enum Doc {
     /// `/api/status`: the live state.
     Status,
     /// `/api/config`: the settings (as text) and the trigger entries.
@@ -58,7 +58,7 @@ const VERSION: &str = env!("CARGO_PKG_VERSION");
 /// largest is what the connection must hold anyway.
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)]
-pub enum Snapshot {
+pub(crate) enum Snapshot {
     /// For `/api/status`.
     Status(StatusSnapshot),
     /// For `/api/config`.
@@ -74,7 +74,7 @@ pub enum Snapshot {
 
 /// What `/api/status` shows.
 #[derive(Clone, Debug)]
-pub struct StatusSnapshot {
+pub(crate) struct StatusSnapshot {
     now: Instant,
     ticks: u16,
     link: LinkStatus,
@@ -110,14 +110,14 @@ pub struct StatusSnapshot {
 
 /// What `/api/config` shows.
 #[derive(Clone, Debug)]
-pub struct ConfigSnapshot {
+pub(crate) struct ConfigSnapshot {
     config: Config,
     triggers: [Text<TRIGGER_TEXT>; TRIGGERS],
 }
 
 /// What `/api/log` shows.
 #[derive(Clone, Debug)]
-pub struct LogSnapshot {
+pub(crate) struct LogSnapshot {
     now: Instant,
     total: u32,
     entries: heapless::Vec<LogEntry, LOG_LEN>,
@@ -128,7 +128,7 @@ impl Snapshot {
     /// snapshot: the one moment, under the state's lock. Written in place,
     /// field by field, so that no copy of a snapshot passes through the
     /// stack.
-    pub fn take(&mut self, doc: Doc, m: &Model, now: Instant) {
+    pub(crate) fn take(&mut self, doc: Doc, m: &Model, now: Instant) {
         match doc {
             Doc::Status => {
                 if !matches!(self, Snapshot::Status(_)) {
@@ -173,7 +173,7 @@ impl Snapshot {
     }
 
     /// Writes the document.
-    pub fn render(&self, v: Value<'_, '_>) {
+    pub(crate) fn render(&self, v: Value<'_, '_>) {
         match self {
             Snapshot::Status(s) => s.render(v),
             Snapshot::Config(c) => c.render(v),
@@ -186,7 +186,7 @@ impl Snapshot {
 
     /// The document's length in bytes, or `Err` if a value in it could
     /// not be written (then it must not be sent).
-    pub fn measure(&self) -> Result<usize, Full> {
+    pub(crate) fn measure(&self) -> Result<usize, Full> {
         let mut out = Out::new(&mut []);
         self.render(out.value());
         if out.failed() {
@@ -197,7 +197,7 @@ impl Snapshot {
 
     /// Writes the document's bytes from byte `at` on into `buf`, as many
     /// as fit: the number written (0 at the end).
-    pub fn window(&self, at: usize, buf: &mut [u8]) -> usize {
+    pub(crate) fn window(&self, at: usize, buf: &mut [u8]) -> usize {
         let mut out = Out::window(buf, at);
         self.render(out.value());
         out.written().len()
@@ -284,7 +284,7 @@ impl StatusSnapshot {
 }
 
 /// The name of a phase.
-pub fn phase_name(p: Phase) -> &'static str {
+pub(crate) fn phase_name(p: Phase) -> &'static str {
     match p {
         Phase::Idle => "idle",
         Phase::Queued => "queued",

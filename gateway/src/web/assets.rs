@@ -3,4 +3,4 @@
 //! no external resource (a plant network has no internet).
 
 /// `index.html`, gzip-compressed.
-pub static INDEX_HTML_GZ: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.html.gz"));
+pub(crate) static INDEX_HTML_GZ: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/index.html.gz"));

@@ -20,11 +20,11 @@ use crate::clock::Clock;
 use crate::net::{NetError, Socket};
 
 /// Bytes the write half collects before writing to the socket.
-pub const WRITE_BUF: usize = 512;
+pub(crate) const WRITE_BUF: usize = 512;
 
 /// Why a web connection's socket failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum IoError {
+pub(crate) enum IoError {
     /// The socket failed.
     Net(NetError),
     /// Both halves were used at once.
@@ -54,10 +54,10 @@ impl embedded_io_async::Error for IoError {
 }
 
 /// The marker of the gateway's runtime for picoserve's traits.
-pub struct GatewayRuntime;
+pub(crate) struct GatewayRuntime;
 
 /// picoserve's timer over the gateway's [`Clock`] (virtual time in tests).
-pub struct ClockTimer<'c, C: Clock>(pub &'c C);
+pub(crate) struct ClockTimer<'c, C: Clock>(pub &'c C);
 
 impl<C: Clock> picoserve::Timer<GatewayRuntime> for ClockTimer<'_, C> {
     fn delay(&self, duration: picoserve::time::Duration) -> impl Future<Output = ()> {
@@ -67,13 +67,13 @@ impl<C: Clock> picoserve::Timer<GatewayRuntime> for ClockTimer<'_, C> {
 }
 
 /// A connected socket, as picoserve sees it.
-pub struct Conn<'s, S: Socket> {
+pub(crate) struct Conn<'s, S: Socket> {
     sock: RefCell<&'s mut S>,
 }
 
 impl<'s, S: Socket> Conn<'s, S> {
     /// Wraps a connected socket.
-    pub fn new(sock: &'s mut S) -> Self {
+    pub(crate) fn new(sock: &'s mut S) -> Self {
         Conn {
             sock: RefCell::new(sock),
         }
@@ -81,10 +81,10 @@ impl<'s, S: Socket> Conn<'s, S> {
 }
 
 /// The read half.
-pub struct ReadHalf<'c, 's, S: Socket>(&'c RefCell<&'s mut S>);
+pub(crate) struct ReadHalf<'c, 's, S: Socket>(&'c RefCell<&'s mut S>);
 
 /// The write half, with its buffer.
-pub struct WriteHalf<'c, 's, S: Socket> {
+pub(crate) struct WriteHalf<'c, 's, S: Socket> {
     sock: &'c RefCell<&'s mut S>,
     buf: [u8; WRITE_BUF],
     len: usize,

@@ -47,16 +47,16 @@
 use core::net::{Ipv4Addr, SocketAddrV4};
 
 /// Bytes of a small answer ([`Json`]).
-pub const ANSWER: usize = 1024;
+pub(crate) const ANSWER: usize = 1024;
 
 /// A buffer ran out (a small answer), or a value could not be written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Full;
+pub(crate) struct Full;
 
 /// Where a document's bytes go: from byte `skip` on into a slice while it
 /// has room; all bytes are counted.
 #[derive(Debug)]
-pub struct Out<'b> {
+pub(crate) struct Out<'b> {
     buf: &'b mut [u8],
     len: usize,
     skip: usize,
@@ -67,12 +67,12 @@ pub struct Out<'b> {
 
 impl<'b> Out<'b> {
     /// Bytes go into `buf`, from the document's first byte on.
-    pub fn new(buf: &'b mut [u8]) -> Self {
+    pub(crate) fn new(buf: &'b mut [u8]) -> Self {
         Out::window(buf, 0)
     }
 
     /// Bytes from the document's byte `skip` on go into `buf`.
-    pub fn window(buf: &'b mut [u8], skip: usize) -> Self {
+    pub(crate) fn window(buf: &'b mut [u8], skip: usize) -> Self {
         Out {
             buf,
             len: 0,
@@ -84,17 +84,17 @@ impl<'b> Out<'b> {
     }
 
     /// The document's value.
-    pub fn value(&mut self) -> Value<'_, 'b> {
+    pub(crate) fn value(&mut self) -> Value<'_, 'b> {
         Value { out: self }
     }
 
     /// The bytes that went into the slice.
-    pub fn written(&self) -> &[u8] {
+    pub(crate) fn written(&self) -> &[u8] {
         self.buf.get(..self.len).unwrap_or(&[])
     }
 
     /// Bytes of the document so far (those skipped, stored and dropped).
-    pub fn total(&self) -> usize {
+    pub(crate) fn total(&self) -> usize {
         self.total
     }
 
@@ -106,7 +106,7 @@ impl<'b> Out<'b> {
 
     /// Everything fit into the slice, and every value could be written:
     /// the number of bytes stored.
-    pub fn result(&self) -> Result<usize, Full> {
+    pub(crate) fn result(&self) -> Result<usize, Full> {
         if self.dropped || self.failed {
             Err(Full)
         } else {
@@ -116,12 +116,12 @@ impl<'b> Out<'b> {
 
     /// A value could not be written (the document is not what it should
     /// be): [`Out::result`] and [`Out::failed`] report it.
-    pub fn fail(&mut self) {
+    pub(crate) fn fail(&mut self) {
         self.failed = true;
     }
 
     /// See [`Out::fail`].
-    pub fn failed(&self) -> bool {
+    pub(crate) fn failed(&self) -> bool {
         self.failed
     }
 
@@ -198,28 +198,28 @@ impl<'b> Out<'b> {
 /// The place of one JSON value: a document's, a key's or an array item's.
 /// Takes exactly one value.
 #[must_use = "a key or item needs its value"]
-pub struct Value<'o, 'b> {
+pub(crate) struct Value<'o, 'b> {
     out: &'o mut Out<'b>,
 }
 
 impl<'o, 'b> Value<'o, 'b> {
     /// `null`.
-    pub fn null(self) {
+    pub(crate) fn null(self) {
         self.out.put(b"null");
     }
 
     /// `true` or `false`.
-    pub fn bool(self, v: bool) {
+    pub(crate) fn bool(self, v: bool) {
         self.out.put(if v { b"true" } else { b"false" });
     }
 
     /// An unsigned integer.
-    pub fn uint(self, v: u64) {
+    pub(crate) fn uint(self, v: u64) {
         self.out.uint(v);
     }
 
     /// A signed integer.
-    pub fn int(self, v: i64) {
+    pub(crate) fn int(self, v: i64) {
         if v < 0 {
             self.out.put(b"-");
         }
@@ -228,7 +228,7 @@ impl<'o, 'b> Value<'o, 'b> {
 
     /// A number with three decimals (`null` for NaN and infinities,
     /// magnitudes above 1e12 clamped).
-    pub fn fixed3(self, v: f32) {
+    pub(crate) fn fixed3(self, v: f32) {
         if !v.is_finite() {
             return self.null();
         }
@@ -255,26 +255,26 @@ impl<'o, 'b> Value<'o, 'b> {
     }
 
     /// A string (ASCII; other bytes as `?`).
-    pub fn str(self, s: &[u8]) {
+    pub(crate) fn str(self, s: &[u8]) {
         self.out.string(s);
     }
 
     /// A string written in pieces by `f` (`"HR5.50.3"`).
-    pub fn text(self, f: impl FnOnce(&mut Text<'_, 'b>)) {
+    pub(crate) fn text(self, f: impl FnOnce(&mut Text<'_, 'b>)) {
         self.out.put(b"\"");
         f(&mut Text { out: self.out });
         self.out.put(b"\"");
     }
 
     /// An address `"a.b.c.d"`.
-    pub fn ip(self, ip: Ipv4Addr) {
+    pub(crate) fn ip(self, ip: Ipv4Addr) {
         self.out.put(b"\"");
         self.out.ip(ip);
         self.out.put(b"\"");
     }
 
     /// An endpoint `"a.b.c.d:port"`.
-    pub fn endpoint(self, e: SocketAddrV4) {
+    pub(crate) fn endpoint(self, e: SocketAddrV4) {
         self.out.put(b"\"");
         self.out.ip(*e.ip());
         self.out.put(b":");
@@ -283,7 +283,7 @@ impl<'o, 'b> Value<'o, 'b> {
     }
 
     /// `null` for `None`, else what `f` writes (`v.opt(age, Value::uint)`).
-    pub fn opt<T>(self, v: Option<T>, f: impl FnOnce(Self, T)) {
+    pub(crate) fn opt<T>(self, v: Option<T>, f: impl FnOnce(Self, T)) {
         match v {
             Some(x) => f(self, x),
             None => self.null(),
@@ -291,7 +291,7 @@ impl<'o, 'b> Value<'o, 'b> {
     }
 
     /// An object whose members `f` writes.
-    pub fn object(self, f: impl FnOnce(&mut Object<'_, 'b>)) {
+    pub(crate) fn object(self, f: impl FnOnce(&mut Object<'_, 'b>)) {
         self.out.put(b"{");
         f(&mut Object {
             out: self.out,
@@ -301,7 +301,7 @@ impl<'o, 'b> Value<'o, 'b> {
     }
 
     /// An array whose items `f` writes.
-    pub fn array(self, f: impl FnOnce(&mut Array<'_, 'b>)) {
+    pub(crate) fn array(self, f: impl FnOnce(&mut Array<'_, 'b>)) {
         self.out.put(b"[");
         f(&mut Array {
             out: self.out,
@@ -312,21 +312,21 @@ impl<'o, 'b> Value<'o, 'b> {
 
     /// The writer, to report a value that cannot be written
     /// ([`Out::fail`]) in place of this one (`null` is written).
-    pub fn fail(self) {
+    pub(crate) fn fail(self) {
         self.out.fail();
         self.null();
     }
 }
 
 /// The members of an object being written.
-pub struct Object<'o, 'b> {
+pub(crate) struct Object<'o, 'b> {
     out: &'o mut Out<'b>,
     first: bool,
 }
 
 impl<'b> Object<'_, 'b> {
     /// The next member `"k":`; its value goes into what this returns.
-    pub fn key(&mut self, k: &str) -> Value<'_, 'b> {
+    pub(crate) fn key(&mut self, k: &str) -> Value<'_, 'b> {
         self.out.sep(&mut self.first);
         self.out.string(k.as_bytes());
         self.out.put(b":");
@@ -335,33 +335,33 @@ impl<'b> Object<'_, 'b> {
 }
 
 /// The items of an array being written.
-pub struct Array<'o, 'b> {
+pub(crate) struct Array<'o, 'b> {
     out: &'o mut Out<'b>,
     first: bool,
 }
 
 impl<'b> Array<'_, 'b> {
     /// The next item; its value goes into what this returns.
-    pub fn item(&mut self) -> Value<'_, 'b> {
+    pub(crate) fn item(&mut self) -> Value<'_, 'b> {
         self.out.sep(&mut self.first);
         Value { out: self.out }
     }
 }
 
 /// The inside of a string being written in pieces ([`Value::text`]).
-pub struct Text<'o, 'b> {
+pub(crate) struct Text<'o, 'b> {
     out: &'o mut Out<'b>,
 }
 
 impl Text<'_, '_> {
     /// Characters (escaped as [`Value::str`]'s).
-    pub fn str(&mut self, s: &[u8]) -> &mut Self {
+    pub(crate) fn str(&mut self, s: &[u8]) -> &mut Self {
         self.out.escaped(s);
         self
     }
 
     /// An unsigned integer's digits.
-    pub fn uint(&mut self, v: u64) -> &mut Self {
+    pub(crate) fn uint(&mut self, v: u64) -> &mut Self {
         self.out.uint(v);
         self
     }
@@ -370,7 +370,7 @@ impl Text<'_, '_> {
 /// A small JSON answer in a fixed buffer of [`ANSWER`] bytes (errors,
 /// session state, the results of a post).
 #[derive(Debug)]
-pub struct Json {
+pub(crate) struct Json {
     buf: [u8; ANSWER],
     len: usize,
 }
@@ -383,7 +383,7 @@ impl Default for Json {
 
 impl Json {
     /// An empty answer.
-    pub const fn new() -> Self {
+    pub(crate) const fn new() -> Self {
         Json {
             buf: [0; ANSWER],
             len: 0,
@@ -391,17 +391,16 @@ impl Json {
     }
 
     /// The answer `f` writes as one value (`Err` if it does not fit).
-    pub fn value(f: impl FnOnce(Value<'_, '_>)) -> Result<Json, Full> {
+    pub(crate) fn value(f: impl FnOnce(Value<'_, '_>)) -> Result<Json, Full> {
         let mut j = Json::new();
         j.append(|out| f(out.value()))?;
         Ok(j)
     }
 
     /// What was written.
-    pub fn as_bytes(&self) -> &[u8] {
+    pub(crate) fn as_bytes(&self) -> &[u8] {
         self.buf.get(..self.len).unwrap_or(&[])
     }
-
 
     /// Appends what `f` writes, all of it or (`Err`) nothing.
     fn append(&mut self, f: impl FnOnce(&mut Out<'_>)) -> Result<&mut Self, Full> {
@@ -416,12 +415,12 @@ impl Json {
     // structured writer (the separators are the caller's there).
 
     /// Literal JSON (punctuation, keys written by the caller).
-    pub fn raw(&mut self, s: &str) -> Result<&mut Self, Full> {
+    pub(crate) fn raw(&mut self, s: &str) -> Result<&mut Self, Full> {
         self.append(|o| o.put(s.as_bytes()))
     }
 
     /// `"key":`.
-    pub fn key(&mut self, k: &str) -> Result<&mut Self, Full> {
+    pub(crate) fn key(&mut self, k: &str) -> Result<&mut Self, Full> {
         self.append(|o| {
             o.string(k.as_bytes());
             o.put(b":");
@@ -429,21 +428,19 @@ impl Json {
     }
 
     /// A string value (ASCII; other bytes as `?`).
-    pub fn str(&mut self, s: &[u8]) -> Result<&mut Self, Full> {
+    pub(crate) fn str(&mut self, s: &[u8]) -> Result<&mut Self, Full> {
         self.append(|o| o.value().str(s))
     }
 
     /// An unsigned integer.
-    pub fn uint(&mut self, v: u64) -> Result<&mut Self, Full> {
+    pub(crate) fn uint(&mut self, v: u64) -> Result<&mut Self, Full> {
         self.append(|o| o.value().uint(v))
     }
 
-
     /// `true` or `false`.
-    pub fn bool(&mut self, v: bool) -> Result<&mut Self, Full> {
+    pub(crate) fn bool(&mut self, v: bool) -> Result<&mut Self, Full> {
         self.append(|o| o.value().bool(v))
     }
-
 }
 
 #[cfg(test)]

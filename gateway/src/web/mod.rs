@@ -24,11 +24,11 @@
 //!   closed at once, counted); every change needs a session opened with
 //!   the password ([`crate::access`]).
 
-pub mod api;
-pub mod assets;
-pub mod io;
-pub mod json;
-pub mod post;
+pub(crate) mod api;
+pub(crate) mod assets;
+pub(crate) mod io;
+pub(crate) mod json;
+pub(crate) mod post;
 
 use core::cell::RefCell;
 use core::convert::Infallible;
@@ -52,18 +52,18 @@ use io::{ClockTimer, Conn};
 use json::Json;
 
 /// Web connections served at once.
-pub const WEB_CONNECTIONS: usize = 3;
+pub(crate) const WEB_CONNECTIONS: usize = 3;
 /// Bytes of a request: line, headers and body (a configuration import of
 /// every setting and sixteen full trigger entries takes ~4.5 KiB).
-pub const HTTP_BUF: usize = 6144;
+pub(crate) const HTTP_BUF: usize = 6144;
 /// Socket receive buffer of a web connection.
-pub const WEB_RX: usize = 1024;
+pub(crate) const WEB_RX: usize = 1024;
 /// Socket send buffer of a web connection.
-pub const WEB_TX: usize = 2048;
+pub(crate) const WEB_TX: usize = 2048;
 /// Bytes of the window a JSON document is sent through (see [`api`]).
-pub const WINDOW: usize = 1024;
+pub(crate) const WINDOW: usize = 1024;
 /// Name of the session cookie.
-pub const COOKIE: &str = "hgw_session";
+pub(crate) const COOKIE: &str = "hgw_session";
 
 static CONFIG: picoserve::Config = picoserve::Config {
     timeouts: picoserve::Timeouts {
@@ -77,7 +77,7 @@ static CONFIG: picoserve::Config = picoserve::Config {
 
 /// What the web server keeps besides the gateway's state: the sessions,
 /// and how to restart the device.
-pub struct Web {
+pub(crate) struct Web {
     sessions: RefCell<Sessions>,
     restart: Option<fn()>,
 }
@@ -85,7 +85,7 @@ pub struct Web {
 impl Web {
     /// A web server whose tokens and salts come from `seed`, and which
     /// offers a restart if the platform gives one (boards).
-    pub fn new(seed: [u8; 32], restart: Option<fn()>) -> Self {
+    pub(crate) fn new(seed: [u8; 32], restart: Option<fn()>) -> Self {
         Web {
             sessions: RefCell::new(Sessions::new(seed)),
             restart,
@@ -166,7 +166,7 @@ async fn connection<N: Net, C: Clock>(
 
 /// Serves one connection (its requests, kept alive) until it ends. Also
 /// the entry point of the HTTP fuzz target.
-pub async fn serve_one<S: Socket, C: Clock>(
+pub(crate) async fn serve_one<S: Socket, C: Clock>(
     hub: &Hub,
     clock: &C,
     web: &Web,
@@ -196,7 +196,7 @@ struct App<'a, C: Clock> {
 }
 
 /// A body of bytes with its content type.
-pub struct Bytes<'a> {
+pub(crate) struct Bytes<'a> {
     /// `Content-Type`.
     pub ty: &'static str,
     /// The bytes.

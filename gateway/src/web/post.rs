@@ -21,13 +21,13 @@ use crate::storage::SaveOutcome;
 
 /// The format name of an exported configuration: settings by their stable
 /// key (`link.poll_ms`).
-pub const FORMAT: &str = "hans-gateway-config-2";
+pub(crate) const FORMAT: &str = "hans-gateway-config-2";
 /// The format of the previous version's exports: settings by register
 /// name (`CFG_POLL_MS`), still imported.
-pub const FORMAT_1: &str = "hans-gateway-config-1";
+pub(crate) const FORMAT_1: &str = "hans-gateway-config-1";
 
 /// `{"ok":true}`.
-pub fn ok_json() -> Json {
+pub(crate) fn ok_json() -> Json {
     let mut j = Json::new();
     let _ = j.raw("{\"ok\":true}");
     j
@@ -163,7 +163,7 @@ impl Errors {
 /// Checks a trigger text as the PLC's are checked when fired: empty
 /// (unused), or one protocol message of printable ASCII that the grammar
 /// reads, at most [`TRIGGER_TEXT`] characters.
-pub fn check_trigger(t: &str) -> Result<Text<TRIGGER_TEXT>, &'static str> {
+pub(crate) fn check_trigger(t: &str) -> Result<Text<TRIGGER_TEXT>, &'static str> {
     let t = t.trim();
     let mut text = Text::EMPTY;
     if t.is_empty() {
@@ -207,7 +207,7 @@ fn set_named(name: &str, text: &str, c: &mut Config) -> Result<(), &'static str>
 // The error is the answer to send (1 KiB of JSON; no heap to box it in),
 // smaller than the success value (the trigger texts, 3 KiB).
 #[allow(clippy::type_complexity, clippy::result_large_err)]
-pub fn read_config(
+pub(crate) fn read_config(
     body: &[u8],
     base: &Config,
 ) -> Result<(Config, Option<[Text<TRIGGER_TEXT>; TRIGGERS]>), Json> {
