@@ -19,7 +19,7 @@
 //! | [`registers`] | the Modbus register map, a view of the state (`map`: addresses; `view`: encode / decode) |
 //! | [`job`] | typed jobs: channel command codes, RAW and trigger texts, urgent commands, the queue |
 //! | `plc` | what a PLC's register write means: edges into jobs, the heartbeat, `CONFIG_COMMAND` |
-//! | [`engine`] | the rules in time: motion completion, watchdog, bring-up, status polls |
+//! | `engine` | the rules in time: motion completion, watchdog, bring-up, status polls |
 //! | `hub` | the shared state and the signals between the tasks |
 //! | `link` | robot link: connect or listen, one request in flight, framing, reply timeout |
 //! | `modbus` | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
@@ -43,7 +43,7 @@
 //! `datasheet::PAYLOAD_MAX` bytes (longer ones are dropped and logged).
 //!
 //! Time limits: a robot connect `link::CONNECT_TIMEOUT` (the
-//! DataSheet connection too), a bring-up step [`engine::bringup::STATE_TIMEOUT`]
+//! DataSheet connection too), a bring-up step `engine::bringup::STATE_TIMEOUT`
 //! (Error 39607), a DataSheet connection without data
 //! `datasheet::SILENCE_TIMEOUT`, a silent Modbus client
 //! `modbus::IDLE_TIMEOUT`, and a robot reply the configured
@@ -105,7 +105,7 @@ pub(crate) mod clock;
 pub mod config;
 #[cfg(feature = "datasheet")]
 pub(crate) mod datasheet;
-pub mod engine;
+pub(crate) mod engine;
 pub mod error;
 mod gateway;
 #[cfg(feature = "std")]
@@ -126,5 +126,8 @@ pub(crate) mod web;
 
 pub use clock::{Clock, SystemClock};
 pub use config::Config;
+/// The jog timing a PLC follows: the keep-alive period and the PLC
+/// heartbeat a jog needs (REGISTERS.md, jogging).
+pub use engine::jog::{HEARTBEAT as JOG_HEARTBEAT, KEEP_ALIVE as JOG_KEEP_ALIVE};
 pub use gateway::{run, Gateway, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF};
 pub use storage::{NoStorage, Storage, StorageError};

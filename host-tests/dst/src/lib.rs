@@ -41,7 +41,7 @@ use std::fmt::Write as _;
 
 use embassy_time::{Duration, Instant};
 use hans_gateway::config::{Config, WatchdogAction, WordOrder};
-use hans_gateway::engine::jog::{HEARTBEAT as JOG_HEARTBEAT, KEEP_ALIVE};
+use hans_gateway::{JOG_HEARTBEAT, JOG_KEEP_ALIVE as KEEP_ALIVE};
 use hans_gateway::error::{ErrorSource, GatewayError, Outcome};
 use hans_gateway::job::{Source, QUEUE_DEPTH, URGENT_DEPTH};
 use hans_gateway::registers::{self as r, view};

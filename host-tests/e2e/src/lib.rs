@@ -12,7 +12,7 @@ use hans_gateway::registers as r;
 use hans_sim::Sim;
 use tokio_modbus::client::{Context, Reader, Writer};
 
-pub use hans_gateway::engine::{ErrorSource, GatewayError};
+pub use hans_gateway::error::{ErrorSource, GatewayError};
 pub use hans_gateway::job::command::code;
 
 /// Longest wait for anything in these tests (generous: the machine is
