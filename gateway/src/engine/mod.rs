@@ -33,6 +33,8 @@ pub mod jog;
 pub mod motion;
 pub mod plc;
 pub mod poll;
+#[cfg(test)]
+mod tests;
 pub mod watchdog;
 
 use core::convert::Infallible;
@@ -126,27 +128,7 @@ fn same_command(a: &str, b: &str) -> bool {
 /// in place: the link holds kilobytes of buffers).
 pub(crate) async fn run<S: Socket, C: Clock>(hub: &Hub, clock: &C, a: S, b: S) -> Infallible {
     let mut link = Link::new(a, b);
-    let (config, generation) = hub.with(|m| (m.config.active, m.config.generation));
-    let now = clock.now();
-    let mut e = Engine {
-        hub,
-        clock,
-        config,
-        generation,
-        target: target_of(&config),
-        motion: None,
-        pending: None,
-        round: None,
-        next_tick: now,
-        next_motion_poll: now,
-        next_state_poll: now,
-        retry_at: now,
-        backoff: MIN_BACKOFF,
-        buf: [0; MSG_BUF],
-        detect: false,
-        explain: core::cell::Cell::new(None),
-        explained: 0,
-    };
+    let mut e = Engine::new(hub, clock);
     loop {
         e.step(&mut link).await;
     }
@@ -177,7 +159,33 @@ pub(crate) struct Engine<'a, C: Clock> {
     explained: i32,
 }
 
-impl<C: Clock> Engine<'_, C> {
+impl<'a, C: Clock> Engine<'a, C> {
+    /// An engine on `hub`'s active configuration, its link down, every
+    /// deadline now.
+    pub(crate) fn new(hub: &'a Hub, clock: &'a C) -> Self {
+        let (config, generation) = hub.with(|m| (m.config.active, m.config.generation));
+        let now = clock.now();
+        Engine {
+            hub,
+            clock,
+            config,
+            generation,
+            target: target_of(&config),
+            motion: None,
+            pending: None,
+            round: None,
+            next_tick: now,
+            next_motion_poll: now,
+            next_state_poll: now,
+            retry_at: now,
+            backoff: MIN_BACKOFF,
+            buf: [0; MSG_BUF],
+            detect: false,
+            explain: core::cell::Cell::new(None),
+            explained: 0,
+        }
+    }
+
     async fn step<S: Socket>(&mut self, link: &mut Link<S>) {
         self.follow_config(link).await;
         let now = self.clock.now();
