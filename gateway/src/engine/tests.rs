@@ -15,13 +15,15 @@ use std::task::Wake;
 
 use embassy_time::{Duration, Instant};
 
+use hans_codec::{ErrorCode, ProtocolLevel};
+
 use super::poll::PollStep;
-use super::run;
+use super::{run, Engine, Step, MAX_BACKOFF, MIN_BACKOFF};
 use crate::clock::Clock;
 use crate::config::{Config, StatusSource};
 use crate::hub::Hub;
 use crate::net::Net;
-use crate::state::{LinkState, Model};
+use crate::state::{LinkState, Model, TextSource};
 use crate::testkit::clock::VirtualClock;
 use crate::testkit::net::SimNet;
 use crate::testkit::robot::SimRobot;
@@ -46,6 +48,7 @@ impl Wake for Flag {
 /// polls (its wakes).
 struct Rig {
     clock: Rc<VirtualClock>,
+    net: SimNet,
     robot: SimRobot,
     hub: Rc<Hub>,
     fut: Pin<Box<dyn Future<Output = Infallible>>>,
@@ -69,7 +72,7 @@ impl Rig {
         let net = SimNet::new(GATEWAY_IP);
         let robot = SimRobot::new(&net, ROBOT, 1);
         let hub = Rc::new(Hub::new(Model::new(config, config)));
-        let (c, n, h) = (clock.clone(), net, hub.clone());
+        let (c, n, h) = (clock.clone(), net.clone(), hub.clone());
         let fut = Box::pin(async move {
             let (mut ra, mut ta, mut rb, mut tb) = ([0u8; 0], [0u8; 0], [0u8; 0], [0u8; 0]);
             let a = n.socket(&mut ra, &mut ta);
@@ -80,6 +83,7 @@ impl Rig {
         let waker = Waker::from(flag.clone());
         Rig {
             clock,
+            net,
             robot,
             hub,
             fut,
@@ -205,7 +209,7 @@ fn an_unreachable_robot_wakes_about_once_per_poll_period() {
     let (polls, sleeps) = rig.wakes_over(IDLE);
     let n = periods(IDLE, &c);
     // A connect attempt every MAX_BACKOFF at most.
-    let attempts = IDLE.as_secs() / super::MAX_BACKOFF.as_secs() + 1;
+    let attempts = IDLE.as_secs() / MAX_BACKOFF.as_secs() + 1;
     assert!(polls <= n + attempts + 2, "{polls} wakes in {n} periods");
     assert!(sleeps <= n + attempts + 2, "{sleeps} sleeps in {n} periods");
     assert_ne!(rig.link_state(), LinkState::Connected);
@@ -223,4 +227,106 @@ fn status_polling_wakes_once_per_read() {
     let per_period = PollStep::ROUND.len() as u64 + 1;
     assert!(polls <= n * per_period + 2, "{polls} wakes in {n} periods");
     assert!(rig.robot.log.len() as u64 >= n * (per_period - 1));
+}
+
+/// An engine's decisions without running it: a hub on the default
+/// configuration, virtual time at 0.
+fn decide(f: impl FnOnce(&Hub, &VirtualClock, &mut Engine<'_, VirtualClock>)) {
+    let hub = Hub::new(Model::new(Config::default(), Config::default()));
+    let clock = VirtualClock::new();
+    let mut e = Engine::new(&hub, &clock);
+    f(&hub, &clock, &mut e);
+}
+
+#[test]
+fn choose_brings_a_down_link_up_before_anything() {
+    decide(|_, clock, e| {
+        e.detect = true;
+        e.round = Some(0);
+        assert!(matches!(e.choose(false, clock.now()), Step::BringUp));
+    });
+}
+
+#[test]
+fn choose_asks_the_level_then_reads_the_round_then_waits_for_the_tick() {
+    decide(|_, clock, e| {
+        let now = clock.now();
+        e.next_tick = now + Duration::from_millis(100);
+        e.detect = true;
+        e.round = Some(0);
+        assert!(matches!(e.choose(true, now), Step::Detect));
+        e.detect = false;
+        assert!(matches!(
+            e.choose(true, now),
+            Step::StatusPoll(PollStep::RobotState)
+        ));
+        e.round = Some(PollStep::ROUND.len());
+        let Step::Wait(until) = e.choose(true, now) else {
+            panic!("not a wait");
+        };
+        assert_eq!(until, e.next_tick);
+    });
+}
+
+#[test]
+fn the_tick_starts_a_status_round_once_per_period() {
+    decide(|hub, clock, e| {
+        let now = clock.now();
+        e.tick(true, now);
+        assert_eq!(e.round, Some(0));
+        assert_eq!(e.next_tick, now + Duration::from_millis(100));
+        e.round = None;
+        e.tick(true, now + Duration::from_millis(99));
+        assert_eq!(e.round, None, "not before the period");
+        assert_eq!(hub.with(|m| m.ticks), 1);
+    });
+}
+
+#[test]
+fn an_error_code_is_explained_from_the_table_unless_the_controller_can() {
+    let code = 20005;
+    decide(|hub, _, e| {
+        // No level known (V5): the gateway's table, at once.
+        hub.with(|m| m.robot.error_code = code);
+        assert_eq!(e.error_to_explain(), None);
+        let (got, source) = hub.with(|m| (m.error_text.code, m.error_text.source));
+        assert_eq!(got, code);
+        let table = if ErrorCode::from(code).text().is_some() {
+            TextSource::Table
+        } else {
+            TextSource::Unknown
+        };
+        assert_eq!(source, table);
+        // Explained once.
+        assert_eq!(e.error_to_explain(), None);
+        // A V6 controller explains a code a command ended with.
+        hub.with(|m| m.link.level = Some(ProtocolLevel::V6));
+        e.explain.set(Some(code));
+        assert_eq!(e.error_to_explain(), Some(code));
+    });
+}
+
+#[test]
+fn a_refused_connect_backs_off_doubling_to_the_longest_delay() {
+    let mut rig = Rig::new(Config::default(), true);
+    rig.robot.set_offline(true);
+    let mut at = std::vec::Vec::new();
+    let mut seen = 0;
+    while rig.now() < Instant::from_secs(20) {
+        rig.run_for(Duration::from_millis(10));
+        let n = rig.net.attempts(ROBOT);
+        if n > seen {
+            seen = n;
+            at.push(rig.now().as_millis());
+        }
+    }
+    let gaps: std::vec::Vec<u64> = at.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut want = MIN_BACKOFF.as_millis();
+    for g in &gaps {
+        // Each retry waits its delay (seen in 10 ms steps here).
+        assert!(g + 10 >= want && *g <= want + 10, "gaps {gaps:?}");
+        want = (want * 2).min(MAX_BACKOFF.as_millis());
+    }
+    assert!(gaps.len() >= 5, "gaps {gaps:?}");
+    assert_eq!(rig.link_state(), LinkState::Down);
 }
