@@ -602,27 +602,9 @@ impl<'a, C: Clock> Engine<'a, C> {
     async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job, from: u8) {
         let source = job.source;
         #[cfg(feature = "v6")]
-        if job.jog().is_some() {
-            if self.jog_released(source) {
-                // Released before it could start: a jog of no length.
-                info!(
-                    "{} {}: jog released before it started",
-                    source.name(),
-                    source.index()
-                );
-                self.end(source, Outcome::Done);
-                return;
-            }
-            let level = self.hub.with(|m| m.link.level).unwrap_or(ProtocolLevel::V5);
-            if level < crate::job::command::Jog::since() {
-                warn!(
-                    "{} {}: no jogging at this protocol level",
-                    source.name(),
-                    source.index()
-                );
-                self.end(source, Outcome::gateway(GatewayError::NotSupported));
-                return;
-            }
+        if let Some(outcome) = self.jog_gate(&job) {
+            self.end(source, outcome);
+            return;
         }
         let mut last = None;
         for step in from..job.steps() {
@@ -682,6 +664,42 @@ impl<'a, C: Clock> Engine<'a, C> {
                 return;
             }
         }
+        self.all_sent(&job, last);
+    }
+
+    /// How a jog job ends before it is sent, if it may not start: released
+    /// already (Done: a jog of no length), or the controller's protocol
+    /// level has no jogging (Error `NotSupported`). `None` for any other
+    /// job.
+    #[cfg(feature = "v6")]
+    fn jog_gate(&self, job: &Job) -> Option<Outcome> {
+        job.jog()?;
+        let source = job.source;
+        if self.jog_released(source) {
+            info!(
+                "{} {}: jog released before it started",
+                source.name(),
+                source.index()
+            );
+            return Some(Outcome::Done);
+        }
+        let level = self.hub.with(|m| m.link.level).unwrap_or(ProtocolLevel::V5);
+        if level < crate::job::command::Jog::since() {
+            warn!(
+                "{} {}: no jogging at this protocol level",
+                source.name(),
+                source.index()
+            );
+            return Some(Outcome::gateway(GatewayError::NotSupported));
+        }
+        None
+    }
+
+    /// Every message of `job` was accepted (`last` the id of the last
+    /// one): it starts its motion, or ends Done (a `GrpContinue` restarts
+    /// the motion's clock, a `GrpStop` aborts the motions).
+    fn all_sent(&mut self, job: &Job, last: Option<CommandId>) {
+        let source = job.source;
         let now = self.clock.now();
         if job.is_motion() {
             self.hub.with(|m| m.set_moving(source));

@@ -330,3 +330,46 @@ fn a_refused_connect_backs_off_doubling_to_the_longest_delay() {
     assert!(gaps.len() >= 5, "gaps {gaps:?}");
     assert_eq!(rig.link_state(), LinkState::Down);
 }
+
+#[test]
+fn a_jog_starts_only_while_held_and_at_a_level_that_has_jogging() {
+    use crate::error::GatewayError;
+    use crate::job::command::Jog;
+    use crate::job::{Command, Job, JobKind, Source};
+
+    use super::Outcome;
+
+    let jog = |source| Job {
+        source,
+        seq: 0,
+        robot: 0,
+        kind: JobKind::Command(Command::Jog(Jog {
+            cartesian: false,
+            axis: 0,
+            positive: true,
+        })),
+    };
+    decide(|hub, _, e| {
+        let held = Source::Trigger(0);
+        // Released before it could start: a jog of no length.
+        assert_eq!(e.jog_gate(&jog(held)), Some(Outcome::Done));
+        hub.with(|m| m.triggers.bits = 1);
+        // Held, but no level known (V5): no jogging.
+        assert_eq!(
+            e.jog_gate(&jog(held)),
+            Some(Outcome::gateway(GatewayError::NotSupported))
+        );
+        hub.with(|m| m.link.level = Some(ProtocolLevel::V6));
+        assert_eq!(e.jog_gate(&jog(held)), None);
+        assert!(!e.jog_released(held));
+        // Let go.
+        hub.with(|m| m.triggers.bits = 0);
+        assert!(e.jog_released(held));
+        // Not a jog: no gate.
+        let stop = Job {
+            kind: JobKind::Command(Command::ReadActPos),
+            ..jog(held)
+        };
+        assert_eq!(e.jog_gate(&stop), None);
+    });
+}
