@@ -117,6 +117,14 @@ def gateway_seeds():
     image = body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
     put("gateway_image", image)
     put("gateway_image", image[:-1] + bytes([image[-1] ^ 1]))
+    # Format 2 (written today): settings as (register, value) pairs, the
+    # triggers, the password (none: 52 zero bytes), the CRC. One with no
+    # settings (all defaults), one with a poll period and a heartbeat.
+    tbytes = b"".join(struct.pack("<H", w) for w in trig)
+    for pairs in ([], [(105, 50), (140, 1)]):
+        body = b"HGW1" + struct.pack("<HH", 2, len(pairs)) + b"".join(struct.pack("<HH", a, v) for a, v in pairs)
+        body += tbytes + bytes(52)
+        put("gateway_image", body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF))
     # Web requests: reads, the first password, a configuration post, a login.
     def http(method, path, body=b"", headers=()):
         head = f"{method} {path} HTTP/1.1\r\nHost: gw\r\n" + "".join(f"{h}\r\n" for h in headers)

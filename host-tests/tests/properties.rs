@@ -16,7 +16,7 @@
 //!   above) and their special parameters: groups of values, reply forms that
 //!   follow the request, texts with commas.
 //! * Protocol levels: `check_level` against the V6 document's revision table,
-//!   transcribed in `vectors/v6/revisions.txt` (not against the codec's own
+//!   transcribed in `vectors/v6/revisions.table` (not against the codec's own
 //!   rule), and every version in the codec's table found there.
 
 use std::path::Path;
@@ -765,7 +765,7 @@ enum Revision {
     Changed,
 }
 
-/// One line of `vectors/v6/revisions.txt`: a command that came, went or
+/// One line of `vectors/v6/revisions.table`: a command that came, went or
 /// changed at a controller version, as the V6 document says.
 #[derive(Debug)]
 struct RevisionRow {
@@ -787,14 +787,14 @@ impl std::fmt::Display for RevisionRow {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "revisions.txt:{}: {} {:?} at {}",
+            "revisions.table:{}: {} {:?} at {}",
             self.line, self.name, self.kind, self.version
         )
     }
 }
 
 fn revision_rows() -> Vec<RevisionRow> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors/v6/revisions.txt");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("vectors/v6/revisions.table");
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path:?}: {e}"));
     let mut rows = Vec::new();
     for (i, line) in text.lines().enumerate() {
@@ -806,18 +806,18 @@ fn revision_rows() -> Vec<RevisionRow> {
         let (Some(version), Some(kind), Some(name), Some(_source)) =
             (fields.next(), fields.next(), fields.next(), fields.next())
         else {
-            panic!("revisions.txt:{line_no}: version, kind, command and source expected");
+            panic!("revisions.table:{line_no}: version, kind, command and source expected");
         };
         let version = match version {
             "V5" => ProtocolLevel::V5,
             v => ProtocolLevel::parse(v)
-                .unwrap_or_else(|| panic!("revisions.txt:{line_no}: version {v:?}")),
+                .unwrap_or_else(|| panic!("revisions.table:{line_no}: version {v:?}")),
         };
         let kind = match kind {
             "added" => Revision::Added,
             "removed" => Revision::Removed,
             "changed" => Revision::Changed,
-            k => panic!("revisions.txt:{line_no}: kind {k:?}"),
+            k => panic!("revisions.table:{line_no}: kind {k:?}"),
         };
         rows.push(RevisionRow {
             line: line_no,
@@ -920,7 +920,7 @@ fn the_levels_are_the_documents() {
 
 /// Every version in the codec's table is one the document gives for that
 /// command: no level data of the codec's own making (but the one reading
-/// written down in the table and in revisions.txt).
+/// written down in the table and in revisions.table).
 #[test]
 fn every_version_in_the_table_is_in_the_document() {
     let rows = revision_rows();

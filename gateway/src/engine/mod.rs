@@ -32,6 +32,8 @@ pub mod bringup;
 pub mod jog;
 pub mod motion;
 pub mod poll;
+#[cfg(test)]
+mod tests;
 pub mod watchdog;
 
 use core::convert::Infallible;
@@ -125,27 +127,7 @@ fn same_command(a: &str, b: &str) -> bool {
 /// in place: the link holds kilobytes of buffers).
 pub(crate) async fn run<S: Socket, C: Clock>(hub: &Hub, clock: &C, a: S, b: S) -> Infallible {
     let mut link = Link::new(a, b);
-    let (config, generation) = hub.with(|m| (m.config.active, m.config.generation));
-    let now = clock.now();
-    let mut e = Engine {
-        hub,
-        clock,
-        config,
-        generation,
-        target: target_of(&config),
-        motion: None,
-        pending: None,
-        round: None,
-        next_tick: now,
-        next_motion_poll: now,
-        next_state_poll: now,
-        retry_at: now,
-        backoff: MIN_BACKOFF,
-        buf: [0; MSG_BUF],
-        detect: false,
-        explain: core::cell::Cell::new(None),
-        explained: 0,
-    };
+    let mut e = Engine::new(hub, clock);
     loop {
         e.step(&mut link).await;
     }
@@ -176,7 +158,33 @@ pub(crate) struct Engine<'a, C: Clock> {
     explained: i32,
 }
 
-impl<C: Clock> Engine<'_, C> {
+impl<'a, C: Clock> Engine<'a, C> {
+    /// An engine on `hub`'s active configuration, its link down, every
+    /// deadline now.
+    pub(crate) fn new(hub: &'a Hub, clock: &'a C) -> Self {
+        let (config, generation) = hub.with(|m| (m.config.active, m.config.generation));
+        let now = clock.now();
+        Engine {
+            hub,
+            clock,
+            config,
+            generation,
+            target: target_of(&config),
+            motion: None,
+            pending: None,
+            round: None,
+            next_tick: now,
+            next_motion_poll: now,
+            next_state_poll: now,
+            retry_at: now,
+            backoff: MIN_BACKOFF,
+            buf: [0; MSG_BUF],
+            detect: false,
+            explain: core::cell::Cell::new(None),
+            explained: 0,
+        }
+    }
+
     async fn step<S: Socket>(&mut self, link: &mut Link<S>) {
         self.follow_config(link).await;
         let now = self.clock.now();
@@ -238,10 +246,7 @@ impl<C: Clock> Engine<'_, C> {
         #[cfg(feature = "v6")]
         if let Some(mo) = &self.motion {
             if let Some(j) = mo.jog.filter(|j| !j.stopping) {
-                let released = self.hub.with(|m| {
-                    !m.execute_held(mo.source) || m.handshake(mo.source).is_some_and(|h| h.released)
-                });
-                if released {
+                if self.jog_released(mo.source) {
                     return Step::JogStop;
                 }
                 if now >= j.next_event {
@@ -323,13 +328,27 @@ impl<C: Clock> Engine<'_, C> {
         if self.controller_explains() {
             return Some(code);
         }
+        self.explain_from_table(code);
+        None
+    }
+
+    /// The gateway's text for robot error `code` into the error text
+    /// registers (or "unknown error code").
+    fn explain_from_table(&self, code: i32) {
         let (source, text) = match ErrorCode::from(code).text() {
             Some(t) => (TextSource::Table, t),
             None => (TextSource::Unknown, "unknown error code"),
         };
         self.hub
             .with(|m| m.error_text.set(code, source, text.as_bytes()));
-        None
+    }
+
+    /// The PLC let go of the jog of `source` (Execute fell, or the
+    /// handshake says released).
+    #[cfg(feature = "v6")]
+    fn jog_released(&self, source: Source) -> bool {
+        self.hub
+            .with(|m| !m.execute_held(source) || m.handshake(source).is_some_and(|h| h.released))
     }
 
     /// The controller has `GetErrorCodeStr` (and this build can ask it).
@@ -552,36 +571,39 @@ impl<C: Clock> Engine<'_, C> {
             })
     }
 
+    /// Sends `self.buf[..len]` and hands its reply text to `read` (`None`
+    /// for a reply that cannot be read: the link stays). A reply timeout or
+    /// a lost connection is logged as `what`, and the link is reset
+    /// ([`Self::link_lost`]): `Err(Lost)`. The one place a request's
+    /// failure is handled, but for a job's ([`Self::run_job`]: it ends the
+    /// job first).
+    async fn exchange<S: Socket, R>(
+        &mut self,
+        link: &mut Link<S>,
+        len: usize,
+        what: &str,
+        read: impl FnOnce(Option<&str>) -> R,
+    ) -> Result<R, Lost> {
+        match self.transact(link, len).await {
+            Ok(text) => Ok(read(Some(text))),
+            Err(GatewayError::BadReply) => Ok(read(None)),
+            Err(cause) => {
+                warn!("{}: {}", what, cause.as_str());
+                self.link_lost(link, cause).await;
+                Err(Lost)
+            }
+        }
+    }
+
     /// Sends a job's messages from `from` in turn and ends it (or starts its
     /// motion). After a bring-up step's `OK` the job waits until the FSM
     /// shows the step's state ([`Self::poll_bringup`]).
     async fn run_job<S: Socket>(&mut self, link: &mut Link<S>, job: Job, from: u8) {
         let source = job.source;
         #[cfg(feature = "v6")]
-        if job.jog().is_some() {
-            let released = self.hub.with(|m| {
-                !m.execute_held(source) || m.handshake(source).is_some_and(|h| h.released)
-            });
-            if released {
-                // Released before it could start: a jog of no length.
-                info!(
-                    "{} {}: jog released before it started",
-                    source.name(),
-                    source.index()
-                );
-                self.end(source, Outcome::Done);
-                return;
-            }
-            let level = self.hub.with(|m| m.link.level).unwrap_or(ProtocolLevel::V5);
-            if level < crate::job::command::Jog::since() {
-                warn!(
-                    "{} {}: no jogging at this protocol level",
-                    source.name(),
-                    source.index()
-                );
-                self.end(source, Outcome::gateway(GatewayError::NotSupported));
-                return;
-            }
+        if let Some(outcome) = self.jog_gate(&job) {
+            self.end(source, outcome);
+            return;
         }
         let mut last = None;
         for step in from..job.steps() {
@@ -641,6 +663,42 @@ impl<C: Clock> Engine<'_, C> {
                 return;
             }
         }
+        self.all_sent(&job, last);
+    }
+
+    /// How a jog job ends before it is sent, if it may not start: released
+    /// already (Done: a jog of no length), or the controller's protocol
+    /// level has no jogging (Error `NotSupported`). `None` for any other
+    /// job.
+    #[cfg(feature = "v6")]
+    fn jog_gate(&self, job: &Job) -> Option<Outcome> {
+        job.jog()?;
+        let source = job.source;
+        if self.jog_released(source) {
+            info!(
+                "{} {}: jog released before it started",
+                source.name(),
+                source.index()
+            );
+            return Some(Outcome::Done);
+        }
+        let level = self.hub.with(|m| m.link.level).unwrap_or(ProtocolLevel::V5);
+        if level < crate::job::command::Jog::since() {
+            warn!(
+                "{} {}: no jogging at this protocol level",
+                source.name(),
+                source.index()
+            );
+            return Some(Outcome::gateway(GatewayError::NotSupported));
+        }
+        None
+    }
+
+    /// Every message of `job` was accepted (`last` the id of the last
+    /// one): it starts its motion, or ends Done (a `GrpContinue` restarts
+    /// the motion's clock, a `GrpStop` aborts the motions).
+    fn all_sent(&mut self, job: &Job, last: Option<CommandId>) {
+        let source = job.source;
         let now = self.clock.now();
         if job.is_motion() {
             self.hub.with(|m| m.set_moving(source));
@@ -750,27 +808,24 @@ impl<C: Clock> Engine<'_, C> {
         let Some(msg) = step.request(self.config.robot_id, &mut self.buf) else {
             return Ok(Polled::Nothing);
         };
-        match self.transact(link, msg.len).await {
-            Ok(text) => {
-                let Ok(reply) = Reply::parse(text, msg.expect) else {
-                    debug!("status: unreadable reply");
-                    return Ok(Polled::Unreadable);
-                };
-                self.hub.with(|m| step.apply(&reply, &mut m.robot));
-                Ok(match reply {
-                    Reply::Ok(Response::ReadRobotState(rs)) => Polled::State(rs),
-                    Reply::Ok(Response::ReadCurFSM(f)) => Polled::Fsm(f.state),
-                    Reply::Ok(_) => Polled::Nothing,
-                    Reply::Fail(_) | Reply::ErrorCmd(_) => Polled::Refused,
-                })
+        let hub = self.hub;
+        self.exchange(link, msg.len, "status", |text| {
+            let Some(text) = text else {
+                return Polled::Unreadable;
+            };
+            let Ok(reply) = Reply::parse(text, msg.expect) else {
+                debug!("status: unreadable reply");
+                return Polled::Unreadable;
+            };
+            hub.with(|m| step.apply(&reply, &mut m.robot));
+            match reply {
+                Reply::Ok(Response::ReadRobotState(rs)) => Polled::State(rs),
+                Reply::Ok(Response::ReadCurFSM(f)) => Polled::Fsm(f.state),
+                Reply::Ok(_) => Polled::Nothing,
+                Reply::Fail(_) | Reply::ErrorCmd(_) => Polled::Refused,
             }
-            Err(GatewayError::BadReply) => Ok(Polled::Unreadable),
-            Err(cause) => {
-                warn!("status: {}", cause.as_str());
-                self.link_lost(link, cause).await;
-                Err(Lost)
-            }
-        }
+        })
+        .await
     }
 
     /// One read of the status round.
@@ -910,18 +965,15 @@ impl<C: Clock> Engine<'_, C> {
             return;
         };
         let name = cmd.id().name();
-        match self.transact(link, msg.len).await {
-            Ok(text) => match Reply::parse(text, msg.expect) {
-                Ok(Reply::Ok(_)) => info!("{}: sent, ok", name),
-                Ok(Reply::Fail(f)) => warn!("{}: refused, code {}", name, f.code.code()),
-                _ => warn!("{}: unreadable reply", name),
-            },
-            Err(GatewayError::BadReply) => warn!("{}: unreadable reply", name),
-            Err(cause) => {
-                warn!("{}: {}", name, cause.as_str());
-                self.link_lost(link, cause).await;
-            }
-        }
+        let _ = self
+            .exchange(link, msg.len, name, |text| {
+                match text.map(|t| Reply::parse(t, msg.expect)) {
+                    Some(Ok(Reply::Ok(_))) => info!("{}: sent, ok", name),
+                    Some(Ok(Reply::Fail(f))) => warn!("{}: refused, code {}", name, f.code.code()),
+                    _ => warn!("{}: unreadable reply", name),
+                }
+            })
+            .await;
     }
 
     /// The watchdog expired during the running motion: trip, then act.
@@ -983,19 +1035,16 @@ impl<C: Clock> Engine<'_, C> {
             return;
         };
         dst.copy_from_slice(ASK);
-        let level = match self.transact(link, ASK.len()).await {
-            Ok(text) => match Reply::parse(text, UNTYPED) {
-                Ok(Reply::Ok(Response::Unknown(raw))) => {
+        let asked = self.exchange(link, ASK.len(), "protocol level", |text| {
+            match text.map(|t| Reply::parse(t, UNTYPED)) {
+                Some(Ok(Reply::Ok(Response::Unknown(raw)))) => {
                     raw.fields().next().and_then(ProtocolLevel::parse)
                 }
                 _ => None,
-            },
-            Err(GatewayError::BadReply) => None,
-            Err(cause) => {
-                warn!("protocol level: {}", cause.as_str());
-                self.link_lost(link, cause).await;
-                return;
             }
+        });
+        let Ok(level) = asked.await else {
+            return;
         };
         let level = level.unwrap_or(ProtocolLevel::V5);
         let (major, minor, patch) = level.parts();
@@ -1009,18 +1058,17 @@ impl<C: Clock> Engine<'_, C> {
         let Some(msg) = j.jog.request(j.robot, false, &mut self.buf) else {
             return;
         };
-        match self.transact(link, msg.len).await {
-            Ok(text) => match Reply::parse(text, msg.expect) {
-                Ok(Reply::Ok(_)) => info!("jog: stopped"),
-                Ok(Reply::Fail(f)) => warn!("jog: stop refused, code {}", f.code.code()),
-                _ => warn!("jog: unreadable reply to the stop"),
-            },
-            Err(GatewayError::BadReply) => warn!("jog: unreadable reply to the stop"),
-            Err(cause) => {
-                warn!("jog: stop: {}", cause.as_str());
-                self.link_lost(link, cause).await;
-            }
-        }
+        let _ = self
+            .exchange(link, msg.len, "jog: stop", |text| {
+                match text.map(|t| Reply::parse(t, msg.expect)) {
+                    Some(Ok(Reply::Ok(_))) => info!("jog: stopped"),
+                    Some(Ok(Reply::Fail(f))) => {
+                        warn!("jog: stop refused, code {}", f.code.code())
+                    }
+                    _ => warn!("jog: unreadable reply to the stop"),
+                }
+            })
+            .await;
     }
 
     /// Execute fell while the jog ran: stop it; Done once the robot stands
@@ -1048,17 +1096,14 @@ impl<C: Clock> Engine<'_, C> {
         let Some(msg) = crate::job::command::Jog::keep_alive(j.robot, &mut self.buf) else {
             return;
         };
-        let failed = match self.transact(link, msg.len).await {
-            Ok(text) => match Reply::parse(text, msg.expect) {
-                Ok(Reply::Fail(f)) => Some(f.code.code()),
+        let sent = self.exchange(link, msg.len, "jog: keep-alive", |text| {
+            match text.map(|t| Reply::parse(t, msg.expect)) {
+                Some(Ok(Reply::Fail(f))) => Some(f.code.code()),
                 _ => None,
-            },
-            Err(GatewayError::BadReply) => None,
-            Err(cause) => {
-                warn!("jog: keep-alive: {}", cause.as_str());
-                self.link_lost(link, cause).await;
-                return;
             }
+        });
+        let Ok(failed) = sent.await else {
+            return;
         };
         if let Some(code) = failed {
             warn!("jog: keep-alive refused, code {}", code);
@@ -1083,32 +1128,25 @@ impl<C: Clock> Engine<'_, C> {
             let Some(msg) = crate::job::Wire::wire(&req, &mut self.buf) else {
                 return;
             };
-            let text = match self.transact(link, msg.len).await {
-                Ok(text) => match Reply::parse(text, msg.expect) {
-                    Ok(Reply::Ok(Response::GetErrorCodeStr(r))) => {
-                        let t = r.text.as_str();
-                        self.hub
-                            .with(|m| m.error_text.set(code, TextSource::Controller, t.as_bytes()));
-                        return;
+            let hub = self.hub;
+            let asked = self.exchange(link, msg.len, "error text", |text| {
+                match text.map(|t| Reply::parse(t, msg.expect)) {
+                    Some(Ok(Reply::Ok(Response::GetErrorCodeStr(r)))) => {
+                        let t = r.text.as_str().as_bytes();
+                        hub.with(|m| m.error_text.set(code, TextSource::Controller, t));
+                        true
                     }
-                    _ => None::<()>,
-                },
-                Err(GatewayError::BadReply) => None,
-                Err(cause) => {
-                    warn!("error text: {}", cause.as_str());
-                    self.link_lost(link, cause).await;
-                    return;
+                    _ => false,
                 }
-            };
-            let _ = text;
+            });
+            match asked.await {
+                Ok(false) => {}
+                // Explained, or the link was lost.
+                Ok(true) | Err(Lost) => return,
+            }
         }
         #[cfg(not(feature = "v6"))]
         let _ = link;
-        let (source, text) = match ErrorCode::from(code).text() {
-            Some(t) => (TextSource::Table, t),
-            None => (TextSource::Unknown, "unknown error code"),
-        };
-        self.hub
-            .with(|m| m.error_text.set(code, source, text.as_bytes()));
+        self.explain_from_table(code);
     }
 }

@@ -16,6 +16,11 @@ struct State {
     next_id: u64,
     /// Sleeping futures: id → (deadline, waker).
     timers: BTreeMap<u64, (u64, Waker)>,
+    /// Sleeps that had to wait (registered a waker): see
+    /// [`VirtualClock::sleeps`].
+    sleeps: u64,
+    /// Polls of sleeping futures.
+    sleep_polls: u64,
 }
 
 /// Virtual time, starting at 0. [`VirtualClock::advance_to`] moves it and
@@ -66,6 +71,18 @@ impl VirtualClock {
     pub fn advance(&self, d: Duration) {
         self.advance_to(self.now() + d);
     }
+
+    /// How many sleeps so far had to wait (were not due when first
+    /// polled): each is one wake-up of whoever slept, a measure of how
+    /// often a task that waits for time wakes.
+    pub fn sleeps(&self) -> u64 {
+        self.state.borrow().sleeps
+    }
+
+    /// How many times a sleep was polled so far (also when not due).
+    pub fn sleep_polls(&self) -> u64 {
+        self.state.borrow().sleep_polls
+    }
 }
 
 impl Clock for VirtualClock {
@@ -95,6 +112,7 @@ impl Future for Sleep<'_> {
     fn poll(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<()> {
         let this = &mut *self;
         let mut s = this.clock.state.borrow_mut();
+        s.sleep_polls += 1;
         if s.now >= this.at {
             if let Some(id) = this.id.take() {
                 s.timers.remove(&id);
@@ -104,6 +122,7 @@ impl Future for Sleep<'_> {
         let id = match this.id {
             Some(id) => id,
             None => {
+                s.sleeps += 1;
                 s.next_id += 1;
                 let id = s.next_id;
                 this.id = Some(id);

@@ -49,6 +49,10 @@ struct Conn {
     reset: bool,
     gw_closed: bool,
     peer_closed: bool,
+    /// The test's [`SimStream`] is gone: once the gateway closed its end
+    /// too, nobody can see the connection and it is forgotten (a world
+    /// that lives long, as a fuzz target's, does not grow).
+    peer_dropped: bool,
 }
 
 #[derive(Default)]
@@ -161,6 +165,7 @@ impl Conn {
             reset: false,
             gw_closed: false,
             peer_closed: false,
+            peer_dropped: false,
         }
     }
 }
@@ -175,7 +180,15 @@ impl SimStream {
     /// Everything received so far (taken).
     pub fn read(&mut self) -> Vec<u8> {
         self.net.with(|s| match s.conns.get_mut(&self.id) {
-            Some(c) => c.to_peer.data.drain(..).collect(),
+            Some(c) => {
+                // Whole slices, not byte by byte: fuzz targets read a lot.
+                let (a, b) = c.to_peer.data.as_slices();
+                let mut out = Vec::with_capacity(a.len() + b.len());
+                out.extend_from_slice(a);
+                out.extend_from_slice(b);
+                c.to_peer.data.clear();
+                out
+            }
             None => Vec::new(),
         })
     }
@@ -231,6 +244,14 @@ impl SimStream {
 impl Drop for SimStream {
     fn drop(&mut self) {
         self.close();
+        self.net.with(|s| {
+            if let Some(c) = s.conns.get_mut(&self.id) {
+                c.peer_dropped = true;
+                if c.gw_closed {
+                    s.conns.remove(&self.id);
+                }
+            }
+        });
     }
 }
 
@@ -322,9 +343,12 @@ impl Socket for SimSocket {
                 }
                 if !c.to_gw.data.is_empty() {
                     let n = buf.len().min(c.to_gw.data.len());
-                    for (slot, b) in buf.iter_mut().zip(c.to_gw.data.drain(..n)) {
-                        *slot = b;
-                    }
+                    // Whole slices, not byte by byte.
+                    let (a, b) = c.to_gw.data.as_slices();
+                    let from_a = n.min(a.len());
+                    buf[..from_a].copy_from_slice(&a[..from_a]);
+                    buf[from_a..n].copy_from_slice(&b[..n - from_a]);
+                    c.to_gw.data.drain(..n);
                     return Poll::Ready(Ok(n));
                 }
                 if c.to_gw.fin || c.gw_closed {
@@ -360,6 +384,9 @@ impl Socket for SimSocket {
                     c.gw_closed = true;
                     c.to_peer.fin = true;
                     c.to_gw.wake();
+                    if c.peer_dropped {
+                        s.conns.remove(&id);
+                    }
                 }
             });
         }

@@ -1,0 +1,59 @@
+//! Shared by the gateway targets that need a whole gateway: one world per
+//! process (thread), built on the first input, and put back before each
+//! input into the state an input may have changed for good.
+//!
+//! Building a world runs every part of the gateway once (sockets, tasks,
+//! the robot's bring-up): under the sanitizers that costs milliseconds,
+//! and every input would cover those same edges again. So a target builds
+//! it once, and each input only drives the part it fuzzes; what that input
+//! stored (configuration, triggers, password, the storage image) is reset
+//! before the next one by [`reset`]. State that is not stored (channel
+//! statuses, web sessions, the robot link) carries on from input to input,
+//! as on a gateway that runs: a crash found late may need the inputs
+//! before it (libFuzzer's `-runs` on the crash directory's corpus, or the
+//! `fuzz-*.log`), though the invariants hold at every input's end.
+
+use std::cell::RefCell;
+use std::thread::LocalKey;
+
+use hans_gateway::config::Config;
+use hans_gateway::state::Triggers;
+use hans_gateway::testkit::world::World;
+
+/// Runs `f` on this thread's world in `slot`, built by `make` the first
+/// time (the configuration it then runs with is what [`reset`] restores).
+pub fn with_world<R>(
+    slot: &'static LocalKey<RefCell<Option<(World, Config)>>>,
+    make: impl FnOnce() -> World,
+    f: impl FnOnce(&mut World) -> R,
+) -> R {
+    slot.with(|cell| {
+        let mut guard = cell.borrow_mut();
+        let (w, base) = guard.get_or_insert_with(|| {
+            let w = make();
+            let base = w.model(|m| m.config.active);
+            (w, base)
+        });
+        reset(w, base);
+        f(w)
+    })
+}
+
+/// Puts back what an input may have stored: the configuration in use and
+/// its edit area, the trigger entries, the web password, the stored image
+/// (empty, as at the start) and a storage that saves.
+pub fn reset(w: &mut World, base: &Config) {
+    w.config.storage.data.borrow_mut().clear();
+    w.config.storage.fail.set(false);
+    w.model(|m| {
+        if m.config.active != *base {
+            m.config.apply(*base);
+        }
+        m.config.edit = base.to_words();
+        m.access.password = None;
+        m.triggers.entries = Triggers::default().entries;
+    });
+    // The robot's request log would grow without end.
+    w.robot.log.clear();
+    w.settle();
+}
