@@ -49,7 +49,7 @@ pub enum GatewayError {
     SafetyGuard = 39606,
     /// 39607: after a bring-up step (`ConnectToBox`, `Electrify`,
     /// `StartMaster`, `GrpEnable`) the robot did not reach the state the
-    /// step leads to within [`crate::engine::bringup::STATE_TIMEOUT`], or
+    /// step leads to within `engine::bringup::STATE_TIMEOUT` (30 s), or
     /// went to a fault state instead (`FSM_STATE` shows where it is).
     StateNotReached = 39607,
     /// 39608: the command is not available: the controller's protocol

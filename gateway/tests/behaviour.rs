@@ -9,7 +9,7 @@ use core::net::Ipv4Addr;
 use embassy_time::{Duration, Instant};
 use hans_gateway::config::Config;
 use hans_gateway::error::GatewayError;
-use hans_gateway::job::command::code;
+use hans_gateway::job::code;
 use hans_gateway::registers as r;
 use hans_gateway::state::LinkState;
 use hans_gateway::testkit::plc::{pdu, Answer};

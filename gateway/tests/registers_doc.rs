@@ -4,7 +4,7 @@
 //! gateway's own codes.
 
 use hans_gateway::error::GatewayError;
-use hans_gateway::job::command::{build, code, Inputs};
+use hans_gateway::job::{build, code, Inputs};
 use hans_gateway::registers::{Access, TABLE};
 
 fn doc() -> String {

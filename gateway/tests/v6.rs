@@ -5,7 +5,7 @@
 //! jogs going only while `LongMoveEvent` comes, as the V6 document says.
 
 use embassy_time::Duration;
-use hans_gateway::job::command::code;
+use hans_gateway::job::code;
 use hans_gateway::registers as r;
 use hans_gateway::testkit::robot::{Fault, JOG_TIMEOUT};
 use hans_gateway::testkit::world::{World, WorldConfig};

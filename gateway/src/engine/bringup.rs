@@ -17,14 +17,14 @@ use hans_codec::{CommandId, FsmState};
 use crate::error::GatewayError;
 
 /// Period of `ReadCurFSM` while a bring-up step waits for its state.
-pub const STATE_POLL: Duration = Duration::from_millis(50);
+pub(crate) const STATE_POLL: Duration = Duration::from_millis(50);
 /// Longest wait for the state of one bring-up step; then the command ends
 /// in Error [`GatewayError::StateNotReached`].
-pub const STATE_TIMEOUT: Duration = Duration::from_secs(30);
+pub(crate) const STATE_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// `true` while the FSM says a motion is under way: 25 Moving,
 /// 26 LongJogMoving, 27 RobotStopping, 32 RobotHolding (paused).
-pub fn motion_under_way(state: FsmState) -> bool {
+pub(crate) fn motion_under_way(state: FsmState) -> bool {
     matches!(
         state,
         FsmState::Moving
@@ -38,14 +38,14 @@ pub fn motion_under_way(state: FsmState) -> bool {
 /// 16-17 controller version / EtherCAT error, 20-22 out of the safe space,
 /// collision stop, error. A motion that meets one has not finished: the
 /// next `ReadRobotState` tells how it failed.
-pub fn fault_state(state: FsmState) -> bool {
+pub(crate) fn fault_state(state: FsmState) -> bool {
     matches!(i32::from(state), 4 | 5 | 9..=12 | 16 | 17 | 20..=22)
 }
 
 /// The state a bring-up step leads to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum StepWait {
+pub(crate) enum StepWait {
     /// `ConnectToBox`: the electric box is connected (the FSM has left
     /// 0-3: not initialised, box disconnected or connecting).
     BoxConnected,
@@ -64,7 +64,7 @@ pub enum StepWait {
 /// What the FSM says about a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Verdict {
+pub(crate) enum Verdict {
     /// Not there yet.
     Wait,
     /// The step's state is reached.
@@ -75,7 +75,7 @@ pub enum Verdict {
 
 impl StepWait {
     /// The wait that follows `id`'s `OK`, for the bring-up steps.
-    pub fn after(id: CommandId) -> Option<StepWait> {
+    pub(crate) fn after(id: CommandId) -> Option<StepWait> {
         match id {
             CommandId::ConnectToBox => Some(StepWait::BoxConnected),
             CommandId::Electrify => Some(StepWait::Powered),
@@ -86,7 +86,7 @@ impl StepWait {
     }
 
     /// A short text for logs.
-    pub const fn as_str(self) -> &'static str {
+    pub(crate) const fn as_str(self) -> &'static str {
         match self {
             StepWait::BoxConnected => "box connected",
             StepWait::Powered => "48 V on",
@@ -96,7 +96,7 @@ impl StepWait {
     }
 
     /// Judges FSM state `s`.
-    pub fn verdict(self, s: FsmState) -> Verdict {
+    pub(crate) fn verdict(self, s: FsmState) -> Verdict {
         use FsmState as F;
         let n = u16::try_from(i32::from(s)).unwrap_or(u16::MAX);
         // Faults first: no step completes through them.

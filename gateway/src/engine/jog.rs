@@ -33,7 +33,7 @@ pub const HEARTBEAT: u16 = 1000;
 /// A jog under way.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct JogRun {
+pub(crate) struct JogRun {
     /// Which jog.
     pub jog: Jog,
     /// Its robot id.
@@ -46,7 +46,7 @@ pub struct JogRun {
 
 impl JogRun {
     /// A jog the robot accepted at `now`.
-    pub fn new(jog: Jog, robot: u8, now: Instant) -> Self {
+    pub(crate) fn new(jog: Jog, robot: u8, now: Instant) -> Self {
         JogRun {
             jog,
             robot,

@@ -28,13 +28,13 @@
 //! Error and resets the link; when the link drops, every queued and running
 //! command ends in Error (link lost) and nothing is re-sent.
 
-pub mod bringup;
-pub mod jog;
-pub mod motion;
-pub mod poll;
+pub(crate) mod bringup;
+pub(crate) mod jog;
+pub(crate) mod motion;
+pub(crate) mod poll;
 #[cfg(test)]
 mod tests;
-pub mod watchdog;
+pub(crate) mod watchdog;
 
 use core::convert::Infallible;
 
@@ -44,7 +44,7 @@ use hans_codec::{
     response, CommandId, ErrorCode, FsmState, ParseError, ProtocolLevel, Reply, Response,
 };
 
-pub use crate::error::{ErrorSource, GatewayError, Outcome};
+pub(crate) use crate::error::{ErrorSource, GatewayError, Outcome};
 
 use crate::clock::{millis, Clock};
 use crate::config::{Config, LinkMode, ProtocolSetting, StatusSource, WatchdogAction};
@@ -59,9 +59,9 @@ use motion::{Judgement, Motion, MOTION_POLL};
 use poll::{PollStep, UNTYPED};
 
 /// First reconnect delay.
-pub const MIN_BACKOFF: Duration = Duration::from_millis(200);
+pub(crate) const MIN_BACKOFF: Duration = Duration::from_millis(200);
 /// Longest reconnect delay.
-pub const MAX_BACKOFF: Duration = Duration::from_secs(5);
+pub(crate) const MAX_BACKOFF: Duration = Duration::from_secs(5);
 /// Room for one request: a RAW text and the longest typed command.
 const MSG_BUF: usize = 320;
 

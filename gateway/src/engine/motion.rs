@@ -28,12 +28,12 @@ use crate::error::{ErrorSource, GatewayError, Outcome};
 use crate::job::Source;
 
 /// Poll period of `ReadRobotState` while a motion runs.
-pub const MOTION_POLL: Duration = Duration::from_millis(10);
+pub(crate) const MOTION_POLL: Duration = Duration::from_millis(10);
 
 /// The motion running on the robot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Motion {
+pub(crate) struct Motion {
     /// Whose command it is.
     pub source: Source,
     /// When the robot accepted it (the watchdog counts from here at the
@@ -52,7 +52,7 @@ pub struct Motion {
 /// What a `ReadRobotState` reply says about the running motion.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Judgement {
+pub(crate) enum Judgement {
     /// Still under way (or paused, or too early to tell).
     Running,
     /// The flags say it has ended: Done once the FSM agrees.
@@ -63,7 +63,7 @@ pub enum Judgement {
 
 impl Motion {
     /// A motion the robot accepted at `now`.
-    pub fn new(source: Source, now: Instant) -> Self {
+    pub(crate) fn new(source: Source, now: Instant) -> Self {
         Motion {
             source,
             since: now,
@@ -76,12 +76,17 @@ impl Motion {
 
     /// A jog still held (not yet stopping): only its release, the
     /// heartbeat, a failure or a Stop end it.
-    pub fn is_held_jog(&self) -> bool {
+    pub(crate) fn is_held_jog(&self) -> bool {
         self.jog.is_some_and(|j| !j.stopping)
     }
 
     /// Judges one `ReadRobotState` reply at `now`.
-    pub fn judge(&mut self, rs: &ReadRobotState, config: &Config, now: Instant) -> Judgement {
+    pub(crate) fn judge(
+        &mut self,
+        rs: &ReadRobotState,
+        config: &Config,
+        now: Instant,
+    ) -> Judgement {
         if rs.error != 0 {
             return Judgement::Failed(match rs.error_code {
                 0 => Outcome::gateway(GatewayError::RobotErrorNoCode),
@@ -120,13 +125,13 @@ impl Motion {
     }
 
     /// The FSM still shows the motion under way: the flags lagged.
-    pub fn still_under_way(&mut self) {
+    pub(crate) fn still_under_way(&mut self) {
         self.seen_moving = true;
     }
 
     /// A successful `GrpContinue` at `now`: the motion starts again, its
     /// moving flag lags as at the start, so the grace period starts again.
-    pub fn restarted(&mut self, now: Instant) {
+    pub(crate) fn restarted(&mut self, now: Instant) {
         self.grace_from = now;
         self.seen_moving = false;
     }

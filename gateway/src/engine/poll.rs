@@ -10,7 +10,7 @@ use crate::state::{Io, RobotStatus};
 /// One status read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum PollStep {
+pub(crate) enum PollStep {
     /// `ReadRobotState`.
     RobotState,
     /// `ReadCurFSM`.
@@ -24,7 +24,7 @@ pub enum PollStep {
 
 impl PollStep {
     /// A full round, in order.
-    pub const ROUND: [PollStep; 9] = [
+    pub(crate) const ROUND: [PollStep; 9] = [
         PollStep::RobotState,
         PollStep::Fsm,
         PollStep::ActPos,
@@ -37,7 +37,7 @@ impl PollStep {
     ];
 
     /// Writes the request for robot `robot` into `out`.
-    pub fn request(self, robot: u8, out: &mut [u8]) -> Option<Message> {
+    pub(crate) fn request(self, robot: u8, out: &mut [u8]) -> Option<Message> {
         let rbt_id = hans_codec::RobotId(i32::from(robot));
         let box8 = || heapless::Vec::<i32, 8>::from_iter(0..8);
         let end3 = || heapless::Vec::<i32, 3>::from_iter(0..3);
@@ -64,7 +64,7 @@ impl PollStep {
 
     /// Copies a reply of this step into the status. A `Fail` reply to an
     /// I/O read (the robot lacks that I/O, say) makes the group unknown.
-    pub fn apply(self, reply: &Reply<'_>, status: &mut RobotStatus) {
+    pub(crate) fn apply(self, reply: &Reply<'_>, status: &mut RobotStatus) {
         match (reply, self) {
             (Reply::Ok(resp), _) => status.apply_response(resp),
             (_, PollStep::Io(io)) => status.io_refused(io),
@@ -74,7 +74,7 @@ impl PollStep {
 }
 
 /// A reply read without a type: any name, the values as sent.
-pub const UNTYPED: ReplyExpect = ReplyExpect {
+pub(crate) const UNTYPED: ReplyExpect = ReplyExpect {
     command: None,
     count: None,
 };

@@ -20,7 +20,7 @@ use crate::clock::millis;
 
 /// The instant the watchdog expires for `motion`, if it watches it
 /// (`period_ms` > 0 and it has not acted on it yet).
-pub fn deadline(motion: &Motion, last_beat: Instant, period_ms: u16) -> Option<Instant> {
+pub(crate) fn deadline(motion: &Motion, last_beat: Instant, period_ms: u16) -> Option<Instant> {
     if period_ms == 0 || motion.watchdog_fired {
         return None;
     }
@@ -29,7 +29,7 @@ pub fn deadline(motion: &Motion, last_beat: Instant, period_ms: u16) -> Option<I
 }
 
 /// `true` when the watchdog expired at `now`.
-pub fn expired(motion: &Motion, last_beat: Instant, period_ms: u16, now: Instant) -> bool {
+pub(crate) fn expired(motion: &Motion, last_beat: Instant, period_ms: u16, now: Instant) -> bool {
     deadline(motion, last_beat, period_ms).is_some_and(|d| now >= d)
 }
 

@@ -93,12 +93,12 @@ pub mod code {
     /// Cartesian jog: `JOG_L + 2 × axis + direction` (axis 0-5 = X, Y, Z,
     /// Rx, Ry, Rz).
     pub const JOG_L: u16 = 80;
-    /// Every code but the jog ones, in order (read from [`super::TABLE`]).
+    /// Every code but the jog ones, in order (read from the command table).
     pub const ALL: [u16; super::count_codes()] = super::list_codes();
 }
 
 /// A name of 32 characters at most (tool, frame, function, its parameters).
-pub type Name = heapless::String<32>;
+pub(crate) type Name = heapless::String<32>;
 
 /// The three absolute moves (codes 10-12), all `WayPoint`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -345,7 +345,7 @@ fn bit_value(p: &[f32; 12]) -> Result<(i32, i32), GatewayError> {
 /// trailing `,`, or `,,`). More parameters than this are refused
 /// (39501, nothing sent), never cut: a function must not run with
 /// parameters missing.
-pub const RUN_FUNC_PARAMS: usize = 16;
+pub(crate) const RUN_FUNC_PARAMS: usize = 16;
 
 /// The parameters of a `RunFunc`: TEXT2 split at `,`, each trimmed;
 /// [`GatewayError::BadParameter`] if there are more than
@@ -378,7 +378,7 @@ pub enum Class {
 /// One message of a command: calls `f` with its codec request. `None`
 /// when the command is not the one of the entry, or has no request in this
 /// build.
-pub type Step = fn(&Command, RobotId, &mut dyn FnMut(&dyn Wire)) -> Option<()>;
+pub(crate) type Step = fn(&Command, RobotId, &mut dyn FnMut(&dyn Wire)) -> Option<()>;
 
 /// Calls `f` with `request`: the end of every [`Step`].
 fn emit(f: &mut dyn FnMut(&dyn Wire), request: &dyn Wire) -> Option<()> {
@@ -402,7 +402,7 @@ pub struct Spec {
 }
 
 /// What a command code does.
-pub enum Does {
+pub(crate) enum Does {
     /// An urgent command: the urgent lane, sent in its canonical form
     /// ([`Urgent::encode`]).
     Urgent(Urgent),
@@ -412,7 +412,7 @@ pub enum Does {
 
 /// One entry of [`TABLE`]: a command code, or a run of codes that build
 /// alike.
-pub struct Entry {
+pub(crate) struct Entry {
     /// The first code.
     pub first: u16,
     /// The last code (the same as `first` but for runs).
@@ -455,7 +455,7 @@ impl Entry {
 /// [`Command::steps`], [`Command::with_request`] and [`code::ALL`] read it:
 /// adding a code is one entry here (and, if it carries values, a variant of
 /// [`Command`]).
-pub const TABLE: &[Entry] = &[
+pub(crate) const TABLE: &[Entry] = &[
     Entry::send(
         code::POWER_ON,
         code::POWER_ON,
@@ -816,7 +816,7 @@ fn jog_start(c: &Command, rbt_id: RobotId, f: &mut dyn FnMut(&dyn Wire)) -> Opti
 }
 
 /// The entry of command code `code`.
-pub fn entry(code: u16) -> Option<&'static Entry> {
+pub(crate) fn entry(code: u16) -> Option<&'static Entry> {
     TABLE.iter().find(|e| (e.first..=e.last).contains(&code))
 }
 
@@ -852,7 +852,7 @@ const fn list_codes<const N: usize>() -> [u16; N] {
     out
 }
 
-/// Builds the job of command code `inp.code` as [`TABLE`] says: a typed
+/// Builds the job of command code `inp.code` as the command table says: a typed
 /// command (or urgent command), checked against the document's ranges.
 /// Unknown codes, values out of range and non-integers where integers are
 /// needed are [`GatewayError::BadParameter`].
@@ -872,7 +872,7 @@ pub fn build(inp: &Inputs<'_>, robot: u8) -> Result<JobKind, GatewayError> {
 }
 
 impl Command {
-    /// Its entry in [`TABLE`] (every command built has one).
+    /// Its entry in the command table (every command built has one).
     pub fn spec(&self) -> Option<&'static Spec> {
         TABLE.iter().find_map(|e| match &e.does {
             Does::Send(s) if (s.is)(self) => Some(s),
@@ -896,7 +896,7 @@ impl Command {
     }
 
     /// Calls `f` with the codec request of message `step`, built by the
-    /// command's [`TABLE`] entry: the one place each command's request is
+    /// command's the command table entry: the one place each command's request is
     /// built, for checking and for sending. `None` for a step the command
     /// does not have.
     pub fn with_request<R>(

@@ -16,13 +16,13 @@
 //! When the engine sends a job it asks it for the bytes of each message
 //! ([`Job::encode`]); nothing is parsed again.
 
-pub mod command;
-pub mod queue;
-pub mod text;
+pub(crate) mod command;
+pub(crate) mod queue;
+pub(crate) mod text;
 
 use hans_codec::{request, CommandId, EncodeError, RangeError, ReplyExpect, RobotId};
 
-pub use command::Command;
+pub use command::{build, code, Command, Inputs};
 pub use queue::{Gate, JobQueue, QUEUE_DEPTH, URGENT_DEPTH};
 pub use text::{TextJob, TEXT_MAX};
 

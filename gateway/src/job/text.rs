@@ -52,7 +52,7 @@ impl TextJob {
 /// `GrpStop,0,;`). Urgent commands become [`Urgent`] and go out in the
 /// canonical form (`GrpStop, 0 ,;` → `GrpStop,0,;`), whatever their length.
 /// Returns the job and the robot id of an urgent command.
-pub fn build(bytes: &[u8]) -> Result<(JobKind, Option<u8>), GatewayError> {
+pub(crate) fn build(bytes: &[u8]) -> Result<(JobKind, Option<u8>), GatewayError> {
     const BAD: GatewayError = GatewayError::BadParameter;
     if !bytes.iter().all(|b| (0x20..0x7f).contains(b)) {
         return Err(BAD);

@@ -280,7 +280,7 @@ pub const CHANNEL_BASE: u16 = 200;
 pub const CHANNEL_STRIDE: u16 = 200;
 /// Offset: control bits (bit 0 = Execute).
 pub const CH_CONTROL: u16 = 0;
-/// Offset: command code, see [`crate::job::command`].
+/// Offset: command code, see [`crate::job::code`].
 pub const CH_COMMAND: u16 = 1;
 /// Offset: sequence number, echoed in [`CH_SEQ_ECHO`].
 pub const CH_SEQUENCE: u16 = 2;

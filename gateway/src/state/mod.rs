@@ -8,7 +8,7 @@
 //!
 //! The rules that change it live with their concerns: what a PLC event does
 //! in `crate::plc`, what the robot's replies do in
-//! [`crate::engine`]. The methods here keep the handshakes consistent
+//! `engine`. The methods here keep the handshakes consistent
 //! (Busy, then exactly one outcome).
 
 pub mod access;

@@ -41,7 +41,6 @@ use std::fmt::Write as _;
 
 use embassy_time::{Duration, Instant};
 use hans_gateway::config::{Config, WatchdogAction, WordOrder};
-use hans_gateway::{JOG_HEARTBEAT, JOG_KEEP_ALIVE as KEEP_ALIVE};
 use hans_gateway::error::{ErrorSource, GatewayError, Outcome};
 use hans_gateway::job::{Source, QUEUE_DEPTH, URGENT_DEPTH};
 use hans_gateway::registers::{self as r, view};
@@ -50,6 +49,7 @@ use hans_gateway::testkit::plc::{pdu, Answer};
 use hans_gateway::testkit::rng::Rng;
 use hans_gateway::testkit::robot::{Model as RobotModel, RandomFaults};
 use hans_gateway::testkit::world::{MemStorage, World, WorldConfig};
+use hans_gateway::{JOG_HEARTBEAT, JOG_KEEP_ALIVE as KEEP_ALIVE};
 
 /// What one scenario did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -13,7 +13,7 @@ use hans_sim::Sim;
 use tokio_modbus::client::{Context, Reader, Writer};
 
 pub use hans_gateway::error::{ErrorSource, GatewayError};
-pub use hans_gateway::job::command::code;
+pub use hans_gateway::job::code;
 
 /// Longest wait for anything in these tests (generous: the machine is
 /// shared).

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use hans_codec::{FsmState, ProtocolLevel};
 use hans_e2e::{f32_of, words_text, Plc, Rig};
-use hans_gateway::job::command::code;
+use hans_gateway::job::code;
 use hans_gateway::registers as r;
 
 const CH0: usize = 0;
