@@ -9,7 +9,8 @@
 //!
 //! | from | to | what |
 //! |---|---|---|
-//! | a session (a PLC write) | engine | `Hub::wake`: a job was queued, the configuration changed |
+//! | a session (a PLC write) | engine | `job_queued`: a job was queued |
+//! | a session (`CONFIG_COMMAND` 1), the page | engine | `config_applied` (a `Watch<Config>`): the configuration now in use |
 //! | a session (`CONFIG_COMMAND` 1) | storage task | `save_request`, answered by `save_done` ([`SaveOutcome`]) |
 //!
 //! Views: [`Hub::read_registers`] (Modbus) encodes registers from the
@@ -21,21 +22,28 @@ use core::net::SocketAddrV4;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::signal::Signal;
+use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::Instant;
 
 use crate::clock::Clock;
-use crate::config::ConfigResult;
+use crate::config::{Config, ConfigResult};
 use crate::modbus::{Pending, Registers};
 use crate::plc::{self, ConfigStep};
 use crate::registers::{view, AccessError, WriteError};
 use crate::state::Model;
 use crate::storage::SaveOutcome;
 
+/// The engine's end of [`Hub::config_applied`].
+pub(crate) type ConfigReceiver<'a> = Receiver<'a, NoopRawMutex, Config, 1>;
+
 /// Shared state and signals (see the module documentation).
 pub struct Hub {
     model: Mutex<NoopRawMutex, RefCell<Model>>,
-    /// Wakes the engine: a job was queued, the configuration was applied.
-    pub(crate) wake: Signal<NoopRawMutex, ()>,
+    /// Wakes the engine: a job was queued.
+    pub(crate) job_queued: Signal<NoopRawMutex, ()>,
+    /// The configuration in use, each time one is applied (the engine
+    /// follows it; the model keeps it too, for the views).
+    pub(crate) config_applied: Watch<NoopRawMutex, Config, 1>,
     /// Asks the storage task to save the configuration and trigger table.
     pub(crate) save_request: Signal<NoopRawMutex, ()>,
     /// The storage task's answer to `save_request`.
@@ -49,7 +57,8 @@ impl Hub {
     pub fn new(model: Model) -> Self {
         Hub {
             model: Mutex::new(RefCell::new(model)),
-            wake: Signal::new(),
+            job_queued: Signal::new(),
+            config_applied: Watch::new(),
             save_request: Signal::new(),
             save_done: Signal::new(),
             config_lock: embassy_sync::mutex::Mutex::new(()),
@@ -87,7 +96,7 @@ impl Hub {
             Ok::<_, WriteError>((plc::apply(m, &ev, now), ev.config_command))
         })?;
         if queued {
-            self.wake.signal(());
+            self.job_queued.signal(());
         }
         Ok(command)
     }
@@ -101,7 +110,7 @@ impl Hub {
             ConfigStep::Invalid(_) => Err(WriteError::Value),
             ConfigStep::Save => {
                 // The engine follows the new configuration at once.
-                self.wake.signal(());
+                self.announce_config();
                 match self.save_locked().await {
                     SaveOutcome::Failed(_) => Err(WriteError::Device),
                     _ => Ok(()),
@@ -121,9 +130,15 @@ impl Hub {
     ) -> Result<SaveOutcome, E> {
         let _one_at_a_time = self.config_lock.lock().await;
         if self.with(f)? {
-            self.wake.signal(());
+            self.announce_config();
         }
         Ok(self.save_locked().await)
+    }
+
+    /// Tells the engine the configuration in use changed.
+    fn announce_config(&self) {
+        let config = self.with(|m| m.config.active);
+        self.config_applied.sender().send(config);
     }
 
     /// Has the storage task save, waits for it and reports the outcome in

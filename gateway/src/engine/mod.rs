@@ -38,7 +38,7 @@ pub(crate) mod watchdog;
 
 use core::convert::Infallible;
 
-use embassy_futures::select::{select, select3, Either3};
+use embassy_futures::select::{select, select3, Either, Either3};
 use embassy_time::{Duration, Instant};
 use hans_codec::{
     response, CommandId, ErrorCode, FsmState, ParseError, ProtocolLevel, Reply, Response,
@@ -48,7 +48,7 @@ pub(crate) use crate::error::{ErrorSource, GatewayError, Outcome};
 
 use crate::clock::{millis, Clock};
 use crate::config::{Config, LinkMode, ProtocolSetting, StatusSource, WatchdogAction};
-use crate::hub::Hub;
+use crate::hub::{ConfigReceiver, Hub};
 use crate::job::{Gate, Job, JobKind, Message, Source, Urgent};
 use crate::link::{IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
@@ -133,12 +133,32 @@ pub(crate) async fn run<S: Socket, C: Clock>(hub: &Hub, clock: &C, a: S, b: S) -
     }
 }
 
+/// Waits for a queued job (`None`) or an applied configuration.
+async fn woken(hub: &Hub, config_rx: &mut Option<ConfigReceiver<'_>>) -> Option<Config> {
+    let applied = async {
+        match config_rx {
+            Some(r) => r.changed().await,
+            None => core::future::pending().await,
+        }
+    };
+    match select(hub.job_queued.wait(), applied).await {
+        Either::First(()) => None,
+        Either::Second(c) => Some(c),
+    }
+}
+
 /// The engine's own state (the shared state is the hub's model).
 pub(crate) struct Engine<'a, C: Clock> {
     hub: &'a Hub,
     clock: &'a C,
     config: Config,
-    generation: u32,
+    /// Configurations applied since the last step (`None`: a second
+    /// engine on one hub, which has no receiver; it keeps its start
+    /// configuration).
+    config_rx: Option<ConfigReceiver<'a>>,
+    /// A configuration taken from `config_rx` while waiting, for the next
+    /// `follow_config`.
+    applied: Option<Config>,
     target: Target,
     motion: Option<Motion>,
     pending: Option<Pending>,
@@ -162,13 +182,18 @@ impl<'a, C: Clock> Engine<'a, C> {
     /// An engine on `hub`'s active configuration, its link down, every
     /// deadline now.
     pub(crate) fn new(hub: &'a Hub, clock: &'a C) -> Self {
-        let (config, generation) = hub.with(|m| (m.config.active, m.config.generation));
+        let config = hub.with(|m| m.config.active);
+        let config_rx = hub.config_applied.receiver();
+        if config_rx.is_none() {
+            warn!("engine: a second engine on one hub does not follow the configuration");
+        }
         let now = clock.now();
         Engine {
             hub,
             clock,
             config,
-            generation,
+            config_rx,
+            applied: None,
             target: target_of(&config),
             motion: None,
             pending: None,
@@ -378,6 +403,16 @@ impl<'a, C: Clock> Engine<'a, C> {
         self.clock.now() + millis(self.config.reply_timeout_ms)
     }
 
+    /// Returns at `until`, or earlier when a job was queued or a
+    /// configuration applied (the next step picks that up).
+    async fn woken_or_until(&mut self, until: Instant) {
+        let (hub, clock) = (self.hub, self.clock);
+        let woken = woken(hub, &mut self.config_rx);
+        if let Either::First(Some(c)) = select(woken, clock.sleep_until(until)).await {
+            self.applied = Some(c);
+        }
+    }
+
     /// Nothing to do until `until`, a wake, or a link event.
     async fn wait<S: Socket>(&mut self, link: &mut Link<S>, until: Instant) {
         let listen = match self.target {
@@ -385,7 +420,10 @@ impl<'a, C: Clock> Engine<'a, C> {
             _ => None,
         };
         let idle = link.idle(listen, self.clock);
-        match select3(idle, self.hub.wake.wait(), self.clock.sleep_until(until)).await {
+        let (hub, clock) = (self.hub, self.clock);
+        let woken = woken(hub, &mut self.config_rx);
+        match select3(idle, woken, clock.sleep_until(until)).await {
+            Either3::Second(Some(c)) => self.applied = Some(c),
             Either3::First(IdleEvent::Lost(e)) => {
                 warn!("robot link: {}", e.as_str());
                 self.link_lost(link, GatewayError::LinkLost).await;
@@ -410,11 +448,11 @@ impl<'a, C: Clock> Engine<'a, C> {
     /// Picks up a changed configuration; a changed robot address drops the
     /// link.
     async fn follow_config<S: Socket>(&mut self, link: &mut Link<S>) {
-        let (config, generation) = self.hub.with(|m| (m.config.active, m.config.generation));
-        if generation == self.generation {
+        let stashed = self.applied.take();
+        let latest = self.config_rx.as_mut().and_then(|r| r.try_changed());
+        let Some(config) = latest.or(stashed) else {
             return;
-        }
-        self.generation = generation;
+        };
         let protocol_changed = config.protocol != self.config.protocol;
         self.config = config;
         if protocol_changed && link.is_up() {
@@ -444,17 +482,16 @@ impl<'a, C: Clock> Engine<'a, C> {
         let now = self.clock.now();
         self.hub
             .with(|m| m.fail_queue(GatewayError::NotConnected, now));
-        let wake = &self.hub.wake;
         match self.target {
             Target::None => {
                 self.set_link_state(LinkState::Down);
-                select(wake.wait(), self.clock.sleep_until(self.next_tick)).await;
+                self.woken_or_until(self.next_tick).await;
             }
             Target::Connect(addr) => {
                 if now < self.retry_at {
                     self.set_link_state(LinkState::Down);
                     let due = self.retry_at.min(self.next_tick);
-                    select(wake.wait(), self.clock.sleep_until(due)).await;
+                    self.woken_or_until(due).await;
                     return;
                 }
                 self.set_link_state(LinkState::Connecting);
@@ -471,7 +508,9 @@ impl<'a, C: Clock> Engine<'a, C> {
             Target::Listen(port) => {
                 self.set_link_state(LinkState::Listening);
                 let accept = link.establish(Target::Listen(port), self.clock);
-                match select3(accept, wake.wait(), self.clock.sleep_until(self.next_tick)).await {
+                let woken = woken(self.hub, &mut self.config_rx);
+                match select3(accept, woken, self.clock.sleep_until(self.next_tick)).await {
+                    Either3::Second(Some(c)) => self.applied = Some(c),
                     Either3::First(Ok(())) => self.on_connected(link),
                     Either3::First(Err(e)) => {
                         warn!("robot link: listen failed: {}", e.as_str());
