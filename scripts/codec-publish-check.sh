@@ -27,7 +27,9 @@ if ((bytes > 1024 * 1024)); then
 fi
 
 echo "--- cargo publish --dry-run -p hans-codec"
-cargo publish --dry-run -p hans-codec --allow-dirty --locked
+# The package was built on its own just above: the dry run checks the rest
+# (metadata, the crates.io index) without building it a second time.
+cargo publish --dry-run --no-verify -p hans-codec --allow-dirty --locked
 
 # The MSRV as declared in the package (the workspace's `rust-version`).
 msrv=$(cargo metadata --no-deps --format-version 1 --locked | python3 -c '

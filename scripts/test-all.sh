@@ -96,6 +96,10 @@ step "host tests" cargo test --workspace --exclude hans-host-tests --locked
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
+step "codec as a crate: cargo package, publish --dry-run, build with its declared MSRV toolchain" \
+  bash scripts/codec-publish-check.sh
+step "codec example (embassy-net client) builds for thumbv7em-none-eabihf" \
+  cargo build -p hans-codec --example robot_state --target thumbv7em-none-eabihf --locked
 step "gateway library builds for thumbv7em-none-eabihf (core, and with the DataSheet reader)" \
   bash -c 'cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,flash --locked &&
     cargo build -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,datasheet --locked'
