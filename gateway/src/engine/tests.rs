@@ -373,3 +373,60 @@ fn a_jog_starts_only_while_held_and_at_a_level_that_has_jogging() {
         assert_eq!(e.jog_gate(&stop), None);
     });
 }
+
+/// What a reply does to a job: typed values applied, a Fail and an
+/// errorcmd named, a reply to another command refused, the RAW reply kept.
+#[test]
+fn on_reply_judges_a_reply_against_its_request() {
+    use crate::error::{ErrorSource, GatewayError, Outcome};
+    use crate::job::{Job, Source};
+    decide(|hub, _, e| {
+        let job = |text: &[u8], source| {
+            let (kind, _) = crate::job::text::build(text).unwrap();
+            Job {
+                source,
+                seq: 1,
+                robot: 0,
+                kind,
+            }
+        };
+        let mut buf = [0u8; 256];
+        let mut judge = |e: &mut Engine<'_, VirtualClock>, j: &Job, reply: &str| {
+            let msg = j.encode(0, &mut buf).unwrap();
+            e.on_reply(j, &msg, reply)
+        };
+        // An accepted override is applied to the status.
+        let ovr = job(b"SetOverride,0,0.5,;", Source::Channel(0));
+        assert_eq!(judge(e, &ovr, "SetOverride,OK,;"), None);
+        assert_eq!(hub.with(|m| m.robot.override_ratio), Some(0.5));
+        // A Fail is the robot's error, with its code.
+        assert_eq!(
+            judge(e, &ovr, "SetOverride,Fail,20018,;"),
+            Some(Outcome::Error(ErrorSource::RobotFail, 20018))
+        );
+        // An errorcmd, and a reply to another command.
+        assert_eq!(
+            judge(e, &ovr, "errorcmd,;"),
+            Some(Outcome::gateway(GatewayError::BadReply))
+        );
+        assert_eq!(
+            judge(e, &ovr, "GrpStop,OK,;"),
+            Some(Outcome::gateway(GatewayError::ReplyMismatch))
+        );
+        // RAW keeps the reply as it came, whatever it says.
+        let raw = job(b"ReadOverride,0,;", Source::Raw);
+        assert_eq!(judge(e, &raw, "ReadOverride,OK,0.25,;"), None);
+        assert_eq!(
+            hub.with(|m| m.raw.reply.bytes().to_vec()),
+            b"ReadOverride,OK,0.25,;".to_vec()
+        );
+        assert_eq!(
+            judge(e, &raw, "ReadOverride,Fail,20005,;"),
+            Some(Outcome::Error(ErrorSource::RobotFail, 20005))
+        );
+        assert_eq!(
+            hub.with(|m| m.raw.reply.bytes().to_vec()),
+            b"ReadOverride,Fail,20005,;".to_vec()
+        );
+    });
+}
