@@ -1,6 +1,6 @@
 //! Shared by the gateway targets that need a whole gateway: one world per
-//! process (thread), built on the first input, and put back before each
-//! input into the state an input may have changed for good.
+//! process (thread), built on the first input; what an input changed for
+//! good is put back at its end.
 //!
 //! Building a world runs every part of the gateway once (sockets, tasks,
 //! the robot's bring-up): under the sanitizers that costs milliseconds,
@@ -9,9 +9,9 @@
 //! stored (configuration, triggers, password, the storage image) is reset
 //! at its end by [`reset`]. State that is not stored (channel
 //! statuses, web sessions, the robot link) carries on from input to input,
-//! as on a gateway that runs: a crash found late may need the inputs
-//! before it (libFuzzer's `-runs` on the crash directory's corpus, or the
-//! `fuzz-*.log`), though the invariants hold at every input's end.
+//! as on a gateway that runs: a crash may need what inputs before
+//! it left (rerun it alone first; libFuzzer does not record the inputs
+//! before it), though the invariants are checked at every input's end.
 
 use std::cell::RefCell;
 use std::thread::LocalKey;
