@@ -9,6 +9,14 @@
 # corpus it built. Needs the nightly toolchain and cargo-fuzz
 # (scripts/setup.sh installs both). Set FUZZ_TARGETS="framer reply" to run a
 # subset.
+#
+# The gateway_modbus, gateway_robot and gateway_http targets build one world
+# per process and reset what an input stored (fuzz_targets/common.rs), so
+# a crash may also depend on what earlier inputs left (channel statuses, web
+# sessions, the robot link; stored state is reset): rerun the crashing input
+# alone first (cargo +nightly fuzz run <t> artifacts/<t>/crash-...); if it
+# passes alone, it needs what ran before it in that process, which libFuzzer
+# does not record.
 set -euo pipefail
 cd "$(dirname "$0")"
 

@@ -1,17 +1,17 @@
 //! Shared by the gateway targets that need a whole gateway: one world per
-//! process (thread), built on the first input, and put back before each
-//! input into the state an input may have changed for good.
+//! process (thread), built on the first input; what an input changed for
+//! good is put back at its end.
 //!
 //! Building a world runs every part of the gateway once (sockets, tasks,
 //! the robot's bring-up): under the sanitizers that costs milliseconds,
 //! and every input would cover those same edges again. So a target builds
 //! it once, and each input only drives the part it fuzzes; what that input
 //! stored (configuration, triggers, password, the storage image) is reset
-//! before the next one by [`reset`]. State that is not stored (channel
+//! at its end by [`reset`]. State that is not stored (channel
 //! statuses, web sessions, the robot link) carries on from input to input,
-//! as on a gateway that runs: a crash found late may need the inputs
-//! before it (libFuzzer's `-runs` on the crash directory's corpus, or the
-//! `fuzz-*.log`), though the invariants hold at every input's end.
+//! as on a gateway that runs: a crash may need what inputs before
+//! it left (rerun it alone first; libFuzzer does not record the inputs
+//! before it), though the invariants are checked at every input's end.
 
 use std::cell::RefCell;
 use std::thread::LocalKey;
@@ -21,7 +21,8 @@ use hans_gateway::state::Triggers;
 use hans_gateway::testkit::world::World;
 
 /// Runs `f` on this thread's world in `slot`, built by `make` the first
-/// time (the configuration it then runs with is what [`reset`] restores).
+/// time (the configuration it then runs with is what [`reset`] restores
+/// after each input).
 pub fn with_world<R>(
     slot: &'static LocalKey<RefCell<Option<(World, Config)>>>,
     make: impl FnOnce() -> World,
@@ -30,12 +31,17 @@ pub fn with_world<R>(
     slot.with(|cell| {
         let mut guard = cell.borrow_mut();
         let (w, base) = guard.get_or_insert_with(|| {
-            let w = make();
+            let mut w = make();
             let base = w.model(|m| m.config.active);
+            reset(&mut w, &base);
             (w, base)
         });
+        let out = f(w);
+        // Within the input, so that what it allocated is freed by its end
+        // (libFuzzer reruns an input that ends with more allocations than
+        // frees, looking for a leak).
         reset(w, base);
-        f(w)
+        out
     })
 }
 
