@@ -352,6 +352,19 @@ pub struct Config {
 }
 
 impl Config {
+    /// Checks every setting against its kind and range; the first out of
+    /// range is named (a configuration built field by field, not through
+    /// the schema, may hold one).
+    pub fn check(&self) -> Result<(), &'static Setting> {
+        match SETTINGS
+            .iter()
+            .find(|s| s.kind.check(&s.get(self)).is_err())
+        {
+            Some(s) => Err(s),
+            None => Ok(()),
+        }
+    }
+
     /// The robot's command endpoint.
     pub fn robot(&self) -> SocketAddrV4 {
         SocketAddrV4::new(self.robot_ip, self.robot_port)

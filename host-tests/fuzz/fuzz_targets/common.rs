@@ -55,7 +55,7 @@ pub fn reset(w: &mut World, base: &Config) {
         if m.config.active != *base {
             m.config.apply(*base);
         }
-        m.config.edit = base.to_words();
+        m.config.edit = None;
         m.access.password = None;
         m.triggers.entries = Triggers::default().entries;
     });
