@@ -301,8 +301,9 @@ fn migrate(format: u16, b: &[u8], defaults: &Config) -> Result<Config, ImageErro
 }
 
 /// CRC-32 (IEEE, reflected), bitwise: a few bytes of code for a check run
-/// only at load and save, not worth a dependency.
-fn crc32(data: &[u8]) -> u32 {
+/// only at load and save, not worth a dependency. Public for tools and
+/// fuzz targets that build or reseal images.
+pub fn crc32(data: &[u8]) -> u32 {
     let mut crc = !0u32;
     for &b in data {
         crc ^= u32::from(b);

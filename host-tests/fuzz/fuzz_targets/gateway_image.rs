@@ -20,6 +20,7 @@ use hans_gateway::registers::config::{decode as from_registers, Words, CONFIG_WO
 use hans_gateway::registers as r;
 use hans_gateway::state::{Text, Triggers};
 use hans_gateway::storage::image::{decode, encode, Entries};
+use hans_gateway::storage::image::crc32;
 use hans_gateway::storage::IMAGE_LEN;
 use hans_gateway::testkit::clock::VirtualClock;
 use hans_gateway::testkit::world::MemStorage;
@@ -96,18 +97,3 @@ fn check(data: &[u8]) {
     assert_eq!(from_registers(&words, &active), Ok(active));
 }
 
-/// CRC-32 (IEEE), as the image's.
-fn crc32(data: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    for &b in data {
-        crc ^= u32::from(b);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
-}
