@@ -5,9 +5,11 @@
 //! completion still polls `ReadRobotState`, which is exact).
 //!
 //! The DataSheet connection goes to the robot's address (connect mode) or
-//! to the address the controller connected from (listen mode), on
-//! `CFG_DATASHEET_PORT`, and follows that address: a new robot address, or
-//! a controller reconnecting from another one in listen mode, moves it.
+//! to the address of the controller the link accepted (listen mode: never
+//! another host's, see `crate::link::admits`; and with `robot.address` set,
+//! only that address), on `CFG_DATASHEET_PORT`, and follows that address:
+//! a new robot address, or in listen mode a new controller link after the
+//! old one was lost, moves it.
 //! When it fails it is retried every [`RETRY_DELAY`]; [`SILENCE_TIMEOUT`]
 //! without data ends it. A packet that cannot be read (a bad header, more
 //! than [`PAYLOAD_MAX`] bytes, JSON the codec rejects) is dropped; the first
@@ -58,7 +60,13 @@ fn target(m: &Model) -> Option<SocketAddrV4> {
     }
     let ip = match c.link_mode {
         LinkMode::Connect => c.robot_ip,
-        LinkMode::Listen => m.link.peer.unwrap_or(Ipv4Addr::UNSPECIFIED),
+        // The accepted controller; with an address configured never another
+        // (the link refuses it; checked again here all the same).
+        LinkMode::Listen => m
+            .link
+            .peer
+            .filter(|p| c.robot_ip.is_unspecified() || *p == c.robot_ip)
+            .unwrap_or(Ipv4Addr::UNSPECIFIED),
     };
     (!ip.is_unspecified()).then(|| SocketAddrV4::new(ip, c.datasheet_port))
 }
@@ -142,7 +150,7 @@ mod tests {
         m.config.active.poll_ms = m.config.active.poll_ms.wrapping_add(10);
         m.config.generation = m.config.generation.wrapping_add(1);
         assert_eq!(target(&m), first);
-        // The controller reconnecting from elsewhere moves it.
+        // A new controller link from elsewhere (the old one was lost) moves it.
         m.link.peer = Some(peer([127, 0, 0, 3]));
         assert_eq!(
             target(&m),
@@ -156,5 +164,21 @@ mod tests {
         );
         m.config.active.status_source = StatusSource::Polling;
         assert_eq!(target(&m), None);
+    }
+
+    #[test]
+    fn listen_mode_with_a_controller_address_reads_only_from_it() {
+        let mut m = Model::new(Config::default(), Config::default());
+        m.config.active.status_source = StatusSource::DataSheet;
+        m.config.active.link_mode = LinkMode::Listen;
+        m.config.active.datasheet_port = 10004;
+        m.config.active.robot_ip = Ipv4Addr::new(10, 0, 0, 2);
+        m.link.peer = Some(Ipv4Addr::new(10, 0, 0, 66));
+        assert_eq!(target(&m), None);
+        m.link.peer = Some(Ipv4Addr::new(10, 0, 0, 2));
+        assert_eq!(
+            target(&m),
+            Some(SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 2), 10004))
+        );
     }
 }

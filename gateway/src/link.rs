@@ -4,13 +4,19 @@
 //!
 //! Replies are framed with the codec's [`Framer`]; anything the controller
 //! sends while no request is in flight is dropped, and so is anything after
-//! the reply (the controller answers one message with one message). In
-//! listen mode a second socket keeps accepting while the link is idle: a new
-//! connection from the controller replaces the old one.
+//! the reply (the controller answers one message with one message).
+//!
+//! In listen mode only the controller may connect ([`admits`]): the
+//! configured `robot.address`, or, with none configured (0.0.0.0), the
+//! first host that connects. A second socket keeps accepting while the link
+//! is idle: a new connection from the live controller's address replaces
+//! the old one (a controller reconnecting after a restart); one from any
+//! other address is closed at once, before a byte is read or sent, and
+//! never replaces the live link. The engine logs and counts both.
 //!
 //! The engine owns the link and decides about timeouts and backoff.
 
-use core::net::SocketAddrV4;
+use core::net::{Ipv4Addr, SocketAddrV4};
 
 use embassy_time::{Duration, Instant};
 
@@ -31,8 +37,14 @@ pub(crate) const CONNECT_TIMEOUT: Duration = Duration::from_secs(3);
 pub(crate) enum Target {
     /// Connect to the controller.
     Connect(SocketAddrV4),
-    /// Wait for the controller on this port.
-    Listen(u16),
+    /// Wait for the controller on `port`; only from `controller` unless
+    /// it is 0.0.0.0 (not configured: the first to connect).
+    Listen {
+        /// The port listened on.
+        port: u16,
+        /// The controller's address (`robot.address`), or 0.0.0.0.
+        controller: Ipv4Addr,
+    },
     /// No robot configured.
     None,
 }
@@ -55,8 +67,34 @@ pub(crate) enum LinkError {
 pub(crate) enum IdleEvent {
     /// The connection was lost.
     Lost(NetError),
-    /// The controller connected again; the new connection replaced the old.
-    Replaced,
+    /// The controller connected again (from the live link's address); the
+    /// new connection, from this port, replaced the old.
+    Replaced(SocketAddrV4),
+    /// Another host connected to the listen port; its connection was
+    /// closed, the live link stays (`None`: its address was unknown).
+    Refused(Option<SocketAddrV4>),
+}
+
+/// What a listen-mode accept led to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub(crate) enum Accepted {
+    /// The link is up (connect mode: connected).
+    Up,
+    /// A host that is not the controller connected; its connection was
+    /// closed, nothing is up (`None`: its address was unknown).
+    Refused(Option<SocketAddrV4>),
+}
+
+/// Listen mode: may a connection from `peer` become the link? Only from
+/// the configured `controller` (any address when it is 0.0.0.0), and while
+/// a link from `live` is up only from that same address: another host
+/// never replaces the live controller.
+pub(crate) fn admits(controller: Ipv4Addr, live: Option<Ipv4Addr>, peer: Ipv4Addr) -> bool {
+    if peer.is_unspecified() || (!controller.is_unspecified() && peer != controller) {
+        return false;
+    }
+    live.is_none_or(|l| l == peer)
 }
 
 /// The link.
@@ -64,6 +102,9 @@ pub(crate) struct Link<S: Socket> {
     socks: [S; 2],
     cur: usize,
     up: bool,
+    /// The address the live link came from (kept while it is up, even once
+    /// the socket no longer knows it).
+    live: Option<Ipv4Addr>,
     framer: Framer<REPLY_MAX>,
     rx: [u8; 256],
     reply: [u8; REPLY_MAX],
@@ -76,6 +117,7 @@ impl<S: Socket> Link<S> {
             socks: [a, b],
             cur: 0,
             up: false,
+            live: None,
             framer: Framer::new(),
             rx: [0; 256],
             reply: [0; REPLY_MAX],
@@ -102,12 +144,14 @@ impl<S: Socket> Link<S> {
     }
 
     /// One attempt to bring the link up: a connect bounded by
-    /// [`CONNECT_TIMEOUT`], or an accept that waits as long as it is polled.
+    /// [`CONNECT_TIMEOUT`], or an accept that waits as long as it is polled
+    /// and takes one connection: the controller's ([`Accepted::Up`]), or
+    /// another host's, closed at once ([`Accepted::Refused`]).
     pub(crate) async fn establish<C: Clock>(
         &mut self,
         target: Target,
         clock: &C,
-    ) -> Result<(), NetError> {
+    ) -> Result<Accepted, NetError> {
         match target {
             Target::None => core::future::pending().await,
             Target::Connect(addr) => {
@@ -120,7 +164,7 @@ impl<S: Socket> Link<S> {
                     }
                 }
             }
-            Target::Listen(port) => {
+            Target::Listen { port, controller } => {
                 // Either socket may get the controller's connection (one of
                 // them may still be listening from an earlier idle period).
                 let (a, b) = self.socks.split_at_mut(1);
@@ -137,16 +181,23 @@ impl<S: Socket> Link<S> {
                         self.cur = 1;
                     }
                 }
+                let peer = self.sock().remote();
+                if !peer.is_some_and(|p| admits(controller, None, *p.ip())) {
+                    self.sock().close().await;
+                    return Ok(Accepted::Refused(peer));
+                }
             }
         }
         self.up = true;
+        self.live = self.sock().remote().map(|p| *p.ip());
         self.framer.reset();
-        Ok(())
+        Ok(Accepted::Up)
     }
 
     /// Closes the connection (the socket can be used again).
     pub(crate) async fn close(&mut self) {
         self.up = false;
+        self.live = None;
         self.framer.reset();
         self.sock().close().await;
     }
@@ -154,6 +205,7 @@ impl<S: Socket> Link<S> {
     /// Closes both sockets, also one still listening (the target changed).
     pub(crate) async fn close_all(&mut self) {
         self.up = false;
+        self.live = None;
         self.framer.reset();
         for s in self.socks.iter_mut() {
             s.close().await;
@@ -223,13 +275,22 @@ impl<S: Socket> Link<S> {
         }
     }
 
+    /// The address the live link came from (`None` while down).
+    pub(crate) fn live(&self) -> Option<Ipv4Addr> {
+        self.live
+    }
+
     /// Waits while no request is in flight: returns when the connection is
-    /// lost or, with `listen_port`, replaced by a new one. Cancel-safe.
-    pub(crate) async fn idle<C: Clock>(
-        &mut self,
-        listen_port: Option<u16>,
-        clock: &C,
-    ) -> IdleEvent {
+    /// lost or, in listen mode (`Target::Listen`), when another connection
+    /// came: it replaced the old one if [`admits`] lets it, else it was
+    /// closed. Cancel-safe.
+    pub(crate) async fn idle<C: Clock>(&mut self, target: Target, clock: &C) -> IdleEvent {
+        let listen = match target {
+            Target::Listen { port, controller } => Some((port, controller)),
+            _ => None,
+        };
+        // A link without a known address is replaced by nobody.
+        let live = self.live.unwrap_or(Ipv4Addr::UNSPECIFIED);
         let cur = self.cur % 2;
         let (a, b) = self.socks.split_at_mut(1);
         let (current, spare) = match (a.first_mut(), b.first_mut()) {
@@ -250,8 +311,8 @@ impl<S: Socket> Link<S> {
             }
         };
         let accept = async {
-            match listen_port {
-                Some(port) => loop {
+            match listen {
+                Some((port, _)) => loop {
                     if spare.accept(port).await.is_ok() {
                         return;
                     }
@@ -263,13 +324,55 @@ impl<S: Socket> Link<S> {
         match embassy_futures::select::select(watch, accept).await {
             embassy_futures::select::Either::First(ev) => ev,
             embassy_futures::select::Either::Second(()) => {
-                if let Some(old) = self.socks.get_mut(cur) {
-                    old.close().await;
+                let controller = listen.map_or(Ipv4Addr::UNSPECIFIED, |(_, c)| c);
+                let Some(new) = self.socks.get_mut(1 - cur) else {
+                    return IdleEvent::Refused(None);
+                };
+                let peer = new.remote();
+                match peer {
+                    Some(p) if admits(controller, Some(live), *p.ip()) => {
+                        if let Some(old) = self.socks.get_mut(cur) {
+                            old.close().await;
+                        }
+                        self.cur = 1 - cur;
+                        self.framer.reset();
+                        IdleEvent::Replaced(p)
+                    }
+                    _ => {
+                        new.close().await;
+                        IdleEvent::Refused(peer)
+                    }
                 }
-                self.cur = 1 - cur;
-                self.framer.reset();
-                IdleEvent::Replaced
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ROBOT: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 2);
+    const OTHER: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 66);
+    const ANY: Ipv4Addr = Ipv4Addr::UNSPECIFIED;
+
+    #[test]
+    fn a_configured_controller_address_is_the_only_one_admitted() {
+        assert!(admits(ROBOT, None, ROBOT));
+        assert!(!admits(ROBOT, None, OTHER));
+        // Its reconnect replaces its live link; nobody else's does.
+        assert!(admits(ROBOT, Some(ROBOT), ROBOT));
+        assert!(!admits(ROBOT, Some(ROBOT), OTHER));
+    }
+
+    #[test]
+    fn without_an_address_the_first_controller_keeps_the_link() {
+        assert!(admits(ANY, None, OTHER));
+        assert!(admits(ANY, Some(ROBOT), ROBOT));
+        assert!(!admits(ANY, Some(ROBOT), OTHER));
+        // A link whose address is unknown is replaced by nobody, and no
+        // connection without an address is admitted.
+        assert!(!admits(ANY, Some(ANY), ROBOT));
+        assert!(!admits(ANY, None, ANY));
     }
 }

@@ -22,7 +22,9 @@
 //! 8. a robot error code wants its text (`GetErrorCodeStr`, V6);
 //! 9. the status round has a read left (one round per `CFG_POLL_MS`);
 //! 10. else wait for the earliest deadline, a wake from the PLC side, or a
-//!     link event (lost, or a new controller connection in listen mode).
+//!     link event (lost, or a new connection in listen mode: the
+//!     controller's replaces the link, another host's is refused; see
+//!     [`crate::link::admits`]).
 //!
 //! One request is in flight at a time. A reply timeout ends the command in
 //! Error and resets the link; when the link drops, every queued and running
@@ -50,7 +52,7 @@ use crate::clock::{millis, Clock};
 use crate::config::{Config, LinkMode, ProtocolSetting, StatusSource, WatchdogAction};
 use crate::hub::{ConfigReceiver, Hub};
 use crate::job::{Gate, Job, JobKind, Message, Source, Urgent};
-use crate::link::{IdleEvent, Link, LinkError, Target};
+use crate::link::{Accepted, IdleEvent, Link, LinkError, Target};
 use crate::net::Socket;
 use crate::state::history::LogEvent;
 use crate::state::{LinkState, TextSource};
@@ -111,7 +113,10 @@ enum Polled {
 
 fn target_of(c: &Config) -> Target {
     match c.link_mode {
-        LinkMode::Listen => Target::Listen(c.listen_port),
+        LinkMode::Listen => Target::Listen {
+            port: c.listen_port,
+            controller: c.robot_ip,
+        },
         LinkMode::Connect if c.robot_ip.is_unspecified() => Target::None,
         LinkMode::Connect => Target::Connect(c.robot()),
     }
@@ -415,11 +420,7 @@ impl<'a, C: Clock> Engine<'a, C> {
 
     /// Nothing to do until `until`, a wake, or a link event.
     async fn wait<S: Socket>(&mut self, link: &mut Link<S>, until: Instant) {
-        let listen = match self.target {
-            Target::Listen(p) => Some(p),
-            _ => None,
-        };
-        let idle = link.idle(listen, self.clock);
+        let idle = link.idle(self.target, self.clock);
         let (hub, clock) = (self.hub, self.clock);
         let woken = woken(hub, &mut self.config_rx);
         match select3(idle, woken, clock.sleep_until(until)).await {
@@ -428,19 +429,26 @@ impl<'a, C: Clock> Engine<'a, C> {
                 warn!("robot link: {}", e.as_str());
                 self.link_lost(link, GatewayError::LinkLost).await;
             }
-            Either3::First(IdleEvent::Replaced) => {
-                info!(
-                    "robot link: the controller connected again; new connection replaces the old"
+            Either3::First(IdleEvent::Replaced(p)) => {
+                let [a, b, c, d] = p.ip().octets();
+                warn!(
+                    "robot link: the controller connected again from {}.{}.{}.{}:{}; the new connection replaces the old",
+                    a,
+                    b,
+                    c,
+                    d,
+                    p.port()
                 );
-                let peer = link.peer().map(|p| *p.ip());
+                let peer = Some(*p.ip());
                 let now = self.clock.now();
                 self.hub.with(|m| {
-                    // Maybe from another address: the DataSheet follows.
+                    // The same address (`link::admits`): the DataSheet stays.
                     m.link.peer = peer;
                     m.link.connects = m.link.connects.wrapping_add(1);
                     m.log.link(LogEvent::LinkUp(peer), now);
                 });
             }
+            Either3::First(IdleEvent::Refused(p)) => self.refused(p),
             _ => {}
         }
     }
@@ -465,7 +473,21 @@ impl<'a, C: Clock> Engine<'a, C> {
             self.hub.with(|m| m.link.level = level);
         }
         let target = target_of(&config);
-        if target != self.target {
+        // Listen mode, the same port, another `robot.address`: a live link
+        // from the address now configured (or any, with 0.0.0.0) stays.
+        let keeps = match (self.target, target) {
+            (Target::Listen { port: old, .. }, Target::Listen { port, controller }) => {
+                old == port
+                    && link.is_up()
+                    && link
+                        .live()
+                        .is_some_and(|l| crate::link::admits(controller, None, l))
+            }
+            _ => false,
+        };
+        if keeps {
+            self.target = target;
+        } else if target != self.target {
             info!("robot link: target changed");
             if link.is_up() {
                 self.link_lost(link, GatewayError::LinkLost).await;
@@ -498,20 +520,23 @@ impl<'a, C: Clock> Engine<'a, C> {
                 // Bounded by CONNECT_TIMEOUT; awaited whole so that slow
                 // connects are not cut by the poll tick.
                 match link.establish(Target::Connect(addr), self.clock).await {
-                    Ok(()) => self.on_connected(link),
+                    Ok(Accepted::Up) => self.on_connected(link),
+                    Ok(Accepted::Refused(p)) => self.refused(p),
                     Err(e) => {
                         debug!("robot link: connect failed: {}", e.as_str());
                         self.backoff_after(GatewayError::ConnectFailed);
                     }
                 }
             }
-            Target::Listen(port) => {
+            Target::Listen { .. } => {
                 self.set_link_state(LinkState::Listening);
-                let accept = link.establish(Target::Listen(port), self.clock);
+                let accept = link.establish(self.target, self.clock);
                 let woken = woken(self.hub, &mut self.config_rx);
                 match select3(accept, woken, self.clock.sleep_until(self.next_tick)).await {
                     Either3::Second(Some(c)) => self.applied = Some(c),
-                    Either3::First(Ok(())) => self.on_connected(link),
+                    Either3::First(Ok(Accepted::Up)) => self.on_connected(link),
+                    // Not the controller: closed; keep listening, no backoff.
+                    Either3::First(Ok(Accepted::Refused(p))) => self.refused(p),
                     Either3::First(Err(e)) => {
                         warn!("robot link: listen failed: {}", e.as_str());
                         self.backoff_after(GatewayError::ConnectFailed);
@@ -532,6 +557,27 @@ impl<'a, C: Clock> Engine<'a, C> {
         });
     }
 
+    /// Listen mode: a host that is not the controller connected (its
+    /// connection is closed already): logged and counted.
+    fn refused(&mut self, peer: Option<core::net::SocketAddrV4>) {
+        match peer {
+            Some(p) => {
+                let [a, b, c, d] = p.ip().octets();
+                warn!(
+                    "robot link: refused a connection from {}.{}.{}.{}:{}: not the controller",
+                    a,
+                    b,
+                    c,
+                    d,
+                    p.port()
+                );
+            }
+            None => warn!("robot link: refused a connection from an unknown address"),
+        }
+        self.hub
+            .with(|m| m.link.refused = m.link.refused.wrapping_add(1));
+    }
+
     fn on_connected<S: Socket>(&mut self, link: &Link<S>) {
         self.backoff = MIN_BACKOFF;
         if let Some(p) = link.peer() {
@@ -539,6 +585,11 @@ impl<'a, C: Clock> Engine<'a, C> {
             info!("robot link: up, peer {}.{}.{}.{}:{}", a, b, c, d, p.port());
         } else {
             info!("robot link: up");
+        }
+        if let Target::Listen { controller, .. } = self.target {
+            if controller.is_unspecified() {
+                warn!("robot link: robot.address is not set: the first controller to connect was accepted; set it so that only the controller may");
+            }
         }
         let peer = link.peer().map(|p| *p.ip());
         let now = self.clock.now();

@@ -69,6 +69,9 @@ pub struct LinkStatus {
     /// Times a connected link was lost (timeouts and mismatches included;
     /// a controller replacing its connection in listen mode is not a loss).
     pub losses: u16,
+    /// Listen mode: connections to the listen port refused because they
+    /// did not come from the controller (wraps).
+    pub refused: u16,
     /// The controller's address while connected.
     pub peer: Option<Ipv4Addr>,
     /// The controller's protocol level in use: configured, or detected on
