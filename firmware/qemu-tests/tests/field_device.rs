@@ -337,7 +337,7 @@ fn the_field_device_takes_its_address_from_dhcp() {
         let r = http_get(rig.web(), "/api/config", STEP).ok()?;
         serde_json::from_slice::<Value>(&r.body).ok()
     });
-    assert_eq!(config["settings"]["NET_DHCP"], "1", "{config}");
+    assert_eq!(config["settings"]["network.dhcp"], "true", "{config}");
     // The page answers at the leased address, and the robot link is up
     // over it.
     wait_for("the robot link over the leased address", STEP, || {
