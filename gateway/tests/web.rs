@@ -12,6 +12,10 @@ use serde_json::Value;
 
 const PC: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 50);
 const OTHER: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 51);
+/// The `Host` a browser sends for the device's address.
+const HOST: &str = "192.168.1.50";
+/// The `Origin` of the device's own page.
+const ORIGIN: &str = "http://192.168.1.50";
 
 fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
@@ -95,7 +99,18 @@ fn parse(raw: &[u8]) -> Option<Answer> {
 }
 
 fn request(method: &str, path: &str, headers: &[(&str, &str)], body: &[u8]) -> Vec<u8> {
-    let mut r = format!("{method} {path} HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n");
+    request_to(HOST, method, path, headers, body)
+}
+
+/// A request to another `Host`.
+fn request_to(
+    host: &str,
+    method: &str,
+    path: &str,
+    headers: &[(&str, &str)],
+    body: &[u8],
+) -> Vec<u8> {
+    let mut r = format!("{method} {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n");
     for (n, v) in headers {
         r.push_str(&format!("{n}: {v}\r\n"));
     }
@@ -116,7 +131,8 @@ fn get(w: &mut World, path: &str) -> Answer {
 
 fn post(w: &mut World, path: &str, token: Option<&str>, body: &[u8]) -> Answer {
     let auth = token.map(|t| format!("hgw_session={t}"));
-    let headers: Vec<(&str, &str)> = auth.iter().map(|c| ("Cookie", c.as_str())).collect();
+    let mut headers: Vec<(&str, &str)> = auth.iter().map(|c| ("Cookie", c.as_str())).collect();
+    headers.extend([("Origin", ORIGIN), ("Content-Type", "application/json")]);
     send(w, PC, &request("POST", path, &headers, body)).expect("an answer")
 }
 
@@ -376,7 +392,16 @@ fn malformed_and_oversized_requests_get_4xx_and_the_connection_closes() {
     let a = send(
         &mut w,
         PC,
-        &request("POST", "/api/config", &[("Cookie", &auth)], &big),
+        &request(
+            "POST",
+            "/api/config",
+            &[
+                ("Cookie", &auth),
+                ("Origin", ORIGIN),
+                ("Content-Type", "application/json"),
+            ],
+            &big,
+        ),
     );
     assert!(matches!(a.map(|a| a.status), Some(413) | Some(400) | None));
     // A header section longer than the buffer: no panic, the gateway
@@ -435,4 +460,284 @@ fn a_recovery_start_lets_a_forgotten_password_be_replaced() {
         post(&mut w, "/api/login", None, b"battery staple").status,
         200
     );
+}
+
+/// Entry `n` of the trigger table, as the API shows it.
+fn trigger(w: &mut World, n: usize) -> String {
+    get(w, "/api/config").json()["triggers"][n]
+        .as_str()
+        .unwrap()
+        .to_string()
+}
+
+#[test]
+fn a_page_whose_name_rebinds_to_the_device_is_refused_before_anything_happens() {
+    let mut w = world();
+    // DNS rebinding: evil.example now resolves to the device, so its page
+    // is "same origin" with itself: Host and Origin agree, and both are
+    // the attacker's name. Refused (421, JSON) before any state is read
+    // or changed: not the status, not the first password.
+    let evil = [
+        ("Origin", "http://evil.example"),
+        ("Content-Type", "application/json"),
+    ];
+    let a = send(
+        &mut w,
+        PC,
+        &request_to(
+            "evil.example",
+            "POST",
+            "/api/password",
+            &evil,
+            b"\nattacker pw",
+        ),
+    )
+    .unwrap();
+    assert_eq!(a.status, 421);
+    assert!(a.json()["error"].is_string());
+    assert_eq!(get(&mut w, "/api/session").json()["password_set"], false);
+    assert_eq!(w.reg(r::STATUS_ACCESS) & r::ACCESS_PASSWORD_SET, 0);
+    for host in [
+        "evil.example",
+        "evil.example:80",
+        "gw",
+        "localhost",
+        "192.168.1.50:x",
+        "",
+    ] {
+        let a = send(
+            &mut w,
+            PC,
+            &request_to(host, "GET", "/api/status", &[], b""),
+        )
+        .unwrap();
+        assert!(matches!(a.status, 421 | 400), "{host}: {}", a.status);
+        assert!(a.json()["error"].is_string(), "{host}");
+        assert!(
+            a.json().get("link").is_none(),
+            "{host}: nothing of the state"
+        );
+    }
+    // Two Host headers: 400.
+    let a = send(
+        &mut w,
+        PC,
+        &request("GET", "/api/status", &[("Host", "evil.example")], b""),
+    )
+    .unwrap();
+    assert_eq!(a.status, 400);
+    // The device's address answers, with any port (a forwarded one);
+    // `localhost` only to a client on the loopback network (unit test
+    // `web::tests::own_host_names_the_device`).
+    for host in ["192.168.1.50", "192.168.1.50:8080", "10.0.0.1"] {
+        let a = send(
+            &mut w,
+            PC,
+            &request_to(host, "GET", "/api/status", &[], b""),
+        )
+        .unwrap();
+        assert_eq!(a.status, 200, "{host}");
+    }
+    // The same request from the device's own page is served.
+    let token = set_password(&mut w);
+    assert!(!token.is_empty());
+}
+
+#[test]
+fn a_change_needs_the_pages_origin_and_a_json_content_type() {
+    let mut w = world();
+    let token = set_password(&mut w);
+    let a = post(&mut w, "/api/trigger/5", Some(&token), b"SetBoxDO,3,1,;");
+    assert_eq!(a.status, 200);
+    let cookie = format!("hgw_session={token}");
+    let clear = |headers: &[(&str, &str)]| {
+        let mut h = vec![("Cookie", cookie.as_str())];
+        h.extend_from_slice(headers);
+        request("POST", "/api/trigger/5", &h, b"")
+    };
+    // A form of another site: text/plain, no preflight. Refused.
+    for (headers, status) in [
+        (
+            vec![
+                ("Origin", "http://evil.example"),
+                ("Content-Type", "text/plain"),
+            ],
+            403,
+        ),
+        (
+            vec![("Origin", ORIGIN), ("Content-Type", "text/plain")],
+            415,
+        ),
+        (vec![("Origin", ORIGIN)], 415),
+        (
+            vec![
+                ("Origin", ORIGIN),
+                ("Content-Type", "application/x-www-form-urlencoded"),
+            ],
+            415,
+        ),
+        // No Origin, and no Sec-Fetch-Site saying the page sent it.
+        (vec![("Content-Type", "application/json")], 403),
+        (
+            vec![
+                ("Sec-Fetch-Site", "cross-site"),
+                ("Content-Type", "application/json"),
+            ],
+            403,
+        ),
+        (
+            vec![("Origin", "null"), ("Content-Type", "application/json")],
+            403,
+        ),
+        (
+            vec![
+                ("Origin", "http://192.168.1.50:81"),
+                ("Content-Type", "application/json"),
+            ],
+            403,
+        ),
+    ] {
+        let a = send(&mut w, PC, &clear(&headers)).unwrap();
+        assert_eq!(a.status, status, "{headers:?}");
+        assert!(a.json()["error"].is_string());
+    }
+    assert_eq!(trigger(&mut w, 5), "SetBoxDO,3,1,;", "nothing changed");
+    // Without Origin, a browser's own `Sec-Fetch-Site: same-origin` does.
+    let a = send(
+        &mut w,
+        PC,
+        &clear(&[
+            ("Sec-Fetch-Site", "same-origin"),
+            ("Content-Type", "application/json; charset=utf-8"),
+        ]),
+    )
+    .unwrap();
+    assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+    assert_eq!(trigger(&mut w, 5), "");
+}
+
+#[test]
+fn a_chunked_request_is_refused_and_its_body_never_read_as_a_request() {
+    let mut w = world();
+    let token = set_password(&mut w);
+    assert_eq!(
+        post(&mut w, "/api/trigger/5", Some(&token), b"SetBoxDO,3,1,;").status,
+        200
+    );
+    // A harmless request whose chunked body is a request that clears
+    // entry 5 (request smuggling): the body must not be served.
+    let cookie = format!("hgw_session={token}");
+    let smuggled = request(
+        "POST",
+        "/api/trigger/5",
+        &[
+            ("Cookie", &cookie),
+            ("Origin", ORIGIN),
+            ("Content-Type", "application/json"),
+        ],
+        b"",
+    );
+    let mut raw =
+        format!("GET /api/session HTTP/1.1\r\nHost: {HOST}\r\nTransfer-Encoding: chunked\r\n\r\n")
+            .into_bytes();
+    raw.extend_from_slice(&smuggled);
+    let mut s = w.web_connect(PC).expect("connected");
+    s.write(&raw);
+    w.run_for(ms(500));
+    let got = s.read();
+    assert!(!s.is_open(), "the connection closed");
+    let text = String::from_utf8_lossy(&got).to_string();
+    assert_eq!(text.matches("HTTP/1.1 ").count(), 1, "one answer: {text}");
+    let a = parse(&got).unwrap();
+    assert_eq!(a.status, 501);
+    assert_eq!(a.header("connection"), Some("close"));
+    assert!(a.json()["error"].is_string());
+    s.close();
+    w.run_for(ms(100));
+    assert_eq!(
+        trigger(&mut w, 5),
+        "SetBoxDO,3,1,;",
+        "the smuggled request did nothing"
+    );
+}
+
+#[test]
+fn a_duplicate_or_malformed_content_length_is_refused() {
+    let mut w = world();
+    let token = set_password(&mut w);
+    let cookie = format!("hgw_session={token}");
+    for lengths in [["14", "0"], ["14", "14"], ["+14", ""], ["14, 14", ""]] {
+        let mut raw = format!(
+            "POST /api/trigger/5 HTTP/1.1\r\nHost: {HOST}\r\nOrigin: {ORIGIN}\r\nContent-Type: application/json\r\nCookie: {cookie}\r\n"
+        );
+        for l in lengths.iter().filter(|l| !l.is_empty()) {
+            raw.push_str(&format!("Content-Length: {l}\r\n"));
+        }
+        raw.push_str("\r\nSetBoxDO,3,1,;");
+        let mut s = w.web_connect(PC).expect("connected");
+        s.write(raw.as_bytes());
+        w.run_for(ms(500));
+        let got = s.read();
+        assert!(!s.is_open(), "{lengths:?}: the connection closed");
+        let a = parse(&got).unwrap();
+        assert_eq!(a.status, 400, "{lengths:?}");
+        assert!(a.json()["error"].is_string());
+        s.close();
+        w.run_for(ms(100));
+        assert_eq!(trigger(&mut w, 5), "", "{lengths:?}: nothing stored");
+    }
+}
+
+#[test]
+fn head_has_the_headers_of_get_and_no_body() {
+    let mut w = world();
+    for path in ["/", "/api/status", "/api/session", "/nope"] {
+        let g = get(&mut w, path);
+        let h = send(&mut w, PC, &request("HEAD", path, &[], b"")).unwrap();
+        assert_eq!(h.status, g.status, "{path}");
+        assert!(h.body.is_empty(), "{path}: {} bytes of body", h.body.len());
+        assert_eq!(h.header("content-type"), g.header("content-type"), "{path}");
+        assert!(h.header("content-length").is_some(), "{path}");
+    }
+}
+
+#[test]
+fn no_answer_can_be_framed_by_another_site() {
+    let mut w = world();
+    let token = set_password(&mut w);
+    let answers = [
+        get(&mut w, "/"),
+        get(&mut w, "/api/status"),
+        get(&mut w, "/api/config"),
+        get(&mut w, "/nope"),
+        post(&mut w, "/api/login", None, b"correct horse"),
+        post(&mut w, "/api/trigger/1", Some(&token), b""),
+        post(&mut w, "/api/logout", Some(&token), b""),
+    ];
+    for a in answers {
+        assert_eq!(a.header("x-frame-options"), Some("DENY"), "{}", a.status);
+        assert_eq!(
+            a.header("content-security-policy"),
+            Some("frame-ancestors 'none'"),
+            "{}",
+            a.status
+        );
+        assert_eq!(a.header("x-content-type-options"), Some("nosniff"));
+    }
+}
+
+#[test]
+fn every_error_answer_is_valid_json_however_long() {
+    let mut w = world();
+    let token = set_password(&mut w);
+    // Eight unknown settings with names of 200 characters: more than the
+    // 1 KiB answer holds.
+    let names: Vec<String> = (0..8).map(|i| format!("{i}{}", "k".repeat(200))).collect();
+    let settings: Vec<String> = names.iter().map(|n| format!("\"{n}\":\"1\"")).collect();
+    let body = format!("{{\"settings\":{{{}}}}}", settings.join(","));
+    let a = post(&mut w, "/api/config", Some(&token), body.as_bytes());
+    assert_eq!(a.status, 400);
+    let e = a.json();
+    assert_eq!(e["ok"], false);
+    assert!(!e["errors"].as_object().unwrap().is_empty());
 }

@@ -8,8 +8,14 @@
 //! the second gets [`IoError::Busy`] and the connection ends (no panic).
 //! The write half collects small writes (picoserve writes a header line at
 //! a time) into [`WRITE_BUF`] bytes before they go to the socket.
+//!
+//! An answer can close the connection (a request whose body cannot be
+//! delimited): the server sets the shared `closing` flag, after which the
+//! read half sees the end of the stream and the write half refuses
+//! ([`IoError::Closing`]), so that picoserve ends the connection even when
+//! more bytes are already buffered as a next request.
 
-use core::cell::RefCell;
+use core::cell::{Cell, RefCell};
 use core::future::Future;
 
 use picoserve::io::embedded_io_async::{self, ErrorKind, ErrorType};
@@ -29,6 +35,8 @@ pub(crate) enum IoError {
     Net(NetError),
     /// Both halves were used at once.
     Busy,
+    /// The connection is closing: nothing more is written.
+    Closing,
 }
 
 impl core::fmt::Display for IoError {
@@ -36,6 +44,7 @@ impl core::fmt::Display for IoError {
         match self {
             IoError::Net(e) => f.write_str(e.as_str()),
             IoError::Busy => f.write_str("socket busy"),
+            IoError::Closing => f.write_str("connection closing"),
         }
     }
 }
@@ -69,23 +78,30 @@ impl<C: Clock> picoserve::Timer<GatewayRuntime> for ClockTimer<'_, C> {
 /// A connected socket, as picoserve sees it.
 pub(crate) struct Conn<'s, S: Socket> {
     sock: RefCell<&'s mut S>,
+    closing: &'s Cell<bool>,
 }
 
 impl<'s, S: Socket> Conn<'s, S> {
-    /// Wraps a connected socket.
-    pub(crate) fn new(sock: &'s mut S) -> Self {
+    /// Wraps a connected socket; once `closing` is set, the connection
+    /// ends (see the module documentation).
+    pub(crate) fn new(sock: &'s mut S, closing: &'s Cell<bool>) -> Self {
         Conn {
             sock: RefCell::new(sock),
+            closing,
         }
     }
 }
 
 /// The read half.
-pub(crate) struct ReadHalf<'c, 's, S: Socket>(&'c RefCell<&'s mut S>);
+pub(crate) struct ReadHalf<'c, 's, S: Socket> {
+    sock: &'c RefCell<&'s mut S>,
+    closing: &'s Cell<bool>,
+}
 
 /// The write half, with its buffer.
 pub(crate) struct WriteHalf<'c, 's, S: Socket> {
     sock: &'c RefCell<&'s mut S>,
+    closing: &'s Cell<bool>,
     buf: [u8; WRITE_BUF],
     len: usize,
 }
@@ -103,7 +119,10 @@ impl<S: Socket> Read for ReadHalf<'_, '_, S> {
     // documentation for why the other half cannot want it meanwhile.
     #[allow(clippy::await_holding_refcell_ref)]
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, IoError> {
-        let mut sock = self.0.try_borrow_mut().map_err(|_| IoError::Busy)?;
+        if self.closing.get() {
+            return Ok(0);
+        }
+        let mut sock = self.sock.try_borrow_mut().map_err(|_| IoError::Busy)?;
         sock.read(buf).await.map_err(IoError::Net)
     }
 }
@@ -111,6 +130,9 @@ impl<S: Socket> Read for ReadHalf<'_, '_, S> {
 impl<S: Socket> WriteHalf<'_, '_, S> {
     #[allow(clippy::await_holding_refcell_ref)]
     async fn drain(&mut self) -> Result<(), IoError> {
+        if self.closing.get() {
+            return Err(IoError::Closing);
+        }
         if self.len == 0 {
             return Ok(());
         }
@@ -124,6 +146,9 @@ impl<S: Socket> WriteHalf<'_, '_, S> {
 
 impl<S: Socket> embedded_io_async::Write for WriteHalf<'_, '_, S> {
     async fn write(&mut self, data: &[u8]) -> Result<usize, IoError> {
+        if self.closing.get() {
+            return Err(IoError::Closing);
+        }
         if data.is_empty() {
             return Ok(0);
         }
@@ -149,6 +174,9 @@ impl<S: Socket> picoserve::io::Write for WriteHalf<'_, '_, S> {
         &mut self,
         f: F,
     ) -> Result<R, IoError> {
+        if self.closing.get() {
+            return Err(IoError::Closing);
+        }
         if self.len == WRITE_BUF {
             self.drain().await?;
         }
@@ -173,9 +201,13 @@ impl<'s, S: Socket> picoserve::io::Socket<GatewayRuntime> for Conn<'s, S> {
 
     fn split(&mut self) -> (Self::ReadHalf<'_>, Self::WriteHalf<'_>) {
         (
-            ReadHalf(&self.sock),
+            ReadHalf {
+                sock: &self.sock,
+                closing: self.closing,
+            },
             WriteHalf {
                 sock: &self.sock,
+                closing: self.closing,
                 buf: [0; WRITE_BUF],
                 len: 0,
             },

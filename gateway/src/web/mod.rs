@@ -23,6 +23,11 @@
 //! * Access: `WEB_ALLOW` is checked when a client connects (refused:
 //!   closed at once, counted); every change needs a session opened with
 //!   the password ([`crate::access`]).
+//! * Before a route is looked at: the body's framing (no
+//!   `Transfer-Encoding`, one `Content-Length`; else the answer closes
+//!   the connection), a `Host` naming the device ([`own_host`], against
+//!   DNS rebinding), and for a change the page's `Origin` and a JSON
+//!   content type. Every answer forbids framing; `HEAD` has no body.
 
 pub(crate) mod api;
 pub(crate) mod assets;
@@ -30,7 +35,7 @@ pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
 
-use core::cell::RefCell;
+use core::cell::{Cell, RefCell};
 use core::convert::Infallible;
 use core::net::SocketAddrV4;
 use core::pin::pin;
@@ -174,14 +179,16 @@ pub(crate) async fn serve_one<S: Socket, C: Clock>(
     sock: &mut S,
     http: &mut [u8],
 ) {
+    let closing = Cell::new(false);
     let app = Router::from_service(App {
         hub,
         clock,
         web,
         peer,
+        closing: &closing,
     });
     let server = picoserve::Server::custom(&app, ClockTimer(clock), &CONFIG, http);
-    if server.serve(Conn::new(sock)).await.is_err() {
+    if server.serve(Conn::new(sock, &closing)).await.is_err() {
         debug!("web: connection ended on an error (timeout, reset, malformed request)");
     }
 }
@@ -191,8 +198,10 @@ struct App<'a, C: Clock> {
     hub: &'a Hub,
     clock: &'a C,
     web: &'a Web,
-    #[allow(dead_code)]
     peer: Option<SocketAddrV4>,
+    /// Set once an answer closed the connection: nothing more on it is
+    /// served (see [`io`]).
+    closing: &'a Cell<bool>,
 }
 
 /// A body of bytes with its content type.
@@ -287,21 +296,119 @@ fn token(parts: &RequestParts<'_>) -> Option<Token> {
     })
 }
 
-/// A cross-site request: its `Origin` names another host than `Host`.
-fn cross_site(parts: &RequestParts<'_>) -> bool {
-    let h = parts.headers();
-    let Some(origin) = h.get("Origin") else {
-        return false;
-    };
-    let o = origin.as_raw();
-    let o = o
-        .strip_prefix(b"http://")
-        .or_else(|| o.strip_prefix(b"https://"))
-        .unwrap_or(o);
-    match h.get("Host") {
-        Some(host) => o != host.as_raw(),
-        None => true,
+/// `name` (a header's name) is `want`, ignoring case.
+fn named(name: &[u8], want: &str) -> bool {
+    name.eq_ignore_ascii_case(want.as_bytes())
+}
+
+/// How the body of a request is delimited, checked as RFC 9112 § 6 asks
+/// of a server: a `Transfer-Encoding` (chunked or any other) is not
+/// supported (501), and a `Content-Length` must be one header of digits
+/// (a duplicate, a list or a sign: 400). Either way the end of the body is
+/// unknown, so the connection closes after the answer.
+fn framing(parts: &RequestParts<'_>) -> Result<(), (StatusCode, &'static str)> {
+    let mut lengths = 0;
+    for (name, value) in parts.headers().iter() {
+        let (name, value) = (name.as_raw(), value.as_raw().trim_ascii());
+        if named(name, "Transfer-Encoding") {
+            return Err((
+                StatusCode::NOT_IMPLEMENTED,
+                "Transfer-Encoding is not supported: send Content-Length",
+            ));
+        }
+        if named(name, "Content-Length") {
+            lengths += 1;
+            let digits =
+                !value.is_empty() && value.len() <= 9 && value.iter().all(u8::is_ascii_digit);
+            if !digits || lengths > 1 {
+                return Err((
+                    StatusCode::BAD_REQUEST,
+                    "one Content-Length of digits is needed",
+                ));
+            }
+        }
     }
+    Ok(())
+}
+
+/// The one `Host` header of a request (none, or two: `None`).
+fn host<'r>(parts: &RequestParts<'r>) -> Option<&'r [u8]> {
+    let mut found = None;
+    for (name, value) in parts.headers().iter() {
+        if named(name.as_raw(), "Host") {
+            if found.is_some() {
+                return None;
+            }
+            found = Some(value.as_raw().trim_ascii());
+        }
+    }
+    found
+}
+
+/// `true` if `host` (a `Host` header: name, then `:port` or not) names
+/// this device, so that the request cannot come from a page whose name
+/// was rebound to the device's address (DNS rebinding):
+/// * an IPv4 address `a.b.c.d`: a browser sends an address only when it
+///   connected to that address, and no name is involved to rebind;
+/// * `localhost` (or `[::1]`) when the client is on the loopback
+///   network itself (Linux `--web-listen 127.0.0.1:PORT`).
+///
+/// Any other name is refused (421). The port is checked to be a port,
+/// not to be the one served: forwarded ports (a NAT, QEMU) change it, and
+/// the name alone decides who may answer.
+pub(crate) fn own_host(host: &[u8], peer: Option<SocketAddrV4>) -> bool {
+    let (name, port) = match host.iter().rposition(|&b| b == b':') {
+        // `[::1]:8080`, `[::1]` or `name:port`.
+        Some(i) if !host.ends_with(b"]") => (
+            host.get(..i).unwrap_or(&[]),
+            Some(host.get(i + 1..).unwrap_or(&[])),
+        ),
+        _ => (host, None),
+    };
+    let port_ok = port.is_none_or(|p| {
+        !p.is_empty()
+            && p.len() <= 5
+            && p.iter().all(u8::is_ascii_digit)
+            && core::str::from_utf8(p).is_ok_and(|p| p.parse::<u16>().is_ok())
+    });
+    if !port_ok || name.is_empty() {
+        return false;
+    }
+    if core::str::from_utf8(name).is_ok_and(|n| n.parse::<core::net::Ipv4Addr>().is_ok()) {
+        return true;
+    }
+    let loopback = peer.is_some_and(|p| p.ip().is_loopback());
+    loopback && (name.eq_ignore_ascii_case(b"localhost") || name == b"[::1]")
+}
+
+/// `true` if a state-changing request comes from the device's own page:
+/// its `Origin` is `http://` (or `https://`) and exactly its `Host`, or,
+/// without an `Origin`, `Sec-Fetch-Site` says `same-origin`.
+fn same_origin(parts: &RequestParts<'_>, host: &[u8]) -> bool {
+    let h = parts.headers();
+    match h.get("Origin") {
+        Some(origin) => {
+            let o = origin.as_raw().trim_ascii();
+            o.strip_prefix(b"http://")
+                .or_else(|| o.strip_prefix(b"https://"))
+                .is_some_and(|o| o.eq_ignore_ascii_case(host))
+        }
+        None => h
+            .get("Sec-Fetch-Site")
+            .is_some_and(|s| s.as_raw().trim_ascii() == b"same-origin"),
+    }
+}
+
+/// `true` if the body is declared JSON (`application/json`, parameters
+/// such as `; charset=utf-8` allowed): a form of another site cannot send
+/// that type without the browser asking first (CORS), which the device
+/// never allows.
+fn json_type(parts: &RequestParts<'_>) -> bool {
+    parts.headers().get("Content-Type").is_some_and(|t| {
+        let t = t.as_raw();
+        let media = t.split(|&b| b == b';').next().unwrap_or(&[]).trim_ascii();
+        media.eq_ignore_ascii_case(b"application/json")
+    })
 }
 
 impl<C: Clock> App<'_, C> {
@@ -335,15 +442,27 @@ pub(crate) enum Reply {
     Session(StatusCode, Json, Token),
     /// A JSON answer that ends the session (clears the cookie).
     Logout(Json),
+    /// A request refused before its route was looked at, whose framing
+    /// cannot be trusted: answered, then the connection closes (what
+    /// follows on it is never read as a request).
+    Close(StatusCode, Json),
     /// Answer, then restart the device.
     Restart(Json),
 }
 
-/// `{"error":"..."}` (the text cut to fit).
+/// `{"error":"..."}`, the text cut to fit: always valid JSON (an escaped
+/// byte takes up to 6, so the cut is tried shorter until it fits).
 fn error_json(text: &str) -> Json {
     let text = text.as_bytes();
-    let fit = text.get(..json::ANSWER / 2 - 16).unwrap_or(text);
-    Json::value(|v| v.object(|j| j.key("error").str(fit))).unwrap_or_default()
+    for cut in [json::ANSWER, json::ANSWER / 2, json::ANSWER / 6 - 16] {
+        let fit = text.get(..cut).unwrap_or(text);
+        if let Ok(j) = Json::value(|v| v.object(|j| j.key("error").str(fit))) {
+            return j;
+        }
+    }
+    let mut j = Json::new();
+    let _ = j.raw("{\"error\":\"error\"}");
+    j
 }
 
 fn error(status: StatusCode, text: &str) -> Reply {
@@ -381,11 +500,30 @@ impl<C: Clock> App<'_, C> {
     /// Reads the request (its body where the route has one) and decides
     /// the answer.
     async fn route<R: Read>(&self, path: &str, request: &mut Request<'_, R>) -> Reply {
+        // Checked before anything is read or changed.
+        if let Err((status, why)) = framing(&request.parts) {
+            return Reply::Close(status, error_json(why));
+        }
+        let Some(host) = host(&request.parts) else {
+            return error(StatusCode::BAD_REQUEST, "one Host header is needed");
+        };
+        if !own_host(host, self.peer) {
+            return error(
+                StatusCode::MISDIRECTED_REQUEST,
+                "this device does not answer to that host name: use its address",
+            );
+        }
         let method = request.parts.method();
         let get = method == "GET" || method == "HEAD";
         let post = method == "POST";
-        if post && cross_site(&request.parts) {
+        if post && !same_origin(&request.parts, host) {
             return error(StatusCode::FORBIDDEN, "cross-site request refused");
+        }
+        if post && !json_type(&request.parts) {
+            return error(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "a change needs Content-Type: application/json",
+            );
         }
         match path {
             "/" | "/index.html" if get => Reply::Page,
@@ -453,6 +591,38 @@ fn session_cookie(t: &Token) -> impl core::fmt::Display {
     Cookie(t.to_hex())
 }
 
+/// Headers of every answer: no other site may frame the page or the API
+/// (clickjacking), and no answer is sniffed as another type.
+const SECURITY_HEADERS: [(&str, &str); 3] = [
+    ("X-Frame-Options", "DENY"),
+    ("Content-Security-Policy", "frame-ancestors 'none'"),
+    ("X-Content-Type-Options", "nosniff"),
+];
+
+/// A body, or for `HEAD` only its type and length (RFC 9110 § 9.3.2: the
+/// same header fields as `GET`, no content).
+struct Head<B: Content> {
+    body: B,
+    head: bool,
+}
+
+impl<B: Content> Content for Head<B> {
+    fn content_type(&self) -> &'static str {
+        self.body.content_type()
+    }
+
+    fn content_length(&self) -> usize {
+        self.body.content_length()
+    }
+
+    async fn write_content<W: picoserve::io::Write>(self, writer: W) -> Result<(), W::Error> {
+        if self.head {
+            return Ok(());
+        }
+        self.body.write_content(writer).await
+    }
+}
+
 impl<C: Clock> PathRouterService<()> for App<'_, C> {
     async fn call_path_router_service<R: Read, W: ResponseWriter<Error = R::Error>>(
         &self,
@@ -462,24 +632,30 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
         mut request: Request<'_, R>,
         w: W,
     ) -> Result<ResponseSent, W::Error> {
+        if self.closing.get() {
+            // Bytes after an answer that closed the connection (a chunked
+            // body, say), already buffered and parsed as a request: never
+            // served. The write fails (the socket is closing, see `io`),
+            // which ends the connection.
+            let c = request.body_connection.finalize().await?;
+            return Response::empty(StatusCode::BAD_REQUEST)
+                .write_to(c, w)
+                .await;
+        }
+        let head = request.parts.method() == "HEAD";
         let reply = self.route(path.encoded(), &mut request).await;
         let c = request.body_connection.finalize().await?;
         match reply {
             Reply::Page => {
-                Response::new(
-                    StatusCode::OK,
-                    Bytes {
-                        ty: "text/html; charset=utf-8",
-                        data: assets::INDEX_HTML_GZ,
-                    },
-                )
-                .with_headers([
-                    ("Content-Encoding", "gzip"),
-                    ("Cache-Control", "no-cache"),
-                    ("X-Content-Type-Options", "nosniff"),
-                ])
-                .write_to(c, w)
-                .await
+                let page = Bytes {
+                    ty: "text/html; charset=utf-8",
+                    data: assets::INDEX_HTML_GZ,
+                };
+                Response::new(StatusCode::OK, Head { body: page, head })
+                    .with_headers([("Content-Encoding", "gzip"), ("Cache-Control", "no-cache")])
+                    .with_headers(SECURITY_HEADERS)
+                    .write_to(c, w)
+                    .await
             }
             Reply::Doc(doc) => {
                 // The one moment the document shows: the state's lock is
@@ -489,26 +665,53 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 self.hub.with(|m| snap.take(doc, m, now));
                 match doc_body(&snap) {
                     Some(body) => {
-                        Response::new(StatusCode::OK, body)
+                        Response::new(StatusCode::OK, Head { body, head })
                             .with_header("Cache-Control", "no-store")
+                            .with_headers(SECURITY_HEADERS)
                             .write_to(c, w)
                             .await
                     }
                     None => {
                         warn!("web: a document could not be written");
                         let j = error_json(DOC_FAILED);
-                        Response::new(StatusCode::INTERNAL_SERVER_ERROR, json_body(&j))
+                        let body = json_body(&j);
+                        Response::new(StatusCode::INTERNAL_SERVER_ERROR, Head { body, head })
                             .with_header("Cache-Control", "no-store")
+                            .with_headers(SECURITY_HEADERS)
                             .write_to(c, w)
                             .await
                     }
                 }
             }
             Reply::Json(status, j) => {
-                Response::new(status, json_body(&j))
-                    .with_header("Cache-Control", "no-store")
-                    .write_to(c, w)
-                    .await
+                Response::new(
+                    status,
+                    Head {
+                        body: json_body(&j),
+                        head,
+                    },
+                )
+                .with_header("Cache-Control", "no-store")
+                .with_headers(SECURITY_HEADERS)
+                .write_to(c, w)
+                .await
+            }
+            Reply::Close(status, j) => {
+                warn!("web: request refused (its body's framing), connection closed");
+                let sent = Response::new(
+                    status,
+                    Head {
+                        body: json_body(&j),
+                        head,
+                    },
+                )
+                .with_header("Cache-Control", "no-store")
+                .with_header("Connection", "close")
+                .with_headers(SECURITY_HEADERS)
+                .write_to(c, w)
+                .await?;
+                self.closing.set(true);
+                Ok(sent)
             }
             Reply::Session(status, j, t) => {
                 let hex = t.to_hex();
@@ -516,6 +719,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     .with_header("Set-Cookie", session_cookie(&t))
                     .with_header("X-Session-Token", core::str::from_utf8(&hex).unwrap_or(""))
                     .with_header("Cache-Control", "no-store")
+                    .with_headers(SECURITY_HEADERS)
                     .write_to(c, w)
                     .await
             }
@@ -526,11 +730,13 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                         "hgw_session=; Max-Age=0; Path=/; HttpOnly; SameSite=Strict",
                     )
                     .with_header("Cache-Control", "no-store")
+                    .with_headers(SECURITY_HEADERS)
                     .write_to(c, w)
                     .await
             }
             Reply::Restart(j) => {
                 let sent = Response::new(StatusCode::ACCEPTED, json_body(&j))
+                    .with_headers(SECURITY_HEADERS)
                     .write_to(c, w)
                     .await?;
                 warn!("web: restart requested");
@@ -548,6 +754,39 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use core::net::Ipv4Addr;
+
+    #[test]
+    fn own_host_names_the_device() {
+        let lan = Some(SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 50), 40000));
+        let lo = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 40000));
+        for (host, peer, ok) in [
+            (&b"192.168.1.50"[..], lan, true),
+            (b"192.168.1.50:80", lan, true),
+            (b"127.0.0.1:8080", lo, true),
+            (b"localhost:8080", lo, true),
+            (b"LOCALHOST", lo, true),
+            (b"[::1]:8080", lo, true),
+            (b"localhost:8080", lan, false),
+            (b"[::1]", lan, false),
+            (b"evil.example", lo, false),
+            (b"evil.example:80", lan, false),
+            (b"192.168.1.50.evil.example", lan, false),
+            (b"192.168.1.50:", lan, false),
+            (b"192.168.1.50:65536", lan, false),
+            (b"192.168.1.50:+80", lan, false),
+            (b":80", lan, false),
+            (b"", lan, false),
+            (b"localhost.", lo, false),
+        ] {
+            assert_eq!(
+                own_host(host, peer),
+                ok,
+                "{}",
+                String::from_utf8_lossy(host)
+            );
+        }
+    }
 
     #[test]
     fn a_document_that_cannot_be_written_is_answered_with_json() {

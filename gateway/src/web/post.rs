@@ -129,11 +129,15 @@ struct Errors {
 
 /// Errors named in one answer.
 const MAX_ERRORS: usize = 8;
+/// The start of an [`Errors`] answer.
+const OPENING: &str = "{\"ok\":false,\"errors\":{";
+/// Its end.
+const CLOSING: &str = "}}";
 
 impl Errors {
     fn new() -> Self {
         let mut j = Json::new();
-        let _ = j.raw("{\"ok\":false,\"errors\":{");
+        let _ = j.raw(OPENING);
         Errors { j, n: 0 }
     }
 
@@ -142,20 +146,28 @@ impl Errors {
         if self.n > MAX_ERRORS {
             return;
         }
-        let sep = if self.n > 1 { "," } else { "" };
-        let _ = self
+        // An entry goes in whole, with room left for the closing `}}`,
+        // or not at all: the answer stays valid JSON however long the
+        // names are.
+        let mark = self.j.len();
+        let sep = if mark > OPENING.len() { "," } else { "" };
+        let whole = self
             .j
             .raw(sep)
             .and_then(|j| j.str(key.as_bytes()))
             .and_then(|j| j.raw(":"))
-            .and_then(|j| j.str(reason.as_bytes()));
+            .and_then(|j| j.str(reason.as_bytes()))
+            .is_ok();
+        if !whole || self.j.len() + CLOSING.len() > super::json::ANSWER {
+            self.j.truncate(mark);
+        }
     }
 
     fn finish(mut self) -> Option<Json> {
         if self.n == 0 {
             return None;
         }
-        let _ = self.j.raw("}}");
+        let _ = self.j.raw(CLOSING);
         Some(self.j)
     }
 }

@@ -131,8 +131,15 @@ pub fn try_http(
     let start = Instant::now();
     let mut s = TcpStream::connect_timeout(&SocketAddr::V4(addr), limit)?;
     s.set_read_timeout(Some(limit))?;
+    // A change needs the page's own Origin and a JSON content type
+    // (gateway/WEB.md), as the page sends them.
+    let change = if method == "POST" {
+        format!("Origin: http://{addr}\r\nContent-Type: application/json\r\n")
+    } else {
+        String::new()
+    };
     let req = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{body}",
+        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n{change}Content-Length: {}\r\n\r\n{body}",
         body.len()
     );
     s.write_all(req.as_bytes())?;
