@@ -601,7 +601,7 @@ fn web_listen_serves_the_page_and_the_api() {
         s.set_read_timeout(Some(WAIT)).expect("timeout");
         write!(
             s,
-            "GET {path} HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n"
+            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
         )
         .expect("send");
         let mut answer = Vec::new();
