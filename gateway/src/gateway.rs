@@ -16,9 +16,12 @@ use crate::net::Net;
 use crate::state::Model;
 use crate::storage::{self, image, Image, SaveOutcome, Storage, StorageError, Stored};
 
-/// Number of Modbus clients served at once ([`Gateway::run`] starts one
-/// session future for each). Change it here: nothing else depends on it.
-pub const MAX_SESSIONS: usize = 4;
+/// Number of Modbus session sockets ([`Gateway::run`] starts one session
+/// future for each). One fewer clients are served at once (4), at most 2
+/// from one address: the last socket accepts a newcomer while all are
+/// served, so that it can take the slot of an idle session (see
+/// `modbus`). Change it here: nothing else depends on it.
+pub const MAX_SESSIONS: usize = 5;
 /// Socket buffer size of each Modbus session (each direction).
 pub const MODBUS_BUF: usize = 512;
 /// Socket buffer size of each robot-link socket (each direction).
@@ -186,9 +189,12 @@ impl Gateway {
         let engine = crate::engine::run(hub, clock, net.socket(l0, l1), net.socket(l2, l3));
         let plc = PlcPort { hub, clock };
         let mut bufs = [[[0u8; MODBUS_BUF]; 2]; MAX_SESSIONS];
+        let mut index = 0;
         let sessions = bufs.each_mut().map(|b| {
             let [rx, tx] = b.each_mut();
-            crate::modbus::session(&plc, clock, net.socket(rx, tx), port)
+            let i = index;
+            index += 1;
+            crate::modbus::session(&plc, clock, net.socket(rx, tx), port, i)
         });
         #[cfg(feature = "datasheet")]
         let (mut ds_rx, mut ds_tx) = ([0u8; LINK_BUF], [0u8; 64]);

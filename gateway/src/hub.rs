@@ -27,7 +27,7 @@ use embassy_time::Instant;
 
 use crate::clock::Clock;
 use crate::config::{Config, ConfigResult};
-use crate::modbus::{Pending, Registers};
+use crate::modbus::{Pending, Registers, Slots};
 use crate::plc::{self, ConfigStep};
 use crate::registers::{view, AccessError, WriteError};
 use crate::state::Model;
@@ -50,6 +50,9 @@ pub struct Hub {
     pub(crate) save_done: Signal<NoopRawMutex, SaveOutcome>,
     /// One configuration command at a time (they wait for their save).
     config_lock: embassy_sync::mutex::Mutex<NoopRawMutex, ()>,
+    /// The Modbus sessions: applying a configuration closes those its
+    /// allow-list no longer permits.
+    pub(crate) modbus_slots: Slots,
 }
 
 impl Hub {
@@ -62,6 +65,7 @@ impl Hub {
             save_request: Signal::new(),
             save_done: Signal::new(),
             config_lock: embassy_sync::mutex::Mutex::new(()),
+            modbus_slots: Slots::new(),
         }
     }
 
@@ -135,10 +139,17 @@ impl Hub {
         Ok(self.save_locked().await)
     }
 
-    /// Tells the engine the configuration in use changed.
+    /// Tells the engine the configuration in use changed, and closes the
+    /// Modbus sessions its allow-list no longer permits (before they are
+    /// served another request).
     fn announce_config(&self) {
         let config = self.with(|m| m.config.active);
         self.config_applied.sender().send(config);
+        let list = config.modbus_allow;
+        self.modbus_slots.close_unless(|peer| match peer {
+            Some(p) => list.permits(*p.ip()),
+            None => list.is_empty(),
+        });
     }
 
     /// Has the storage task save, waits for it and reports the outcome in
@@ -189,6 +200,18 @@ impl Hub {
                 let _ = m.modbus_peers.push(p);
             }
             Some(m.sessions)
+        })
+    }
+
+    /// `MODBUS_ALLOW` in use permits a client at `peer` (an unknown
+    /// address only when the list is empty); nothing is counted.
+    pub fn permits_modbus(&self, peer: Option<SocketAddrV4>) -> bool {
+        self.with(|m| {
+            let list = &m.config.active.modbus_allow;
+            match peer {
+                Some(p) => list.permits(*p.ip()),
+                None => list.is_empty(),
+            }
         })
     }
 
@@ -252,5 +275,13 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
 
     fn leave(&self, peer: Option<SocketAddrV4>) -> u16 {
         self.hub.leave_modbus(peer)
+    }
+
+    fn permits(&self, peer: Option<SocketAddrV4>) -> bool {
+        self.hub.permits_modbus(peer)
+    }
+
+    fn slots(&self) -> &Slots {
+        &self.hub.modbus_slots
     }
 }

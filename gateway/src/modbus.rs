@@ -24,17 +24,41 @@
 //! A frame whose MBAP header is not Modbus (protocol id ≠ 0, length < 2)
 //! closes that client's connection only. Unit ids are not checked (the gateway answers all).
 //! A client silent for [`IDLE_TIMEOUT`] is disconnected.
+//!
+//! Sessions ([`Slots`]): at most [`MAX_CLIENTS`] clients are served at
+//! once, at most [`PER_ADDRESS`] of them from one address; one more socket
+//! accepts a newcomer while all are served. A frame must be whole within
+//! [`FRAME_DEADLINE`] of its first byte, else the connection is closed (so
+//! a trickle of partial headers holds a slot for at most that long). A
+//! session that has not completed a request for [`EVICT_IDLE`] (and is not
+//! in the middle of one) is *idle*: when all slots are taken (or the
+//! newcomer's address has its [`PER_ADDRESS`] sessions), the newcomer, once
+//! the allow-list admits it, takes the slot of the longest-idle one (of its
+//! address), which is closed. With none idle, the newcomer waits at most
+//! [`EVICT_IDLE`] + [`FRAME_DEADLINE`] for a slot (in that time every session
+//! not completing requests became idle or was closed), else it is closed
+//! (at once when its address is at its cap and none of its sessions is idle).
+//! The allow-list is checked at accept and before each request; applying a
+//! configuration closes at once the sessions it no longer permits
+//! ([`Slots::close_unless`]).
 
+use core::cell::RefCell;
 use core::convert::Infallible;
+use core::future::poll_fn;
 use core::net::SocketAddrV4;
+use core::task::Poll;
 
-use embassy_time::Duration;
+use embassy_futures::select::{select, Either};
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embassy_sync::waitqueue::MultiWakerRegistration;
+use embassy_time::{Duration, Instant};
 use modbus_core::tcp::{server::encode_response, Header, ResponseAdu};
 use modbus_core::{
     Data, Exception, ExceptionResponse, FunctionCode, Request, Response, ResponsePdu,
 };
 
-use crate::clock::{with_timeout, Clock};
+use crate::clock::{with_deadline, Clock};
 use crate::net::Socket;
 use crate::registers::{self as r, AccessError, WriteError};
 
@@ -57,10 +81,16 @@ pub(crate) trait Registers {
     async fn settle(&self, pending: Pending) -> Result<(), WriteError>;
     /// A client at `peer` connected: `Some(n)` when it is admitted (`n`
     /// clients connected now), `None` when the allow-list refuses it (the
-    /// server closes the connection at once, without a reply).
+    /// server closes the connection at once, without a reply; the refusal
+    /// is counted).
     fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16>;
     /// The admitted client at `peer` left; returns how many are connected.
     fn leave(&self, peer: Option<SocketAddrV4>) -> u16;
+    /// The allow-list in use permits a client at `peer` (nothing counted):
+    /// asked at accept and before each request.
+    fn permits(&self, peer: Option<SocketAddrV4>) -> bool;
+    /// The session table the sessions share (and whoever closes them).
+    fn slots(&self) -> &Slots;
 }
 
 /// What a write started that its answer waits for (for the gateway: a
@@ -103,59 +133,410 @@ pub(crate) const MAX_ADU: usize = 260;
 const EXCEPTION_ADU: usize = 9;
 /// A client that sends nothing for this long is disconnected.
 pub(crate) const IDLE_TIMEOUT: Duration = Duration::from_secs(120);
+/// A frame must be whole this long after its first byte, else the
+/// connection is closed. A Modbus ADU is at most 260 bytes: one TCP
+/// segment on Ethernet, a quarter of a second even through a 9600 baud
+/// serial bridge, and a lost segment is sent again well within a second
+/// (Linux's shortest retransmission timeout is 200 ms). Longer only helps
+/// a client that holds a slot with a trickle of bytes.
+pub(crate) const FRAME_DEADLINE: Duration = Duration::from_secs(1);
+/// A session that has not completed a request for this long (and is not
+/// in the middle of one) is idle: a newcomer may take its slot. Twice a
+/// PLC's or HMI's usual slowest poll cycle (10 ms - 1 s), so that a
+/// polling client is never taken for idle; a client idle longer is closed
+/// only when a newcomer needs its slot.
+pub(crate) const EVICT_IDLE: Duration = Duration::from_secs(2);
+/// Sockets (session futures) of the server: see [`crate::MAX_SESSIONS`].
+pub(crate) const SOCKETS: usize = crate::gateway::MAX_SESSIONS;
+/// Clients served at once: one socket fewer, so that one always accepts
+/// a newcomer, which may then take an idle session's slot.
+pub(crate) const MAX_CLIENTS: usize = SOCKETS - 1;
+/// Clients served at once from one address.
+pub(crate) const PER_ADDRESS: usize = 2;
 
-/// Serves Modbus clients on `port`, one after the other, forever.
+/// Why a session is asked to close.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Close {
+    /// A newcomer takes its slot (it was the longest idle).
+    Evicted,
+    /// The allow-list in use no longer permits its address.
+    NotAllowed,
+}
+
+/// Why a newcomer is not served.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Refusal {
+    /// Its address has [`PER_ADDRESS`] sessions, none idle.
+    PerAddress,
+    /// Every slot stayed taken by a session that is not idle.
+    Full,
+    /// The allow-list changed while it waited.
+    NotAllowed,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// The socket accepts (or is between connections).
+    Free,
+    /// A newcomer waits for a slot; the ticket says who came first.
+    Waiting(u64),
+    /// A client is served.
+    Serving,
+}
+
+/// One socket's session, as the others see it.
+#[derive(Clone, Copy, Debug)]
+struct Slot {
+    phase: Phase,
+    peer: Option<SocketAddrV4>,
+    /// When it last completed a request (or was accepted).
+    last: Instant,
+    /// A frame (or its answer) in progress, since then.
+    busy: Option<Instant>,
+    /// Asked to close, and why.
+    close: Option<Close>,
+}
+
+impl Slot {
+    const FREE: Slot = Slot {
+        phase: Phase::Free,
+        peer: None,
+        last: Instant::from_ticks(0),
+        busy: None,
+        close: None,
+    };
+
+    fn same_host(&self, peer: Option<SocketAddrV4>) -> bool {
+        matches!((self.peer, peer), (Some(a), Some(b)) if a.ip() == b.ip())
+    }
+
+    /// Served, not asked to close, nothing in progress, and no complete
+    /// request for [`EVICT_IDLE`].
+    fn idle(&self, now: Instant) -> bool {
+        self.phase == Phase::Serving
+            && self.close.is_none()
+            && self.busy.is_none()
+            && now.saturating_duration_since(self.last) >= EVICT_IDLE
+    }
+}
+
+/// What a waiting newcomer does next.
+enum Step {
+    Claimed,
+    Refuse(Refusal),
+    /// Wait for a change, or until then at the latest.
+    Wait(Option<Instant>),
+}
+
+struct Table {
+    slots: [Slot; SOCKETS],
+    tickets: u64,
+    gen: u32,
+    wakers: MultiWakerRegistration<SOCKETS>,
+}
+
+impl Table {
+    fn changed(&mut self) {
+        self.gen = self.gen.wrapping_add(1);
+        self.wakers.wake();
+    }
+
+    /// The longest-idle session among those `which` picks, asked to close.
+    fn evict(&mut self, now: Instant, which: impl Fn(&Slot) -> bool) -> bool {
+        let victim = self
+            .slots
+            .iter_mut()
+            .filter(|s| s.idle(now) && which(s))
+            .min_by_key(|s| s.last);
+        let Some(v) = victim else {
+            return false;
+        };
+        v.close = Some(Close::Evicted);
+        self.changed();
+        true
+    }
+
+    /// Newcomer `i` (waiting): may it take a slot now?
+    fn step(&mut self, i: usize, now: Instant) -> Step {
+        let Some(me) = self.slots.get(i).copied() else {
+            return Step::Refuse(Refusal::Full);
+        };
+        if me.close.is_some() {
+            return Step::Refuse(Refusal::NotAllowed);
+        }
+        let Phase::Waiting(ticket) = me.phase else {
+            return Step::Refuse(Refusal::Full);
+        };
+        let ahead = |s: &Slot| match s.phase {
+            Phase::Serving => true,
+            Phase::Waiting(t) => t < ticket,
+            Phase::Free => false,
+        };
+        // Its address's cap first: an idle session of its own may go.
+        let mine = self
+            .slots
+            .iter()
+            .filter(|s| ahead(s) && s.close.is_none() && s.same_host(me.peer))
+            .count();
+        if mine >= PER_ADDRESS && !self.evict(now, |s| s.same_host(me.peer)) {
+            return Step::Refuse(Refusal::PerAddress);
+        }
+        // First come, first served.
+        if self
+            .slots
+            .iter()
+            .any(|s| matches!(s.phase, Phase::Waiting(t) if t < ticket))
+        {
+            return Step::Wait(None);
+        }
+        let serving = self
+            .slots
+            .iter()
+            .filter(|s| s.phase == Phase::Serving)
+            .count();
+        if serving < MAX_CLIENTS {
+            if let Some(s) = self.slots.get_mut(i) {
+                s.phase = Phase::Serving;
+                s.last = now;
+            }
+            self.changed();
+            return Step::Claimed;
+        }
+        let closing = self
+            .slots
+            .iter()
+            .any(|s| s.phase == Phase::Serving && s.close.is_some());
+        if closing || self.evict(now, |_| true) {
+            return Step::Wait(None);
+        }
+        // None idle yet: wait until the first may be.
+        let next = self
+            .slots
+            .iter()
+            .filter(|s| s.phase == Phase::Serving && s.busy.is_none())
+            .map(|s| s.last + EVICT_IDLE)
+            .min();
+        Step::Wait(next)
+    }
+}
+
+/// The sessions' table: who is served, since when idle, who is asked to
+/// close. Shared by the session futures (and the hub, which closes the
+/// sessions an allow-list no longer permits).
+pub(crate) struct Slots {
+    table: Mutex<NoopRawMutex, RefCell<Table>>,
+}
+
+impl Slots {
+    /// All free.
+    pub(crate) const fn new() -> Self {
+        Slots {
+            table: Mutex::new(RefCell::new(Table {
+                slots: [Slot::FREE; SOCKETS],
+                tickets: 0,
+                gen: 0,
+                wakers: MultiWakerRegistration::new(),
+            })),
+        }
+    }
+
+    fn with<R>(&self, f: impl FnOnce(&mut Table) -> R) -> R {
+        self.table.lock(|t| f(&mut t.borrow_mut()))
+    }
+
+    /// Socket `i` accepted `peer` (that the allow-list permits): waits
+    /// until it may be served (see the module documentation).
+    pub(crate) async fn claim<C: Clock>(
+        &self,
+        i: usize,
+        peer: Option<SocketAddrV4>,
+        clock: &C,
+    ) -> Result<(), Refusal> {
+        let start = clock.now();
+        self.with(|t| {
+            t.tickets = t.tickets.wrapping_add(1);
+            if let Some(s) = t.slots.get_mut(i) {
+                *s = Slot {
+                    phase: Phase::Waiting(t.tickets),
+                    peer,
+                    last: start,
+                    busy: None,
+                    close: None,
+                };
+            }
+        });
+        let give_up = start + EVICT_IDLE + FRAME_DEADLINE;
+        loop {
+            let now = clock.now();
+            let (step, gen) = self.with(|t| {
+                let step = match t.step(i, now) {
+                    Step::Wait(_) if now >= give_up => Step::Refuse(Refusal::Full),
+                    s => s,
+                };
+                (step, t.gen)
+            });
+            let until = match step {
+                Step::Claimed => return Ok(()),
+                Step::Refuse(r) => {
+                    self.release(i);
+                    return Err(r);
+                }
+                Step::Wait(at) => at.map_or(give_up, |a| a.min(give_up)),
+            };
+            let changed = poll_fn(|cx| {
+                self.with(|t| {
+                    if t.gen == gen {
+                        t.wakers.register(cx.waker());
+                        Poll::Pending
+                    } else {
+                        Poll::Ready(())
+                    }
+                })
+            });
+            select(changed, clock.sleep_until(until)).await;
+        }
+    }
+
+    /// Socket `i`'s client left (or was refused): its slot is free.
+    pub(crate) fn release(&self, i: usize) {
+        self.with(|t| {
+            if let Some(s) = t.slots.get_mut(i) {
+                *s = Slot::FREE;
+            }
+            t.changed();
+        });
+    }
+
+    /// Session `i` started a frame at `at` (`Some`), or completed a
+    /// request (and answered it) at `at` (`None`).
+    fn mark(&self, i: usize, busy: Option<Instant>, at: Instant) {
+        self.with(|t| {
+            if let Some(s) = t.slots.get_mut(i) {
+                s.busy = busy;
+                if busy.is_none() {
+                    s.last = at;
+                }
+            }
+        });
+    }
+
+    /// Resolves when session `i` is asked to close.
+    async fn closing(&self, i: usize) -> Close {
+        poll_fn(|cx| {
+            self.with(|t| match t.slots.get(i).and_then(|s| s.close) {
+                Some(why) => Poll::Ready(why),
+                None => {
+                    t.wakers.register(cx.waker());
+                    Poll::Pending
+                }
+            })
+        })
+        .await
+    }
+
+    /// Asks every session (served or waiting) whose peer `permits` refuses
+    /// to close; they do at once, before serving another request.
+    pub(crate) fn close_unless(&self, permits: impl Fn(Option<SocketAddrV4>) -> bool) {
+        self.with(|t| {
+            let mut any = false;
+            for s in t.slots.iter_mut() {
+                if s.phase != Phase::Free && s.close.is_none() && !permits(s.peer) {
+                    s.close = Some(Close::NotAllowed);
+                    any = true;
+                }
+            }
+            if any {
+                t.changed();
+            }
+        });
+    }
+}
+
+/// A peer's address for logs (0.0.0.0 when unknown).
+fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
+    peer.map_or([0; 4], |p| p.ip().octets())
+}
+
+/// Serves Modbus clients on `port`, one after the other, forever, as
+/// socket `i` of the [`SOCKETS`] (its entry in [`Registers::slots`]).
 pub(crate) async fn session<S: Socket, C: Clock, R: Registers>(
     regs: &R,
     clock: &C,
     mut sock: S,
     port: u16,
+    i: usize,
 ) -> Infallible {
+    let slots = regs.slots();
     loop {
         if sock.accept(port).await.is_err() {
             clock.sleep(Duration::from_millis(500)).await;
             continue;
         }
         let peer = sock.remote();
-        let Some(n) = regs.admit(peer) else {
-            if let Some(p) = peer {
-                let [a, b, c, d] = p.ip().octets();
-                warn!(
-                    "modbus: client {}.{}.{}.{} refused (not in MODBUS_ALLOW)",
-                    a, b, c, d
-                );
+        let [a, b, c, d] = octets(peer);
+        // The allow-list before anything else: a client it refuses takes
+        // no slot and closes nobody's.
+        if !regs.permits(peer) {
+            // Refused: `admit` counts it in MODBUS_REFUSED.
+            let _ = regs.admit(peer);
+            refused(peer);
+            sock.close().await;
+            continue;
+        }
+        if let Err(why) = slots.claim(i, peer, clock).await {
+            match why {
+                Refusal::PerAddress => warn!(
+                    "modbus: client {}.{}.{}.{} refused: {} sessions from that address, none idle",
+                    a, b, c, d, PER_ADDRESS
+                ),
+                Refusal::Full => warn!(
+                    "modbus: client {}.{}.{}.{} refused: all {} sessions busy, none idle",
+                    a, b, c, d, MAX_CLIENTS
+                ),
+                Refusal::NotAllowed => refused(peer),
             }
             sock.close().await;
             continue;
-        };
-        match peer {
-            Some(p) => {
-                let [a, b, c, d] = p.ip().octets();
-                info!(
-                    "modbus: client {}.{}.{}.{}:{} connected ({} now)",
-                    a,
-                    b,
-                    c,
-                    d,
-                    p.port(),
-                    n
-                )
-            }
-            None => info!("modbus: client connected ({} now)", n),
         }
-        serve(regs, clock, &mut sock).await;
+        let Some(n) = regs.admit(peer) else {
+            slots.release(i);
+            refused(peer);
+            sock.close().await;
+            continue;
+        };
+        info!(
+            "modbus: client {}.{}.{}.{}:{} connected ({} now)",
+            a,
+            b,
+            c,
+            d,
+            peer.map_or(0, |p| p.port()),
+            n
+        );
+        serve(regs, clock, &mut sock, i, peer).await;
         sock.close().await;
+        slots.release(i);
         let n = regs.leave(peer);
         info!("modbus: client disconnected ({} left)", n);
     }
 }
 
-/// Serves one client until it leaves, falls silent or sends what is not
-/// Modbus TCP.
-pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C, sock: &mut S) {
+/// Serves one client (socket `i`, at `peer`) until it leaves, falls
+/// silent, is too slow with a frame, sends what is not Modbus TCP, or is
+/// asked to close ([`Slots`]).
+pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
+    regs: &R,
+    clock: &C,
+    sock: &mut S,
+    i: usize,
+    peer: Option<SocketAddrV4>,
+) {
+    let slots = regs.slots();
     let mut buf = [0u8; MAX_ADU];
     let mut out = [0u8; MAX_ADU];
     let mut len = 0usize;
+    // When the first byte of the frame in `buf` came.
+    let mut started: Option<Instant> = None;
     loop {
         // Header first, then as many bytes as its length field says.
         let need = match buf.get(..7) {
@@ -176,14 +557,18 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C
                     if len < 8 {
                         8
                     } else {
-                        let Some(n) = oversized(clock, sock, &buf, len, 6 + length, &mut out).await
+                        let deadline = started.unwrap_or_else(|| clock.now()) + FRAME_DEADLINE;
+                        let Some(n) =
+                            oversized(clock, sock, &buf, len, 6 + length, &mut out, deadline).await
                         else {
                             return;
                         };
-                        if sock.write_all(out.get(..n).unwrap_or(&[])).await.is_err() {
+                        if !regs.permits(peer) || !reply(slots, i, sock, out.get(..n)).await {
                             return;
                         }
+                        slots.mark(i, None, clock.now());
                         len = 0;
+                        started = None;
                         continue;
                     }
                 } else {
@@ -196,31 +581,96 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C
             let Some(free) = buf.get_mut(len..) else {
                 return;
             };
-            match with_timeout(clock, IDLE_TIMEOUT, sock.read(free)).await {
-                Ok(Ok(0)) | Ok(Err(_)) => return,
+            let deadline = match started {
+                Some(t) => t + FRAME_DEADLINE,
+                None => clock.now() + IDLE_TIMEOUT,
+            };
+            let read = select(sock.read(free), slots.closing(i));
+            match with_deadline(clock, deadline, read).await {
+                Ok(Either::First(Ok(0) | Err(_))) => return,
+                Ok(Either::First(Ok(n))) => {
+                    if started.is_none() {
+                        let now = clock.now();
+                        started = Some(now);
+                        slots.mark(i, Some(now), now);
+                    }
+                    len += n;
+                }
+                Ok(Either::Second(why)) => {
+                    closed(why, peer);
+                    return;
+                }
+                Err(_) if started.is_some() => {
+                    info!(
+                        "modbus: frame not whole {} ms after its first byte, closing",
+                        FRAME_DEADLINE.as_millis()
+                    );
+                    return;
+                }
                 Err(_) => {
                     info!("modbus: client idle, closing");
                     return;
                 }
-                Ok(Ok(n)) => len += n,
             }
             continue;
         }
         let Some(adu) = buf.get(..need) else {
             return;
         };
-        let reply = match handle(regs, adu, &mut out) {
+        // The allow-list in use, not the one at accept.
+        if !regs.permits(peer) {
+            closed(Close::NotAllowed, peer);
+            return;
+        }
+        let answer = match handle(regs, adu, &mut out) {
             Some(Answer::Now(n)) => Some(n),
             Some(Answer::After(p, d)) => finish(regs, p, d, &mut out).await,
             None => None,
         };
-        if let Some(n) = reply {
-            if sock.write_all(out.get(..n).unwrap_or(&[])).await.is_err() {
+        if let Some(n) = answer {
+            if !reply(slots, i, sock, out.get(..n)).await {
                 return;
             }
         }
         buf.copy_within(need..len, 0);
         len -= need;
+        let now = clock.now();
+        // What is left is the start of the next frame.
+        started = (len > 0).then_some(now);
+        slots.mark(i, started, now);
+    }
+}
+
+/// Writes `bytes` unless session `i` is asked to close first; `false`
+/// when the session ends.
+async fn reply<S: Socket>(slots: &Slots, i: usize, sock: &mut S, bytes: Option<&[u8]>) -> bool {
+    match select(sock.write_all(bytes.unwrap_or(&[])), slots.closing(i)).await {
+        Either::First(r) => r.is_ok(),
+        Either::Second(_) => false,
+    }
+}
+
+/// Logs a client the allow-list refuses.
+fn refused(peer: Option<SocketAddrV4>) {
+    let [a, b, c, d] = octets(peer);
+    warn!(
+        "modbus: client {}.{}.{}.{} refused (not in MODBUS_ALLOW)",
+        a, b, c, d
+    );
+}
+
+/// Logs why a session was closed from outside.
+fn closed(why: Close, peer: Option<SocketAddrV4>) {
+    let [a, b, c, d] = octets(peer);
+    match why {
+        Close::Evicted => info!(
+            "modbus: client {}.{}.{}.{} idle, closed for a new client",
+            a, b, c, d
+        ),
+        Close::NotAllowed => warn!(
+            "modbus: client {}.{}.{}.{} no longer in MODBUS_ALLOW, closed",
+            a, b, c, d
+        ),
     }
 }
 
@@ -228,7 +678,7 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(regs: &R, clock: &C
 /// holds the first `have` (header and function code): reads the rest off
 /// the stream without keeping it and writes the exception reply into
 /// `out` (03, or 01 for a function code not [`served`]). `None` when the client
-/// went away or fell silent.
+/// went away or the frame was not whole by `deadline`.
 async fn oversized<S: Socket, C: Clock>(
     clock: &C,
     sock: &mut S,
@@ -236,6 +686,7 @@ async fn oversized<S: Socket, C: Clock>(
     have: usize,
     total: usize,
     out: &mut [u8; MAX_ADU],
+    deadline: Instant,
 ) -> Option<usize> {
     let fc = head[7];
     debug!("modbus: fc {} frame of {} bytes, too long", fc, total);
@@ -243,7 +694,7 @@ async fn oversized<S: Socket, C: Clock>(
     let mut left = total.saturating_sub(have);
     while left > 0 {
         let room = sink.get_mut(..left.min(64))?;
-        match with_timeout(clock, IDLE_TIMEOUT, sock.read(room)).await {
+        match with_deadline(clock, deadline, sock.read(room)).await {
             Ok(Ok(n)) if n > 0 => left = left.saturating_sub(n),
             _ => return None,
         }
@@ -620,6 +1071,12 @@ mod tests {
         }
         fn leave(&self, peer: Option<SocketAddrV4>) -> u16 {
             self.0.leave_modbus(peer)
+        }
+        fn permits(&self, peer: Option<SocketAddrV4>) -> bool {
+            self.0.permits_modbus(peer)
+        }
+        fn slots(&self) -> &Slots {
+            &self.0.modbus_slots
         }
     }
 
