@@ -29,7 +29,9 @@ def top_module(path):
 
 
 def code_without_tests(text):
-    i = text.find("#[cfg(test)]\nmod tests")
+    # An inline test module (`mod tests {`) ends the file's code; a
+    # declaration of one in its own file (`mod tests;`) does not.
+    i = text.find("#[cfg(test)]\nmod tests {")
     text = text if i < 0 else text[:i]
     # Comments (documentation links included) are not imports.
     return re.sub(r"//[^\n]*", "", text)

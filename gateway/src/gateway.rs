@@ -20,8 +20,8 @@ use crate::storage::{self, image, Image, SaveOutcome, Storage, StorageError, Sto
 /// future for each). One fewer clients are served at once (4), at most 2
 /// from one address: the last socket accepts a newcomer while all are
 /// served, so that it can take the slot of an idle session (see
-/// `modbus`). Change it here: nothing else depends on it.
-pub const MAX_SESSIONS: usize = 5;
+/// `modbus`, where the number of clients is set).
+pub const MAX_SESSIONS: usize = crate::modbus::SOCKETS;
 /// Socket buffer size of each Modbus session (each direction).
 pub const MODBUS_BUF: usize = 512;
 /// Socket buffer size of each robot-link socket (each direction).

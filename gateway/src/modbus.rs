@@ -146,11 +146,12 @@ pub(crate) const FRAME_DEADLINE: Duration = Duration::from_secs(1);
 /// polling client is never taken for idle; a client idle longer is closed
 /// only when a newcomer needs its slot.
 pub(crate) const EVICT_IDLE: Duration = Duration::from_secs(2);
-/// Sockets (session futures) of the server: see [`crate::MAX_SESSIONS`].
-pub(crate) const SOCKETS: usize = crate::gateway::MAX_SESSIONS;
-/// Clients served at once: one socket fewer, so that one always accepts
-/// a newcomer, which may then take an idle session's slot.
-pub(crate) const MAX_CLIENTS: usize = SOCKETS - 1;
+/// Clients served at once.
+pub(crate) const MAX_CLIENTS: usize = 4;
+/// Sockets (session futures) of the server (`crate::MAX_SESSIONS`): one
+/// more than the clients served, so that one always accepts a newcomer,
+/// which may then take an idle session's slot.
+pub(crate) const SOCKETS: usize = MAX_CLIENTS + 1;
 /// Clients served at once from one address.
 pub(crate) const PER_ADDRESS: usize = 2;
 

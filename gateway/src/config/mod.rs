@@ -349,6 +349,9 @@ pub struct Config {
     /// The MQTT broker's host name or address (no registers; used from
     /// the MQTT release on).
     pub mqtt_broker: HostName,
+    /// A DNS name the web page is also served under (besides the device's
+    /// addresses); empty = addresses only.
+    pub web_host: HostName,
 }
 
 impl Config {
@@ -402,6 +405,7 @@ impl Config {
         modbus_allow: AllowList::EVERYONE,
         web_allow: AllowList::EVERYONE,
         mqtt_broker: HostName::EMPTY,
+        web_host: HostName::EMPTY,
     };
 
     /// This configuration with the network and access settings of `other`

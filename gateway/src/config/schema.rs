@@ -688,9 +688,13 @@ setting!(
     |c, v| c.mqtt_broker = host(v)
 );
 
+setting!(WEB_HOST_NAME, "web.host_name", 28, Kind::Host, "",
+    "a DNS name the page also answers to, besides the device's addresses (others get 421: DNS rebinding); empty = addresses only", false,
+    |c| Value::Host(c.web_host), |c, v| c.web_host = host(v));
+
 /// Every setting, in the order the views list them (a group's settings
 /// together).
-pub const SETTINGS: [&Setting; 27] = [
+pub const SETTINGS: [&Setting; 28] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -718,6 +722,7 @@ pub const SETTINGS: [&Setting; 27] = [
     &ACCESS_MODBUS_ALLOW,
     &ACCESS_WEB_ALLOW,
     &MQTT_BROKER,
+    &WEB_HOST_NAME,
 ];
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a

@@ -82,6 +82,7 @@
 //! | `access.modbus_allow` | MODBUS_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `access.web_allow` | WEB_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `mqtt.broker` | (none) | `"host"`, `""` = none |
+//! | `web.host_name` | (none) | `"host"`, `""` = addresses only |
 //! | `access.password` | (the web password) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |
 

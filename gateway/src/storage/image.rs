@@ -408,7 +408,9 @@ mod tests {
         // The longest image fits IMAGE_LEN exactly.
         let mut longest = stored;
         let name = "h".repeat(HostName::MAX);
-        MQTT_BROKER.parse_into(&name, &mut longest.config).unwrap();
+        for s in SETTINGS.iter().filter(|s| matches!(s.kind, Kind::Host)) {
+            s.parse_into(&name, &mut longest.config).unwrap();
+        }
         assert_eq!(image(&longest, &entries).len(), IMAGE_LEN);
     }
 

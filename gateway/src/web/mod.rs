@@ -356,7 +356,7 @@ fn host<'r>(parts: &RequestParts<'r>) -> Option<&'r [u8]> {
 /// Any other name is refused (421). The port is checked to be a port,
 /// not to be the one served: forwarded ports (a NAT, QEMU) change it, and
 /// the name alone decides who may answer.
-pub(crate) fn own_host(host: &[u8], peer: Option<SocketAddrV4>) -> bool {
+pub(crate) fn own_host(host: &[u8], peer: Option<SocketAddrV4>, configured: &[u8]) -> bool {
     let (name, port) = match host.iter().rposition(|&b| b == b':') {
         // `[::1]:8080`, `[::1]` or `name:port`.
         Some(i) if !host.ends_with(b"]") => (
@@ -375,6 +375,10 @@ pub(crate) fn own_host(host: &[u8], peer: Option<SocketAddrV4>) -> bool {
         return false;
     }
     if core::str::from_utf8(name).is_ok_and(|n| n.parse::<core::net::Ipv4Addr>().is_ok()) {
+        return true;
+    }
+    // The name configured for the device (setting `web.host_name`).
+    if !configured.is_empty() && name.eq_ignore_ascii_case(configured) {
         return true;
     }
     let loopback = peer.is_some_and(|p| p.ip().is_loopback());
@@ -507,7 +511,8 @@ impl<C: Clock> App<'_, C> {
         let Some(host) = host(&request.parts) else {
             return error(StatusCode::BAD_REQUEST, "one Host header is needed");
         };
-        if !own_host(host, self.peer) {
+        let configured = self.hub.with(|m| m.config.active.web_host);
+        if !own_host(host, self.peer, configured.as_bytes()) {
             return error(
                 StatusCode::MISDIRECTED_REQUEST,
                 "this device does not answer to that host name: use its address",
@@ -770,6 +775,9 @@ mod tests {
             (b"localhost:8080", lan, false),
             (b"[::1]", lan, false),
             (b"evil.example", lo, false),
+            (b"gw.plant.local:8080", lan, true),
+            (b"GW.PLANT.LOCAL", lan, true),
+            (b"gw.plant.local.evil.example", lan, false),
             (b"evil.example:80", lan, false),
             (b"192.168.1.50.evil.example", lan, false),
             (b"192.168.1.50:", lan, false),
@@ -780,7 +788,7 @@ mod tests {
             (b"localhost.", lo, false),
         ] {
             assert_eq!(
-                own_host(host, peer),
+                own_host(host, peer, b"gw.plant.local"),
                 ok,
                 "{}",
                 String::from_utf8_lossy(host)

@@ -63,6 +63,7 @@ fn full() -> Contents {
             net(ip(0, 0, 0, 0), 1),
         ]),
         mqtt_broker: crate::config::HostName::new("broker.plant.local").unwrap(),
+        web_host: crate::config::HostName::new("gw-cell-7.plant.local").unwrap(),
     });
     c.stored.password = Some(PasswordHash {
         iterations: 10_000,
@@ -206,7 +207,7 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
             "1:1: unknown key \"poll_ms\" outside the tables (it goes in [link])",
             "2:1: unknown key \"port\" outside the tables (it goes in [robot])",
             "4:1: unknown key \"adress\" in [robot]; its keys are address, port, id",
-            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [mqtt], [triggers]",
+            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [mqtt], [web], [triggers]",
             "8:1: unknown key \"address\" in [link] (it goes in [robot] or [network])",
         ]
     );
