@@ -31,13 +31,15 @@
 //! [`FRAME_DEADLINE`] of its first byte, else the connection is closed (so
 //! a trickle of partial headers holds a slot for at most that long). A
 //! session that has not completed a request for [`EVICT_IDLE`] (and is not
-//! in the middle of one) is *idle*: when all slots are taken (or the
-//! newcomer's address has its [`PER_ADDRESS`] sessions), the newcomer, once
-//! the allow-list admits it, takes the slot of the longest-idle one (of its
-//! address), which is closed. With none idle, the newcomer waits at most
+//! in the middle of one) is *idle*: when all slots are taken, the newcomer,
+//! once the allow-list admits it, takes the slot of the longest-idle one,
+//! which is closed. With none idle, the newcomer waits at most
 //! [`EVICT_IDLE`] + [`FRAME_DEADLINE`] for a slot (in that time every session
-//! not completing requests became idle or was closed), else it is closed
-//! (at once when its address is at its cap and none of its sessions is idle).
+//! not completing requests became idle or was closed), else it is closed.
+//! When the newcomer's address already has its [`PER_ADDRESS`] sessions,
+//! the newest connection wins: the least recently active of them (not in
+//! the middle of a frame) is closed for it, at once; if all are mid-frame,
+//! the newcomer is closed at once.
 //! The allow-list is checked at accept and before each request; applying a
 //! configuration closes at once the sessions it no longer permits
 //! ([`Slots::close_unless`]).
@@ -244,10 +246,15 @@ impl Table {
 
     /// The longest-idle session among those `which` picks, asked to close.
     fn evict(&mut self, now: Instant, which: impl Fn(&Slot) -> bool) -> bool {
+        self.evict_where(|s| s.idle(now) && which(s))
+    }
+
+    /// Asks the least recently active session that `which` picks to close.
+    fn evict_where(&mut self, which: impl Fn(&Slot) -> bool) -> bool {
         let victim = self
             .slots
             .iter_mut()
-            .filter(|s| s.idle(now) && which(s))
+            .filter(|s| which(s))
             .min_by_key(|s| s.last);
         let Some(v) = victim else {
             return false;
@@ -273,13 +280,25 @@ impl Table {
             Phase::Waiting(t) => t < ticket,
             Phase::Free => false,
         };
-        // Its address's cap first: an idle session of its own may go.
+        // Its address's cap first: the newest connection from an address
+        // wins, so its own least recently active session makes room (a
+        // client that reconnects, or connects for each request, before the
+        // gateway has seen its old connection close), unless every one of
+        // them is in the middle of a frame. One address never holds more
+        // than its cap, and evicts only its own sessions.
         let mine = self
             .slots
             .iter()
             .filter(|s| ahead(s) && s.close.is_none() && s.same_host(me.peer))
             .count();
-        if mine >= PER_ADDRESS && !self.evict(now, |s| s.same_host(me.peer)) {
+        if mine >= PER_ADDRESS
+            && !self.evict_where(|s| {
+                s.phase == Phase::Serving
+                    && s.close.is_none()
+                    && s.busy.is_none()
+                    && s.same_host(me.peer)
+            })
+        {
             return Step::Refuse(Refusal::PerAddress);
         }
         // First come, first served.

@@ -139,7 +139,8 @@ fn partial_headers_from_four_sockets_keep_a_plc_out_no_longer_than_the_frame_dea
 #[test]
 fn one_address_gets_at_most_two_sessions() {
     let mut w = world(1);
-    // 10.0.0.66 opens four sessions, each asking at once (none idle).
+    // 10.0.0.66 opens four sessions, each asking at once: the newest
+    // connection of an address wins, its least recently active one goes.
     let mut from_66 = Vec::new();
     for _ in 0..4 {
         let s = w.connect_plc(ip(66));
@@ -149,8 +150,8 @@ fn one_address_gets_at_most_two_sessions() {
     let open: Vec<bool> = from_66.iter().map(|&s| w.plc_open(s)).collect();
     assert_eq!(
         open,
-        [true, true, false, false],
-        "the third and fourth closed at once"
+        [false, false, true, true],
+        "the third and fourth took the places of the first and second"
     );
     assert_eq!(sessions(&mut w, 0), 3, "PLC 0 and two from 10.0.0.66");
     // Another address still gets the last slot.
@@ -160,22 +161,31 @@ fn one_address_gets_at_most_two_sessions() {
         Some((Answer::Pdu(_), _))
     ));
     assert_eq!(sessions(&mut w, 0), 4);
-    // Once both of its sessions are idle, 10.0.0.66 connecting again (a
-    // PLC after a cable pull) takes the slot of the longer idle of them.
-    w.request(from_66[1], &pdu::read(r::STATUS_VERSION, 1));
-    w.run_for(EVICT_IDLE + ms(100));
-    let again = w.connect_plc(ip(66));
-    assert!(matches!(
-        ask_within(&mut w, again, &pdu::read(r::STATUS_VERSION, 1), ms(100)),
-        Some((Answer::Pdu(_), _))
-    ));
-    assert!(
-        !w.plc_open(from_66[0]),
-        "the longer idle one of 10.0.0.66 went"
-    );
-    assert!(w.plc_open(from_66[1]));
-    assert!(w.plc_open(hmi) && w.plc_open(0));
-    assert_eq!(sessions(&mut w, 0), 4);
+    // A client that connects for each request (and closes) is served each
+    // time, whether or not the gateway has seen its last connection close.
+    for _ in 0..3 {
+        let again = w.connect_plc(ip(66));
+        assert!(matches!(
+            ask_within(&mut w, again, &pdu::read(r::STATUS_VERSION, 1), ms(100)),
+            Some((Answer::Pdu(_), _))
+        ));
+        from_66.push(again);
+    }
+    assert!(w.plc_open(hmi) && w.plc_open(0), "the others keep theirs");
+    assert_eq!(sessions(&mut w, 0), 4, "never more than two of 10.0.0.66");
+    // Both of its sessions in the middle of a frame: a third is closed at
+    // once, and neither of them is disturbed.
+    let open: Vec<usize> = from_66.iter().copied().filter(|&s| w.plc_open(s)).collect();
+    let [a, b] = open[..] else {
+        panic!("10.0.0.66 holds {} sessions, not two", open.len());
+    };
+    w.plcs[a].send_raw(&[0, 9, 0, 0]);
+    w.plcs[b].send_raw(&[0, 9, 0, 0]);
+    w.run_for(ms(10));
+    let third = w.connect_plc(ip(66));
+    w.run_for(ms(50));
+    assert!(!w.plc_open(third), "a third is closed at once");
+    assert!(w.plc_open(a) && w.plc_open(b));
 }
 
 #[test]

@@ -126,13 +126,18 @@ def gateway_seeds():
         body += tbytes + bytes(52)
         put("gateway_image", body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF))
     # Web requests: reads, the first password, a configuration post, a login.
+    # Named by the device's address; changes come from its own page (Origin)
+    # with the JSON content type, so that the seeds get past those checks.
     def http(method, path, body=b"", headers=()):
-        head = f"{method} {path} HTTP/1.1\r\nHost: gw\r\n" + "".join(f"{h}\r\n" for h in headers)
+        head = f"{method} {path} HTTP/1.1\r\nHost: 10.0.0.1\r\n"
+        if method == "POST":
+            head += "Origin: http://10.0.0.1\r\nContent-Type: application/json\r\n"
+        head += "".join(f"{h}\r\n" for h in headers)
         return head.encode() + f"Content-Length: {len(body)}\r\n\r\n".encode() + body
     put("gateway_http", bytes([9]) + http("GET", "/api/status") + http("GET", "/api/log"))
     put("gateway_http", bytes([64]) + http("GET", "/"))
     put("gateway_http", bytes([17]) + http("POST", "/api/password", b"\ncorrect horse")
-        + http("POST", "/api/config", b'{"settings":{"CFG_POLL_MS":"50"},"triggers":["GrpStop,0,;"]}',
+        + http("POST", "/api/config", b'{"settings":{"link.poll_ms":"50"},"triggers":["GrpStop,0,;"]}',
                ["Cookie: hgw_session=00112233445566778899aabbccddeeff"]))
     put("gateway_http", bytes([33]) + http("POST", "/api/login", b"wrong password")
         + http("POST", "/api/trigger/3", b"SetBoxDO,1,1,;", ["Authorization: Bearer 00"]))

@@ -48,9 +48,9 @@ async fn modbus_served(from: Ipv4Addr, to: SocketAddrV4) -> bool {
 async fn web_answer(from: Ipv4Addr, to: SocketAddrV4) -> String {
     let mut s = connect_from(from, to).await;
     // A refused client may find the connection closed before it writes.
-    let _ = s
-        .write_all(b"GET /api/session HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n")
-        .await;
+    // The device is named by its address (another name gets 421).
+    let request = format!("GET /api/session HTTP/1.1\r\nHost: {to}\r\nConnection: close\r\n\r\n");
+    let _ = s.write_all(request.as_bytes()).await;
     let mut got = Vec::new();
     let _ = tokio::time::timeout(LIMIT, s.read_to_end(&mut got))
         .await

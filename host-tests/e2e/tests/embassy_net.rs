@@ -182,7 +182,7 @@ async fn web_status(stack: Stack<'_>) {
     s.connect((GW_IP, 80))
         .await
         .expect("connect to the web page");
-    let mut out: &[u8] = b"GET /api/status HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n";
+    let mut out: &[u8] = b"GET /api/status HTTP/1.1\r\nHost: 10.0.0.1\r\nConnection: close\r\n\r\n";
     while !out.is_empty() {
         let k = s.write(out).await.expect("write");
         out = &out[k..];

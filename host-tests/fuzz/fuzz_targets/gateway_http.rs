@@ -87,7 +87,7 @@ fuzz_target!(|data: &[u8]| {
         // The next client is served, and so is the PLC.
         let answer = w.http(
             Ipv4Addr::new(10, 0, 0, 61),
-            b"GET /api/session HTTP/1.1\r\nHost: gw\r\nConnection: close\r\n\r\n",
+            b"GET /api/session HTTP/1.1\r\nHost: 10.0.0.1\r\nConnection: close\r\n\r\n",
             Duration::from_secs(5),
         );
         assert!(
