@@ -17,7 +17,7 @@ use crate::state::Model;
 use crate::storage::{self, image, Image, SaveOutcome, Storage, StorageError, Stored};
 
 /// Number of Modbus session sockets ([`Gateway::run`] starts one session
-/// future for each). One fewer clients are served at once (4), at most 2
+/// future for each). One fewer clients are served at once (4), at most 3
 /// from one address: the last socket accepts a newcomer while all are
 /// served, so that it can take the slot of an idle session (see
 /// `modbus`, where the number of clients is set).

@@ -34,7 +34,7 @@
 //! | [`testkit`] | a virtual world for tests: clock, network, robot, PLC (feature `testkit`) |
 //!
 //! ## Bounds
-//! Every buffer and queue is fixed: 4 Modbus clients at once, 2 from one
+//! Every buffer and queue is fixed: 4 Modbus clients at once, 3 from one
 //! address, on [`MAX_SESSIONS`] sockets (one spare, so that a newcomer can
 //! take an idle session's slot),
 //! [`job::QUEUE_DEPTH`] queued commands (more end in Error 39600)

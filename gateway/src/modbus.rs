@@ -155,7 +155,11 @@ pub(crate) const MAX_CLIENTS: usize = 4;
 /// which may then take an idle session's slot.
 pub(crate) const SOCKETS: usize = MAX_CLIENTS + 1;
 /// Clients served at once from one address.
-pub(crate) const PER_ADDRESS: usize = 2;
+/// One fewer than all of them: one address (a scanner, a flood) always
+/// leaves a slot for another, while a host running several clients (an
+/// HMI and a diagnostics tool, or clients behind one NAT) is not turned
+/// away at its second.
+pub(crate) const PER_ADDRESS: usize = MAX_CLIENTS - 1;
 
 /// Why a session is asked to close.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

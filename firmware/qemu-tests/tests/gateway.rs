@@ -47,7 +47,7 @@ const CMD_MOVE_J_JOINTS: u16 = 10;
 /// Sessions one client address may hold (hans_gateway's modbus
 /// `PER_ADDRESS`). Under QEMU's user-mode network every client comes from
 /// 10.0.2.2, so this is what a test can take.
-const PER_ADDRESS: usize = 2;
+const PER_ADDRESS: usize = 3;
 
 mod common;
 use common::{start_sim, wait_for, STEP};
