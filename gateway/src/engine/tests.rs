@@ -11,7 +11,6 @@ use std::boxed::Box;
 use std::rc::Rc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::task::Wake;
 
 use embassy_time::{Duration, Instant};
 
@@ -27,22 +26,12 @@ use crate::state::{LinkState, Model, TextSource};
 use crate::testkit::clock::VirtualClock;
 use crate::testkit::net::SimNet;
 use crate::testkit::robot::SimRobot;
+use crate::testkit::world::Flag;
 
 const GATEWAY_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 1);
 const ROBOT: SocketAddrV4 = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 2), 10003);
 /// Polls at one instant after which the engine counts as spinning.
 const SPIN: u64 = 10_000;
-
-struct Flag(AtomicBool);
-
-impl Wake for Flag {
-    fn wake(self: Arc<Self>) {
-        self.0.store(true, Ordering::Relaxed);
-    }
-    fn wake_by_ref(self: &Arc<Self>) {
-        self.0.store(true, Ordering::Relaxed);
-    }
-}
 
 /// The engine's future, run by a deterministic executor that counts its
 /// polls (its wakes).

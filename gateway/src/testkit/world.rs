@@ -108,7 +108,9 @@ impl Default for WorldConfig {
     }
 }
 
-struct Flag(AtomicBool);
+/// A waker that raises a flag: a deterministic executor polls its future
+/// again only when it is up (also the engine's wake-count tests').
+pub(crate) struct Flag(pub(crate) AtomicBool);
 
 impl Wake for Flag {
     fn wake(self: Arc<Self>) {
