@@ -6,10 +6,10 @@ use core::convert::Infallible;
 use core::future::Future;
 use core::net::{Ipv4Addr, SocketAddrV4};
 use core::pin::Pin;
-use core::task::{Context, Poll, Waker};
+use core::task::Waker;
 use std::boxed::Box;
 use std::rc::Rc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 use embassy_time::{Duration, Instant};
@@ -26,7 +26,7 @@ use crate::state::{LinkState, Model, TextSource};
 use crate::testkit::clock::VirtualClock;
 use crate::testkit::net::SimNet;
 use crate::testkit::robot::SimRobot;
-use crate::testkit::world::Flag;
+use crate::testkit::world::{poll_until_waiting, Flag};
 
 const GATEWAY_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 1);
 const ROBOT: SocketAddrV4 = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 2), 10003);
@@ -88,16 +88,8 @@ impl Rig {
 
     /// Polls the engine until it waits (fails if it never does).
     fn settle(&mut self) {
-        let mut n = 0u64;
-        while self.flag.0.swap(false, Ordering::Relaxed) {
-            let mut cx = Context::from_waker(&self.waker);
-            if let Poll::Ready(never) = self.fut.as_mut().poll(&mut cx) {
-                match never {}
-            }
-            self.polls += 1;
-            n += 1;
-            assert!(n < SPIN, "the engine never waits at {:?}", self.now());
-        }
+        let at = self.now();
+        self.polls += poll_until_waiting(&self.flag, &self.waker, &mut self.fut, SPIN, at);
     }
 
     /// Everything due now, the engine and the robot in turn.

@@ -108,6 +108,28 @@ impl Default for WorldConfig {
     }
 }
 
+/// Polls `fut` while the flag of its waker is up (it was woken), until it
+/// waits; returns the polls made. Panics (a test harness) after `limit`
+/// polls in a row: the future never waits, at `at`.
+pub(crate) fn poll_until_waiting(
+    flag: &Flag,
+    waker: &Waker,
+    fut: &mut Pin<Box<dyn Future<Output = Infallible>>>,
+    limit: u64,
+    at: Instant,
+) -> u64 {
+    let mut n = 0u64;
+    while flag.0.swap(false, Ordering::Relaxed) {
+        let mut cx = Context::from_waker(waker);
+        if let Poll::Ready(never) = fut.as_mut().poll(&mut cx) {
+            match never {}
+        }
+        n += 1;
+        assert!(n < limit, "the future never waits at {at:?}");
+    }
+    n
+}
+
 /// A waker that raises a flag: a deterministic executor polls its future
 /// again only when it is up (also the engine's wake-count tests').
 pub(crate) struct Flag(pub(crate) AtomicBool);
@@ -256,20 +278,8 @@ impl World {
 
     /// Polls the gateway until it has nothing left to do now.
     pub fn settle(&mut self) {
-        let mut n = 0u32;
-        while self.flag.0.swap(false, Ordering::Relaxed) {
-            let mut cx = Context::from_waker(&self.waker);
-            if let Poll::Ready(never) = self.fut.as_mut().poll(&mut cx) {
-                match never {}
-            }
-            self.polls += 1;
-            n += 1;
-            assert!(
-                n < 100_000,
-                "the gateway never goes idle at {:?}",
-                self.now()
-            );
-        }
+        let at = self.now();
+        self.polls += poll_until_waiting(&self.flag, &self.waker, &mut self.fut, 100_000, at);
     }
 
     /// Everything due now: the gateway and the robot take turns until
