@@ -117,13 +117,20 @@ def gateway_seeds():
     image = body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF)
     put("gateway_image", image)
     put("gateway_image", image[:-1] + bytes([image[-1] ^ 1]))
-    # Format 2 (written today): settings as (register, value) pairs, the
+    # Format 2 (written by register map 1.2): settings as (register, value) pairs, the
     # triggers, the password (none: 52 zero bytes), the CRC. One with no
     # settings (all defaults), one with a poll period and a heartbeat.
     tbytes = b"".join(struct.pack("<H", w) for w in trig)
     for pairs in ([], [(105, 50), (140, 1)]):
         body = b"HGW1" + struct.pack("<HH", 2, len(pairs)) + b"".join(struct.pack("<HH", a, v) for a, v in pairs)
         body += tbytes + bytes(52)
+        put("gateway_image", body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF))
+    # Format 3 (written since the settings schema): settings as (id, length,
+    # value) by their stable ids: the poll period (id 8, 50 ms), listen mode
+    # (id 4), the MQTT broker's name (id 27), an id no version knows (999).
+    for entries in ([], [(8, struct.pack("<H", 50)), (4, b"\x01"), (27, b"broker.plant"), (999, b"xyz")]):
+        settings = b"".join(struct.pack("<HB", i, len(v)) + v for i, v in entries)
+        body = b"HGW1" + struct.pack("<HH", 3, len(settings)) + settings + tbytes + bytes(52)
         put("gateway_image", body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF))
     # Web requests: reads, the first password, a configuration post, a login.
     # Named by the device's address; changes come from its own page (Origin)
