@@ -28,6 +28,7 @@ export WEB_PORT MODBUS_PORT SIM_PORT ADMIN_PORT
 
 SETUP_FUZZ=0 bash scripts/setup.sh
 
+source scripts/firmware-env.sh
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 ELF="$FW_TARGET/thumbv7em-none-eabihf/release/field-device"

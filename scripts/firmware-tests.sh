@@ -25,6 +25,7 @@ ROOT=$(pwd)
 
 SETUP_FUZZ=0 bash scripts/setup.sh
 
+source scripts/firmware-env.sh
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"

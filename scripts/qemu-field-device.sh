@@ -51,6 +51,7 @@ LOG_DIR=${LOG_DIR:-$(mktemp -d)}
 mkdir -p "$LOG_DIR"
 export WEB_PORT MODBUS_PORT ADMIN_PORT SIM_PORT
 
+source scripts/firmware-env.sh
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 ELF="$FW_TARGET/thumbv7em-none-eabihf/release/field-device"
