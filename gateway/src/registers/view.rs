@@ -190,11 +190,7 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         return io.unwrap_or(0);
     }
     if let Some(s) = config::slot_of(addr) {
-        let words = m
-            .config
-            .edit
-            .unwrap_or_else(|| config::encode(&m.config.active));
-        return words.get(s).copied().unwrap_or(0);
+        return config_words(m).get(s).copied().unwrap_or(0);
     }
     if let Some(o) = in_area(r::ERROR_TEXT, r::ERROR_TEXT_REGS) {
         return m.error_text.text.word(usize::from(o));
@@ -333,10 +329,28 @@ fn trigger_bits(m: &Model, f: impl Fn(&Handshake) -> bool) -> u16 {
 pub fn read_into(m: &Model, start: u16, out: &mut [u16], now: Instant) -> Result<(), AccessError> {
     let count = u16::try_from(out.len()).map_err(|_| AccessError::IllegalAddress)?;
     r::check(start, count, false)?;
+    // The settings' registers are encoded once for the whole read, not once
+    // per register.
+    let mut settings: Option<config::Words> = None;
     for (a, o) in (start..).zip(out.iter_mut()) {
-        *o = read(m, a, now);
+        *o = match config::slot_of(a) {
+            Some(s) => settings
+                .get_or_insert_with(|| config_words(m))
+                .get(s)
+                .copied()
+                .unwrap_or(0),
+            None => read(m, a, now),
+        };
     }
     Ok(())
+}
+
+/// The settings' registers as the PLC reads them: its unapplied edit, or
+/// the configuration in use.
+fn config_words(m: &Model) -> config::Words {
+    m.config
+        .edit
+        .unwrap_or_else(|| config::encode(&m.config.active))
 }
 
 /// Stores a write of `values` from `start` in the model (all or nothing:
