@@ -9,6 +9,7 @@ use core::pin::pin;
 
 use embassy_futures::join::{join5, join_array};
 
+use crate::access::setup::SetupCode;
 use crate::clock::Clock;
 use crate::config::{self, Config};
 use crate::hub::{Hub, PlcPort};
@@ -56,6 +57,12 @@ pub struct Options {
     pub web_port: u16,
     /// How the web page restarts the device (boards); `None`: it cannot.
     pub restart: Option<fn()>,
+    /// The one-time code that proves presence when the first
+    /// administrator is created (see `access::setup`): the platform makes
+    /// it from its random source and shows it where only someone at the
+    /// device reads it. `None`: no administrator can be created (until a
+    /// restart with a code).
+    pub setup_code: Option<SetupCode>,
 }
 
 /// A robot address given at start (host `--robot` / `--robot-listen`). It
@@ -100,6 +107,7 @@ impl Default for Options {
             seed: [0; 32],
             web_port: 0,
             restart: None,
+            setup_code: None,
         }
     }
 }

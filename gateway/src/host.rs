@@ -310,6 +310,7 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         seed: os_seed(),
         web_port: bound.web.map_or(0, |w| w.port()),
         restart: None,
+        setup_code: None,
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;

@@ -126,6 +126,7 @@ pub mod testkit;
 #[cfg(feature = "web")]
 pub(crate) mod web;
 
+pub use access::setup::{SetupCode, SETUP_CODE_LEN};
 pub use clock::{Clock, SystemClock};
 pub use config::Config;
 /// The jog timing a PLC follows: the keep-alive period and the PLC

@@ -15,6 +15,7 @@
 //! what it does not) is in the top-level README.
 
 pub(crate) mod password;
+pub(crate) mod setup;
 // Sessions and the rate limit serve the web page only.
 #[cfg(feature = "web")]
 pub(crate) mod session;

@@ -59,6 +59,7 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
         // The host's /dev/urandom through semihosting (see `seed`).
         seed: board::seed(stack),
         restart: Some(board::restart),
+        setup_code: None,
         // No button to hold: never a recovery start (and nothing stored to
         // recover from).
         recovery: false,

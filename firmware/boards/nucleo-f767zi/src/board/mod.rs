@@ -181,6 +181,7 @@ pub async fn run(spawner: Spawner) -> ! {
         network_managed: true,
         seed,
         restart: Some(restart),
+        setup_code: None,
         ..Options::default()
     };
     run_gateway(stack, &mut storage, options).await
