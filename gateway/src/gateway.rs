@@ -212,7 +212,7 @@ impl Gateway {
         let datasheet = core::future::pending::<Infallible>();
         let saver = storage_task(hub, &mut storage);
         #[cfg(feature = "web")]
-        let web = crate::web::Web::new(self.opts.seed, self.opts.restart);
+        let web = crate::web::Web::new(self.opts.seed, self.opts.setup_code, self.opts.restart);
         #[cfg(feature = "web")]
         let page = async {
             if web_port == 0 {
@@ -258,7 +258,7 @@ impl Gateway {
                 ) {
                     Ok(stored) => {
                         info!("config: loaded from storage");
-                        m.access.password = stored.password;
+                        m.access.accounts = stored.accounts;
                         Some(stored.config)
                     }
                     Err(e) => {
@@ -328,7 +328,7 @@ impl Image for Current<'_> {
         self.0.with(|m| {
             let stored = Stored {
                 config: m.config.active,
-                password: m.access.password,
+                accounts: m.access.accounts,
             };
             image::encode(&stored, &m.triggers.entries, out)
         })

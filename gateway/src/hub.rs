@@ -112,6 +112,7 @@ impl Hub {
         match self.with(|m| plc::config_command(m, cmd)) {
             ConfigStep::Done => Ok(()),
             ConfigStep::Invalid(_) => Err(WriteError::Value),
+            ConfigStep::Locked => Err(WriteError::Protected),
             ConfigStep::Save => {
                 // The engine follows the new configuration at once.
                 self.announce_config();

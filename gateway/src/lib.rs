@@ -126,6 +126,8 @@ pub mod testkit;
 #[cfg(feature = "web")]
 pub(crate) mod web;
 
+pub use access::accounts::{Account, AccountError, Accounts, Role, UserName, ACCOUNTS};
+pub use access::password::PasswordHash;
 pub use access::setup::{SetupCode, SETUP_CODE_LEN};
 pub use clock::{Clock, SystemClock};
 pub use config::Config;

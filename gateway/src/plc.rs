@@ -128,6 +128,10 @@ pub(crate) enum ConfigStep {
     Invalid(InvalidValue),
     /// Applied: now save it (the storage task), then report.
     Save,
+    /// The edit changes an access setting, which Modbus may not do before
+    /// an administrator exists: nothing applied (exception 01,
+    /// `CONFIG_RESULT` 4).
+    Locked,
 }
 
 /// `CONFIG_COMMAND` `cmd` (1-3).
@@ -136,6 +140,7 @@ pub(crate) enum ConfigStep {
 /// register to fix); every later apply is refused until it is fixed or
 /// discarded (2).
 pub(crate) fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
+    let may_change_access = m.access.modbus_may_change_access();
     let c = &mut m.config;
     match cmd {
         1 => match c
@@ -147,6 +152,11 @@ pub(crate) fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
                 c.bad_addr = bad.addr;
                 warn!("config: register {} invalid, not applied", bad.addr);
                 ConfigStep::Invalid(bad)
+            }
+            Ok(new) if !may_change_access && !new.same_access(&c.active) => {
+                c.result = ConfigResult::AccessLocked;
+                warn!("config: access settings locked until an administrator exists, not applied");
+                ConfigStep::Locked
             }
             Ok(new) => {
                 c.apply(new);

@@ -736,6 +736,8 @@ fn ip_words(ip: Ipv4Addr) -> [u16; 2] {
 #[test]
 fn the_modbus_allow_list_refuses_other_clients_at_once_and_counts_them() {
     let mut w = world();
+    // A commissioned device (access settings are locked before one).
+    w.add_admin();
     // PLC 0 connects from 10.0.0.10; allow that address only.
     let [a, b] = ip_words(Ipv4Addr::new(10, 0, 0, 10));
     w.set(r::MODBUS_ALLOW, &[a, b, 32]);
@@ -767,6 +769,7 @@ fn the_modbus_allow_list_refuses_other_clients_at_once_and_counts_them() {
 #[test]
 fn write_protection_refuses_configuration_writes_but_not_commands() {
     let mut w = world();
+    w.add_admin();
     w.set(r::CONFIG_WRITE_PROTECT, &[1]);
     w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
     assert_eq!(

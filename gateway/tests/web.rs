@@ -7,7 +7,7 @@ use core::net::Ipv4Addr;
 
 use embassy_time::Duration;
 use hans_gateway::registers as r;
-use hans_gateway::testkit::world::{World, WorldConfig};
+use hans_gateway::testkit::world::{World, WorldConfig, SETUP_CODE};
 use serde_json::Value;
 
 const PC: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 50);
@@ -136,11 +136,40 @@ fn post(w: &mut World, path: &str, token: Option<&str>, body: &[u8]) -> Answer {
     send(w, PC, &request("POST", path, &headers, body)).expect("an answer")
 }
 
-/// Sets the first password and returns the session it opens.
+/// `{"name":…,"password":…}` and more members.
+fn body(members: &[(&str, &str)]) -> Vec<u8> {
+    let mut m = serde_json::Map::new();
+    for (k, v) in members {
+        m.insert(k.to_string(), Value::from(*v));
+    }
+    serde_json::to_vec(&m).unwrap()
+}
+
+/// Creates the first administrator, `admin`, with the setup code, and
+/// returns the session it opens.
 fn set_password(w: &mut World) -> String {
-    let a = post(w, "/api/password", None, b"\ncorrect horse");
+    let a = post(
+        w,
+        "/api/setup",
+        None,
+        &body(&[
+            ("code", SETUP_CODE),
+            ("name", "admin"),
+            ("password", "correct horse"),
+        ]),
+    );
     assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
     a.token()
+}
+
+/// Logs `name` in with `password`.
+fn login(w: &mut World, name: &str, password: &str) -> Answer {
+    post(
+        w,
+        "/api/login",
+        None,
+        &body(&[("name", name), ("password", password)]),
+    )
 }
 
 #[test]
@@ -172,7 +201,7 @@ fn the_page_is_served_compressed_and_the_status_is_the_state() {
 }
 
 #[test]
-fn a_fresh_device_asks_for_a_password_before_any_change() {
+fn a_fresh_device_needs_the_setup_code_for_its_first_administrator() {
     let mut w = world();
     let a = post(
         &mut w,
@@ -181,17 +210,58 @@ fn a_fresh_device_asks_for_a_password_before_any_change() {
         br#"{"settings":{"link.poll_ms":"50"}}"#,
     );
     assert_eq!(a.status, 403);
-    assert_eq!(a.json()["error"], "set a password first");
     let s = get(&mut w, "/api/session").json();
-    assert_eq!(s["password_set"], false);
-    assert_eq!(post(&mut w, "/api/password", None, b"\nshort").status, 400);
-    let token = set_password(&mut w);
-    assert_ne!(w.reg(r::STATUS_ACCESS) & r::ACCESS_PASSWORD_SET, 0);
-    // Now a second "first" password needs the current one.
-    assert_eq!(
-        post(&mut w, "/api/password", None, b"\nsomeone else").status,
-        401
+    assert_eq!(s["admin_exists"], false);
+    assert_eq!(s["setup"], true);
+    assert!(
+        !String::from_utf8_lossy(&get(&mut w, "/api/session").body).contains(SETUP_CODE),
+        "the code is never served"
     );
+    // Whoever reaches the page first cannot claim it: the code is needed.
+    let claim = |code: &str, pw: &str| body(&[("code", code), ("name", "admin"), ("password", pw)]);
+    assert_eq!(
+        post(&mut w, "/api/setup", None, &claim("", "correct horse")).status,
+        403
+    );
+    assert_eq!(
+        post(
+            &mut w,
+            "/api/setup",
+            None,
+            &claim("ABCD-EFGH-JKMP", "correct horse")
+        )
+        .status,
+        403
+    );
+    assert_eq!(w.reg(r::STATUS_ACCESS) & r::ACCESS_ADMIN, 0);
+    // The policy: at least 10 characters.
+    assert_eq!(
+        post(&mut w, "/api/setup", None, &claim(SETUP_CODE, "nine char")).status,
+        400
+    );
+    let a = post(
+        &mut w,
+        "/api/setup",
+        None,
+        &claim(SETUP_CODE, "correct horse"),
+    );
+    assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+    assert_eq!(
+        a.header("x-session-token"),
+        None,
+        "the token is in the HttpOnly cookie only"
+    );
+    assert!(a.header("set-cookie").unwrap().contains("HttpOnly"));
+    let token = a.token();
+    assert_ne!(w.reg(r::STATUS_ACCESS) & r::ACCESS_ADMIN, 0);
+    // Once an administrator exists, the code creates no other.
+    let a = post(
+        &mut w,
+        "/api/setup",
+        None,
+        &claim(SETUP_CODE, "someone else"),
+    );
+    assert_eq!(a.status, 409);
     // Without a session: refused.
     let a = post(
         &mut w,
@@ -212,12 +282,121 @@ fn a_fresh_device_asks_for_a_password_before_any_change() {
         50,
         "applied, read back over Modbus"
     );
-    // The hash was saved with the configuration: a restart keeps it.
+    // The account was saved with the configuration: a restart keeps it.
     w.restart();
     w.run_for(ms(300));
-    assert_eq!(get(&mut w, "/api/session").json()["password_set"], true);
-    let a = post(&mut w, "/api/login", None, b"correct horse");
+    assert_eq!(get(&mut w, "/api/session").json()["admin_exists"], true);
+    assert_eq!(login(&mut w, "admin", "correct horse").status, 200);
+}
+
+#[test]
+fn modbus_cannot_change_the_access_settings_before_an_administrator_exists() {
+    let mut w = world();
+    // A fresh device: any Modbus client could close the page and the
+    // registers to everyone. Refused, with the reason in CONFIG_RESULT.
+    w.set(r::CONFIG_WRITE_PROTECT, &[1]);
+    assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Err(1));
+    assert_eq!(w.reg(r::CONTROL_CONFIG_RESULT), 4);
+    assert_eq!(w.reg(r::STATUS_ACCESS) & r::ACCESS_WRITE_PROTECTED, 0);
+    // Other settings still change from the PLC.
+    w.set(r::CONFIG_WRITE_PROTECT, &[0]);
+    w.set(r::CONFIG_POLL_MS, &[40]);
+    assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Ok(()));
+    assert_eq!(w.reg(r::CONFIG_POLL_MS), 40);
+    // With an administrator, the write protection decides, as before.
+    set_password(&mut w);
+    w.set(r::CONFIG_WRITE_PROTECT, &[1]);
+    assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Ok(()));
+    assert_ne!(w.reg(r::STATUS_ACCESS) & r::ACCESS_WRITE_PROTECTED, 0);
+}
+
+#[test]
+fn roles_decide_what_an_account_may_do_and_a_change_ends_its_sessions() {
+    let mut w = world();
+    let admin = set_password(&mut w);
+    let acc = |m: &[(&str, &str)]| body(m);
+    for (name, role) in [("view", "viewer"), ("op", "operator")] {
+        let a = post(
+            &mut w,
+            "/api/accounts",
+            Some(&admin),
+            &acc(&[
+                ("op", "add"),
+                ("name", name),
+                ("role", role),
+                ("password", "long enough pw"),
+            ]),
+        );
+        assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+    }
+    let list = get_as(&mut w, "/api/accounts", &admin).json();
+    assert_eq!(list["accounts"].as_array().unwrap().len(), 3);
+    assert!(!list.to_string().contains("pbkdf2"), "no hash is served");
+    let viewer = login(&mut w, "view", "long enough pw").token();
+    assert_eq!(get_as(&mut w, "/api/status", &viewer).status, 200);
+    let a = post(
+        &mut w,
+        "/api/config",
+        Some(&viewer),
+        br#"{"settings":{"link.poll_ms":"50"}}"#,
+    );
+    assert_eq!(a.status, 403, "a viewer reads only");
+    assert_eq!(get_as(&mut w, "/api/accounts", &viewer).status, 403);
+    let operator = login(&mut w, "op", "long enough pw").token();
+    assert_eq!(
+        post(&mut w, "/api/restart", Some(&operator), b"").status,
+        403
+    );
+    // Unknown names and wrong passwords get the same answer.
+    assert_eq!(login(&mut w, "nobody", "long enough pw").status, 401);
+    // The last administrator stays one.
+    let a = post(
+        &mut w,
+        "/api/accounts",
+        Some(&admin),
+        &acc(&[("op", "remove"), ("name", "admin")]),
+    );
+    assert_eq!(a.status, 400);
+    let a = post(
+        &mut w,
+        "/api/accounts",
+        Some(&admin),
+        &acc(&[("op", "role"), ("name", "admin"), ("role", "viewer")]),
+    );
+    assert_eq!(a.status, 400);
+    // Removing an account ends its session at once.
+    let a = post(
+        &mut w,
+        "/api/accounts",
+        Some(&admin),
+        &acc(&[("op", "remove"), ("name", "view")]),
+    );
     assert_eq!(a.status, 200);
+    let s = get_as(&mut w, "/api/session", &viewer).json();
+    assert_eq!(s["authorized"], false);
+    // Reading without login off: every document needs an account.
+    let a = post(
+        &mut w,
+        "/api/config",
+        Some(&admin),
+        br#"{"settings":{"access.read_without_login":"false"}}"#,
+    );
+    assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+    assert_eq!(get(&mut w, "/api/status").status, 401);
+    assert_eq!(get(&mut w, "/api/log").status, 401);
+    assert_eq!(
+        get(&mut w, "/").status,
+        200,
+        "the page (its login) is served"
+    );
+    assert_eq!(get(&mut w, "/api/session").status, 200);
+    assert_eq!(get_as(&mut w, "/api/status", &operator).status, 200);
+}
+
+/// A GET with a session.
+fn get_as(w: &mut World, path: &str, token: &str) -> Answer {
+    let c = format!("hgw_session={token}");
+    send(w, PC, &request("GET", path, &[("Cookie", &c)], b"")).expect("an answer")
 }
 
 #[test]
@@ -321,21 +500,37 @@ fn wrong_passwords_are_rate_limited() {
     let mut w = world();
     set_password(&mut w);
     for _ in 0..3 {
-        assert_eq!(post(&mut w, "/api/login", None, b"guess one").status, 401);
+        assert_eq!(login(&mut w, "admin", "guess one!").status, 401);
     }
-    assert_eq!(post(&mut w, "/api/login", None, b"guess two").status, 401);
-    let a = post(&mut w, "/api/login", None, b"correct horse");
+    assert_eq!(login(&mut w, "admin", "guess two!").status, 401);
+    let a = login(&mut w, "admin", "correct horse");
     assert_eq!(a.status, 429, "even the right one waits");
     assert!(a.json()["retry_after_s"].as_u64().unwrap() >= 1);
+    // Another address is not held up by this one's guesses.
+    let other = post_from(
+        &mut w,
+        OTHER,
+        "/api/login",
+        &body(&[("name", "admin"), ("password", "correct horse")]),
+    );
+    assert_eq!(
+        other.status,
+        200,
+        "{}",
+        String::from_utf8_lossy(&other.body)
+    );
     w.run_for(Duration::from_secs(2));
-    assert_eq!(post(&mut w, "/api/login", None, b"guess three").status, 401);
-    let a = post(&mut w, "/api/login", None, b"correct horse");
+    assert_eq!(login(&mut w, "admin", "guess three").status, 401);
+    let a = login(&mut w, "admin", "correct horse");
     assert_eq!(a.status, 429, "the wait doubled");
     w.run_for(Duration::from_secs(3));
-    assert_eq!(
-        post(&mut w, "/api/login", None, b"correct horse").status,
-        200
-    );
+    assert_eq!(login(&mut w, "admin", "correct horse").status, 200);
+}
+
+/// A POST from another address.
+fn post_from(w: &mut World, from: Ipv4Addr, path: &str, body: &[u8]) -> Answer {
+    let headers = [("Origin", ORIGIN), ("Content-Type", "application/json")];
+    send(w, from, &request("POST", path, &headers, body)).expect("an answer")
 }
 
 #[test]
@@ -430,7 +625,7 @@ fn malformed_and_oversized_requests_get_4xx_and_the_connection_closes() {
 fn a_recovery_start_lets_a_forgotten_password_be_replaced() {
     let mut w = world();
     set_password(&mut w);
-    let token = post(&mut w, "/api/login", None, b"correct horse").token();
+    let token = login(&mut w, "admin", "correct horse").token();
     // Lock out the web page (an allow-list without this PC) and protect the
     // registers: then forget the password.
     let a = post(
@@ -451,15 +646,22 @@ fn a_recovery_start_lets_a_forgotten_password_be_replaced() {
     assert_eq!(w.reg(r::CONFIG_WRITE_PROTECT), 0, "factory access settings");
     let s = get(&mut w, "/api/session").json();
     assert_eq!(s["recovery"], true);
-    let a = post(&mut w, "/api/password", None, b"\nbattery staple");
+    let a = post(
+        &mut w,
+        "/api/setup",
+        None,
+        &body(&[
+            ("code", SETUP_CODE),
+            ("name", "admin"),
+            ("password", "battery staple"),
+        ]),
+    );
     assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
     w.config.recovery = false;
     w.restart();
     w.run_for(ms(300));
-    assert_eq!(
-        post(&mut w, "/api/login", None, b"battery staple").status,
-        200
-    );
+    assert_eq!(login(&mut w, "admin", "correct horse").status, 401);
+    assert_eq!(login(&mut w, "admin", "battery staple").status, 200);
 }
 
 /// Entry `n` of the trigger table, as the API shows it.
@@ -487,16 +689,16 @@ fn a_page_whose_name_rebinds_to_the_device_is_refused_before_anything_happens() 
         &request_to(
             "evil.example",
             "POST",
-            "/api/password",
+            "/api/setup",
             &evil,
-            b"\nattacker pw",
+            br#"{"code":"ABCD-EFGH-JKMN","name":"evil","password":"attacker pw"}"#,
         ),
     )
     .unwrap();
     assert_eq!(a.status, 421);
     assert!(a.json()["error"].is_string());
-    assert_eq!(get(&mut w, "/api/session").json()["password_set"], false);
-    assert_eq!(w.reg(r::STATUS_ACCESS) & r::ACCESS_PASSWORD_SET, 0);
+    assert_eq!(get(&mut w, "/api/session").json()["admin_exists"], false);
+    assert_eq!(w.reg(r::STATUS_ACCESS) & r::ACCESS_ADMIN, 0);
     for host in [
         "evil.example",
         "evil.example:80",
@@ -710,7 +912,7 @@ fn no_answer_can_be_framed_by_another_site() {
         get(&mut w, "/api/status"),
         get(&mut w, "/api/config"),
         get(&mut w, "/nope"),
-        post(&mut w, "/api/login", None, b"correct horse"),
+        login(&mut w, "admin", "correct horse"),
         post(&mut w, "/api/trigger/1", Some(&token), b""),
         post(&mut w, "/api/logout", Some(&token), b""),
     ];

@@ -14,8 +14,12 @@
 //! The threat model (what this protects against on a plant network, and
 //! what it does not) is in the top-level README.
 
+pub(crate) mod accounts;
 pub(crate) mod password;
 pub(crate) mod setup;
 // Sessions and the rate limit serve the web page only.
 #[cfg(feature = "web")]
 pub(crate) mod session;
+// The guesses of the page's logins and setup code.
+#[cfg(feature = "web")]
+pub(crate) mod limit;

@@ -25,9 +25,10 @@ pub(crate) const ITERATIONS: u32 = 10_000;
 const NEW_ITERATIONS: u32 = if cfg!(fuzzing) { 10 } else { ITERATIONS };
 /// Rounds between two yields to the executor.
 pub(crate) const YIELD_EVERY: u32 = 200;
-/// Shortest password accepted.
+/// Shortest password accepted (IEC 62443-4-2 CR 1.7: the policy's
+/// minimum length).
 #[cfg(feature = "web")]
-pub(crate) const MIN_LEN: usize = 8;
+pub(crate) const MIN_LEN: usize = 10;
 /// Longest password accepted.
 pub(crate) const MAX_LEN: usize = 64;
 /// Bytes of [`PasswordHash::to_bytes`].
@@ -51,7 +52,7 @@ impl PasswordError {
     /// A text for the page.
     pub(crate) fn as_str(self) -> &'static str {
         match self {
-            PasswordError::TooShort => "at least 8 characters",
+            PasswordError::TooShort => "at least 10 characters",
             PasswordError::TooLong => "at most 64 characters",
             PasswordError::NotPrintable => "printable ASCII characters only",
         }
@@ -229,6 +230,7 @@ mod tests {
             check_new("pässwörd!".as_bytes()),
             Err(PasswordError::NotPrintable)
         );
-        assert_eq!(check_new(b"eight ch"), Ok(()));
+        assert_eq!(check_new(b"nine char"), Err(PasswordError::TooShort));
+        assert_eq!(check_new(b"ten chars!"), Ok(()));
     }
 }

@@ -1,19 +1,18 @@
-//! Web sessions and the rate limit of wrong passwords.
+//! Web sessions.
 //!
-//! A correct password opens a session: a random 128-bit token the page
-//! keeps in a cookie (`HttpOnly`, `SameSite=Strict`) and scripts send as
-//! `Authorization: Bearer TOKEN`. At most [`SESSIONS`] are open (a new one
-//! replaces the least recently used); one unused for [`IDLE`] ends.
-//! Changing the password ends them all.
-//!
-//! Wrong passwords: the first [`FREE_TRIES`] in a row cost nothing, then
-//! each one doubles the wait before the next attempt is even checked (1 s,
-//! 2 s, 4 s, ... up to [`MAX_WAIT`]); a correct one resets the count. The
-//! limit is for the whole device, not per client address (addresses are
-//! easy to change on a plant network): a flood of wrong passwords delays
-//! the rightful user too, which the allow-list prevents.
+//! A correct name and password opens a session of that account: a random
+//! 128-bit token the page keeps in a cookie (`HttpOnly`,
+//! `SameSite=Strict`: page scripts never see it); other clients may send
+//! it as `Authorization: Bearer TOKEN`. At most [`SESSIONS`] are open (a
+//! new one replaces the least recently used); one unused for [`IDLE`]
+//! ends, and every one ends [`LIFETIME`] after it opened, used or not
+//! (IEC 62443-4-2 CR 2.5/2.6). Changing an account's password or role, or
+//! removing it, ends its sessions. The rate limit of wrong passwords is
+//! [`super::limit`]'s.
 
 use embassy_time::{Duration, Instant};
+
+use super::accounts::Role;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha20Rng;
 
@@ -21,10 +20,8 @@ use rand_chacha::ChaCha20Rng;
 pub(crate) const SESSIONS: usize = 4;
 /// A session unused this long ends.
 pub(crate) const IDLE: Duration = Duration::from_secs(15 * 60);
-/// Wrong passwords in a row before the waits begin.
-pub(crate) const FREE_TRIES: u32 = 3;
-/// The longest wait between two attempts.
-pub(crate) const MAX_WAIT: Duration = Duration::from_secs(300);
+/// A session ends this long after it opened, however used.
+pub(crate) const LIFETIME: Duration = Duration::from_secs(8 * 3600);
 /// Characters of a token in text (hex).
 pub(crate) const TOKEN_CHARS: usize = 32;
 
@@ -82,13 +79,35 @@ impl Token {
     }
 }
 
-/// The open sessions, the random generator behind tokens and salts, and
-/// the rate limit of wrong passwords.
+/// Who a session is: the account (its index in `Accounts`) and its role
+/// when the session opened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Who {
+    /// The account's index.
+    pub(crate) account: usize,
+    /// Its role.
+    pub(crate) role: Role,
+}
+
+#[derive(Clone, Copy)]
+struct Open {
+    token: Token,
+    who: Who,
+    opened: Instant,
+    used: Instant,
+}
+
+impl Open {
+    fn live(&self, now: Instant) -> bool {
+        now.saturating_duration_since(self.used) < IDLE
+            && now.saturating_duration_since(self.opened) < LIFETIME
+    }
+}
+
+/// The open sessions, and the random generator behind tokens and salts.
 pub(crate) struct Sessions {
-    open: [Option<(Token, Instant)>; SESSIONS],
+    open: [Option<Open>; SESSIONS],
     rng: ChaCha20Rng,
-    failures: u32,
-    blocked_until: Instant,
 }
 
 impl Sessions {
@@ -99,8 +118,6 @@ impl Sessions {
         Sessions {
             open: [None; SESSIONS],
             rng: ChaCha20Rng::from_seed(seed),
-            failures: 0,
-            blocked_until: Instant::from_ticks(0),
         }
     }
 
@@ -111,9 +128,9 @@ impl Sessions {
         b
     }
 
-    /// Opens a session at `now` (replacing the least recently used one if
-    /// all are open).
-    pub(crate) fn open(&mut self, now: Instant) -> Token {
+    /// Opens a session of `who` at `now` (replacing the least recently
+    /// used one if all are open).
+    pub(crate) fn open(&mut self, who: Who, now: Instant) -> Token {
         let token = Token(self.random());
         self.expire(now);
         let slot = self
@@ -126,50 +143,61 @@ impl Sessions {
                         .get(i)
                         .copied()
                         .flatten()
-                        .map_or(Instant::from_ticks(0), |(_, t)| t)
+                        .map_or(Instant::from_ticks(0), |o| o.used)
                 })
             })
             .unwrap_or(0);
         if let Some(s) = self.open.get_mut(slot) {
-            *s = Some((token, now));
+            *s = Some(Open {
+                token,
+                who,
+                opened: now,
+                used: now,
+            });
         }
         token
     }
 
-    /// `true` if `token` is an open session (and marks it used at `now`).
-    pub(crate) fn check(&mut self, token: &Token, now: Instant) -> bool {
+    /// Who `token` is, if it is an open session (and marks it used at
+    /// `now`).
+    pub(crate) fn check(&mut self, token: &Token, now: Instant) -> Option<Who> {
         self.expire(now);
-        for (t, used) in self.open.iter_mut().flatten() {
-            if t.same(token) {
-                *used = now;
-                return true;
+        for o in self.open.iter_mut().flatten() {
+            if o.token.same(token) {
+                o.used = now;
+                return Some(o.who);
             }
         }
-        false
+        None
     }
 
-    /// `true` if `token` is an open session at `now`, without counting
-    /// this as a use (a page that only looks must not keep a session
-    /// alive).
-    pub(crate) fn peek(&self, token: &Token, now: Instant) -> bool {
+    /// As [`Self::check`], without counting this as a use (a page that
+    /// only looks must not keep a session alive).
+    pub(crate) fn peek(&self, token: &Token, now: Instant) -> Option<Who> {
         self.open
             .iter()
             .flatten()
-            .any(|(t, used)| t.same(token) && now.saturating_duration_since(*used) < IDLE)
+            .find(|o| o.token.same(token) && o.live(now))
+            .map(|o| o.who)
     }
 
     /// Ends the session of `token`.
     pub(crate) fn close(&mut self, token: &Token) {
         for s in self.open.iter_mut() {
-            if s.is_some_and(|(t, _)| t.same(token)) {
+            if s.is_some_and(|o| o.token.same(token)) {
                 *s = None;
             }
         }
     }
 
-    /// Ends every session (the password changed).
-    pub(crate) fn close_all(&mut self) {
-        self.open = [None; SESSIONS];
+    /// Ends every session of account `account` (its password or role
+    /// changed, or it was removed).
+    pub(crate) fn close_account(&mut self, account: usize) {
+        for s in self.open.iter_mut() {
+            if s.is_some_and(|o| o.who.account == account) {
+                *s = None;
+            }
+        }
     }
 
     /// Sessions open at `now`.
@@ -181,42 +209,10 @@ impl Sessions {
 
     fn expire(&mut self, now: Instant) {
         for s in self.open.iter_mut() {
-            if s.is_some_and(|(_, used)| now.saturating_duration_since(used) >= IDLE) {
+            if s.is_some_and(|o| !o.live(now)) {
                 *s = None;
             }
         }
-    }
-
-    /// May a password be checked at `now`? `Err(wait)`: not before `wait`
-    /// has passed.
-    pub(crate) fn may_try(&self, now: Instant) -> Result<(), Duration> {
-        if now < self.blocked_until {
-            Err(self.blocked_until - now)
-        } else {
-            Ok(())
-        }
-    }
-
-    /// A wrong password at `now`.
-    pub(crate) fn failed(&mut self, now: Instant) {
-        self.failures = self.failures.saturating_add(1);
-        if self.failures > FREE_TRIES {
-            let doublings = (self.failures - FREE_TRIES - 1).min(16);
-            let wait = Duration::from_secs(1u64 << doublings).min(MAX_WAIT);
-            self.blocked_until = now + wait;
-        }
-    }
-
-    /// A correct password: the count starts again.
-    pub(crate) fn succeeded(&mut self) {
-        self.failures = 0;
-        self.blocked_until = Instant::from_ticks(0);
-    }
-
-    /// Wrong passwords in a row.
-    #[cfg(test)]
-    pub(crate) fn failures(&self) -> u32 {
-        self.failures
     }
 }
 
@@ -228,58 +224,64 @@ mod tests {
         Instant::from_secs(s)
     }
 
+    const ADMIN: Who = Who {
+        account: 0,
+        role: Role::Admin,
+    };
+    const VIEWER: Who = Who {
+        account: 1,
+        role: Role::Viewer,
+    };
+
     #[test]
     fn tokens_open_check_expire_and_close() {
         let mut s = Sessions::new([1; 32]);
-        let a = s.open(at(0));
-        let b = s.open(at(1));
+        let a = s.open(ADMIN, at(0));
+        let b = s.open(VIEWER, at(1));
         assert_ne!(a, b);
-        assert!(s.check(&a, at(10)));
+        assert_eq!(s.check(&a, at(10)), Some(ADMIN));
+        assert_eq!(s.peek(&b, at(10)), Some(VIEWER));
         assert_eq!(Token::from_hex(&a.to_hex()), Some(a));
         assert_eq!(Token::from_hex(b"xyz"), None);
         assert_eq!(Token::from_hex(&[b'g'; 32]), None);
         // b idle for IDLE ends; a was used at 10.
-        assert!(!s.check(&b, at(1) + IDLE));
-        assert!(s.check(&a, at(9) + IDLE));
+        assert_eq!(s.check(&b, at(1) + IDLE), None);
+        assert!(s.check(&a, at(9) + IDLE).is_some());
         s.close(&a);
-        assert!(!s.check(&a, at(9) + IDLE));
+        assert_eq!(s.check(&a, at(9) + IDLE), None);
         assert_eq!(s.count(at(9) + IDLE), 0);
     }
 
     #[test]
-    fn a_new_session_replaces_the_least_recently_used() {
-        let mut s = Sessions::new([2; 32]);
-        let t: [Token; SESSIONS] = core::array::from_fn(|i| s.open(at(i as u64)));
-        assert!(s.check(&t[0], at(100)));
-        let extra = s.open(at(101));
-        assert!(!s.check(&t[1], at(102)), "the least recently used went");
-        for k in [0, 2, 3] {
-            assert!(s.check(&t[k], at(102)));
+    fn a_session_ends_at_its_lifetime_however_used() {
+        let mut s = Sessions::new([4; 32]);
+        let a = s.open(ADMIN, at(0));
+        let mut t = 0;
+        while t + 600 < LIFETIME.as_secs() {
+            t += 600;
+            assert!(s.check(&a, at(t)).is_some(), "in use at {t} s");
         }
-        assert!(s.check(&extra, at(102)));
-        s.close_all();
-        assert_eq!(s.count(at(102)), 0);
+        assert_eq!(s.peek(&a, at(LIFETIME.as_secs())), None);
+        assert_eq!(s.check(&a, at(LIFETIME.as_secs())), None);
     }
 
     #[test]
-    fn wrong_passwords_double_the_wait_after_the_free_tries() {
-        let mut s = Sessions::new([3; 32]);
-        for _ in 0..FREE_TRIES {
-            assert_eq!(s.may_try(at(0)), Ok(()));
-            s.failed(at(0));
+    fn a_new_session_replaces_the_least_recently_used_and_accounts_close_theirs() {
+        let mut s = Sessions::new([2; 32]);
+        let t: [Token; SESSIONS] = core::array::from_fn(|i| s.open(ADMIN, at(i as u64)));
+        assert!(s.check(&t[0], at(100)).is_some());
+        let extra = s.open(VIEWER, at(101));
+        assert!(
+            s.check(&t[1], at(102)).is_none(),
+            "the least recently used went"
+        );
+        for k in [0, 2, 3] {
+            assert!(s.check(&t[k], at(102)).is_some());
         }
-        assert_eq!(s.may_try(at(0)), Ok(()));
-        s.failed(at(0));
-        assert_eq!(s.may_try(at(0)), Err(Duration::from_secs(1)));
-        assert_eq!(s.may_try(at(1)), Ok(()));
-        s.failed(at(1));
-        assert_eq!(s.may_try(at(1)), Err(Duration::from_secs(2)));
-        for _ in 0..20 {
-            s.failed(at(1000));
-        }
-        assert_eq!(s.may_try(at(1000)), Err(MAX_WAIT));
-        s.succeeded();
-        assert_eq!(s.may_try(at(1000)), Ok(()));
-        assert_eq!(s.failures(), 0);
+        s.close_account(0);
+        assert_eq!(s.count(at(102)), 1);
+        assert_eq!(s.check(&extra, at(102)), Some(VIEWER));
+        s.close(&extra);
+        assert_eq!(s.count(at(102)), 0);
     }
 }

@@ -110,7 +110,11 @@ mod tests {
         assert_eq!(SetupCode::parse(b""), None);
         assert_eq!(SetupCode::parse(b"ABCD-EFGH-JKM"), None);
         assert_eq!(SetupCode::parse(b"ABCD-EFGH-JKMNP"), None);
-        assert_eq!(SetupCode::parse(b"ABCD-EFGH-JKM0"), None, "0 is not in the alphabet");
+        assert_eq!(
+            SetupCode::parse(b"ABCD-EFGH-JKM0"),
+            None,
+            "0 is not in the alphabet"
+        );
         let a = SetupCode::parse(b"ABCD-EFGH-JKMN").unwrap();
         let b = SetupCode::parse(b"ABCD-EFGH-JKMP").unwrap();
         assert!(!a.matches(&b));

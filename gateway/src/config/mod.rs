@@ -352,6 +352,9 @@ pub struct Config {
     /// A DNS name the web page is also served under (besides the device's
     /// addresses); empty = addresses only.
     pub web_host: HostName,
+    /// The web page's status, configuration and logs are read without a
+    /// login (off: an account is needed for everything).
+    pub read_without_login: bool,
 }
 
 impl Config {
@@ -406,6 +409,7 @@ impl Config {
         web_allow: AllowList::EVERYONE,
         mqtt_broker: HostName::EMPTY,
         web_host: HostName::EMPTY,
+        read_without_login: true,
     };
 
     /// This configuration with the network and access settings of `other`
@@ -416,7 +420,20 @@ impl Config {
         self.write_protect = other.write_protect;
         self.modbus_allow = other.modbus_allow;
         self.web_allow = other.web_allow;
+        self.web_host = other.web_host;
+        self.read_without_login = other.read_without_login;
         self
+    }
+
+    /// `true` if the access settings (write protection, allow-lists, the
+    /// page's host name and reading without login) are those of `other`.
+    /// Until an administrator exists they are not changed over Modbus.
+    pub fn same_access(&self, other: &Config) -> bool {
+        self.write_protect == other.write_protect
+            && self.modbus_allow == other.modbus_allow
+            && self.web_allow == other.web_allow
+            && self.web_host == other.web_host
+            && self.read_without_login == other.read_without_login
     }
 }
 
@@ -434,6 +451,12 @@ pub enum ConfigResult {
     SaveFailed = 2,
     /// Applied, not saved: the gateway has no persistent storage.
     NotSaved = 3,
+    /// Not applied: the edit changes an access setting (write protection,
+    /// an allow-list, the page's host name or reading without login), and
+    /// no administrator exists yet (exception 01). Create the first
+    /// administrator on the web page with the setup code, or start in
+    /// recovery (the board's button).
+    AccessLocked = 4,
 }
 
 #[cfg(test)]

@@ -692,9 +692,13 @@ setting!(WEB_HOST_NAME, "web.host_name", 28, Kind::Host, "",
     "a DNS name the page also answers to, besides the device's addresses (others get 421: DNS rebinding); empty = addresses only", false,
     |c| Value::Host(c.web_host), |c, v| c.web_host = host(v));
 
+setting!(ACCESS_READ_WITHOUT_LOGIN, "access.read_without_login", 29, Kind::Flag, "",
+    "the page shows the status, configuration and logs without a login; off: every page and API needs an account (viewer or above)", false,
+    |c| Value::Flag(c.read_without_login), |c, v| c.read_without_login = flag(v));
+
 /// Every setting, in the order the views list them (a group's settings
 /// together).
-pub const SETTINGS: [&Setting; 28] = [
+pub const SETTINGS: [&Setting; 29] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -721,6 +725,7 @@ pub const SETTINGS: [&Setting; 28] = [
     &ACCESS_WRITE_PROTECT,
     &ACCESS_MODBUS_ALLOW,
     &ACCESS_WEB_ALLOW,
+    &ACCESS_READ_WITHOUT_LOGIN,
     &MQTT_BROKER,
     &WEB_HOST_NAME,
 ];

@@ -27,7 +27,8 @@
 //!   by the setting's kind, the same rule as every other view's: no range
 //!   is written twice.
 //! * A key left out takes its factory default; a trigger entry left out is
-//!   empty; no `password` means none is set (the web page asks for one).
+//!   empty; no `accounts` means none exists (the first administrator is
+//!   created on the web page with the setup code).
 //! * An unknown table or key, a value of the wrong type or out of range is
 //!   refused, each with its line and column and the reason; every problem
 //!   of the file is reported, not only the first. Nothing of a refused file
@@ -41,10 +42,12 @@
 //!   an entry that is not UTF-8 (only a PLC can write one, and it can
 //!   never fire: the gateway sends printable ASCII only) is written as an
 //!   array of its byte values, so that a save loses nothing.
-//! * The password is `"pbkdf2-sha256$ROUNDS$SALT$HASH"` (salt 16 bytes and
-//!   hash 32 bytes, in hex): PBKDF2-HMAC-SHA256 of the password, never the
-//!   password itself (`access::password`). Set or change it on the
-//!   web page; delete the line to remove it.
+//! * An account's password is `"pbkdf2-sha256$ROUNDS$SALT$HASH"` (salt 16
+//!   bytes and hash 32 bytes, in hex): PBKDF2-HMAC-SHA256 of the password,
+//!   never the password itself (`access::password`). Manage the accounts
+//!   on the web page. Accounts given must include an administrator. The
+//!   previous version's `password` key is read as the administrator
+//!   `admin`.
 //! * A save rewrites the whole file ([`render`]) with every key and a
 //!   comment naming its register and range. Comments written by hand are
 //!   not kept: keeping them (toml_edit) would cost a second TOML crate
@@ -81,9 +84,11 @@
 //! | `access.write_protect` | CFG_WRITE_PROTECT | `true` / `false` |
 //! | `access.modbus_allow` | MODBUS_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `access.web_allow` | WEB_ALLOW | `["a.b.c.d/prefix", ...]` |
+//! | `access.read_without_login` | (none) | `true` / `false` |
 //! | `mqtt.broker` | (none) | `"host"`, `""` = none |
 //! | `web.host_name` | (none) | `"host"`, `""` = addresses only |
-//! | `access.password` | (the web password) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
+//! | `access.accounts` | (the web page's accounts) | `[{ name = "...", role = "admin", password = "pbkdf2-sha256$ROUNDS$SALT$HASH" }, ...]` |
+//! | `access.password` | (the previous version's one password: read as the administrator `admin`, never written) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |
 
 extern crate std;
@@ -132,7 +137,10 @@ fn register_name(s: &Setting) -> String {
     }
 }
 
-/// The web password's key in `[access]`.
+/// The accounts' key in `[access]`.
+const ACCOUNTS: &str = "accounts";
+/// The web password's key in `[access]` of the previous version (one
+/// password: read as the administrator `admin`, never written).
 const PASSWORD: &str = "password";
 /// The scheme of the password's hash.
 const SCHEME: &str = "pbkdf2-sha256";
@@ -143,19 +151,19 @@ const IMAGE_MAGIC: &[u8; 4] = b"HGW1";
 /// What the file holds: the stored state and the trigger table.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Contents {
-    /// The configuration and the password's hash.
+    /// The configuration and the accounts.
     pub stored: Stored,
     /// The sixteen trigger entries.
     pub triggers: Entries,
 }
 
 impl Contents {
-    /// Factory settings, no trigger entry, no password.
+    /// Factory settings, no trigger entry, no account.
     pub fn new(config: Config) -> Contents {
         Contents {
             stored: Stored {
                 config,
-                password: None,
+                accounts: crate::access::accounts::Accounts::NONE,
             },
             triggers: [Text::EMPTY; TRIGGERS],
         }

@@ -155,8 +155,10 @@ pub const STATUS_PROTOCOL: u16 = 54;
 /// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
 /// write-protected ([`CONFIG_WRITE_PROTECT`]).
 pub const ACCESS_WRITE_PROTECTED: u16 = 1 << 0;
-/// `STATUS_ACCESS` bit: a web password is set.
-pub const ACCESS_PASSWORD_SET: u16 = 1 << 1;
+/// `STATUS_ACCESS` bit: an administrator account exists (until one does,
+/// the access settings cannot be changed over Modbus, except after a
+/// recovery start).
+pub const ACCESS_ADMIN: u16 = 1 << 1;
 /// `STATUS_ACCESS` bit: the network settings applied differ from the ones
 /// running (they take effect at the next start).
 pub const ACCESS_RESTART_PENDING: u16 = 1 << 2;

@@ -160,7 +160,7 @@ fn access_bits(m: &Model) -> u16 {
     let c = &m.config.active;
     let b = |on: bool, bit: u16| if on { bit } else { 0 };
     b(c.write_protect, r::ACCESS_WRITE_PROTECTED)
-        | b(a.password.is_some(), r::ACCESS_PASSWORD_SET)
+        | b(a.accounts.admin_exists(), r::ACCESS_ADMIN)
         | b(a.restart_pending(&c.net), r::ACCESS_RESTART_PENDING)
         | b(a.recovery, r::ACCESS_RECOVERY)
         | b(a.web_on, r::ACCESS_WEB_ON)

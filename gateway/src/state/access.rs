@@ -1,16 +1,15 @@
 //! What the gateway knows of access: the stored password hash, the
 //! network settings it runs with, the refusals it counted.
 
-use crate::access::password::PasswordHash;
+use crate::access::accounts::Accounts;
 use crate::config::NetConfig;
 
 /// Access state (register `ACCESS` and the refusal counters; the web
 /// page's access section).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct AccessState {
-    /// The web password's hash, once one is set (saved with the
-    /// configuration).
-    pub password: Option<PasswordHash>,
+    /// The accounts of the web page (saved with the configuration).
+    pub accounts: Accounts,
     /// The network settings in use since start (the configuration's
     /// may differ: they take effect at the next start).
     pub running: NetConfig,
@@ -35,7 +34,7 @@ impl AccessState {
     /// Nothing refused yet, no password, running with `net`.
     pub fn new(net: NetConfig) -> Self {
         AccessState {
-            password: None,
+            accounts: Accounts::NONE,
             running: net,
             network_managed: false,
             recovery: false,
@@ -44,6 +43,16 @@ impl AccessState {
             web_refused: 0,
             writes_refused: 0,
         }
+    }
+
+    /// May the access settings (allow-lists, write protection, the web
+    /// page's host name and open reading) be changed over Modbus? Not
+    /// before an administrator exists (a device fresh from the factory is
+    /// not open to the first Modbus client), except after a recovery start
+    /// (the board's button: someone is at the device). With an
+    /// administrator, the write protection decides (`CFG_WRITE_PROTECT`).
+    pub fn modbus_may_change_access(&self) -> bool {
+        self.recovery || self.accounts.admin_exists()
     }
 
     /// The configured network settings differ from the running ones (on

@@ -1,7 +1,8 @@
 //! The stored image: the configuration, the trigger table and the web
-//! password's hash.
+//! page's accounts.
 //!
-//! Format 3 (written since the settings schema, `config::schema`):
+//! Format 4 (written since accounts; format 3 the same up to the
+//! triggers, then one password instead of the accounts):
 //!
 //! | offset | bytes | content |
 //! |---|---|---|
@@ -10,8 +11,9 @@
 //! | 6 | 2 | S, the bytes of the settings that follow |
 //! | 8 | S | each setting: its stable id (2), the value's length L (1), the value (L) |
 //! | 8 + S | 3072 | the 16 trigger entries, 96 registers each |
-//! | 3080 + S | 52 | the password: PBKDF2 rounds (0 = no password), salt, hash |
-//! | 3132 + S | 4 | CRC-32 (IEEE) of everything before |
+//! | 3080 + S | 1 | N, the accounts that follow (at most 8) |
+//! | 3081 + S | 70 N | each account: name length (1), name (16, zero-padded), role (1: 1 viewer, 2 operator, 3 admin), password: PBKDF2 rounds, salt, hash (52) |
+//! | 3081 + S + 70 N | 4 | CRC-32 (IEEE) of everything before |
 //!
 //! A value is stored by its kind: a number as 2 bytes, a flag or a choice
 //! (its index) as 1, an address or mask as its 4 octets, an allow-list as
@@ -20,10 +22,13 @@
 //! version that adds settings reads an older image (the new settings take
 //! their defaults), and an older version skips ids it does not know.
 //!
+//! Format 3 (the settings schema's first) held one password (52 bytes:
+//! PBKDF2 rounds, 0 = none, salt, hash) where format 4 holds the accounts:
+//! a password it holds becomes the administrator account `admin`.
 //! Formats 2 (register map 1.2: settings as register address and value
 //! pairs) and 1 (register map 1.1: the 16 registers 100-115 in order, no
 //! password) are read through the register view and migrated: the next
-//! save writes format 3.
+//! save writes format 4.
 //!
 //! Numbers little-endian; a trigger entry's register holds two characters,
 //! the first in its high byte (as the PLC sees them). An image that fails
@@ -31,6 +36,9 @@
 //! as a whole: nothing of it is used.
 
 use super::StorageError;
+use crate::access::accounts::{
+    Account, AccountError, Accounts, Role, UserName, ACCOUNTS, ACCOUNT_STORED,
+};
 use crate::access::password::{PasswordHash, STORED_LEN};
 use crate::config::schema::{self, stored_len, Kind, Value};
 use crate::config::{AllowEntry, AllowList, Config, HostName, SETTINGS};
@@ -38,7 +46,9 @@ use crate::registers::config::{self as reg, Layout};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 
 const MAGIC: &[u8; 4] = b"HGW1";
-const FORMAT: u16 = 3;
+const FORMAT: u16 = 4;
+/// The name of the administrator a format-3 password becomes.
+pub const MIGRATED_ADMIN: &str = "admin";
 const TRIGGER_WORDS: usize = TRIGGERS * TRIGGER_TEXT / 2;
 const TRIGGER_BYTES: usize = TRIGGER_WORDS * 2;
 
@@ -55,7 +65,7 @@ const SETTINGS_MAX: usize = {
     n
 };
 /// The longest image this version writes (with the longest host names).
-pub const IMAGE_LEN: usize = 8 + SETTINGS_MAX + TRIGGER_BYTES + STORED_LEN + 4;
+pub const IMAGE_LEN: usize = 8 + SETTINGS_MAX + TRIGGER_BYTES + 1 + ACCOUNTS * ACCOUNT_STORED + 4;
 /// The longest image read (a newer version's, with more settings).
 pub const IMAGE_MAX: usize = IMAGE_LEN + 1024;
 /// Settings registers of a format-1 image (100-115).
@@ -71,8 +81,8 @@ pub type Entries = [Text<TRIGGER_TEXT>; TRIGGERS];
 pub struct Stored {
     /// The configuration.
     pub config: Config,
-    /// The web password's hash, if one was set.
-    pub password: Option<PasswordHash>,
+    /// The web page's accounts.
+    pub accounts: Accounts,
 }
 
 /// Writes the image of `stored` and the trigger `entries` into `out` and
@@ -92,9 +102,9 @@ pub fn encode(stored: &Stored, entries: &Entries, out: &mut [u8]) -> Result<usiz
             w.put(&e.word(i).to_le_bytes());
         }
     }
-    match &stored.password {
-        Some(p) => w.put(&p.to_bytes()),
-        None => w.put(&[0; STORED_LEN]),
+    w.put(&[stored.accounts.len() as u8]);
+    for a in stored.accounts.iter() {
+        w.put(&a.to_bytes());
     }
     let body = w.at;
     w.at = 0;
@@ -188,6 +198,9 @@ pub enum ImageError {
     Crc,
     /// A setting's value is out of range (its key).
     Invalid(&'static str),
+    /// An account is invalid (name, role, hash), named twice, or none of
+    /// them is an administrator.
+    Accounts,
 }
 
 impl ImageError {
@@ -197,6 +210,7 @@ impl ImageError {
             ImageError::Format => "not an image of this format",
             ImageError::Crc => "CRC mismatch (damaged)",
             ImageError::Invalid(_) => "a setting out of range",
+            ImageError::Accounts => "an invalid account",
         }
     }
 }
@@ -226,6 +240,16 @@ pub fn decode(
         1 if n == V1_WORDS => (8 + 2 * V1_CONFIG, V1_LEN),
         2 => (8 + 4 * n, 8 + 4 * n + TRIGGER_BYTES + STORED_LEN + 4),
         3 => (8 + n, 8 + n + TRIGGER_BYTES + STORED_LEN + 4),
+        4 => {
+            let count = usize::from(image.get(8 + n + TRIGGER_BYTES).copied().unwrap_or(0));
+            if count > ACCOUNTS {
+                return Err(ImageError::Format);
+            }
+            (
+                8 + n,
+                8 + n + TRIGGER_BYTES + 1 + count * ACCOUNT_STORED + 4,
+            )
+        }
         _ => return Err(ImageError::Format),
     };
     if image.len() != expected_len {
@@ -236,24 +260,53 @@ pub fn decode(
     }
     let settings = image.get(8..settings_end).unwrap_or(&[]);
     let config = match format {
-        3 => read_settings(settings, defaults)?,
+        3 | 4 => read_settings(settings, defaults)?,
         _ => migrate(format, settings, defaults)?,
     };
-    let password = if format >= 2 {
-        let at = settings_end + TRIGGER_BYTES;
-        image
-            .get(at..at + STORED_LEN)
-            .and_then(|b| b.try_into().ok())
-            .and_then(PasswordHash::from_bytes)
-    } else {
-        None
+    let at = settings_end + TRIGGER_BYTES;
+    let accounts = match format {
+        4 => read_accounts(image.get(at..body.len()).unwrap_or(&[]))?,
+        2 | 3 => migrate_password(image.get(at..at + STORED_LEN)),
+        _ => Accounts::NONE,
     };
     for (k, e) in entries.iter_mut().enumerate() {
         for i in 0..TRIGGER_TEXT / 2 {
             e.set_word(i, word(image, settings_end + k * TRIGGER_TEXT + 2 * i));
         }
     }
-    Ok(Stored { config, password })
+    Ok(Stored { config, accounts })
+}
+
+/// Format 4's accounts (count, then each); an invalid one refuses the
+/// image.
+fn read_accounts(b: &[u8]) -> Result<Accounts, ImageError> {
+    let mut accounts = Accounts::NONE;
+    let records = b.get(1..).unwrap_or(&[]);
+    for record in records.chunks(ACCOUNT_STORED) {
+        let a = Account::from_bytes(record).ok_or(ImageError::Accounts)?;
+        accounts.add(a).map_err(|_| ImageError::Accounts)?;
+    }
+    if !accounts.is_empty() && !accounts.admin_exists() {
+        return Err(ImageError::Accounts);
+    }
+    Ok(accounts)
+}
+
+/// The password of formats 2 and 3: the administrator [`MIGRATED_ADMIN`].
+fn migrate_password(b: Option<&[u8]>) -> Accounts {
+    let mut accounts = Accounts::NONE;
+    let hash = b
+        .and_then(|b| b.try_into().ok())
+        .and_then(PasswordHash::from_bytes);
+    if let (Some(hash), Some(name)) = (hash, UserName::new(MIGRATED_ADMIN.as_bytes())) {
+        let r: Result<usize, AccountError> = accounts.add(Account {
+            name,
+            role: Role::Admin,
+            hash,
+        });
+        debug_assert!(r.is_ok());
+    }
+    accounts
 }
 
 /// Format 3's settings over `defaults`; ids this version does not know
@@ -322,6 +375,7 @@ pub fn crc32(data: &[u8]) -> u32 {
 mod tests {
     extern crate std;
     use super::*;
+    use crate::access::accounts::NAME_MAX;
     use crate::access::password::{HASH_LEN, SALT_LEN};
     use crate::config::schema::{LINK_POLL_MS, MQTT_BROKER};
     use crate::registers::map as r;
@@ -347,12 +401,21 @@ mod tests {
             ip: Ipv4Addr::new(10, 0, 0, 0),
             prefix: 8,
         };
-        let password = Some(PasswordHash {
-            iterations: 1234,
-            salt: [5; SALT_LEN],
-            hash: [9; HASH_LEN],
-        });
-        (Stored { config, password }, entries)
+        let mut accounts = Accounts::NONE;
+        for (name, role) in [("root", Role::Admin), ("cell-op", Role::Operator)] {
+            accounts
+                .add(Account {
+                    name: UserName::new(name.as_bytes()).unwrap(),
+                    role,
+                    hash: PasswordHash {
+                        iterations: 1234,
+                        salt: [5; SALT_LEN],
+                        hash: [name.len() as u8; HASH_LEN],
+                    },
+                })
+                .unwrap();
+        }
+        (Stored { config, accounts }, entries)
     }
 
     fn image(stored: &Stored, entries: &Entries) -> Vec<u8> {
@@ -377,7 +440,7 @@ mod tests {
             .unwrap();
         let img = image(&stored, &entries);
         assert!(img.len() <= IMAGE_LEN);
-        assert_eq!(word(&img, 4), 3);
+        assert_eq!(word(&img, 4), 4);
         assert_eq!(
             encode(&stored, &entries, &mut [0u8; 100]),
             Err(StorageError::TooLarge)
@@ -398,15 +461,41 @@ mod tests {
             Err(ImageError::Format)
         );
         let none = Stored {
-            password: None,
+            accounts: Accounts::NONE,
             ..stored
         };
+        // Accounts without an administrator, or an invalid one, refuse
+        // the image.
+        let mut no_admin = stored;
+        no_admin.accounts.set_role(b"cell-op", Role::Admin).unwrap();
+        no_admin.accounts.set_role(b"root", Role::Viewer).unwrap();
+        let mut img2 = image(&no_admin, &entries);
+        let role_at = img2.len() - 4 - ACCOUNT_STORED + 1 + NAME_MAX;
+        assert_eq!(img2[role_at], Role::Admin as u8);
+        img2[role_at] = Role::Viewer as u8;
+        reseal(&mut img2);
+        assert_eq!(
+            decode(&img2, &Config::DEFAULT, &mut back),
+            Err(ImageError::Accounts)
+        );
+        img2[role_at] = 7;
+        reseal(&mut img2);
+        assert_eq!(
+            decode(&img2, &Config::DEFAULT, &mut back),
+            Err(ImageError::Accounts)
+        );
         assert_eq!(
             decode(&image(&none, &entries), &Config::DEFAULT, &mut back),
             Ok(none)
         );
         // The longest image fits IMAGE_LEN exactly.
         let mut longest = stored;
+        for k in 0..ACCOUNTS - 2 {
+            let name = std::format!("account-{k}");
+            let mut a = *stored.accounts.get(b"root").unwrap();
+            a.name = UserName::new(name.as_bytes()).unwrap();
+            longest.accounts.add(a).unwrap();
+        }
         let name = "h".repeat(HostName::MAX);
         for s in SETTINGS.iter().filter(|s| matches!(s.kind, Kind::Host)) {
             s.parse_into(&name, &mut longest.config).unwrap();
@@ -472,7 +561,7 @@ mod tests {
         assert_eq!(got.config.robot_port, 4242);
         assert_eq!(got.config.net, factory.net);
         assert!(!got.config.write_protect);
-        assert_eq!(got.password, None);
+        assert!(got.accounts.is_empty());
         assert_eq!(back, entries);
     }
 
@@ -487,7 +576,7 @@ mod tests {
         let mut back: Entries = [Text::EMPTY; TRIGGERS];
         let got = decode(factory, &Config::DEFAULT, &mut back).unwrap();
         assert_eq!(got.config, Config::DEFAULT);
-        assert_eq!(got.password, None);
+        assert!(got.accounts.is_empty());
         assert_eq!(back, [Text::EMPTY; TRIGGERS]);
 
         let got = decode(full, &Config::DEFAULT, &mut back).unwrap();
@@ -520,7 +609,11 @@ mod tests {
         assert_eq!(text, "10.20.0.0/16 127.0.0.1/32");
         assert_eq!(c.web_allow.0[1].ip, ip(192, 168, 7, 0));
         assert_eq!(c.mqtt_broker, HostName::EMPTY, "new settings take defaults");
-        let p = got.password.unwrap();
+        // The password becomes the administrator "admin".
+        assert_eq!(got.accounts.len(), 1);
+        let admin = got.accounts.get(MIGRATED_ADMIN.as_bytes()).unwrap();
+        assert_eq!(admin.role, Role::Admin);
+        let p = admin.hash;
         assert_eq!(
             (p.iterations, p.salt, p.hash),
             (10000, [0x5a; SALT_LEN], [0xc3; HASH_LEN])
@@ -529,9 +622,9 @@ mod tests {
         assert_eq!(back[7].bytes(), b"SetBoxDO,0,3,1,;");
         assert_eq!(back[15].bytes(), b"SetOverride,0,0.5,;");
         assert!(back[1].is_empty());
-        // Saved again, it is format 3 and reads back the same.
+        // Saved again, it is format 4 and reads back the same.
         let again = image(&got, &back);
-        assert_eq!(word(&again, 4), 3);
+        assert_eq!(word(&again, 4), 4);
         let mut back2: Entries = [Text::EMPTY; TRIGGERS];
         assert_eq!(decode(&again, &Config::DEFAULT, &mut back2), Ok(got));
         assert_eq!(back2, back);

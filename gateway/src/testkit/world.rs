@@ -89,7 +89,12 @@ pub struct WorldConfig {
     /// Start (and restart) as a board held in recovery (its button held at
     /// power-up: factory network and access settings).
     pub recovery: bool,
+    /// The setup code the platform hands in (default [`SETUP_CODE`]).
+    pub setup_code: Option<crate::SetupCode>,
 }
+
+/// The world's setup code (as the platform would print it).
+pub const SETUP_CODE: &str = "ABCD-EFGH-JKMN";
 
 /// The gateway's web port in the world (when [`WorldConfig::web`]).
 pub const WEB_PORT: u16 = 80;
@@ -104,6 +109,7 @@ impl Default for WorldConfig {
             storage: MemStorage::default(),
             web: false,
             recovery: false,
+            setup_code: crate::SetupCode::parse(SETUP_CODE.as_bytes()),
         }
     }
 }
@@ -190,6 +196,7 @@ impl World {
             web_port: if config.web { WEB_PORT } else { 0 },
             seed: [config.seed as u8; 32],
             recovery: config.recovery,
+            setup_code: config.setup_code,
             ..Default::default()
         };
         let flag = Arc::new(Flag(AtomicBool::new(true)));
@@ -230,6 +237,28 @@ impl World {
     }
 
     /// The gateway powered off and on again: a new gateway on the same
+    /// Gives the gateway an administrator account (`admin`), as a
+    /// commissioned device has: the access settings may then change over
+    /// Modbus (unless write-protected). In memory only (not saved).
+    pub fn add_admin(&mut self) {
+        let hash = crate::PasswordHash {
+            iterations: 1,
+            salt: [0; 16],
+            hash: [0; 32],
+        };
+        let added = self.gateway.hub().with(|m| {
+            m.access
+                .accounts
+                .add(crate::Account {
+                    name: crate::UserName::new(b"admin")?,
+                    role: crate::Role::Admin,
+                    hash,
+                })
+                .ok()
+        });
+        assert!(added.is_some(), "an administrator added");
+    }
+
     /// storage (a power cut). PLCs connect again.
     pub fn restart(&mut self) {
         let opts = Options {
@@ -239,6 +268,7 @@ impl World {
             web_port: if self.config.web { WEB_PORT } else { 0 },
             seed: [self.config.seed as u8 ^ 0x5a; 32],
             recovery: self.config.recovery,
+            setup_code: self.config.setup_code,
             ..Default::default()
         };
         self.robot.drop_connections();

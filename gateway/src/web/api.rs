@@ -91,7 +91,7 @@ pub(crate) struct StatusSnapshot {
     plc: PlcState,
     sessions: u16,
     modbus_peers: heapless::Vec<SocketAddrV4, { crate::MAX_SESSIONS }>,
-    password_set: bool,
+    admin_exists: bool,
     restart_pending: bool,
     recovery: bool,
     network_managed: bool,
@@ -228,7 +228,7 @@ impl StatusSnapshot {
             },
             sessions: 0,
             modbus_peers: heapless::Vec::new(),
-            password_set: false,
+            admin_exists: false,
             restart_pending: false,
             recovery: false,
             network_managed: false,
@@ -263,7 +263,7 @@ impl StatusSnapshot {
         self.plc = m.plc;
         self.sessions = m.sessions;
         self.modbus_peers.clone_from(&m.modbus_peers);
-        self.password_set = a.password.is_some();
+        self.admin_exists = a.accounts.admin_exists();
         self.restart_pending = a.restart_pending(&c.net);
         self.recovery = a.recovery;
         self.network_managed = a.network_managed;
@@ -398,7 +398,7 @@ impl StatusSnapshot {
             });
             j.key("access").object(|j| {
                 j.key("write_protect").bool(self.write_protect);
-                j.key("password_set").bool(self.password_set);
+                j.key("admin_exists").bool(self.admin_exists);
                 j.key("restart_pending").bool(self.restart_pending);
                 j.key("recovery").bool(self.recovery);
                 j.key("network_managed").bool(self.network_managed);

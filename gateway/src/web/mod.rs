@@ -48,7 +48,10 @@ use picoserve::response::{Content, IntoResponse, Response, ResponseWriter, Statu
 use picoserve::routing::PathRouterService;
 use picoserve::{ResponseSent, Router};
 
-use crate::access::session::{Sessions, Token};
+use crate::access::accounts::Role;
+use crate::access::limit::Limiter;
+use crate::access::session::{Sessions, Token, Who};
+use crate::access::setup::SetupCode;
 use crate::clock::Clock;
 use crate::hub::Hub;
 use crate::net::{Net, Socket};
@@ -81,18 +84,28 @@ static CONFIG: picoserve::Config = picoserve::Config {
 };
 
 /// What the web server keeps besides the gateway's state: the sessions,
-/// and how to restart the device.
+/// the rate limit of guesses, the setup code and how to restart the
+/// device.
 pub(crate) struct Web {
     sessions: RefCell<Sessions>,
+    limiter: RefCell<Limiter>,
+    setup_code: Option<SetupCode>,
     restart: Option<fn()>,
 }
 
 impl Web {
-    /// A web server whose tokens and salts come from `seed`, and which
-    /// offers a restart if the platform gives one (boards).
-    pub(crate) fn new(seed: [u8; 32], restart: Option<fn()>) -> Self {
+    /// A web server whose tokens and salts come from `seed`, whose first
+    /// administrator is created with `setup_code`, and which offers a
+    /// restart if the platform gives one (boards).
+    pub(crate) fn new(
+        seed: [u8; 32],
+        setup_code: Option<SetupCode>,
+        restart: Option<fn()>,
+    ) -> Self {
         Web {
             sessions: RefCell::new(Sessions::new(seed)),
+            limiter: RefCell::new(Limiter::new()),
+            setup_code,
             restart,
         }
     }
@@ -416,19 +429,55 @@ fn json_type(parts: &RequestParts<'_>) -> bool {
 }
 
 impl<C: Clock> App<'_, C> {
-    fn authorized(&self, parts: &RequestParts<'_>) -> bool {
+    /// Who sends the request (its session), counting as a use.
+    fn who(&self, parts: &RequestParts<'_>) -> Option<Who> {
         let now = self.clock.now();
-        token(parts).is_some_and(|t| self.web.sessions.borrow_mut().check(&t, now))
+        token(parts).and_then(|t| self.web.sessions.borrow_mut().check(&t, now))
     }
 
-    /// As [`Self::authorized`], without counting as a use of the session.
-    fn looks_authorized(&self, parts: &RequestParts<'_>) -> bool {
+    /// As [`Self::who`], without counting as a use of the session.
+    fn peek_who(&self, parts: &RequestParts<'_>) -> Option<Who> {
         let now = self.clock.now();
-        token(parts).is_some_and(|t| self.web.sessions.borrow().peek(&t, now))
+        token(parts).and_then(|t| self.web.sessions.borrow().peek(&t, now))
     }
 
-    fn password_set(&self) -> bool {
-        self.hub.with(|m| m.access.password.is_some())
+    /// The session of the request if its role is `role` or above; else
+    /// the answer: 403 before an administrator exists, 401 without a
+    /// session, 403 with a lesser role.
+    // The error is the answer (built once, written by the caller).
+    #[allow(clippy::result_large_err)]
+    fn require(&self, parts: &RequestParts<'_>, role: Role) -> Result<Who, Reply> {
+        if !self.admin_exists() {
+            return Err(error(
+                StatusCode::FORBIDDEN,
+                "create the administrator first (with the setup code)",
+            ));
+        }
+        match self.who(parts) {
+            None => Err(error(StatusCode::UNAUTHORIZED, "log in first")),
+            Some(w) if w.role < role => Err(error(
+                StatusCode::FORBIDDEN,
+                match role {
+                    Role::Admin => "an administrator's session is needed",
+                    _ => "an operator's session is needed",
+                },
+            )),
+            Some(w) => Ok(w),
+        }
+    }
+
+    /// May the request read the status, configuration and logs?
+    // The error is the answer (built once, written by the caller).
+    #[allow(clippy::result_large_err)]
+    fn may_read(&self, parts: &RequestParts<'_>) -> Result<(), Reply> {
+        if self.hub.with(|m| m.config.active.read_without_login) {
+            return Ok(());
+        }
+        self.require(parts, Role::Viewer).map(|_| ())
+    }
+
+    fn admin_exists(&self) -> bool {
+        self.hub.with(|m| m.access.accounts.admin_exists())
     }
 }
 
@@ -474,31 +523,48 @@ fn error(status: StatusCode, text: &str) -> Reply {
 }
 
 impl<C: Clock> App<'_, C> {
-    fn session_json(&self, authorized: bool) -> Json {
+    /// `/api/session`: who is logged in, and what the page should offer.
+    fn session_json(&self, who: Option<Who>) -> Json {
         let now = self.clock.now();
-        let wait = match self.web.sessions.borrow().may_try(now) {
-            Ok(()) => 0,
-            Err(d) => d.as_secs() + 1,
-        };
-        let mut j = Json::new();
-        let _ = j
-            .raw("{")
-            .and_then(|j| j.key("authorized"))
-            .and_then(|j| j.bool(authorized))
-            .and_then(|j| j.raw(","))
-            .and_then(|j| j.key("password_set"))
-            .and_then(|j| j.bool(self.password_set()))
-            .and_then(|j| j.raw(","))
-            .and_then(|j| j.key("retry_after_s"))
-            .and_then(|j| j.uint(wait))
-            .and_then(|j| j.raw(","))
-            .and_then(|j| j.key("restart"))
-            .and_then(|j| j.bool(self.web.restart.is_some()))
-            .and_then(|j| j.raw(","))
-            .and_then(|j| j.key("recovery"))
-            .and_then(|j| j.bool(self.hub.with(|m| m.access.recovery)))
-            .and_then(|j| j.raw("}"));
-        j
+        let ip = self.peer.map(|p| *p.ip());
+        let wait = self
+            .web
+            .limiter
+            .borrow()
+            .wait(ip, None, now)
+            .map_or(0, |d| d.as_secs() + 1);
+        let (admin, recovery, open, name) = self.hub.with(|m| {
+            let name = who
+                .and_then(|w| m.access.accounts.at(w.account))
+                .map(|a| a.name);
+            (
+                m.access.accounts.admin_exists(),
+                m.access.recovery,
+                m.config.active.read_without_login,
+                name,
+            )
+        });
+        let name = name.as_ref().map(|n| n.as_bytes());
+        let setup = recovery || (!admin && self.web.setup_code.is_some());
+        Json::value(|v| {
+            v.object(|j| {
+                j.key("authorized").bool(who.is_some());
+                j.key("name").opt(name, |v, n| v.str(n));
+                j.key("role")
+                    .opt(who, |v, w| v.str(w.role.as_str().as_bytes()));
+                j.key("admin_exists").bool(admin);
+                j.key("setup").bool(setup);
+                j.key("setup_code_needed")
+                    .bool(self.web.setup_code.is_some());
+                j.key("read_without_login").bool(open);
+                j.key("min_password")
+                    .uint(crate::access::password::MIN_LEN as u64);
+                j.key("retry_after_s").uint(wait);
+                j.key("restart").bool(self.web.restart.is_some());
+                j.key("recovery").bool(recovery);
+            })
+        })
+        .unwrap_or_else(|_| error_json("session"))
     }
 
     /// Reads the request (its body where the route has one) and decides
@@ -532,14 +598,23 @@ impl<C: Clock> App<'_, C> {
         }
         match path {
             "/" | "/index.html" if get => Reply::Page,
-            "/api/status" if get => Reply::Doc(Doc::Status),
-            "/api/config" if get => Reply::Doc(Doc::Config),
-            "/api/fields" if get => Reply::Doc(Doc::Fields),
-            "/api/log" if get => Reply::Doc(Doc::Log),
+            // role: viewer, unless reading without login is on.
+            "/api/status" | "/api/config" | "/api/fields" | "/api/log" if get => {
+                if let Err(r) = self.may_read(&request.parts) {
+                    return r;
+                }
+                Reply::Doc(match path {
+                    "/api/status" => Doc::Status,
+                    "/api/config" => Doc::Config,
+                    "/api/fields" => Doc::Fields,
+                    _ => Doc::Log,
+                })
+            }
             "/api/session" if get => Reply::Json(
                 StatusCode::OK,
-                self.session_json(self.looks_authorized(&request.parts)),
+                self.session_json(self.peek_who(&request.parts)),
             ),
+            "/api/setup" if post => self.setup(request).await,
             "/api/login" if post => self.login(request).await,
             "/api/logout" if post => {
                 if let Some(t) = token(&request.parts) {
@@ -547,17 +622,25 @@ impl<C: Clock> App<'_, C> {
                 }
                 Reply::Logout(post::ok_json())
             }
-            "/api/password" if post => self.set_password(request).await,
+            // role: any account (its own password).
+            "/api/password" if post => match self.require(&request.parts, Role::Viewer) {
+                Ok(who) => self.set_password(who, request).await,
+                Err(r) => r,
+            },
+            // role: admin.
+            "/api/accounts" if get || post => match self.require(&request.parts, Role::Admin) {
+                Ok(_) if get => Reply::Json(StatusCode::OK, self.accounts_json()),
+                Ok(who) => self.post_accounts(who, request).await,
+                Err(r) => r,
+            },
+            // role: admin.
             p if post
                 && (p == "/api/config"
                     || p == "/api/restart"
                     || p.starts_with("/api/trigger/")) =>
             {
-                if !self.password_set() {
-                    return error(StatusCode::FORBIDDEN, "set a password first");
-                }
-                if !self.authorized(&request.parts) {
-                    return error(StatusCode::UNAUTHORIZED, "log in first");
+                if let Err(r) = self.require(&request.parts, Role::Admin) {
+                    return r;
                 }
                 match p {
                     "/api/config" => self.post_config(request).await,
@@ -577,7 +660,8 @@ impl<C: Clock> App<'_, C> {
                 }
             }
             "/" | "/index.html" | "/api/status" | "/api/config" | "/api/fields" | "/api/log"
-            | "/api/session" | "/api/login" | "/api/logout" | "/api/password" | "/api/restart" => {
+            | "/api/session" | "/api/login" | "/api/logout" | "/api/password" | "/api/restart"
+            | "/api/setup" | "/api/accounts" => {
                 error(StatusCode::METHOD_NOT_ALLOWED, "method not allowed")
             }
             _ => error(StatusCode::NOT_FOUND, "not found"),
@@ -719,10 +803,10 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 Ok(sent)
             }
             Reply::Session(status, j, t) => {
-                let hex = t.to_hex();
+                // The token goes in the cookie only (HttpOnly): no page
+                // script, and so no injected one, ever holds it.
                 Response::new(status, json_body(&j))
                     .with_header("Set-Cookie", session_cookie(&t))
-                    .with_header("X-Session-Token", core::str::from_utf8(&hex).unwrap_or(""))
                     .with_header("Cache-Control", "no-store")
                     .with_headers(SECURITY_HEADERS)
                     .write_to(c, w)

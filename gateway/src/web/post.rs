@@ -12,7 +12,10 @@ use serde::Deserialize;
 
 use super::json::Json;
 use super::{error, error_json, App, Reply};
+use crate::access::accounts::{Account, AccountError, Role, UserName, ACCOUNTS, NAME_MAX};
 use crate::access::password::{self, PasswordHash, SALT_LEN};
+use crate::access::session::Who;
+use crate::access::setup::SetupCode;
 use crate::clock::Clock;
 use crate::config::{schema, Config, Value, SETTINGS};
 use crate::registers::config::{Layout, REGISTERS};
@@ -25,6 +28,9 @@ pub(crate) const FORMAT: &str = "hans-gateway-config-2";
 /// The format of the previous version's exports: settings by register
 /// name (`CFG_POLL_MS`), still imported.
 pub(crate) const FORMAT_1: &str = "hans-gateway-config-1";
+
+/// What a name must be.
+const NAME_RULE: &str = "a name is 1 to 16 of a-z 0-9 . _ - beginning with a letter";
 
 /// `{"ok":true}`.
 pub(crate) fn ok_json() -> Json {
@@ -266,95 +272,403 @@ pub(crate) fn read_config(
 fn too_many(wait: embassy_time::Duration) -> Reply {
     let mut j = Json::new();
     let _ = j
-        .raw("{\"error\":\"too many wrong passwords\",")
+        .raw("{\"error\":\"too many wrong attempts\",")
         .and_then(|j| j.key("retry_after_s"))
         .and_then(|j| j.uint(wait.as_secs() + 1))
         .and_then(|j| j.raw("}"));
     Reply::Json(StatusCode::TOO_MANY_REQUESTS, j)
 }
 
+/// A string member of a posted object, unescaped (a password may hold
+/// `"` or `\\`), at most `N` bytes.
+struct Field<const N: usize>(heapless::Vec<u8, N>);
+
+impl<'de, const N: usize> Deserialize<'de> for Field<N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<const N: usize>;
+        impl<const N: usize> Visitor<'_> for V<N> {
+            type Value = Field<N>;
+            fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+                write!(f, "a string of at most {N} bytes")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<Self::Value, E> {
+                heapless::Vec::from_slice(s.as_bytes())
+                    .map(Field)
+                    .map_err(|_| E::custom("too long"))
+            }
+        }
+        d.deserialize_str(V::<N>)
+    }
+}
+
+/// Longest password read (longer ones are refused by the policy).
+const PW: usize = password::MAX_LEN + 1;
+
+/// The body of the requests on accounts: `{"name":…,"password":…}` and
+/// the like; members a request does not use are refused by it.
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct AccountDoc {
+    #[serde(default)]
+    op: Option<Field<12>>,
+    #[serde(default)]
+    name: Option<Field<{ NAME_MAX + 1 }>>,
+    #[serde(default)]
+    role: Option<Field<12>>,
+    #[serde(default)]
+    password: Option<Field<PW>>,
+    #[serde(default)]
+    current: Option<Field<PW>>,
+    #[serde(default)]
+    code: Option<Field<32>>,
+}
+
+fn bytes<const N: usize>(f: &Option<Field<N>>) -> &[u8] {
+    f.as_ref().map_or(&[][..], |f| &f.0[..])
+}
+
+/// Reads an [`AccountDoc`] (strings unescaped in `buf`).
+// The error is the answer (built once, written by the caller).
+#[allow(clippy::result_large_err)]
+fn account_doc(body: &[u8]) -> Result<AccountDoc, Reply> {
+    let mut buf = [0u8; 96];
+    serde_json_core::from_slice_escaped::<AccountDoc>(body, &mut buf)
+        .map(|(d, _)| d)
+        .map_err(|_| error(StatusCode::BAD_REQUEST, "not the expected JSON object"))
+}
+
+/// A new password checked against the policy, hashed with a fresh salt.
+// The error is the answer (built once, written by the caller).
+#[allow(clippy::result_large_err)]
+async fn new_hash<C: Clock>(app: &App<'_, C>, pw: &[u8]) -> Result<PasswordHash, Reply> {
+    password::check_new(pw).map_err(|e| error(StatusCode::BAD_REQUEST, e.as_str()))?;
+    let salt: [u8; SALT_LEN] = app.web.sessions.borrow_mut().random();
+    Ok(PasswordHash::new(pw, salt).await)
+}
+
+/// A hash that matches no password, checked for unknown names so that an
+/// unknown name takes as long as a wrong password.
+const NOBODY: PasswordHash = PasswordHash {
+    iterations: password::ITERATIONS,
+    salt: [0; SALT_LEN],
+    hash: [0; password::HASH_LEN],
+};
+
 impl<C: Clock> App<'_, C> {
+    fn ip(&self) -> Option<core::net::Ipv4Addr> {
+        self.peer.map(|p| *p.ip())
+    }
+
+    /// A login (or a wrong current password) for the audit log.
+    fn audit_login(&self, _name: &[u8], _ok: bool, _from: Option<core::net::Ipv4Addr>) {}
+
+    /// An account change for the audit log.
+    fn audit_account(&self, _name: &[u8], _what: &str, _from: Option<core::net::Ipv4Addr>) {}
+
+    /// `{"name":…,"password":…}`: opens a session of that account.
     pub(super) async fn login<R: Read>(&self, request: &mut Request<'_, R>) -> Reply {
-        let now = self.clock.now();
-        let hash = self.hub.with(|m| m.access.password);
-        let tried = self.web.sessions.borrow().may_try(now);
-        let body = request.body_connection.body().read_all().await;
-        match (hash, tried, body) {
-            (_, _, Err(_)) => error(StatusCode::PAYLOAD_TOO_LARGE, "request too long"),
-            (None, _, _) => error(StatusCode::CONFLICT, "no password is set"),
-            (_, Err(wait), _) => too_many(wait),
-            (Some(h), Ok(()), Ok(pw)) => {
-                if h.verify(pw).await {
-                    let mut s = self.web.sessions.borrow_mut();
-                    s.succeeded();
-                    let t = s.open(self.clock.now());
-                    info!("web: logged in");
-                    Reply::Session(StatusCode::OK, ok_json(), t)
-                } else {
-                    self.web.sessions.borrow_mut().failed(self.clock.now());
-                    warn!("web: wrong password");
-                    error(StatusCode::UNAUTHORIZED, "wrong password")
-                }
+        let Ok(body) = request.body_connection.body().read_all().await else {
+            return error(StatusCode::PAYLOAD_TOO_LARGE, "request too long");
+        };
+        let doc = match account_doc(body) {
+            Ok(d) => d,
+            Err(r) => return r,
+        };
+        let (name, pw) = (bytes(&doc.name), bytes(&doc.password));
+        let found = self.hub.with(|m| {
+            let a = &m.access.accounts;
+            a.index_of(name).zip(a.get(name).map(|a| (a.hash, a.role)))
+        });
+        if !self.admin_exists() {
+            return error(
+                StatusCode::CONFLICT,
+                "no account exists yet: create the administrator with the setup code",
+            );
+        }
+        // Counted before the hash is computed: parallel guesses see each other.
+        let ticket = match self.web.limiter.borrow_mut().reserve(
+            self.ip(),
+            found.map(|f| f.0),
+            self.clock.now(),
+        ) {
+            Ok(t) => t,
+            Err(wait) => return too_many(wait),
+        };
+        let hash = found.map_or(NOBODY, |f| f.1 .0);
+        let right = hash.verify(pw).await && found.is_some();
+        match found.filter(|_| right) {
+            Some((account, (_, role))) => {
+                self.web.limiter.borrow_mut().succeeded(ticket);
+                let t = self
+                    .web
+                    .sessions
+                    .borrow_mut()
+                    .open(Who { account, role }, self.clock.now());
+                info!(
+                    "web: {} logged in",
+                    core::str::from_utf8(name).unwrap_or("?")
+                );
+                self.audit_login(name, true, self.ip());
+                Reply::Session(StatusCode::OK, ok_json(), t)
+            }
+            None => {
+                warn!("web: wrong name or password");
+                self.audit_login(name, false, self.ip());
+                error(StatusCode::UNAUTHORIZED, "wrong name or password")
             }
         }
     }
 
-    /// `current` newline `new`: `current` must be the password set (empty
-    /// on a fresh device). Ends every session and opens one for the
-    /// caller.
-    pub(super) async fn set_password<R: Read>(&self, request: &mut Request<'_, R>) -> Reply {
-        let now = self.clock.now();
-        let hash = self.hub.with(|m| m.access.password);
-        let tried = self.web.sessions.borrow().may_try(now);
+    /// `{"code":…,"name":…,"password":…}`: the first administrator, with
+    /// the setup code (proof of presence, see `access::setup`). After a
+    /// recovery start also the way back from a forgotten password: the
+    /// account named gets the password and the administrator role.
+    pub(super) async fn setup<R: Read>(&self, request: &mut Request<'_, R>) -> Reply {
         let Ok(body) = request.body_connection.body().read_all().await else {
             return error(StatusCode::PAYLOAD_TOO_LARGE, "request too long");
         };
-        let (current, new) = match body.iter().position(|&b| b == b'\n') {
-            Some(i) => (
-                body.get(..i).unwrap_or(&[]),
-                body.get(i + 1..).unwrap_or(&[]),
-            ),
-            None => (&[][..], &body[..]),
+        let doc = match account_doc(body) {
+            Ok(d) => d,
+            Err(r) => return r,
         };
-        let new = new.strip_suffix(b"\n").unwrap_or(new);
-        // A recovery start (the board's button held at power-up) is the
-        // way back from a forgotten password: whoever can press it may set
-        // a new one without the old.
         let recovery = self.hub.with(|m| m.access.recovery);
-        match (hash.filter(|_| !recovery), tried) {
-            (Some(_), Err(wait)) => {
-                return too_many(wait);
-            }
-            (Some(h), Ok(())) => {
-                if !h.verify(current).await {
-                    self.web.sessions.borrow_mut().failed(self.clock.now());
-                    warn!("web: wrong password");
-                    return error(StatusCode::UNAUTHORIZED, "wrong password");
-                }
-            }
-            (None, _) => {}
+        if self.admin_exists() && !recovery {
+            return error(StatusCode::CONFLICT, "an administrator exists: log in");
         }
-        if let Err(e) = password::check_new(new) {
-            return error(StatusCode::BAD_REQUEST, e.as_str());
+        let ticket = match self
+            .web
+            .limiter
+            .borrow_mut()
+            .reserve(self.ip(), None, self.clock.now())
+        {
+            Ok(t) => t,
+            Err(wait) => return too_many(wait),
+        };
+        match (&self.web.setup_code, SetupCode::parse(bytes(&doc.code))) {
+            (Some(code), Some(given)) if code.matches(&given) => {}
+            // Without a code (a board that has none), a recovery start is
+            // the proof of presence.
+            (None, _) if recovery => {}
+            (None, _) => {
+                return error(StatusCode::SERVICE_UNAVAILABLE, "this device has no setup code: start it in recovery (hold its button at power-up)");
+            }
+            _ => {
+                warn!("web: wrong setup code");
+                return error(StatusCode::FORBIDDEN, "wrong setup code");
+            }
         }
-        let salt: [u8; SALT_LEN] = self.web.sessions.borrow_mut().random();
-        let h = PasswordHash::new(new, salt).await;
+        let Some(name) = UserName::new(bytes(&doc.name)) else {
+            return error(StatusCode::BAD_REQUEST, NAME_RULE);
+        };
+        let hash = match new_hash(self, bytes(&doc.password)).await {
+            Ok(h) => h,
+            Err(r) => return r,
+        };
+        self.web.limiter.borrow_mut().succeeded(ticket);
         let saved = self
             .hub
             .change(|m| {
-                m.access.password = Some(h);
-                Ok::<_, ()>(false)
+                let a = &mut m.access.accounts;
+                if a.get(name.as_bytes()).is_some() {
+                    a.set_hash(name.as_bytes(), hash)?;
+                    a.set_role(name.as_bytes(), Role::Admin)?;
+                } else {
+                    a.add(Account {
+                        name,
+                        role: Role::Admin,
+                        hash,
+                    })?;
+                }
+                Ok::<_, AccountError>(false)
             })
             .await;
-        let token = {
-            let mut s = self.web.sessions.borrow_mut();
-            s.succeeded();
-            s.close_all();
-            s.open(self.clock.now())
+        let account = self
+            .hub
+            .with(|m| m.access.accounts.index_of(name.as_bytes()));
+        match (saved, account) {
+            (Ok(saved), Some(account)) => {
+                let t = {
+                    let mut s = self.web.sessions.borrow_mut();
+                    s.close_account(account);
+                    s.open(
+                        Who {
+                            account,
+                            role: Role::Admin,
+                        },
+                        self.clock.now(),
+                    )
+                };
+                warn!(
+                    "web: administrator {} created with the setup code",
+                    name.as_str()
+                );
+                self.audit_account(name.as_bytes(), "setup", self.ip());
+                Reply::Session(StatusCode::OK, saved_json(saved, false), t)
+            }
+            (Err(e), _) => error(StatusCode::CONFLICT, e.as_str()),
+            (Ok(_), None) => error(StatusCode::INTERNAL_SERVER_ERROR, "the account vanished"),
+        }
+    }
+
+    /// `{"current":…,"password":…}`: the caller's own password. Ends the
+    /// account's other sessions and opens one for the caller.
+    pub(super) async fn set_password<R: Read>(
+        &self,
+        who: Who,
+        request: &mut Request<'_, R>,
+    ) -> Reply {
+        let Ok(body) = request.body_connection.body().read_all().await else {
+            return error(StatusCode::PAYLOAD_TOO_LARGE, "request too long");
         };
-        info!("web: password set");
-        let j = saved_json(saved.unwrap_or(SaveOutcome::NotPersistent), false);
-        Reply::Session(StatusCode::OK, j, token)
+        let doc = match account_doc(body) {
+            Ok(d) => d,
+            Err(r) => return r,
+        };
+        let Some(acc) = self
+            .hub
+            .with(|m| m.access.accounts.at(who.account).copied())
+        else {
+            return error(StatusCode::UNAUTHORIZED, "log in first");
+        };
+        let ticket = match self.web.limiter.borrow_mut().reserve(
+            self.ip(),
+            Some(who.account),
+            self.clock.now(),
+        ) {
+            Ok(t) => t,
+            Err(wait) => return too_many(wait),
+        };
+        if !acc.hash.verify(bytes(&doc.current)).await {
+            warn!("web: wrong password");
+            self.audit_login(acc.name.as_bytes(), false, self.ip());
+            return error(StatusCode::UNAUTHORIZED, "wrong password");
+        }
+        self.web.limiter.borrow_mut().succeeded(ticket);
+        let hash = match new_hash(self, bytes(&doc.password)).await {
+            Ok(h) => h,
+            Err(r) => return r,
+        };
+        let saved = self
+            .hub
+            .change(|m| {
+                m.access
+                    .accounts
+                    .set_hash(acc.name.as_bytes(), hash)
+                    .map(|()| false)
+            })
+            .await;
+        let t = {
+            let mut s = self.web.sessions.borrow_mut();
+            s.close_account(who.account);
+            s.open(who, self.clock.now())
+        };
+        info!("web: password of {} changed", acc.name.as_str());
+        self.audit_account(acc.name.as_bytes(), "password", self.ip());
+        match saved {
+            Ok(saved) => Reply::Session(StatusCode::OK, saved_json(saved, false), t),
+            Err(e) => error(StatusCode::CONFLICT, e.as_str()),
+        }
+    }
+
+    /// `GET /api/accounts`: names and roles (never the hashes).
+    pub(super) fn accounts_json(&self) -> Json {
+        let accounts = self.hub.with(|m| m.access.accounts);
+        Json::value(|v| {
+            v.object(|j| {
+                j.key("accounts").array(|a| {
+                    for acc in accounts.iter() {
+                        a.item().object(|o| {
+                            o.key("name").str(acc.name.as_bytes());
+                            o.key("role").str(acc.role.as_str().as_bytes());
+                        });
+                    }
+                });
+                j.key("max").uint(ACCOUNTS as u64);
+                j.key("min_password").uint(password::MIN_LEN as u64);
+            })
+        })
+        .unwrap_or_else(|_| error_json("accounts"))
+    }
+
+    /// `POST /api/accounts`: `{"op":"add","name":…,"role":…,"password":…}`,
+    /// `{"op":"remove","name":…}`, `{"op":"role","name":…,"role":…}` or
+    /// `{"op":"password","name":…,"password":…}` (an administrator sets
+    /// another's). The account's sessions end on every change.
+    pub(super) async fn post_accounts<R: Read>(
+        &self,
+        who: Who,
+        request: &mut Request<'_, R>,
+    ) -> Reply {
+        let Ok(body) = request.body_connection.body().read_all().await else {
+            return error(StatusCode::PAYLOAD_TOO_LARGE, "request too long");
+        };
+        let doc = match account_doc(body) {
+            Ok(d) => d,
+            Err(r) => return r,
+        };
+        let name = bytes(&doc.name);
+        let role = core::str::from_utf8(bytes(&doc.role))
+            .ok()
+            .and_then(Role::parse);
+        let op = bytes(&doc.op);
+        let hash = match op {
+            b"add" | b"password" => match new_hash(self, bytes(&doc.password)).await {
+                Ok(h) => Some(h),
+                Err(r) => return r,
+            },
+            _ => None,
+        };
+        let before = self.hub.with(|m| m.access.accounts.index_of(name));
+        let result = self
+            .hub
+            .change(|m| {
+                let a = &mut m.access.accounts;
+                match (op, role, hash) {
+                    (b"add", Some(role), Some(hash)) => {
+                        let name = UserName::new(name).ok_or(NAME_RULE)?;
+                        a.add(Account { name, role, hash })
+                            .map_err(AccountError::as_str)?;
+                    }
+                    (b"remove", _, _) => {
+                        a.remove(name).map_err(AccountError::as_str)?;
+                    }
+                    (b"role", Some(role), _) => {
+                        a.set_role(name, role).map_err(AccountError::as_str)?
+                    }
+                    (b"password", _, Some(hash)) => {
+                        a.set_hash(name, hash).map_err(AccountError::as_str)?
+                    }
+                    (b"add" | b"role", None, _) => return Err("role: viewer, operator or admin"),
+                    _ => return Err("op: add, remove, role or password"),
+                }
+                Ok(false)
+            })
+            .await;
+        match result {
+            Ok(saved) => {
+                let after = self.hub.with(|m| m.access.accounts.index_of(name));
+                for i in [before, after].into_iter().flatten() {
+                    if i != who.account || op != b"role" {
+                        self.web.sessions.borrow_mut().close_account(i);
+                    }
+                    if op == b"remove" || op == b"add" {
+                        self.web.limiter.borrow_mut().forget_account(i);
+                    }
+                }
+                if op == b"role" && before == Some(who.account) {
+                    // The administrator changed their own role: that
+                    // session ends too (it holds the old role).
+                    self.web.sessions.borrow_mut().close_account(who.account);
+                }
+                info!(
+                    "web: account {} changed",
+                    core::str::from_utf8(name).unwrap_or("?")
+                );
+                self.audit_account(name, core::str::from_utf8(op).unwrap_or("?"), self.ip());
+                Reply::Json(StatusCode::OK, saved_json(saved, false))
+            }
+            Err(why) => error(StatusCode::BAD_REQUEST, why),
+        }
     }
 
     // The closure's error is the answer (see `read_config`).

@@ -14,8 +14,9 @@ use toml::de::{DeTable, DeValue};
 use toml::Spanned;
 
 use super::{
-    quoted, register_name, setting_of, tables, takes, Contents, Problem, PASSWORD, SCHEME,
+    quoted, register_name, setting_of, tables, takes, Contents, Problem, ACCOUNTS, PASSWORD, SCHEME,
 };
+use crate::access::accounts::{Account, Role, UserName};
 use crate::access::password::{PasswordHash, HASH_LEN, ITERATIONS, SALT_LEN};
 use crate::config::{
     AllowEntry, AllowList, Config, HostName, Kind, Setting, Value, ALLOW_ENTRIES, SETTINGS,
@@ -119,6 +120,8 @@ impl Reader<'_> {
                 self.trigger(kn, &k.span(), v);
             } else if n == "access" && kn == PASSWORD {
                 self.password(v);
+            } else if n == "access" && kn == ACCOUNTS {
+                self.accounts(v);
             } else if let Some(s) = setting_of(n, kn) {
                 self.setting(s, v);
             } else {
@@ -131,7 +134,7 @@ impl Reader<'_> {
                             .map(|s| s.name())
                             .collect();
                         if n == "access" {
-                            keys.push(PASSWORD);
+                            keys.push(ACCOUNTS);
                         }
                         format!(
                             "unknown key \"{kn}\" in [{n}]; its keys are {}",
@@ -358,7 +361,22 @@ impl Reader<'_> {
             return;
         };
         match parse_hash(s) {
-            Some(h) => self.contents.stored.password = Some(h),
+            Some(hash) => {
+                // The previous version's one password: the administrator
+                // the binary image migrates it to, too.
+                let name = UserName::new(crate::storage::image::MIGRATED_ADMIN.as_bytes());
+                let added = name.map(|name| {
+                    self.contents.stored.accounts.add(Account {
+                        name,
+                        role: Role::Admin,
+                        hash,
+                    })
+                });
+                if !matches!(added, Some(Ok(_))) {
+                    let reason = "access.password: an account \"admin\" is in access.accounts too (password is the previous version's key: remove it)".to_owned();
+                    self.refuse(&span, reason);
+                }
+            }
             None => {
                 let reason = format!(
                     "access.password: not a salted hash {form} with 1 to {} rounds (the file never holds the password itself: set it on the web page)",
@@ -367,6 +385,63 @@ impl Reader<'_> {
                 self.refuse(&span, reason);
             }
         }
+    }
+}
+
+impl Reader<'_> {
+    /// `accounts = [{ name = "...", role = "admin", password = "pbkdf2-sha256$..." }, ...]`.
+    fn accounts(&mut self, value: &Spanned<DeValue<'_>>) {
+        let span = value.span();
+        let form = "an array of { name = \"...\", role = \"viewer\" | \"operator\" | \"admin\", password = \"pbkdf2-sha256$ROUNDS$SALT$HASH\" }";
+        let Some(list) = value.get_ref().as_array() else {
+            self.refuse(&span, format!("access.accounts: expected {form}"));
+            return;
+        };
+        for item in list.iter() {
+            let at = item.span();
+            match account(item.get_ref()) {
+                Ok(a) => {
+                    if let Err(e) = self.contents.stored.accounts.add(a) {
+                        self.refuse(&at, format!("access.accounts: {}", e.as_str()));
+                    }
+                }
+                Err(why) => self.refuse(&at, format!("access.accounts: {why}; expected {form}")),
+            }
+        }
+        let accounts = &self.contents.stored.accounts;
+        if !accounts.is_empty() && !accounts.admin_exists() {
+            self.refuse(&span, "access.accounts: none is an admin (the first account is one, and the last stays one)".to_owned());
+        }
+    }
+}
+
+/// One account of `access.accounts`, or why not.
+fn account(v: &DeValue<'_>) -> Result<Account, String> {
+    let t = v.as_table().ok_or("an account is a table")?;
+    let mut name = None;
+    let mut role = None;
+    let mut hash = None;
+    for (k, v) in t.iter() {
+        let text = v.get_ref().as_str();
+        match k.get_ref().as_ref() {
+            "name" => {
+                name = Some(
+                    text.and_then(|s| UserName::new(s.as_bytes()))
+                        .ok_or("a name is 1 to 16 of a-z 0-9 . _ - beginning with a letter")?,
+                )
+            }
+            "role" => role = Some(text.and_then(Role::parse).ok_or("unknown role")?),
+            "password" => {
+                hash = Some(text.and_then(parse_hash).ok_or(
+                    "the password is a salted hash (the file never holds the password itself)",
+                )?)
+            }
+            other => return Err(format!("unknown key \"{other}\"")),
+        }
+    }
+    match (name, role, hash) {
+        (Some(name), Some(role), Some(hash)) => Ok(Account { name, role, hash }),
+        _ => Err("name, role and password are needed".to_owned()),
     }
 }
 

@@ -1,5 +1,6 @@
 use super::write::toml_string;
 use super::*;
+use crate::access::accounts::{Account, Role, UserName};
 use crate::access::password::PasswordHash;
 use crate::config::{AllowEntry, AllowList, LinkMode, NetConfig, ProtocolSetting, StatusSource};
 use crate::config::{Kind, WatchdogAction, WordOrder, SETTINGS};
@@ -64,12 +65,22 @@ fn full() -> Contents {
         ]),
         mqtt_broker: crate::config::HostName::new("broker.plant.local").unwrap(),
         web_host: crate::config::HostName::new("gw-cell-7.plant.local").unwrap(),
+        read_without_login: false,
     });
-    c.stored.password = Some(PasswordHash {
-        iterations: 10_000,
-        salt: core::array::from_fn(|i| i as u8 * 17),
-        hash: core::array::from_fn(|i| 255 - i as u8),
-    });
+    for (name, role) in [("admin", Role::Admin), ("line.3_op", Role::Operator)] {
+        c.stored
+            .accounts
+            .add(Account {
+                name: UserName::new(name.as_bytes()).unwrap(),
+                role,
+                hash: PasswordHash {
+                    iterations: 10_000,
+                    salt: core::array::from_fn(|i| i as u8 * 17),
+                    hash: core::array::from_fn(|i| 255 - i as u8),
+                },
+            })
+            .unwrap();
+    }
     let t = &mut c.triggers;
     t[0].set(b"GrpStop,0,;");
     t[3].set(br#"RAW,"quoted, with commas",\back\slash,;"#);
@@ -109,7 +120,8 @@ fn the_written_file_is_readable() {
         "wait_in_position = true\n",
         "modbus_allow = [\"192.168.0.0/24\", \"10.0.0.7/32\"]\n",
         "salted hash",
-        "password = \"pbkdf2-sha256$10000$00112233445566778899aabbccddeeff$fffefdfc",
+        "{ name = \"admin\", role = \"admin\", password = \"pbkdf2-sha256$10000$00112233445566778899aabbccddeeff$fffefdfc",
+        "{ name = \"line.3_op\", role = \"operator\", password = \"pbkdf2-sha256$10000$",
         "0 = \"GrpStop,0,;\"\n",
         "3 = \"RAW,\\\"quoted, with commas\\\",\\\\back\\\\slash,;\"\n",
         "7 = \"MoveL,0,1,2,3,4,5,6,; # é\"\n",
@@ -120,7 +132,7 @@ fn the_written_file_is_readable() {
     // Empty entries are left out; no key is written twice.
     assert!(!text.contains("\n1 = "), "{text}");
     let none = render(&Contents::new(Config::DEFAULT));
-    assert!(none.contains("# password = (none set)"), "{none}");
+    assert!(none.contains("# accounts = [] (none yet)"), "{none}");
     assert!(!none.contains("[triggers]\n0 ="), "{none}");
 }
 
@@ -213,7 +225,9 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
     );
     let err = parse("[access]\npasword = \"x\"\n", &Config::DEFAULT).unwrap_err();
     assert!(
-        err[0].reason.ends_with("modbus_allow, web_allow, password"),
+        err[0]
+            .reason
+            .ends_with("modbus_allow, web_allow, read_without_login, accounts"),
         "{err:?}"
     );
 }
@@ -297,7 +311,7 @@ fn keys_left_out_take_the_defaults() {
     assert!(c.stored.config.wait_in_position && !c.stored.config.wait_blending_done);
     assert_eq!(c.stored.config.robot_port, 4000);
     assert_eq!(c.triggers[5].bytes(), b"GrpReset,0,;");
-    assert_eq!(c.stored.password, None);
+    assert!(c.stored.accounts.is_empty());
     // A bit set by default is cleared by `false`.
     defaults.wait_blending_done = true;
     let c = parse("[motion]\nwait_blending_done = false\n", &defaults).unwrap();
@@ -326,6 +340,10 @@ fn triggers_and_the_password_are_checked() {
         ("[access]\npassword = \"hunter2hunter2\"\n", "never holds the password itself"),
         ("[access]\npassword = \"pbkdf2-sha256$0$00112233445566778899aabbccddeeff$00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff\"\n", "1 to 100000 rounds"),
         ("[access]\npassword = \"pbkdf2-sha256$10000$0011$00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff\"\n", "salted hash"),
+        ("[access]\naccounts = [{ name = \"Root\", role = \"admin\", password = \"x\" }]\n", "a name is 1 to 16"),
+        ("[access]\naccounts = [{ name = \"op\", role = \"operator\", password = \"pbkdf2-sha256$10000$00112233445566778899aabbccddeeff$00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff\" }]\n", "none is an admin"),
+        ("[access]\naccounts = [{ name = \"op\", role = \"boss\" }]\n", "unknown role"),
+        ("[access]\naccounts = \"admin\"\n", "expected an array"),
         ("[access]\npassword = \"md5$10000$00112233445566778899aabbccddeeff$00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff\"\n", "salted hash"),
     ] {
         let err = parse(text, &Config::DEFAULT).expect_err(text);

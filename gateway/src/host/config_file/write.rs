@@ -7,7 +7,7 @@ use std::format;
 use std::string::{String, ToString};
 use std::vec::Vec;
 
-use super::{register_name, takes, Contents, PASSWORD, SCHEME};
+use super::{register_name, takes, Contents, ACCOUNTS, SCHEME};
 use crate::config::{Kind, Setting, Value, SETTINGS};
 use crate::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
@@ -102,22 +102,31 @@ pub fn render(contents: &Contents) -> String {
     out
 }
 
-/// The password's lines, in `[access]`.
+/// The accounts' lines, in `[access]`.
 fn password(contents: &Contents, out: &mut String) {
     out.push_str(&format!(
-        "# The web password as a salted hash, never the password itself: \"{SCHEME}$ROUNDS$SALT$HASH\"\n\
-         # (PBKDF2-HMAC-SHA256; salt and hash in hex). Set it on the web page; without it the page\n\
-         # asks for one before any change.\n"
+        "# The web page's accounts (at most 8): name, role (viewer, operator, admin) and the\n\
+         # password as a salted hash, never the password itself: \"{SCHEME}$ROUNDS$SALT$HASH\"\n\
+         # (PBKDF2-HMAC-SHA256; salt and hash in hex). Manage them on the web page; the first\n\
+         # administrator is created there with the setup code the gateway prints at start.\n"
     ));
-    match &contents.stored.password {
-        Some(h) => out.push_str(&format!(
-            "{PASSWORD} = \"{SCHEME}${}${}${}\"\n",
-            h.iterations,
-            hex(&h.salt),
-            hex(&h.hash)
-        )),
-        None => out.push_str(&format!("# {PASSWORD} = (none set)\n")),
+    let accounts = &contents.stored.accounts;
+    if accounts.is_empty() {
+        out.push_str(&format!("# {ACCOUNTS} = [] (none yet)\n"));
+        return;
     }
+    out.push_str(&format!("{ACCOUNTS} = [\n"));
+    for a in accounts.iter() {
+        out.push_str(&format!(
+            "  {{ name = \"{}\", role = \"{}\", password = \"{SCHEME}${}${}${}\" }},\n",
+            a.name.as_str(),
+            a.role.as_str(),
+            a.hash.iterations,
+            hex(&a.hash.salt),
+            hex(&a.hash.hash)
+        ));
+    }
+    out.push_str("]\n");
 }
 
 /// A key's value as written in the file.
