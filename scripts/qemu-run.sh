@@ -17,6 +17,10 @@
 #   FIRMWARE_ARGS  words the firmware reads as its command line (semihosting;
 #                QEMU's -append): `dhcp` makes the QEMU board's factory network
 #                setting DHCP (QEMU's user network has a DHCP server)
+#   SETUP_CODE   the one-time code for the web page's first administrator
+#                (field-device firmware): handed in as the word `setup=CODE`
+#                of the command line; without it the firmware makes one and
+#                prints it in its log
 #   DEFMT_OUT    file to write the raw defmt log stream to; when unset the
 #                stream is decoded with defmt-print if it is installed, else
 #                written raw to stdout
@@ -49,8 +53,12 @@ nic+=",guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:${sim_port}"
 
 qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
   -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$elf")
-if [ -n "${FIRMWARE_ARGS:-}" ]; then
-  qemu+=(-append "$FIRMWARE_ARGS")
+args=${FIRMWARE_ARGS:-}
+if [ -n "${SETUP_CODE:-}" ]; then
+  args="${args:+$args }setup=$SETUP_CODE"
+fi
+if [ -n "$args" ]; then
+  qemu+=(-append "$args")
 fi
 
 if [ -n "${DEFMT_OUT:-}" ]; then

@@ -76,6 +76,19 @@ impl SetupCode {
         (n == SETUP_CODE_LEN).then_some(SetupCode(out))
     }
 
+    /// The code as shown (`ABCD-EFGH-JKMN`), for logs without `core::fmt`
+    /// (defmt).
+    pub fn to_text(&self) -> heapless::String<{ SETUP_CODE_LEN + 2 }> {
+        let mut s = heapless::String::new();
+        for (i, &c) in self.0.iter().enumerate() {
+            if i > 0 && i % 4 == 0 {
+                let _ = s.push('-');
+            }
+            let _ = s.push(char::from(c));
+        }
+        s
+    }
+
     /// `true` if `other` is this code; takes the same time wherever they
     /// differ.
     pub fn matches(&self, other: &SetupCode) -> bool {
@@ -99,6 +112,7 @@ mod tests {
         let shown = c.to_string();
         assert_eq!(shown.len(), 14);
         assert_eq!(shown.matches('-').count(), 2);
+        assert_eq!(c.to_text().as_str(), shown);
         assert_eq!(SetupCode::parse(shown.as_bytes()), Some(c));
         let typed = shown.to_lowercase().replace('-', " ");
         assert!(SetupCode::parse(typed.as_bytes()).is_some_and(|t| t.matches(&c)));

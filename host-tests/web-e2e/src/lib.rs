@@ -302,6 +302,9 @@ impl Qemu {
             .arg(nic)
             .arg("-kernel")
             .arg(elf)
+            // The host hands in the setup code, as it does the seed.
+            .arg("-append")
+            .arg(format!("setup={SETUP_CODE}"))
             .stdin(Stdio::null())
             .stdout(out)
             .stderr(err)
@@ -391,6 +394,10 @@ pub async fn connect_plc(addr: SocketAddrV4) -> Plc {
 
 /// hans-sim, the host gateway with its page, a PLC and the page in
 /// headless Chromium.
+/// The setup code the rig hands the gateway (as its platform would print
+/// it) for the first administrator.
+pub const SETUP_CODE: &str = "ABCD-EFGH-JKMN";
+
 pub struct WebRig {
     /// The tab showing the page.
     pub tab: Arc<Tab>,
@@ -453,6 +460,7 @@ impl WebRig {
             None => {
                 let mut opts = HostOptions::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0), robot);
                 opts.web_listen = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0));
+                opts.setup_code = hans_gateway::SetupCode::parse(SETUP_CODE.as_bytes());
                 let gw = RunningGateway::start(opts).expect("start the gateway");
                 let web = gw.web_addr().expect("the page is served");
                 let modbus = gw.modbus_addr();
@@ -699,10 +707,12 @@ impl WebRig {
         self.wait_for("the page to ask for a first password", |r| {
             (r.session() == "fresh").then_some(())
         });
+        self.type_in("setup-code", SETUP_CODE);
+        self.type_in("setup-name", "admin");
         self.type_in("pw-new", pw);
         self.type_in("pw-new2", pw);
         self.click("pw-set");
-        self.wait_for("a session opened by the first password", |r| {
+        self.wait_for("a session opened by the first administrator", |r| {
             (r.session() == "open").then_some(())
         });
     }

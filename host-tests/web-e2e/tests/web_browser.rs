@@ -362,24 +362,35 @@ fn export_then_import_gives_the_same_configuration() {
 }
 
 #[test]
-fn a_fresh_device_asks_for_a_password_and_wrong_ones_show_the_wait() {
+fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     let mut rig = WebRig::start("access");
     rig.wait_live();
-    // Fresh: the page asks for a password first, and nothing can change.
-    rig.wait_for("the first-password form", |r| {
+    // Fresh: the page asks for the administrator first (with the setup
+    // code), and nothing can change.
+    rig.wait_for("the first-administrator form", |r| {
         (r.session() == "fresh" && r.visible("pw-first")).then_some(())
     });
     for id in ["cfg-apply", "f-link.poll_ms", "t-save-0", "import-btn"] {
         assert!(rig.disabled(id), "#{id} usable before a password is set");
     }
-    assert!(rig.text("access-flags").contains("NO PASSWORD"));
+    assert!(rig.text("access-flags").contains("NO ADMINISTRATOR"));
     rig.shot("fresh");
+    // Whoever reaches the page first cannot claim it: a wrong code is
+    // refused.
+    rig.type_in("setup-code", "ABCD-EFGH-JKMP");
+    rig.type_in("pw-new", "commission-1");
+    rig.type_in("pw-new2", "commission-1");
+    rig.click("pw-set");
+    rig.wait_text("pw-first-msg", "the wrong code refused", |t| {
+        t.contains("wrong setup code")
+    });
     // Too short, then two that differ: refused, still fresh.
+    rig.type_in("setup-code", hans_web_e2e::SETUP_CODE);
     rig.type_in("pw-new", "short");
     rig.type_in("pw-new2", "short");
     rig.click("pw-set");
     rig.wait_text("pw-first-msg", "the length refused", |t| {
-        t.contains("at least 8 characters")
+        t.contains("at least 10 characters")
     });
     rig.type_in("pw-new", "commission-1");
     rig.type_in("pw-new2", "commission-2");
@@ -390,9 +401,29 @@ fn a_fresh_device_asks_for_a_password_and_wrong_ones_show_the_wait() {
     assert_eq!(rig.session(), "fresh");
     rig.set_first_password(PW);
     assert!(!rig.disabled("cfg-apply") && !rig.disabled("t-save-0"));
-    rig.wait_text("access-flags", "the status showing the password", |t| {
-        t.contains("password set")
+    rig.wait_text(
+        "access-flags",
+        "the status showing the administrator",
+        |t| t.contains("administrator set"),
+    );
+    assert!(rig
+        .text("session-text")
+        .contains("Logged in as admin (admin)"));
+    // The administrator adds a viewer; the list shows it.
+    rig.wait_for("the accounts list", |r| {
+        r.visible("accounts-box").then_some(())
     });
+    rig.type_in("acc-name", "night-shift");
+    rig.choose("acc-role", "viewer");
+    rig.type_in("acc-pw", "read only please");
+    rig.click("acc-add");
+    rig.wait_data("acc-msg", "result", "ok");
+    rig.wait_for("the viewer in the list", |r| {
+        (r.js("document.querySelector('#accounts-body tr[data-name=\"night-shift\"]') !== null")
+            == serde_json::Value::Bool(true))
+        .then_some(())
+    });
+    rig.shot("accounts");
 
     // Logged out: a login form, changes locked again.
     rig.click("logout-btn");
@@ -400,6 +431,7 @@ fn a_fresh_device_asks_for_a_password_and_wrong_ones_show_the_wait() {
         (r.session() == "login" && r.visible("login-form")).then_some(())
     });
     assert!(rig.disabled("cfg-apply"));
+    rig.type_in("login-name", "admin");
     // Wrong passwords: after three the page shows the wait and holds the
     // button until it is over.
     let mut tries = 0;
@@ -422,16 +454,20 @@ fn a_fresh_device_asks_for_a_password_and_wrong_ones_show_the_wait() {
     });
     assert!(tries >= 3, "the wait came after {tries} wrong passwords");
     let msg = rig.text("login-msg");
-    assert!(msg.starts_with("Too many wrong passwords: wait "), "{msg}");
+    assert!(msg.starts_with("Too many wrong attempts: wait "), "{msg}");
     assert!(rig.disabled("login-btn"));
     rig.shot_at("access", "wait");
-    // Another client gets 429 with the wait: the limit is the device's,
-    // not the page's. (Each wrong try after the third doubles the wait, so
+    // Another client from the same address gets 429 with the wait: the
+    // limit is the address's, not the page's. (Each wrong try after the third doubles the wait, so
     // a try that came just after a wait ended is answered 401 and the next
     // one 429.)
     let mut answers = Vec::new();
     for _ in 0..4 {
-        let a = rig.http("POST", "/api/login", "not-the-password");
+        let a = rig.http(
+            "POST",
+            "/api/login",
+            r#"{"name":"admin","password":"not-the-password"}"#,
+        );
         let limited = a.status == 429;
         answers.push(a);
         if limited {

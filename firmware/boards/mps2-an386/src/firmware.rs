@@ -59,7 +59,12 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
         // The host's /dev/urandom through semihosting (see `seed`).
         seed: board::seed(stack),
         restart: Some(board::restart),
-        setup_code: None,
+        // The web page's first administrator (the core has none).
+        setup_code: if cfg!(feature = "field-device") {
+            board::setup_code()
+        } else {
+            None
+        },
         // No button to hold: never a recovery start (and nothing stored to
         // recover from).
         recovery: false,

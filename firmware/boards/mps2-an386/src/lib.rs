@@ -81,6 +81,40 @@ pub fn factory_net() -> NetConfig {
     }
 }
 
+/// The one-time setup code of the first administrator (the web page's;
+/// `hans_gateway::SetupCode`): the host hands it in on QEMU's command line
+/// as the word `setup=CODE` (`SETUP_CODE=... scripts/qemu-run.sh`), as it
+/// hands in the random seed; without it the firmware makes one from the
+/// seed's random source and prints it in its log, which only the host
+/// reads (as the NUCLEO prints its own in the probe's log). It is never
+/// served on any port.
+pub fn setup_code() -> Option<hans_gateway::SetupCode> {
+    let given = semihosting::experimental::env::args::<128>()
+        .ok()
+        .and_then(|args| {
+            (&args).find_map(|a| {
+                a.ok()
+                    .and_then(|a| a.strip_prefix("setup="))
+                    .and_then(|c| hans_gateway::SetupCode::parse(c.as_bytes()))
+            })
+        });
+    if given.is_some() {
+        defmt::info!("setup code: handed in by the host");
+        return given;
+    }
+    let mut random = [0u8; hans_gateway::SETUP_CODE_LEN];
+    if semihosting::experimental::random::fill_bytes(&mut random).is_err() {
+        defmt::warn!("setup code: no random source; no administrator can be created");
+        return None;
+    }
+    let code = hans_gateway::SetupCode::from_random(random);
+    defmt::info!(
+        "setup code for the first administrator: {=str}",
+        code.to_text().as_str()
+    );
+    Some(code)
+}
+
 /// The address `scripts/qemu-run.sh` forwards (`guestfwd`) to the robot
 /// simulator on the host's loopback.
 pub const SIM_IP: Ipv4Address = Ipv4Address::new(10, 0, 2, 100);

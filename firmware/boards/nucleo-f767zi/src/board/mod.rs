@@ -110,6 +110,19 @@ pub async fn run(spawner: Spawner) -> ! {
     let mut net_seed = [0u8; 8];
     rng.fill_bytes(&mut net_seed);
     let net_seed = u64::from_le_bytes(net_seed);
+    // The web page's first administrator is created with a one-time code
+    // printed in the probe's log (RTT): only someone with a debug probe on
+    // the board reads it. A new one each start; the core has no page.
+    let mut code = [0u8; hans_gateway::SETUP_CODE_LEN];
+    rng.fill_bytes(&mut code);
+    let setup_code = cfg!(feature = "field-device").then(|| {
+        let c = hans_gateway::SetupCode::from_random(code);
+        defmt::info!(
+            "setup code for the first administrator: {=str}",
+            c.to_text().as_str()
+        );
+        c
+    });
 
     // Locally administered unicast address from the 96-bit unique ID.
     let uid = embassy_stm32::uid::uid();
@@ -181,7 +194,7 @@ pub async fn run(spawner: Spawner) -> ! {
         network_managed: true,
         seed,
         restart: Some(restart),
-        setup_code: None,
+        setup_code,
         ..Options::default()
     };
     run_gateway(stack, &mut storage, options).await
