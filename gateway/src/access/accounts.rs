@@ -19,8 +19,11 @@
 
 use crate::access::password::{PasswordHash, STORED_LEN};
 
-/// Accounts at most.
-pub const ACCOUNTS: usize = 8;
+/// Accounts at most: 8 with the web page (feature `web`); none without it
+/// (the core firmware has no page to log in to, and keeps no room for
+/// them: its stored image has no account, and the access settings change
+/// over Modbus only after a recovery start).
+pub const ACCOUNTS: usize = if cfg!(feature = "web") { 8 } else { 0 };
 /// Bytes of a name at most.
 pub const NAME_MAX: usize = 16;
 
@@ -301,7 +304,7 @@ impl Accounts {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "web"))]
 mod tests {
     use super::*;
     use crate::access::password::{HASH_LEN, SALT_LEN};

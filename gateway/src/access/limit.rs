@@ -145,11 +145,7 @@ impl Limiter {
     }
 
     fn account_wait(&self, a: usize, ip: Option<Ipv4Addr>, now: Instant) -> Option<Duration> {
-        let own = ip.is_some()
-            && self
-                .trusted
-                .get(a)
-                .is_some_and(|t| t.contains(&ip));
+        let own = ip.is_some() && self.trusted.get(a).is_some_and(|t| t.contains(&ip));
         if own {
             return None;
         }

@@ -234,7 +234,8 @@ pub struct Setting {
     pub kind: Kind,
     /// Unit, empty for none.
     pub unit: &'static str,
-    /// What the values mean, short.
+    /// What the values mean, short (empty in builds without the web page
+    /// and the TOML file: the core firmware shows it nowhere).
     pub help: &'static str,
     /// Takes effect at the next start (network settings on a board).
     pub restart: bool,
@@ -353,7 +354,13 @@ macro_rules! setting {
             id: $id,
             kind: $kind,
             unit: $unit,
-            help: $help,
+            // Shown by the page and the TOML file only: the core firmware
+            // (neither) keeps ~2 KiB of flash without the texts.
+            help: if cfg!(any(feature = "web", feature = "std")) {
+                $help
+            } else {
+                ""
+            },
             restart: $restart,
             get: |$c| $get,
             set: |$s, $v| $set,
