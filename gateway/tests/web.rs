@@ -449,6 +449,13 @@ fn export_then_import_gives_the_same_configuration() {
     let a = post(&mut w, "/api/config", Some(&token), &exported.body);
     assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
     assert_eq!(get(&mut w, "/api/config").json(), doc);
+    // A text that is no protocol message (a PLC may store one; it can
+    // never be sent) is named by the import, which then applies nothing.
+    w.set(r::trigger_text(5), &text_words(b"GrpStop,0,;\""));
+    let bad = get(&mut w, "/api/config");
+    let a = post(&mut w, "/api/config", Some(&token), &bad.body);
+    assert_eq!(a.status, 400);
+    assert_eq!(a.json()["errors"]["TRIG5"], "not a protocol message");
 }
 
 #[test]
@@ -942,4 +949,46 @@ fn every_error_answer_is_valid_json_however_long() {
     let e = a.json();
     assert_eq!(e["ok"], false);
     assert!(!e["errors"].as_object().unwrap().is_empty());
+}
+
+/// The registers of a text, two characters each (the first in the high
+/// byte).
+fn text_words(t: &[u8]) -> Vec<u16> {
+    t.chunks(2)
+        .map(|c| u16::from(c[0]) << 8 | u16::from(*c.get(1).unwrap_or(&0)))
+        .collect()
+}
+
+#[test]
+fn an_export_imports_whatever_the_plc_wrote_in_a_trigger_text() {
+    let mut w = world();
+    let token = set_password(&mut w);
+    // A PLC stores texts the page's JSON must escape: quotes, a backslash.
+    let texts: [&[u8]; 3] = [
+        br#"RAW,"quoted, with commas",;"#,
+        br#"RAW,C:\dir\"file",;"#,
+        br#"RAW,"\\",;"#,
+    ];
+    for (i, t) in texts.iter().enumerate() {
+        w.set(r::trigger_text(i), &text_words(t));
+    }
+    let exported = get(&mut w, "/api/config");
+    let doc = exported.json();
+    for (i, t) in texts.iter().enumerate() {
+        assert_eq!(doc["triggers"][i].as_str().unwrap().as_bytes(), *t);
+    }
+    // Changed, then the export imported: every text back as it was.
+    for i in 0..texts.len() {
+        w.set(r::trigger_text(i), &text_words(b"GrpReset,0,;"));
+    }
+    let a = post(&mut w, "/api/config", Some(&token), &exported.body);
+    assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+    assert_eq!(get(&mut w, "/api/config").json(), doc);
+    // A text that is no protocol message (a PLC may store one; it can
+    // never be sent) is named by the import, which then applies nothing.
+    w.set(r::trigger_text(5), &text_words(b"GrpStop,0,;\""));
+    let bad = get(&mut w, "/api/config");
+    let a = post(&mut w, "/api/config", Some(&token), &bad.body);
+    assert_eq!(a.status, 400);
+    assert_eq!(a.json()["errors"]["TRIG5"], "not a protocol message");
 }

@@ -60,8 +60,9 @@ fn saved_json(outcome: SaveOutcome, restart_pending: bool) -> Json {
 /// The settings of an import: name and text, in the order given.
 struct Settings<'a>(heapless::Vec<(&'a str, &'a str), { SETTINGS.len() }>);
 
-/// The trigger entries of an import.
-struct Triggers<'a>(heapless::Vec<&'a str, TRIGGERS>);
+/// The trigger entries of an import, unescaped (a PLC may have stored
+/// quotes or backslashes, which the export escapes).
+struct Triggers(heapless::Vec<Field<TRIGGER_TEXT>, TRIGGERS>);
 
 fn plain<E: de::Error>(s: &str) -> Result<&str, E> {
     // Without an unescape buffer the reader hands strings over as written:
@@ -93,24 +94,24 @@ impl<'de: 'a, 'a> Deserialize<'de> for Settings<'a> {
     }
 }
 
-impl<'de: 'a, 'a> Deserialize<'de> for Triggers<'a> {
+impl<'de> Deserialize<'de> for Triggers {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V<'a>(core::marker::PhantomData<&'a ()>);
-        impl<'de: 'a, 'a> Visitor<'de> for V<'a> {
-            type Value = Triggers<'a>;
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Triggers;
             fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
                 f.write_str("an array of 16 trigger texts")
             }
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
                 let mut v = heapless::Vec::new();
-                while let Some(t) = seq.next_element::<&'a str>()? {
-                    v.push(plain(t)?)
+                while let Some(t) = seq.next_element::<Field<TRIGGER_TEXT>>()? {
+                    v.push(t)
                         .map_err(|_| de::Error::custom("more than 16 trigger entries"))?;
                 }
                 Ok(Triggers(v))
             }
         }
-        d.deserialize_seq(V(core::marker::PhantomData))
+        d.deserialize_seq(V)
     }
 }
 
@@ -122,8 +123,8 @@ struct ConfigDoc<'a> {
     format: Option<&'a str>,
     #[serde(borrow, default)]
     settings: Option<Settings<'a>>,
-    #[serde(borrow, default)]
-    triggers: Option<Triggers<'a>>,
+    #[serde(default)]
+    triggers: Option<Triggers>,
 }
 
 /// Problems found in a posted configuration, as `{"ok":false,"errors":
@@ -229,7 +230,10 @@ pub(crate) fn read_config(
     body: &[u8],
     base: &Config,
 ) -> Result<(Config, Option<[Text<TRIGGER_TEXT>; TRIGGERS]>), Json> {
-    let doc = match serde_json_core::from_slice::<ConfigDoc<'_>>(body) {
+    // Strings with escapes are unescaped here (one at a time): trigger
+    // texts may hold quotes and backslashes.
+    let mut unescape = [0u8; TRIGGER_TEXT];
+    let doc = match serde_json_core::from_slice_escaped::<ConfigDoc<'_>>(body, &mut unescape) {
         Ok((d, _)) => d,
         Err(e) => {
             let mut reason: heapless::String<96> = heapless::String::new();
@@ -251,7 +255,8 @@ pub(crate) fn read_config(
     if let Some(t) = &doc.triggers {
         let mut all = [Text::EMPTY; TRIGGERS];
         for (i, (slot, text)) in all.iter_mut().zip(&t.0).enumerate() {
-            match check_trigger(text) {
+            let text = core::str::from_utf8(&text.0).map_err(|_| "not UTF-8");
+            match text.and_then(check_trigger) {
                 Ok(v) => *slot = v,
                 Err(e) => {
                     let mut key: heapless::String<8> = heapless::String::new();
@@ -778,6 +783,7 @@ mod tests {
             br#"{"settings":{"link.poll_ms":50}}"#,
             br#"{"settings":{},"extra":1}"#,
             br#"{"triggers":["a\"b"]}"#,
+            br#"{"settings":{"robot.address":"10.0.0.\u0031"}}"#,
             br#"{"format":"other"}"#,
         ] {
             assert!(
