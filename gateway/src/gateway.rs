@@ -63,6 +63,11 @@ pub struct Options {
     /// device reads it. `None`: no administrator can be created (until a
     /// restart with a code).
     pub setup_code: Option<SetupCode>,
+    /// The wall clock, Unix seconds now (`None`: not set), where the
+    /// platform has one (Linux: the host's clock). The audit log's records
+    /// carry it; without it they have only the uptime until a time server
+    /// answers.
+    pub wall_clock: Option<fn() -> Option<u64>>,
 }
 
 /// A robot address given at start (host `--robot` / `--robot-listen`). It
@@ -108,6 +113,7 @@ impl Default for Options {
             web_port: 0,
             restart: None,
             setup_code: None,
+            wall_clock: None,
         }
     }
 }
@@ -210,7 +216,7 @@ impl Gateway {
         let datasheet = crate::datasheet::run(hub, clock, net.socket(&mut ds_rx, &mut ds_tx));
         #[cfg(not(feature = "datasheet"))]
         let datasheet = core::future::pending::<Infallible>();
-        let saver = storage_task(hub, &mut storage);
+        let saver = storage_task(hub, clock, &mut storage);
         #[cfg(feature = "web")]
         let web = crate::web::Web::new(self.opts.seed, self.opts.setup_code, self.opts.restart);
         #[cfg(feature = "web")]
@@ -242,9 +248,14 @@ impl Gateway {
     /// its locals are off the stack once it returns.
     #[inline(never)]
     pub async fn load<C: Clock, S: Storage>(&self, storage: &mut S, clock: &C) {
+        // The audit log first: the boot counter follows its newest record.
+        #[cfg(feature = "audit")]
+        let boot = crate::audit::keep::restore(&self.hub.audit, storage).await;
         let stored = storage.load().await;
         let opts = &self.opts;
         let now = clock.now();
+        #[cfg(feature = "audit")]
+        let mut how = crate::audit::keep::Loaded::Nothing;
         self.hub.with(|m| {
             let loaded = match stored {
                 Ok([]) => {
@@ -258,20 +269,34 @@ impl Gateway {
                 ) {
                     Ok(stored) => {
                         info!("config: loaded from storage");
+                        #[cfg(feature = "audit")]
+                        {
+                            how = crate::audit::keep::Loaded::Image(image::crc32(image));
+                        }
                         m.access.accounts = stored.accounts;
                         Some(stored.config)
                     }
                     Err(e) => {
                         warn!("config: stored image refused ({}), using defaults", e.as_str());
+                        #[cfg(feature = "audit")]
+                        {
+                            how = crate::audit::keep::Loaded::Refused(e.as_str());
+                        }
                         None
                     }
                 },
                 Err(_) => {
                     warn!("config: storage read failed, using defaults");
+                    #[cfg(feature = "audit")]
+                    {
+                        how = crate::audit::keep::Loaded::Unreadable;
+                    }
                     None
                 }
             };
             let mut config = loaded.unwrap_or(opts.defaults);
+            #[cfg(feature = "audit")]
+            let before_recovery = config;
             if opts.recovery {
                 warn!("config: recovery start: factory network and access settings for this run");
                 config = config.with_network_of(&opts.defaults);
@@ -300,6 +325,18 @@ impl Gateway {
             m.config.active = config;
             m.config.edit = None;
             m.plc.last_beat = now;
+            #[cfg(feature = "audit")]
+            crate::audit::keep::started(
+                &self.hub.audit,
+                &crate::audit::keep::Start {
+                    boot,
+                    loaded: how,
+                    recovery: opts.recovery.then_some((&before_recovery, &config)),
+                    triggers: &m.triggers.entries,
+                    wall_clock: opts.wall_clock,
+                },
+                now,
+            );
         });
     }
 }
@@ -339,15 +376,54 @@ impl Image for Current<'_> {
 /// neither imports the other): waits for save requests, has the medium write the
 /// image of the configuration and trigger table as they are now, and
 /// reports the result. One save at a time (the hub serializes requests).
-async fn storage_task<S: Storage>(hub: &Hub, storage: &mut S) -> Infallible {
+/// With the audit log (feature `audit`) it also keeps the log's records on
+/// the medium, between saves, and stamps new records with their time.
+#[cfg(not(feature = "audit"))]
+async fn storage_task<S: Storage, C: Clock>(hub: &Hub, _clock: &C, storage: &mut S) -> Infallible {
     loop {
         hub.save_request.wait().await;
-        let result = storage.save(&Current(hub)).await;
-        let result = match (result, storage.is_persistent()) {
-            (Ok(()), true) => SaveOutcome::Saved,
-            (Ok(()), false) => SaveOutcome::NotPersistent,
-            (Err(e), _) => SaveOutcome::Failed(e),
-        };
-        hub.save_done.signal(result);
+        save(hub, storage).await;
     }
+}
+
+/// The storage task (see the version without the feature `audit`).
+#[cfg(feature = "audit")]
+async fn storage_task<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut S) -> Infallible {
+    use embassy_futures::select::{select, Either};
+    // The stamper apart: a slow flash operation of the work does not
+    // delay a record's time.
+    let stamper = crate::audit::keep::stamper(&hub.audit, clock);
+    match select(stamper, storage_work(hub, clock, storage)).await {
+        Either::First(never) | Either::Second(never) => never,
+    }
+}
+
+/// The storage task's work with the audit log: a save when asked, and the
+/// log's records kept between saves.
+#[cfg(feature = "audit")]
+async fn storage_work<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut S) -> Infallible {
+    use embassy_futures::select::{select, Either};
+    let log = &hub.audit;
+    loop {
+        let job = select(
+            hub.save_request.wait(),
+            crate::audit::keep::wait_work(log, clock),
+        );
+        if let Either::First(()) = job.await {
+            save(hub, storage).await;
+        }
+        crate::audit::keep::keep(log, clock, storage).await;
+    }
+}
+
+/// Saves the configuration and trigger table as they are, and answers the
+/// request.
+async fn save<S: Storage>(hub: &Hub, storage: &mut S) {
+    let result = storage.save(&Current(hub)).await;
+    let result = match (result, storage.is_persistent()) {
+        (Ok(()), true) => SaveOutcome::Saved,
+        (Ok(()), false) => SaveOutcome::NotPersistent,
+        (Err(e), _) => SaveOutcome::Failed(e),
+    };
+    hub.save_done.signal(result);
 }

@@ -9,6 +9,8 @@
 
 extern crate std;
 
+#[cfg(feature = "audit")]
+pub mod audit_file;
 pub mod config_file;
 
 use core::net::{Ipv4Addr, SocketAddrV4};
@@ -311,12 +313,22 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         web_port: bound.web.map_or(0, |w| w.port()),
         restart: None,
         setup_code: None,
+        #[cfg(feature = "audit")]
+        wall_clock: Some(audit_file::unix_now),
+        #[cfg(not(feature = "audit"))]
+        wall_clock: None,
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;
     match &opts.config_file {
         Some(p) => {
             let storage = FileStorage::with_defaults(p.clone(), opts.defaults);
+            // The audit log beside the configuration file.
+            #[cfg(feature = "audit")]
+            let storage = crate::storage::WithAudit {
+                config: storage,
+                audit: audit_file::AuditFile::beside(p),
+            };
             tokio::select! {
                 _ = crate::gateway::run(&net, &clock, storage, options) => {}
                 _ = stop => {}

@@ -12,6 +12,7 @@
 //! | a session (a PLC write) | engine | `job_queued`: a job was queued |
 //! | a session (`CONFIG_COMMAND` 1), the page | engine | `config_applied` (a `Watch<Config>`): the configuration now in use |
 //! | a session (`CONFIG_COMMAND` 1) | storage task | `save_request`, answered by `save_done` ([`SaveOutcome`]) |
+//! | anyone (feature `audit`) | storage task | `audit`: records for the audit log ([`Hub::audit`]; changes, refusals are recorded here) |
 //!
 //! Views: [`Hub::read_registers`] (Modbus) encodes registers from the
 //! model; other views call [`Hub::with`] and read the typed values.
@@ -25,6 +26,8 @@ use embassy_sync::signal::Signal;
 use embassy_sync::watch::{Receiver, Watch};
 use embassy_time::Instant;
 
+#[cfg(feature = "audit")]
+use crate::audit::{Event, Interface, Log, Who};
 use crate::clock::Clock;
 use crate::config::{Config, ConfigResult};
 use crate::modbus::{Pending, Registers, Slots};
@@ -53,6 +56,9 @@ pub struct Hub {
     /// The Modbus sessions: applying a configuration closes those its
     /// allow-list no longer permits.
     pub(crate) modbus_slots: Slots,
+    /// The audit log (the storage task keeps its records).
+    #[cfg(feature = "audit")]
+    pub(crate) audit: Log,
 }
 
 impl Hub {
@@ -66,7 +72,17 @@ impl Hub {
             save_done: Signal::new(),
             config_lock: embassy_sync::mutex::Mutex::new(()),
             modbus_slots: Slots::new(),
+            #[cfg(feature = "audit")]
+            audit: Log::new(),
         }
+    }
+
+    /// Records `event` in the audit log (the accounts' and the page's
+    /// events; see `crate::audit`): at once, never blocking.
+    #[cfg(feature = "audit")]
+    #[allow(dead_code)] // the accounts' hooks (being written) call it
+    pub(crate) fn audit(&self, event: Event<'_>) {
+        self.audit.record(event)
     }
 
     /// Runs `f` on the state. Never call it from inside `f`.
@@ -97,6 +113,14 @@ impl Hub {
     ) -> Result<Option<u16>, WriteError> {
         let (queued, command) = self.with(|m| {
             let ev = view::write(m, start, values)?;
+            // A trigger text written: in use at once, so recorded at once.
+            #[cfg(feature = "audit")]
+            if usize::from(start) + values.len()
+                > usize::from(crate::registers::map::TRIG_TEXT_BASE)
+            {
+                self.audit
+                    .triggers_changed(&m.triggers.entries, &Who::modbus(None));
+            }
             Ok::<_, WriteError>((plc::apply(m, &ev, now), ev.config_command))
         })?;
         if queued {
@@ -109,7 +133,21 @@ impl Hub {
     /// storage task), discard, or defaults.
     pub async fn config_command(&self, cmd: u16) -> Result<(), WriteError> {
         let _one_at_a_time = self.config_lock.lock().await;
-        match self.with(|m| plc::config_command(m, cmd)) {
+        let step = self.with(|m| {
+            #[cfg(feature = "audit")]
+            let before = m.config.active;
+            let step = plc::config_command(m, cmd);
+            // The client's address is not known here (the session's):
+            // recorded without one.
+            #[cfg(feature = "audit")]
+            if step == ConfigStep::Save {
+                let who = Who::modbus(None);
+                self.audit.config_changed(&before, &m.config.active, &who);
+                self.audit.triggers_changed(&m.triggers.entries, &who);
+            }
+            step
+        });
+        match step {
             ConfigStep::Done => Ok(()),
             ConfigStep::Invalid(_) => Err(WriteError::Value),
             ConfigStep::Locked => Err(WriteError::Protected),
@@ -133,8 +171,35 @@ impl Hub {
         &self,
         f: impl FnOnce(&mut Model) -> Result<bool, E>,
     ) -> Result<SaveOutcome, E> {
+        #[cfg(feature = "audit")]
+        return self.change_by(Who::web(b"", None), f).await;
+        #[cfg(not(feature = "audit"))]
+        {
+            let _one_at_a_time = self.config_lock.lock().await;
+            if self.with(f)? {
+                self.announce_config();
+            }
+            Ok(self.save_locked().await)
+        }
+    }
+
+    /// [`Self::change`] by `who` (the page's account and client): each
+    /// setting and trigger entry it changes is recorded in the audit log.
+    #[cfg(feature = "audit")]
+    pub(crate) async fn change_by<E>(
+        &self,
+        who: Who<'_>,
+        f: impl FnOnce(&mut Model) -> Result<bool, E>,
+    ) -> Result<SaveOutcome, E> {
         let _one_at_a_time = self.config_lock.lock().await;
-        if self.with(f)? {
+        let changed = self.with(|m| {
+            let before = m.config.active;
+            let changed = f(m)?;
+            self.audit.config_changed(&before, &m.config.active, &who);
+            self.audit.triggers_changed(&m.triggers.entries, &who);
+            Ok(changed)
+        })?;
+        if changed {
             self.announce_config();
         }
         Ok(self.save_locked().await)
@@ -193,6 +258,8 @@ impl Hub {
             };
             if !ok {
                 m.access.modbus_refused = m.access.modbus_refused.wrapping_add(1);
+                #[cfg(feature = "audit")]
+                self.audit.refused(Interface::Modbus, peer.map(|p| *p.ip()));
                 return None;
             }
             m.sessions = m.sessions.saturating_add(1);
@@ -240,6 +307,8 @@ impl Hub {
             };
             if !ok {
                 m.access.web_refused = m.access.web_refused.wrapping_add(1);
+                #[cfg(feature = "audit")]
+                self.audit.refused(Interface::Web, peer.map(|p| *p.ip()));
             }
             ok
         })

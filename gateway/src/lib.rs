@@ -26,6 +26,7 @@
 //! | `datasheet` | the status from the DataSheet port (feature `datasheet`) |
 //! | [`config`] | the configuration and the table of its settings (network and allow-lists included) |
 //! | `access` | the web password (salted hash), web sessions, the rate limit of wrong passwords |
+//! | `audit` | the audit log: who changed what, from where, when (feature `audit`) |
 //! | [`storage`] | the stored image, the storage task, RAM and flash storage |
 //! | `clock` | time: embassy-time on boards and Linux, a virtual clock in tests |
 //! | `net` | the socket interface and its adapters |
@@ -69,6 +70,7 @@
 //! * `defmt`: log through defmt.
 //! * `flash`: [`storage::flash::FlashStorage`] (sequential-storage over a
 //!   `NorFlash`).
+//! * `audit` (with `web`): the audit log, `audit`, kept by the storage.
 //! * `testkit`: [`testkit`], the virtual world of the tests, simulations
 //!   and fuzz targets (needs `std`).
 // The gateway is one future of nested futures (engine, sessions, web
@@ -101,6 +103,8 @@ extern crate std;
 mod fmt;
 
 pub(crate) mod access;
+#[cfg(feature = "audit")]
+pub(crate) mod audit;
 #[cfg(feature = "embassy-net")]
 pub mod board;
 pub(crate) mod clock;

@@ -355,6 +355,9 @@ pub struct Config {
     /// The web page's status, configuration and logs are read without a
     /// login (off: an account is needed for everything).
     pub read_without_login: bool,
+    /// The NTP server whose time the audit log's records carry (boards);
+    /// `0.0.0.0` = none.
+    pub ntp_server: Ipv4Addr,
 }
 
 impl Config {
@@ -410,6 +413,7 @@ impl Config {
         mqtt_broker: HostName::EMPTY,
         web_host: HostName::EMPTY,
         read_without_login: true,
+        ntp_server: Ipv4Addr::UNSPECIFIED,
     };
 
     /// This configuration with the network and access settings of `other`

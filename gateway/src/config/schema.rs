@@ -703,9 +703,21 @@ setting!(ACCESS_READ_WITHOUT_LOGIN, "access.read_without_login", 29, Kind::Flag,
     "the page shows the status, configuration and logs without a login; off: every page and API needs an account (viewer or above)", false,
     |c| Value::Flag(c.read_without_login), |c, v| c.read_without_login = flag(v));
 
+setting!(
+    NETWORK_NTP_SERVER,
+    "network.ntp_server",
+    30,
+    Kind::Address,
+    "",
+    "NTP server whose time the audit log's records carry (boards; Linux uses the host's clock); 0.0.0.0 = none",
+    false,
+    |c| Value::Address(c.ntp_server),
+    |c, v| c.ntp_server = address(v)
+);
+
 /// Every setting, in the order the views list them (a group's settings
 /// together).
-pub const SETTINGS: [&Setting; 29] = [
+pub const SETTINGS: [&Setting; 30] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -729,6 +741,7 @@ pub const SETTINGS: [&Setting; 29] = [
     &NETWORK_DHCP,
     &NETWORK_MODBUS_PORT,
     &NETWORK_WEB_PORT,
+    &NETWORK_NTP_SERVER,
     &ACCESS_WRITE_PROTECT,
     &ACCESS_MODBUS_ALLOW,
     &ACCESS_WEB_ALLOW,

@@ -1079,6 +1079,7 @@ impl<'a, C: Clock> Engine<'a, C> {
             m.plc.watchdog_tripped = true;
             m.plc.watchdog_trips = m.plc.watchdog_trips.wrapping_add(1);
         });
+        watchdog::audit_trip(self.hub, &self.config, mo.jog.is_some());
         #[cfg(feature = "v6")]
         if let Some(j) = mo.jog {
             // A jog stops whatever the action says: it runs only while the

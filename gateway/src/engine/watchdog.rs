@@ -17,6 +17,7 @@ use embassy_time::{Duration, Instant};
 
 use super::motion::Motion;
 use crate::clock::millis;
+use crate::hub::Hub;
 
 /// The instant the watchdog expires for `motion`, if it watches it
 /// (`period_ms` > 0 and it has not acted on it yet).
@@ -31,6 +32,37 @@ pub(crate) fn deadline(motion: &Motion, last_beat: Instant, period_ms: u16) -> O
 /// `true` when the watchdog expired at `now`.
 pub(crate) fn expired(motion: &Motion, last_beat: Instant, period_ms: u16, now: Instant) -> bool {
     deadline(motion, last_beat, period_ms).is_some_and(|d| now >= d)
+}
+
+/// Records a trip in the audit log (feature `audit`; else nothing): the
+/// period the heartbeat was missed for and what the watchdog does (`jog`:
+/// a jog, which stops whatever the action says).
+pub(crate) fn audit_trip(hub: &Hub, config: &crate::config::Config, jog: bool) {
+    #[cfg(feature = "audit")]
+    let period_ms = match config.watchdog_ms {
+        0 if jog => super::jog::HEARTBEAT,
+        p => p,
+    };
+    #[cfg(feature = "audit")]
+    hub.audit.add(
+        crate::audit::Kind::Watchdog,
+        &crate::audit::Who::SYSTEM,
+        |d| {
+            use core::fmt::Write;
+            let _ = write!(
+                d,
+                "PLC heartbeat unchanged for {period_ms} ms during a motion; "
+            );
+            if jog {
+                d.push(b"jog stopped");
+            } else {
+                d.push(b"action ");
+                let _ = crate::config::schema::WATCHDOG_ACTION.format(config, d);
+            }
+        },
+    );
+    #[cfg(not(feature = "audit"))]
+    let _ = (hub, config, jog);
 }
 
 #[cfg(test)]

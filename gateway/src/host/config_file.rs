@@ -81,6 +81,7 @@
 //! | `network.dhcp` | NET_DHCP | `true` / `false` |
 //! | `network.modbus_port` | NET_MODBUS_PORT | integer |
 //! | `network.web_port` | NET_WEB_PORT | integer, 0 = no web page |
+//! | `network.ntp_server` | (none) | `"a.b.c.d"`, `"0.0.0.0"` = none (boards; Linux uses the host's clock) |
 //! | `access.write_protect` | CFG_WRITE_PROTECT | `true` / `false` |
 //! | `access.modbus_allow` | MODBUS_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `access.web_allow` | WEB_ALLOW | `["a.b.c.d/prefix", ...]` |

@@ -15,6 +15,13 @@
 //!   new image.
 //! * `FileStorage` in [`crate::host`] (feature `std`): a file, replaced
 //!   atomically (write, fsync, rename, fsync the directory).
+//!
+//! The same medium keeps the audit log's records (feature `audit`, see
+//! `crate::audit`): [`Storage::audit_append`] and [`Storage::audit_read`],
+//! by default not kept. The flash storage keeps them in a ring of its own
+//! sectors ([`flash::FlashStorage::with_audit`]); on Linux [`WithAudit`]
+//! joins the configuration file and the audit file
+//! (`host::audit_file::AuditFile`).
 
 #[cfg(feature = "flash")]
 pub mod flash;
@@ -60,6 +67,28 @@ pub trait Storage {
     fn is_persistent(&self) -> bool {
         true
     }
+
+    /// Calls `each` with every audit record kept (the bytes
+    /// [`Storage::audit_append`] was given), oldest first: the gateway reads
+    /// them at start (the boot counter, the page's newest records).
+    /// Default: none are kept.
+    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        let _ = each;
+        Ok(())
+    }
+
+    /// Keeps one audit record (at most 128 bytes) so that it survives a
+    /// restart and a power cut (a cut loses at most this record); when
+    /// the medium is full the oldest records go. Default: not kept.
+    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        let _ = record;
+        Ok(())
+    }
+
+    /// `true` if audit records are kept ([`Storage::audit_append`]).
+    fn audit_persistent(&self) -> bool {
+        false
+    }
 }
 
 impl<S: Storage> Storage for &mut S {
@@ -71,6 +100,57 @@ impl<S: Storage> Storage for &mut S {
     }
     fn is_persistent(&self) -> bool {
         (**self).is_persistent()
+    }
+    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        (**self).audit_read(each).await
+    }
+    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        (**self).audit_append(record).await
+    }
+    fn audit_persistent(&self) -> bool {
+        (**self).audit_persistent()
+    }
+}
+
+/// A medium for audit records alone (the Linux file), joined to the
+/// configuration's medium by [`WithAudit`]. The methods are those of
+/// [`Storage`] of the same names.
+// The futures are deliberately not `Send` (single-threaded executors).
+#[allow(async_fn_in_trait)]
+pub trait AuditStore {
+    /// Calls `each` with every record kept, oldest first.
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError>;
+    /// Keeps one record, durably; when full, the oldest go.
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError>;
+}
+
+/// The configuration in `config`, the audit records in `audit`.
+#[derive(Debug)]
+pub struct WithAudit<S, A> {
+    /// The configuration's medium.
+    pub config: S,
+    /// The audit records' medium.
+    pub audit: A,
+}
+
+impl<S: Storage, A: AuditStore> Storage for WithAudit<S, A> {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        self.config.load().await
+    }
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        self.config.save(image).await
+    }
+    fn is_persistent(&self) -> bool {
+        self.config.is_persistent()
+    }
+    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        self.audit.read(each).await
+    }
+    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        self.audit.append(record).await
+    }
+    fn audit_persistent(&self) -> bool {
+        true
     }
 }
 

@@ -50,6 +50,8 @@ pub struct MemStorage {
     pub data: Rc<RefCell<Vec<u8>>>,
     /// Saves fail while set.
     pub fail: Rc<Cell<bool>>,
+    /// The audit records kept, oldest first (no limit).
+    pub audit: Rc<RefCell<Vec<Vec<u8>>>>,
     copy: Vec<u8>,
 }
 
@@ -68,6 +70,25 @@ impl Storage for MemStorage {
         buf.truncate(n);
         *self.data.borrow_mut() = buf;
         Ok(())
+    }
+
+    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        for r in self.audit.borrow().iter() {
+            each(r);
+        }
+        Ok(())
+    }
+
+    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        if self.fail.get() {
+            return Err(StorageError::Io);
+        }
+        self.audit.borrow_mut().push(record.to_vec());
+        Ok(())
+    }
+
+    fn audit_persistent(&self) -> bool {
+        true
     }
 }
 

@@ -31,6 +31,7 @@
 
 pub(crate) mod api;
 pub(crate) mod assets;
+pub(crate) mod audit;
 pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
@@ -501,6 +502,8 @@ pub(crate) enum Reply {
     Close(StatusCode, Json),
     /// Answer, then restart the device.
     Restart(Json),
+    /// The audit log's export ([`audit`]).
+    Audit(audit::Format),
 }
 
 /// `{"error":"..."}`, the text cut to fit: always valid JSON (an escaped
@@ -610,6 +613,8 @@ impl<C: Clock> App<'_, C> {
                     _ => Doc::Log,
                 })
             }
+            // role: viewer (as /api/config for now).
+            "/api/audit" if get => self.audit(&request.parts),
             "/api/session" if get => Reply::Json(
                 StatusCode::OK,
                 self.session_json(self.peek_who(&request.parts)),
@@ -823,6 +828,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     .write_to(c, w)
                     .await
             }
+            Reply::Audit(f) => audit::write(self.hub, self.clock, f, head, c, w).await,
             Reply::Restart(j) => {
                 let sent = Response::new(StatusCode::ACCEPTED, json_body(&j))
                     .with_headers(SECURITY_HEADERS)

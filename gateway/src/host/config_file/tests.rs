@@ -66,6 +66,7 @@ fn full() -> Contents {
         mqtt_broker: crate::config::HostName::new("broker.plant.local").unwrap(),
         web_host: crate::config::HostName::new("gw-cell-7.plant.local").unwrap(),
         read_without_login: false,
+        ntp_server: ip(10, 0, 0, 123),
     });
     for (name, role) in [("admin", Role::Admin), ("line.3_op", Role::Operator)] {
         c.stored

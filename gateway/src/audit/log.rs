@@ -1,0 +1,510 @@
+//! The log the gateway writes to: the newest records in RAM, the ones
+//! waiting to be kept, the refused connections being counted, and the time
+//! of the records.
+//!
+//! Writing never blocks and never fails: a record goes into the ring of the
+//! newest [`RING`] at once (under a blocking mutex held for the copy). The
+//! ring is also the queue of records waiting for the storage task: a record
+//! with a sequence number from `keep_from` on is not kept yet. When a new
+//! record would push out one that is not kept yet (the medium is slower
+//! than the events, for [`RING`] records), that one is lost and counted;
+//! once a record is kept again, a [`Kind::Lost`] record says how many.
+//!
+//! Time: a record is made without its time, and the storage task's
+//! stamper (which has the clock, see `keep`) stamps it with the uptime and
+//! the wall time at once (it runs on the same executor, woken by the
+//! record: the same instant in the tests' virtual time, microseconds on a
+//! board). So a hook needs no clock, only the hub.
+
+use core::cell::RefCell;
+use core::fmt::Write;
+use core::net::Ipv4Addr;
+
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embassy_sync::signal::Signal;
+use embassy_time::{Duration, Instant};
+
+use super::record::{Interface, Kind, Record, Short, DETAIL_MAX, RECORD_MAX};
+use super::{AccountChange, Event, Who};
+use crate::config::{Config, SETTINGS};
+use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
+use crate::storage::image::crc32;
+
+/// Records kept in RAM (the page's newest, and the queue of those waiting
+/// to be kept): 64 of ~136 bytes.
+pub(crate) const RING: usize = 64;
+/// Bytes of each value (old, new) in a configuration change's detail: a
+/// longer one is cut and ends in `...` (allow-lists, host names).
+pub(crate) const VALUE_MAX: usize = 24;
+/// The first period refused connections are counted over, per interface.
+pub(crate) const REFUSED_PERIOD: Duration = Duration::from_secs(60);
+/// The longest period: while refusals go on, each period is twice the one
+/// before, up to this (a storm of refused connections writes at most one
+/// record an hour per interface, and cannot push the other records out of
+/// the flash ring).
+pub(crate) const REFUSED_PERIOD_MAX: Duration = Duration::from_secs(3600);
+
+/// Where wall time comes from.
+#[derive(Clone, Copy)]
+enum Wall {
+    /// Not known (a board without a time server).
+    Unknown,
+    /// The host's clock (Linux): Unix seconds, or `None` if it is unset.
+    Host(fn() -> Option<u64>),
+    /// Set at instant `at` to `unix` (a time server).
+    Set { unix: u64, at: Instant },
+}
+
+/// Refused connections of one interface, counted over a period.
+#[derive(Clone, Copy)]
+struct Refusals {
+    /// Refused in this period.
+    count: u32,
+    /// The last refused address.
+    last: Option<Ipv4Addr>,
+    /// When the period started (the first refusal's stamp); `None`:
+    /// not started (or its first refusal not stamped yet).
+    since: Option<Instant>,
+    /// Its length.
+    period: Duration,
+    /// When the last period ended.
+    ended: Option<Instant>,
+}
+
+impl Refusals {
+    const NONE: Refusals = Refusals {
+        count: 0,
+        last: None,
+        since: None,
+        period: REFUSED_PERIOD,
+        ended: None,
+    };
+}
+
+struct Inner {
+    ring: heapless::Deque<Record, RING>,
+    next_seq: u32,
+    boot: u32,
+    /// The first record without its time.
+    stamp_from: u32,
+    /// The first record not kept yet.
+    keep_from: u32,
+    /// Records lost before they were kept, not reported yet.
+    lost: u32,
+    /// The storage keeps records (else nothing waits, nothing is lost).
+    keeping: bool,
+    wall: Wall,
+    /// Modbus, web.
+    refused: [Refusals; 2],
+    /// CRC of each trigger entry as last recorded.
+    triggers: [u32; TRIGGERS],
+}
+
+/// The audit log (see the module documentation). One lives in the hub.
+pub(crate) struct Log {
+    inner: Mutex<NoopRawMutex, RefCell<Inner>>,
+    /// Wakes the stamper: something waits for its time.
+    fresh: Signal<NoopRawMutex, ()>,
+    /// Wakes the storage task: stamped records wait to be kept, or a
+    /// refusal period started.
+    stamped: Signal<NoopRawMutex, ()>,
+}
+
+impl Default for Log {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Writes a setting's value into a short text.
+fn value(s: &crate::config::Setting, c: &Config) -> Short<VALUE_MAX> {
+    let mut v = Short::EMPTY;
+    let _ = s.format(c, &mut v);
+    v
+}
+
+impl Log {
+    /// An empty log (boot 0 until the start, see `keep::restore`).
+    pub(crate) const fn new() -> Self {
+        Log {
+            inner: Mutex::new(RefCell::new(Inner {
+                ring: heapless::Deque::new(),
+                next_seq: 1,
+                boot: 0,
+                stamp_from: 1,
+                keep_from: 1,
+                lost: 0,
+                keeping: false,
+                wall: Wall::Unknown,
+                refused: [Refusals::NONE; 2],
+                triggers: [0; TRIGGERS],
+            })),
+            fresh: Signal::new(),
+            stamped: Signal::new(),
+        }
+    }
+
+    fn with<R>(&self, f: impl FnOnce(&mut Inner) -> R) -> R {
+        self.inner.lock(|i| f(&mut i.borrow_mut()))
+    }
+
+    /// Records an event of `kind` by `who`, with the detail `detail`
+    /// writes (cut at [`DETAIL_MAX`] bytes).
+    pub(crate) fn add(
+        &self,
+        kind: Kind,
+        who: &Who<'_>,
+        detail: impl FnOnce(&mut Short<DETAIL_MAX>),
+    ) {
+        let mut r = Record {
+            kind,
+            actor: Short::new(who.actor),
+            interface: who.interface,
+            from: who.from,
+            ..Record::EMPTY
+        };
+        detail(&mut r.detail);
+        self.with(|i| i.push(r));
+        self.fresh.signal(());
+    }
+
+    /// Records `event` (the accounts' and the page's events: see the
+    /// module documentation).
+    pub(crate) fn record(&self, event: Event<'_>) {
+        match event {
+            Event::Login { name, ok, from } => {
+                let kind = if ok { Kind::Login } else { Kind::LoginFailed };
+                self.add(kind, &Who::web(name, from), |_| {});
+            }
+            Event::Logout { name, from } => self.add(Kind::Logout, &Who::web(name, from), |_| {}),
+            Event::Account {
+                name,
+                change,
+                by,
+                from,
+            } => {
+                let kind = match change {
+                    AccountChange::Created { .. } => Kind::AccountCreated,
+                    AccountChange::Removed => Kind::AccountRemoved,
+                    AccountChange::Role { .. } => Kind::AccountRole,
+                    AccountChange::Password => Kind::AccountPassword,
+                };
+                self.add(kind, &Who::web(by, from), |d| {
+                    d.push(name);
+                    if let AccountChange::Created { role } | AccountChange::Role { role } = change {
+                        let _ = write!(d, ", role {role}");
+                    }
+                });
+            }
+            Event::Restart { who } => self.add(Kind::Restart, &who, |_| {}),
+            Event::Firmware { who, detail } => {
+                self.add(Kind::Firmware, &who, |d| d.push(detail.as_bytes()))
+            }
+        }
+    }
+
+    /// Records each setting that differs between `before` and `after`:
+    /// `key: old -> new` (each value cut at [`VALUE_MAX`] bytes).
+    pub(crate) fn config_changed(&self, before: &Config, after: &Config, who: &Who<'_>) {
+        if before == after {
+            return;
+        }
+        for s in SETTINGS.iter().filter(|s| s.get(before) != s.get(after)) {
+            let (old, new) = (value(s, before), value(s, after));
+            self.add(Kind::Config, who, |d| {
+                let _ = write!(d, "{}: {} -> {}", s.key, old.as_str(), new.as_str());
+            });
+        }
+    }
+
+    /// Takes `entries` as the trigger table in use without recording
+    /// anything (at start).
+    pub(crate) fn triggers_are(&self, entries: &[Text<TRIGGER_TEXT>; TRIGGERS]) {
+        self.with(|i| {
+            for (c, e) in i.triggers.iter_mut().zip(entries) {
+                *c = crc32(e.bytes());
+            }
+        });
+    }
+
+    /// Records each trigger entry that changed since it was last recorded
+    /// (`triggers.N = new text`, cut; the old text is not kept).
+    pub(crate) fn triggers_changed(&self, entries: &[Text<TRIGGER_TEXT>; TRIGGERS], who: &Who<'_>) {
+        for (n, e) in entries.iter().enumerate() {
+            let crc = crc32(e.bytes());
+            let changed = self.with(|i| match i.triggers.get_mut(n) {
+                Some(c) if *c != crc => {
+                    *c = crc;
+                    true
+                }
+                _ => false,
+            });
+            if changed {
+                self.add(Kind::Config, who, |d| {
+                    let _ = write!(d, "triggers.{n} = ");
+                    d.push(e.bytes());
+                });
+            }
+        }
+    }
+
+    /// A connection through `interface` (Modbus or web) from `peer` was
+    /// refused: counted, recorded once per period ([`REFUSED_PERIOD`]).
+    pub(crate) fn refused(&self, interface: Interface, peer: Option<Ipv4Addr>) {
+        let first = self.with(|i| {
+            let Some(r) = i.refused.get_mut(refusal_index(interface)) else {
+                return false;
+            };
+            r.count = r.count.saturating_add(1);
+            r.last = peer.or(r.last);
+            r.count == 1
+        });
+        if first {
+            // The stamper starts the period.
+            self.fresh.signal(());
+        }
+    }
+
+    /// The wall clock is the host's (Linux): `now` gives Unix seconds.
+    pub(crate) fn use_host_clock(&self, now: fn() -> Option<u64>) {
+        self.with(|i| i.wall = Wall::Host(now));
+    }
+
+    /// The wall clock was set to `unix` (Unix seconds) at `at` (a time
+    /// server): recorded when it was not known or moved by more than a
+    /// second.
+    #[allow(dead_code)] // used by the SNTP client (not yet written)
+    pub(crate) fn set_wall_time(&self, unix: u64, at: Instant, source: Option<Ipv4Addr>) {
+        let before = self.with(|i| {
+            let before = i.wall_at(at);
+            i.wall = Wall::Set { unix, at };
+            before
+        });
+        let moved = before.map(|b| unix as i64 - i64::from(b));
+        if moved.is_none_or(|m| m.abs() > 1) {
+            let who = Who {
+                from: source,
+                ..Who::SYSTEM
+            };
+            self.add(Kind::Time, &who, |d| match moved {
+                Some(m) => {
+                    let _ = write!(d, "set by a time server, moved by {m} s");
+                }
+                None => d.push(b"set by a time server (was unknown)"),
+            });
+        }
+    }
+
+    /// Stamps the records (and the refusal periods) waiting for their time
+    /// with `now`, and wakes the storage task.
+    pub(crate) fn stamp(&self, now: Instant) {
+        self.with(|i| {
+            let wall = i.wall_at(now);
+            let from = i.stamp_from;
+            for r in i.ring.iter_mut().filter(|r| r.seq >= from) {
+                r.uptime_ms = now.as_millis();
+                r.wall = wall;
+            }
+            i.stamp_from = i.next_seq;
+            for r in i.refused.iter_mut().filter(|r| r.count > 0) {
+                if r.since.is_none() {
+                    // Quiet for a whole period: back to the first period.
+                    if r.ended.is_none_or(|e| now >= e + r.period) {
+                        r.period = REFUSED_PERIOD;
+                    }
+                    r.since = Some(now);
+                }
+            }
+        });
+        self.stamped.signal(());
+    }
+
+    /// Waits until something waits for its time.
+    pub(crate) async fn wait_fresh(&self) {
+        self.fresh.wait().await
+    }
+
+    /// Waits until stamped records wait to be kept (or the refusal periods
+    /// changed).
+    pub(crate) async fn wait_stamped(&self) {
+        self.stamped.wait().await
+    }
+
+    /// When the next refusal period ends.
+    pub(crate) fn refusals_due(&self) -> Option<Instant> {
+        self.with(|i| {
+            i.refused
+                .iter()
+                .filter_map(|r| r.since.map(|s| s + r.period))
+                .min()
+        })
+    }
+
+    /// Ends the refusal periods due at `now`, with a record each (stamped
+    /// `now`).
+    pub(crate) fn end_refusal_periods(&self, now: Instant) {
+        for interface in [Interface::Modbus, Interface::Web] {
+            let ended = self.with(|i| {
+                let r = i.refused.get_mut(refusal_index(interface))?;
+                let since = r.since.filter(|s| *s + r.period <= now)?;
+                let counted = (r.count, r.last, now - since);
+                r.count = 0;
+                r.since = None;
+                r.ended = Some(now);
+                r.period = (r.period * 2).min(REFUSED_PERIOD_MAX);
+                Some(counted)
+            });
+            if let Some((count, last, over)) = ended {
+                let who = Who {
+                    actor: b"",
+                    interface,
+                    from: last,
+                };
+                self.add(Kind::Refused, &who, |d| {
+                    let _ = write!(
+                        d,
+                        "{count} connections refused in {} s (allow-list)",
+                        over.as_secs()
+                    );
+                });
+            }
+        }
+        self.stamp(now);
+    }
+
+    /// The oldest stamped record not kept yet, written into `out`: its
+    /// sequence number and length.
+    pub(crate) fn next_to_keep(&self, out: &mut [u8; RECORD_MAX]) -> Option<(u32, usize)> {
+        self.with(|i| {
+            let (from, to) = (i.keep_from, i.stamp_from);
+            let r = i.ring.iter().find(|r| r.seq >= from && r.seq < to)?;
+            Some((r.seq, r.emit(out)))
+        })
+    }
+
+    /// Record `seq` was kept (`ok`) or could not be (then it is counted as
+    /// lost, and `false` says: stop for now, the medium fails). After a
+    /// record is kept, records lost before are reported (a
+    /// [`Kind::Lost`] record).
+    pub(crate) fn kept(&self, seq: u32, ok: bool) -> bool {
+        let lost = self.with(|i| {
+            i.keep_from = i.keep_from.max(seq.wrapping_add(1));
+            if !ok {
+                i.lost = i.lost.saturating_add(1);
+                return 0;
+            }
+            core::mem::take(&mut i.lost)
+        });
+        if lost > 0 {
+            self.add(Kind::Lost, &Who::SYSTEM, |d| {
+                let _ = write!(d, "{lost} records lost (the medium was full or failed)");
+            });
+        }
+        ok
+    }
+
+    /// Starts the log once the kept records were read back (`restore`):
+    /// the boot counter follows the newest kept record's, and so does the
+    /// sequence number; records are kept from now on if `keeping`. Returns
+    /// the boot counter.
+    pub(crate) fn start(&self, keeping: bool) -> u32 {
+        self.with(|i| {
+            let newest = i.ring.iter().map(|r| (r.boot, r.seq)).max();
+            i.boot = newest.map_or(1, |(b, _)| b.wrapping_add(1));
+            let seq = i
+                .ring
+                .iter()
+                .map(|r| r.seq)
+                .max()
+                .map_or(1, |s| s.wrapping_add(1));
+            i.next_seq = seq;
+            i.stamp_from = seq;
+            i.keep_from = seq;
+            i.keeping = keeping;
+            i.boot
+        })
+    }
+
+    /// Puts a kept record (read back at start) into the ring, as kept.
+    pub(crate) fn restore(&self, r: Record) {
+        self.with(|i| {
+            if i.ring.is_full() {
+                i.ring.pop_front();
+            }
+            let _ = i.ring.push_back(r);
+        });
+    }
+
+    /// The oldest stamped record with a sequence number from `from` to
+    /// `to` (a copy: the page reads the ring one record at a time).
+    pub(crate) fn copy(&self, from: u32, to: u32) -> Option<Record> {
+        self.with(|i| {
+            let stamped = i.stamp_from;
+            i.ring
+                .iter()
+                .find(|r| r.seq >= from && r.seq <= to && r.seq < stamped)
+                .copied()
+        })
+    }
+
+    /// The newest stamped record's sequence number, the boot counter, and
+    /// how many records the ring holds.
+    pub(crate) fn summary(&self) -> (Option<u32>, u32, usize) {
+        self.with(|i| {
+            let newest = i
+                .ring
+                .iter()
+                .rev()
+                .find(|r| r.seq < i.stamp_from)
+                .map(|r| r.seq);
+            (newest, i.boot, i.ring.len())
+        })
+    }
+
+    /// Wall time at `now` (Unix seconds), if known.
+    pub(crate) fn wall_at(&self, now: Instant) -> Option<u32> {
+        self.with(|i| i.wall_at(now))
+    }
+}
+
+/// Which counter of [`Inner::refused`] an interface has (web: 1, else 0).
+fn refusal_index(interface: Interface) -> usize {
+    usize::from(interface == Interface::Web)
+}
+
+impl Inner {
+    /// Adds a record: its sequence number and boot counter are given here;
+    /// the oldest goes when the ring is full (lost if it was not kept).
+    fn push(&mut self, mut r: Record) {
+        r.seq = self.next_seq;
+        r.boot = self.boot;
+        self.next_seq = self.next_seq.wrapping_add(1);
+        if self.ring.is_full() {
+            if let Some(old) = self.ring.pop_front() {
+                if self.keeping && old.seq >= self.keep_from {
+                    self.lost = self.lost.saturating_add(1);
+                    self.keep_from = old.seq.wrapping_add(1);
+                }
+            }
+        }
+        if !self.keeping {
+            // Nothing is kept: nothing waits.
+            self.keep_from = self.next_seq;
+        }
+        // Cannot fail: there is room now.
+        let _ = self.ring.push_back(r);
+    }
+
+    /// Wall time at `now` (Unix seconds, up to 2106), if known.
+    fn wall_at(&self, now: Instant) -> Option<u32> {
+        let unix = match self.wall {
+            Wall::Unknown => None,
+            Wall::Host(f) => f(),
+            Wall::Set { unix, at } => {
+                Some(unix.saturating_add(now.saturating_duration_since(at).as_secs()))
+            }
+        }?;
+        u32::try_from(unix).ok().filter(|&u| u != 0)
+    }
+}
