@@ -13,6 +13,7 @@ extern crate std;
 pub mod audit_file;
 pub mod config_file;
 
+use core::convert::Infallible;
 use core::net::{Ipv4Addr, SocketAddrV4};
 use std::io;
 use std::path::PathBuf;
@@ -20,6 +21,7 @@ use std::string::{String, ToString};
 use std::sync::mpsc;
 use std::thread;
 
+use crate::access::setup::SetupCode;
 use crate::clock::SystemClock;
 use crate::gateway::{Options, RobotOverride};
 use crate::net::tokio::TokioNet;
@@ -68,13 +70,22 @@ impl FileStorage {
         }
     }
 
-    /// Writes `bytes` to the file, durably (see the type's documentation).
+    /// Writes `bytes` to the file, durably (see the type's documentation),
+    /// readable and writable by its owner only (mode 0600): the file may
+    /// hold password hashes. The temporary file is created anew with that
+    /// mode (one left over by a crash is removed first), and the rename
+    /// puts it in place of the old file, so an existing file with looser
+    /// permissions has 0600 after the write.
     pub fn write_durably(path: &std::path::Path, bytes: &[u8]) -> io::Result<()> {
         use std::io::Write;
         let mut tmp = std::ffi::OsString::from(path.as_os_str());
         tmp.push(".tmp");
         let tmp = PathBuf::from(tmp);
-        let mut f = std::fs::File::create(&tmp)?;
+        match std::fs::remove_file(&tmp) {
+            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+        let mut f = create_private(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
@@ -85,6 +96,17 @@ impl FileStorage {
         };
         std::fs::File::open(dir)?.sync_all()
     }
+}
+
+/// Creates `path`, which must not exist (a symbolic link there is not
+/// followed), for writing, readable and writable by its owner only: the
+/// mode is set at creation, so the contents are never readable by others.
+fn create_private(path: &std::path::Path) -> io::Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create_new(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    options.open(path)
 }
 
 impl Storage for FileStorage {
@@ -154,6 +176,11 @@ pub struct HostOptions {
     pub defaults: crate::Config,
     /// Serve the web page here (port 0 = any free port); `None`: no page.
     pub web_listen: Option<SocketAddrV4>,
+    /// The one-time code for creating the first administrator
+    /// ([`Options::setup_code`]); the caller shows it where only someone
+    /// at the machine reads it (`hans-gateway` makes a new one at each
+    /// start, from [`os_random`]). `None`: no administrator can be created.
+    pub setup_code: Option<SetupCode>,
 }
 
 impl HostOptions {
@@ -166,6 +193,7 @@ impl HostOptions {
             config_file: None,
             defaults: crate::Config::default(),
             web_listen: None,
+            setup_code: None,
         }
     }
 }
@@ -246,6 +274,30 @@ impl RunningGateway {
         self.bound.web
     }
 
+    /// Blocks until the gateway ends, which it does only when it fails:
+    /// its thread panicked (a bug, or the system refused it something it
+    /// cannot do without, such as a thread for the file work of a save).
+    /// The error says why. Its sockets are closed then and nothing is
+    /// served any more: a process that runs the gateway should exit with a
+    /// failure status, so that a supervisor restarts it (`hans-gateway`
+    /// exits with status 101).
+    pub fn wait(mut self) -> io::Result<Infallible> {
+        // `self.stop` stays alive while joining: dropping it would stop
+        // the gateway.
+        let why = match self.thread.take().map(|t| t.join()) {
+            None | Some(Ok(())) => String::from("the gateway's thread ended"),
+            Some(Err(panic)) => {
+                let message = panic
+                    .downcast_ref::<&str>()
+                    .copied()
+                    .or_else(|| panic.downcast_ref::<String>().map(String::as_str))
+                    .unwrap_or("(no message)");
+                std::format!("the gateway's thread panicked: {message}")
+            }
+        };
+        Err(io::Error::other(why))
+    }
+
     /// Stops the gateway and waits for its thread.
     pub fn stop(mut self) {
         self.shutdown();
@@ -312,7 +364,7 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         seed: os_seed(),
         web_port: bound.web.map_or(0, |w| w.port()),
         restart: None,
-        setup_code: None,
+        setup_code: opts.setup_code,
         #[cfg(feature = "audit")]
         wall_clock: Some(audit_file::unix_now),
         #[cfg(not(feature = "audit"))]
@@ -344,15 +396,19 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
     }
 }
 
-/// 32 bytes from the operating system's random source (`/dev/urandom`),
+/// Fills `buf` from the operating system's random source (`/dev/urandom`).
+pub fn os_random(buf: &mut [u8]) -> io::Result<()> {
+    use std::io::Read;
+    std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(buf))
+}
+
+/// 32 bytes from the operating system's random source ([`os_random`]),
 /// the seed of web session tokens and password salts. Should it be
 /// unreadable, the time and the process id are used, with a warning:
 /// tokens are then guessable by someone who knows when the gateway started.
 pub fn os_seed() -> [u8; 32] {
-    use std::io::Read;
     let mut seed = [0u8; 32];
-    let read = std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut seed));
-    if read.is_err() {
+    if os_random(&mut seed).is_err() {
         log::warn!("no /dev/urandom: web session tokens are seeded from the clock");
         let t = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
@@ -362,4 +418,97 @@ pub fn os_seed() -> [u8; 32] {
         seed[16..20].copy_from_slice(&std::process::id().to_le_bytes());
     }
     seed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+    use std::path::Path;
+    use std::vec::Vec;
+
+    /// An image given as bytes.
+    struct Bytes(Vec<u8>);
+
+    impl Image for Bytes {
+        fn write(&self, out: &mut [u8]) -> Result<usize, StorageError> {
+            let n = self.0.len();
+            out.get_mut(..n)
+                .ok_or(StorageError::TooLarge)?
+                .copy_from_slice(&self.0);
+            Ok(n)
+        }
+    }
+
+    fn mode(path: &Path) -> u32 {
+        std::fs::metadata(path)
+            .expect("the file")
+            .permissions()
+            .mode()
+            & 0o777
+    }
+
+    fn set_mode(path: &Path, mode: u32) {
+        std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).expect("chmod");
+    }
+
+    /// A fresh directory in the temporary directory, removed when dropped.
+    struct TempDir(PathBuf);
+
+    impl TempDir {
+        fn new(name: &str) -> TempDir {
+            let nanos = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_nanos())
+                .unwrap_or(0);
+            let dir = std::env::temp_dir().join(std::format!(
+                "hans-gw-host-{}-{nanos}-{name}",
+                std::process::id()
+            ));
+            std::fs::create_dir(&dir).expect("a temporary directory");
+            TempDir(dir)
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// The "secure by default" issue: the configuration file holds password
+    /// hashes, and was created with the process's umask (0644: readable by
+    /// every local user), and a rewrite kept it so. A save creates it 0600,
+    /// and leaves an existing 0644 file 0600, also over a leftover
+    /// temporary file that was 0644.
+    #[test]
+    fn a_saved_configuration_file_is_readable_by_its_owner_only() {
+        let dir = TempDir::new("mode");
+        let old = dir.0.join("old.toml");
+        std::fs::write(&old, "[link]\npoll_ms = 40\n").expect("write the file");
+        set_mode(&old, 0o644);
+        let leftover = dir.0.join("old.toml.tmp");
+        std::fs::write(&leftover, "left by a crash").expect("write the leftover");
+        set_mode(&leftover, 0o644);
+        let new = dir.0.join("new.toml");
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .expect("runtime");
+        rt.block_on(async {
+            let mut storage = FileStorage::new(&old);
+            let image = Bytes(storage.load().await.expect("load").to_vec());
+            storage.save(&image).await.expect("save over the old file");
+            FileStorage::new(&new)
+                .save(&image)
+                .await
+                .expect("save a new file");
+        });
+        for path in [&old, &new] {
+            assert_eq!(mode(path), 0o600, "{}", path.display());
+            let text = std::fs::read_to_string(path).expect("read back");
+            assert!(text.contains("\npoll_ms = 40\n"), "{text}");
+        }
+        assert!(!leftover.exists(), "renamed into place");
+    }
 }

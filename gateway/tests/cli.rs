@@ -2,13 +2,17 @@
 //! host names for `--robot`, what it says when `--robot` overrides a
 //! saved robot address, and the TOML configuration file (`--config`): a
 //! refused file stops the start, a hand-written one is used, a save writes
-//! TOML that reads back.
+//! TOML that reads back, readable by its owner only; the setup code; the
+//! exit status when the running gateway fails.
 //! Loopback only; every process is killed at the end, also on failure, and
-//! every wait is bounded.
+//! every wait is bounded. Each run has a fresh current directory, and each
+//! file its own directory (the setup code is written beside the
+//! configuration file, or in the current directory).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{Ipv4Addr, TcpListener, TcpStream};
-use std::path::PathBuf;
+use std::os::unix::fs::PermissionsExt;
+use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStderr, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -18,7 +22,7 @@ use hans_gateway::registers::map as reg;
 use hans_gateway::registers::MAP_VERSION;
 use hans_gateway::state::Text;
 use hans_gateway::storage::{image, IMAGE_LEN};
-use hans_gateway::Config;
+use hans_gateway::{Config, SetupCode};
 
 const BIN: &str = env!("CARGO_BIN_EXE_hans-gateway");
 
@@ -36,15 +40,17 @@ struct Ended {
 /// Runs the gateway with `args` until it exits by itself; fails the test
 /// (killing it) if it is still running after [`WAIT`].
 fn run(args: &[&str]) -> Ended {
+    let cwd = TempDir::new("cwd");
     let child = Command::new(BIN)
         .args(args)
+        .current_dir(&cwd.0)
         .env("RUST_LOG", "info")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("run hans-gateway");
-    let mut gw = Running(child);
+    let mut gw = Running(child, cwd);
     let start = Instant::now();
     let status = loop {
         if let Some(status) = gw.0.try_wait().expect("wait for hans-gateway") {
@@ -90,6 +96,10 @@ fn help_and_version_print_to_stdout_and_exit_0() {
         "salted hash",
         "Exit status",
         "RUST_LOG",
+        "--setup-code-file FILE",
+        "setup code",
+        "mode 0600",
+        "101",
     ] {
         assert!(text.contains(needle), "help lacks {needle:?}:\n{text}");
     }
@@ -250,8 +260,9 @@ fn a_robot_name_without_a_port_means_10003() {
     drop(taken);
 }
 
-/// Kills the child when dropped (also when an assertion fails).
-struct Running(Child);
+/// Kills the child when dropped (also when an assertion fails), then
+/// removes its current directory.
+struct Running(Child, TempDir);
 
 impl Drop for Running {
     fn drop(&mut self) {
@@ -260,17 +271,37 @@ impl Drop for Running {
     }
 }
 
-/// A fresh path in the temporary directory (removed when dropped).
-struct TempFile(PathBuf);
+/// A fresh directory in the temporary directory (removed with what it
+/// holds when dropped).
+struct TempDir(PathBuf);
 
-impl TempFile {
-    fn new(name: &str) -> TempFile {
+impl TempDir {
+    fn new(name: &str) -> TempDir {
         let nanos = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map(|d| d.as_nanos())
             .unwrap_or(0);
-        let file = format!("hans-gw-cli-{}-{nanos}-{name}", std::process::id());
-        TempFile(std::env::temp_dir().join(file))
+        let dir = format!("hans-gw-cli-{}-{nanos}-{name}", std::process::id());
+        let dir = std::env::temp_dir().join(dir);
+        std::fs::create_dir(&dir).expect("create a temporary directory");
+        TempDir(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// A fresh path, alone in its own temporary directory (removed when
+/// dropped, with the files written beside it).
+struct TempFile(PathBuf, TempDir);
+
+impl TempFile {
+    fn new(name: &str) -> TempFile {
+        let dir = TempDir::new("dir");
+        TempFile(dir.0.join(name), dir)
     }
 
     fn arg(&self) -> &str {
@@ -278,13 +309,28 @@ impl TempFile {
     }
 }
 
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
-        let mut tmp = self.0.clone().into_os_string();
-        tmp.push(".tmp");
-        let _ = std::fs::remove_file(tmp);
-    }
+/// `path`'s permission bits.
+fn mode(path: &Path) -> u32 {
+    let meta = std::fs::metadata(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    meta.permissions().mode() & 0o777
+}
+
+fn set_mode(path: &Path, mode: u32) {
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode)).expect("chmod");
+}
+
+/// The binary image (the format that older versions wrote and the
+/// gateway still reads) of the configuration `toml` describes.
+fn binary_image(toml: &str) -> Vec<u8> {
+    let file = TempFile::new("source.toml");
+    std::fs::write(&file.0, toml).expect("write the TOML source");
+    let (contents, _) = config_file::read_file(&file.0, &Config::default())
+        .expect("a valid file")
+        .expect("a file");
+    let mut bytes = [0u8; IMAGE_LEN];
+    let n = image::encode(&contents.stored, &contents.triggers, &mut bytes)
+        .expect("room for the image");
+    bytes[..n].to_vec()
 }
 
 /// Finding M6: `--robot` silently replaced a saved robot address. It
@@ -317,13 +363,7 @@ fn robot_on_the_command_line_overrides_a_saved_one_and_says_so() {
 fn a_refused_config_file_stops_the_start_with_its_line_and_status_2() {
     let file = TempFile::new("bad.toml");
     let path = file.arg();
-    let mut damaged = [0u8; IMAGE_LEN];
-    let stored = image::Stored {
-        config: Config::default(),
-        password: None,
-    };
-    let n = image::encode(&stored, &[Text::EMPTY; 16], &mut damaged).expect("room for the image");
-    let damaged = &mut damaged[..n];
+    let mut damaged = binary_image("");
     damaged[50] ^= 1;
     for (contents, want) in [
         (
@@ -404,18 +444,12 @@ fn a_hand_written_config_file_is_used() {
 #[test]
 fn a_save_over_modbus_writes_toml_that_reads_back() {
     let file = TempFile::new("saved.toml");
-    let old = image::Stored {
-        config: Config {
-            poll_ms: 30,
-            ..Config::default()
-        },
-        password: None,
-    };
     let mut triggers = [Text::EMPTY; 16];
     triggers[4].set(b"GrpStop,0,;");
-    let mut bytes = [0u8; IMAGE_LEN];
-    let n = image::encode(&old, &triggers, &mut bytes).expect("room for the image");
-    std::fs::write(&file.0, &bytes[..n]).expect("write the old image");
+    let old = binary_image("[link]\npoll_ms = 30\n\n[triggers]\n4 = \"GrpStop,0,;\"\n");
+    std::fs::write(&file.0, old).expect("write the old image");
+    // Written as every user may read it, as `std::fs::write` makes files.
+    set_mode(&file.0, 0o644);
 
     let args = [
         "--config",
@@ -435,6 +469,9 @@ fn a_save_over_modbus_writes_toml_that_reads_back() {
     drop(gw);
 
     let text = std::fs::read_to_string(&file.0).expect("the file is text now");
+    // It holds password hashes: readable by its owner only ("secure by
+    // default": it was written with the umask's 0644 and kept it).
+    assert_eq!(mode(&file.0), 0o600, "the saved file's permissions");
     for needle in [
         "# hans-gateway configuration (TOML)",
         "\npoll_ms = 60\n",
@@ -485,6 +522,27 @@ fn modbus_addr(log: &Log) -> String {
     let line = log.wait_for("modbus server on ");
     let (_, addr) = line.split_once("modbus server on ").expect("address");
     addr.trim().to_string()
+}
+
+/// The web page's address, from the log.
+fn web_addr(log: &Log) -> String {
+    let line = log.wait_for("web page on http://");
+    let (_, url) = line.split_once("web page on http://").expect("address");
+    url.trim().trim_end_matches('/').to_string()
+}
+
+/// The whole answer (head and body) to `GET path`.
+fn http_get(addr: &str, path: &str) -> Vec<u8> {
+    let mut s = TcpStream::connect(addr).expect("connect to the web page");
+    s.set_read_timeout(Some(WAIT)).expect("timeout");
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
+    )
+    .expect("send");
+    let mut answer = Vec::new();
+    let _ = s.read_to_end(&mut answer);
+    answer
 }
 
 /// One Modbus TCP request (unit 1) and its answer's PDU; an exception
@@ -548,6 +606,20 @@ impl Log {
         }
     }
 
+    /// Every line not matched yet, up to the end of the output (or for
+    /// [`WAIT`]).
+    fn rest(&self) -> Vec<String> {
+        let mut lines = std::mem::take(&mut *self.seen.borrow_mut());
+        let start = Instant::now();
+        while let Ok(line) = self
+            .lines
+            .recv_timeout(WAIT.saturating_sub(start.elapsed()))
+        {
+            lines.push(line);
+        }
+        lines
+    }
+
     /// The first line containing `needle`, among those seen before or
     /// coming; fails the test after [`WAIT`].
     fn wait_for(&self, needle: &str) -> String {
@@ -569,15 +641,23 @@ impl Log {
 
 /// Starts the gateway with `args` (log level info), to run until dropped.
 fn start(args: &[&str]) -> (Running, Log) {
+    start_env(args, &[])
+}
+
+/// [`start`] with more variables in the environment.
+fn start_env(args: &[&str], env: &[(&str, &str)]) -> (Running, Log) {
+    let cwd = TempDir::new("cwd");
     let child = Command::new(BIN)
         .args(args)
+        .current_dir(&cwd.0)
         .env("RUST_LOG", "info")
+        .envs(env.iter().copied())
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .expect("start hans-gateway");
-    let mut gw = Running(child);
+    let mut gw = Running(child, cwd);
     let log = Log::new(gw.0.stderr.take().expect("stderr"));
     (gw, log)
 }
@@ -593,21 +673,8 @@ fn web_listen_serves_the_page_and_the_api() {
         "--web-listen",
         "127.0.0.1:0",
     ]);
-    let line = log.wait_for("web page on http://");
-    let (_, url) = line.split_once("web page on http://").expect("address");
-    let addr = url.trim().trim_end_matches('/').to_string();
-    let get = |path: &str| {
-        let mut s = TcpStream::connect(&addr).expect("connect to the web page");
-        s.set_read_timeout(Some(WAIT)).expect("timeout");
-        write!(
-            s,
-            "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-        )
-        .expect("send");
-        let mut answer = Vec::new();
-        let _ = s.read_to_end(&mut answer);
-        String::from_utf8_lossy(&answer).to_string()
-    };
+    let addr = web_addr(&log);
+    let get = |path: &str| String::from_utf8_lossy(&http_get(&addr, path)).to_string();
     let page = get("/");
     assert!(page.starts_with("HTTP/1.1 200"), "{page}");
     assert!(
@@ -621,4 +688,190 @@ fn web_listen_serves_the_page_and_the_api() {
     let regs = read_registers(&modbus_addr(&log), 50, 1);
     assert_eq!(regs[0] & (1 << 4), 1 << 4);
     drop(gw);
+}
+
+/// The setup code of a `setup code for the first administrator: CODE
+/// (also in FILE)` line, and the rest of the line after it.
+fn shown_setup_code(line: &str) -> (String, String) {
+    let (_, rest) = line
+        .split_once("setup code for the first administrator: ")
+        .expect("the setup code line");
+    let (code, rest) = rest.split_once(' ').expect("a code, then where it is");
+    (code.to_string(), rest.to_string())
+}
+
+/// "Secure by default": the first administrator is created with a one-time
+/// setup code that only someone at the machine can read. Each start makes a
+/// new one, prints it on stderr and writes it to `--setup-code-file`,
+/// readable by its owner only (replacing the file, also one that everyone
+/// could read); the web page and its API never show it.
+#[test]
+fn each_start_writes_a_new_setup_code_for_its_owner_only_and_never_serves_it() {
+    let file = TempFile::new("setup-code");
+    std::fs::write(&file.0, "2222-2222-2222\n").expect("an old code");
+    set_mode(&file.0, 0o644);
+    let mut codes = Vec::new();
+    for _ in 0..2 {
+        let (gw, log) = start(&[
+            "--robot",
+            "127.0.0.1:1",
+            "--modbus-listen",
+            "127.0.0.1:0",
+            "--web-listen",
+            "127.0.0.1:0",
+            "--setup-code-file",
+            file.arg(),
+        ]);
+        let (shown, rest) = shown_setup_code(&log.wait_for("setup code for the first"));
+        assert_eq!(rest, format!("(also in {})", file.arg()));
+        let code = SetupCode::parse(shown.as_bytes()).expect("the code shown parses");
+        assert_eq!(mode(&file.0), 0o600, "the setup code file's permissions");
+        let written = std::fs::read_to_string(&file.0).expect("read the setup code file");
+        assert_eq!(written, format!("{shown}\n"));
+        assert_eq!(SetupCode::parse(written.trim().as_bytes()), Some(code));
+        let addr = web_addr(&log);
+        for path in ["/", "/api/status", "/api/session"] {
+            let answer = http_get(&addr, path);
+            assert!(answer.starts_with(b"HTTP/1.1 "), "{path}: no answer");
+            // (The page itself is compressed: it is a static file, built
+            // with the binary, so it cannot hold a code made at start.)
+            for form in [shown.clone(), shown.replace('-', "")] {
+                assert!(
+                    !answer.windows(form.len()).any(|w| w == form.as_bytes()),
+                    "{path} shows the setup code"
+                );
+            }
+        }
+        codes.push(shown);
+        drop(gw);
+    }
+    assert_ne!(codes[0], codes[1], "a new code at each start");
+}
+
+/// Without `--setup-code-file` the code goes to `setup-code` beside the
+/// `--config` file, or in the current directory without `--config`.
+#[test]
+fn the_setup_code_file_is_beside_the_config_file_or_in_the_current_directory() {
+    let config = TempFile::new("gateway.toml");
+    let beside = config.1 .0.join("setup-code");
+    let (gw, log) = start(&[
+        "--config",
+        config.arg(),
+        "--robot",
+        "127.0.0.1:1",
+        "--modbus-listen",
+        "127.0.0.1:0",
+    ]);
+    let (shown, rest) = shown_setup_code(&log.wait_for("setup code for the first"));
+    assert_eq!(rest, format!("(also in {})", beside.display()));
+    assert_eq!(
+        std::fs::read_to_string(&beside).expect("setup-code beside the configuration file"),
+        format!("{shown}\n")
+    );
+    assert_eq!(mode(&beside), 0o600);
+    drop(gw);
+
+    let (gw, log) = start(&["--robot", "127.0.0.1:1", "--modbus-listen", "127.0.0.1:0"]);
+    let (shown, rest) = shown_setup_code(&log.wait_for("setup code for the first"));
+    assert_eq!(rest, "(also in setup-code)");
+    let here = gw.1 .0.join("setup-code");
+    assert_eq!(
+        std::fs::read_to_string(&here).expect("setup-code in the current directory"),
+        format!("{shown}\n")
+    );
+    assert_eq!(mode(&here), 0o600);
+    drop(gw);
+}
+
+/// Waits until the process `pid` has settled: the same number of threads
+/// and the same virtual memory size (/proc/PID/status) for 500 ms.
+fn settle(pid: u32) {
+    let sample = || {
+        let status =
+            std::fs::read_to_string(format!("/proc/{pid}/status")).expect("the process's status");
+        status
+            .lines()
+            .filter(|l| l.starts_with("Threads:") || l.starts_with("VmSize:"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let start = Instant::now();
+    let mut last = sample();
+    let mut since = Instant::now();
+    while since.elapsed() < Duration::from_millis(500) {
+        assert!(start.elapsed() < WAIT, "not settled after {WAIT:?}: {last}");
+        std::thread::sleep(Duration::from_millis(20));
+        let now = sample();
+        if now != last {
+            last = now;
+            since = Instant::now();
+        }
+    }
+}
+
+/// "Secure by default": a gateway that fails while running ended its thread
+/// and left a live process serving nothing, which a supervisor (systemd's
+/// `Restart=on-failure`) never restarts. It exits with status 101, saying why.
+///
+/// The failure is a real one: the operating system refuses the gateway a
+/// thread. A save (CONFIG_COMMAND 1) writes the file on tokio's blocking
+/// pool, whose first thread is started then; with the process's address
+/// space limited (`prlimit --as`, the soft limit) to 1 MiB, far below what
+/// it already uses, the kernel keeps the memory it has and refuses any new
+/// mapping, such as that thread's stack, and tokio panics in the gateway's
+/// thread.
+#[test]
+fn a_gateway_that_fails_while_running_exits_101() {
+    let file = TempFile::new("gateway.toml");
+    let (mut gw, log) = start_env(
+        &[
+            "--config",
+            file.arg(),
+            "--robot",
+            "127.0.0.1:1",
+            "--modbus-listen",
+            "127.0.0.1:0",
+        ],
+        // The panic message alone: a backtrace would need memory the
+        // limit leaves no room for.
+        &[("RUST_BACKTRACE", "0")],
+    );
+    let modbus = modbus_addr(&log);
+    // The last thing the process does at start.
+    log.wait_for("setup code for the first");
+    // Every thread started and with its memory: a thread that allocated
+    // its first bytes under the limit would end the process (SIGABRT).
+    read_registers(&modbus, reg::CONFIG_POLL_MS, 1);
+    settle(gw.0.id());
+    let limited = Command::new("prlimit")
+        .arg(format!("--pid={}", gw.0.id()))
+        .arg(format!("--as={}:", 1 << 20))
+        .status()
+        .expect("run prlimit (util-linux)");
+    assert!(limited.success(), "prlimit: {limited}");
+    // The save: no answer to wait for, the gateway may fail first.
+    let mut s = TcpStream::connect(&modbus).expect("connect to the Modbus server");
+    let [a, b] = reg::CONTROL_CONFIG_COMMAND.to_be_bytes();
+    s.write_all(&[0, 1, 0, 0, 0, 6, 1, 6, a, b, 0, 1])
+        .expect("send the save");
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = gw.0.try_wait().expect("wait for hans-gateway") {
+            break status;
+        }
+        assert!(
+            start.elapsed() < WAIT,
+            "hans-gateway still running {WAIT:?} after its gateway failed"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(status.code(), Some(101), "{status}: {:#?}", log.rest());
+    let line = log.wait_for("exiting with status 101");
+    assert!(
+        line.starts_with(
+            "hans-gateway: the gateway's thread panicked: OS can't spawn worker thread"
+        ),
+        "{line}"
+    );
+    assert!(!file.0.exists(), "nothing saved");
 }

@@ -8,21 +8,33 @@
 //! ```
 //!
 //! The command line is read by clap; `--help` prints the options, the
-//! configuration file and the exit status ([`AFTER_HELP`]).
+//! configuration file, the setup code and the exit status ([`AFTER_HELP`]).
+//! The process runs until it is stopped by a signal, or until the gateway
+//! fails (status 101, for a supervisor to restart it).
 
 use std::fmt;
+use std::io::Write;
 use std::net::{Ipv4Addr, Ipv6Addr, SocketAddr, SocketAddrV4, ToSocketAddrs};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
 use hans_gateway::host::config_file::{self, Error as FileProblem};
-use hans_gateway::host::{HostOptions, RunningGateway};
+use hans_gateway::host::{os_random, FileStorage, HostOptions, RunningGateway};
 use hans_gateway::registers::MAP_VERSION;
+use hans_gateway::{SetupCode, SETUP_CODE_LEN};
 
 /// The robot controller's command port, used when `--robot` names none.
 const ROBOT_PORT: u16 = 10003;
+
+/// The setup code's file name, beside the configuration file (or in the
+/// current directory) unless `--setup-code-file` names another.
+const SETUP_CODE_FILE: &str = "setup-code";
+
+/// The exit status when the running gateway fails (a panic: Rust's own
+/// status for one).
+const FAILED_RUNNING: u8 = 101;
 
 /// The forms of the command line, in `--help` and after every usage error
 /// (lines after the first are indented under clap's `Usage: `).
@@ -45,10 +57,18 @@ out of range is refused, one line per problem on stderr
   hans-gateway: FILE:LINE:COLUMN: reason
 and the gateway exits with status 2 (it never runs on silent defaults). A save
 (CONFIG_COMMAND 1) rewrites the whole file atomically; comments added by hand are not
-kept. A binary image written by an older version is still read, and written as TOML at
+kept. The file is written readable by its owner only (mode 0600), also over a file that
+was not. A binary image written by an older version is still read, and written as TOML at
 the next save. --robot or --robot-listen override the robot setting saved in the file
 for this run (a warning in the log says so); the other saved settings are kept. One of
 --robot, --robot-listen or --config FILE is needed.
+
+The setup code: at each start the gateway makes a new one-time code from the operating
+system's random source, prints it on stderr
+  hans-gateway: setup code for the first administrator: ABCD-EFGH-JKMN (also in FILE)
+and writes it to the --setup-code-file FILE (readable by its owner only, replaced at each
+start). Creating the first administrator account asks for it: it proves that whoever
+creates it can read the machine's log or files. It is never served on the network.
 
 HOST is an IPv4 address or a host name. A name is resolved once, at start, to its first
 IPv4 address (the gateway speaks IPv4 only); the log shows the address used.
@@ -57,10 +77,12 @@ The register map for PLC programmers is REGISTERS.md beside the crate's Cargo.to
 Logs go to stderr (RUST_LOG=debug for more). SIGINT or SIGTERM stops the gateway.
 
 Exit status:
-  0  --help or --version
-  1  the gateway could not start (a host name does not resolve to an IPv4 address,
-     an address cannot be bound, the configuration file cannot be read)
-  2  bad command line, or a configuration file that is refused (FILE:LINE:COLUMN: reason)";
+  0    --help or --version
+  1    the gateway could not start (a host name does not resolve to an IPv4 address,
+       an address cannot be bound, the configuration file cannot be read)
+  2    bad command line, or a configuration file that is refused (FILE:LINE:COLUMN: reason)
+  101  the gateway failed while running (the line before says why): nothing is served any
+       more, start it again (systemd: Restart=on-failure, gateway/dist/hans-gateway.service)";
 
 /// The command line.
 #[derive(Parser, Debug)]
@@ -99,6 +121,12 @@ struct Cli {
     /// applies them but reports CONFIG_RESULT 3 (not saved).
     #[arg(long, value_name = "FILE", verbatim_doc_comment)]
     config: Option<PathBuf>,
+    /// Write the one-time setup code (for creating the first
+    /// administrator; a new one at each start) to FILE, readable by
+    /// its owner only. Default: setup-code beside the --config FILE,
+    /// or in the current directory without --config.
+    #[arg(long, value_name = "FILE", verbatim_doc_comment)]
+    setup_code_file: Option<PathBuf>,
     /// Print this help and exit.
     #[arg(short, long, action = ArgAction::HelpLong, verbatim_doc_comment)]
     help: Option<bool>,
@@ -221,6 +249,59 @@ fn command_line() -> Cli {
     cli
 }
 
+/// Where the setup code is written: `--setup-code-file`, else
+/// [`SETUP_CODE_FILE`] beside the configuration file, else in the current
+/// directory.
+fn setup_code_path(cli: &Cli) -> PathBuf {
+    if let Some(path) = &cli.setup_code_file {
+        return path.clone();
+    }
+    match cli.config.as_deref().and_then(Path::parent) {
+        Some(dir) => dir.join(SETUP_CODE_FILE),
+        None => PathBuf::from(SETUP_CODE_FILE),
+    }
+}
+
+/// A new setup code from the operating system's random source; `None`
+/// (no administrator can be created, said in the log) if it cannot be
+/// read: a code from the clock could be guessed.
+fn new_setup_code() -> Option<SetupCode> {
+    let mut random = [0u8; SETUP_CODE_LEN];
+    match os_random(&mut random) {
+        Ok(()) => Some(SetupCode::from_random(random)),
+        Err(e) => {
+            log::error!(
+                "no setup code (the random source /dev/urandom: {e}): no administrator can be created in this run"
+            );
+            None
+        }
+    }
+}
+
+/// Writes `code` to `path` (readable by its owner only, replacing the code
+/// of the run before) and prints it on stderr, whatever the log level.
+/// A file that cannot be written is said in the same line: the code is
+/// still shown there.
+fn publish_setup_code(code: &SetupCode, path: &Path) {
+    let line = match FileStorage::write_durably(path, format!("{code}\n").as_bytes()) {
+        Ok(()) => format!(
+            "setup code for the first administrator: {code} (also in {})",
+            path.display()
+        ),
+        Err(e) => format!(
+            "setup code for the first administrator: {code} (not written to {}: {e})",
+            path.display()
+        ),
+    };
+    say(&line);
+}
+
+/// A line on stderr, `hans-gateway: ` first; a failure to write it is
+/// ignored (there is nowhere else to say it).
+fn say(line: &str) {
+    let _ = writeln!(std::io::stderr(), "hans-gateway: {line}");
+}
+
 /// Resolves the addresses of the command line (host names too).
 fn host_options(cli: Cli) -> Result<HostOptions, String> {
     let resolve = |option: &str, e: &Endpoint| -> Result<SocketAddrV4, String> {
@@ -251,6 +332,7 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
             .transpose()?,
         config_file: cli.config,
         defaults: hans_gateway::Config::default(),
+        setup_code: None,
     })
 }
 
@@ -291,20 +373,23 @@ fn main() -> ExitCode {
     if let Err(code) = check_config_file(&cli) {
         return code;
     }
+    let code_file = setup_code_path(&cli);
     // A name that does not resolve is an environment the gateway cannot
     // start in (DNS not up yet, a missing hosts entry), like a port that
     // cannot be bound: status 1, which a supervisor may retry; the command
     // line itself was well formed.
-    let opts = match host_options(cli) {
+    let mut opts = match host_options(cli) {
         Ok(o) => o,
         Err(e) => {
             eprintln!("hans-gateway: {e}");
             return ExitCode::FAILURE;
         }
     };
+    opts.setup_code = new_setup_code();
     if let Some(a) = opts.robot {
         log::info!("robot controller at {a}");
     }
+    let setup_code = opts.setup_code;
     let gw = match RunningGateway::start(opts) {
         Ok(g) => g,
         Err(e) => {
@@ -319,10 +404,22 @@ fn main() -> ExitCode {
     if let Some(a) = gw.web_addr() {
         log::info!("web page on http://{a}/");
     }
+    // Shown once the gateway runs: a start that fails shows no code.
+    if let Some(code) = &setup_code {
+        publish_setup_code(code, &code_file);
+    }
     // Runs until the process is stopped (SIGINT/SIGTERM end it; sockets
-    // are closed by the OS).
-    loop {
-        std::thread::park();
+    // are closed by the OS), or until the gateway fails: then the process
+    // must end too, with a failure status for a supervisor to restart it,
+    // rather than live on serving nothing.
+    match gw.wait() {
+        Ok(never) => match never {},
+        Err(e) => {
+            say(&format!(
+                "{e}: exiting with status {FAILED_RUNNING} (nothing is served any more)"
+            ));
+            ExitCode::from(FAILED_RUNNING)
+        }
     }
 }
 
