@@ -23,6 +23,7 @@ command -v socat >/dev/null || need_apt+=(socat)
 command -v llvm-size >/dev/null || need_apt+=(llvm)
 # Headless Chromium drives the web page in the browser tests (host-tests/web-e2e).
 command -v chromium >/dev/null || need_apt+=(chromium)
+command -v systemd-analyze >/dev/null || need_apt+=(systemd) # checks gateway/dist/hans-gateway.service
 if ((${#need_apt[@]})); then
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"

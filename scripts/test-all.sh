@@ -92,6 +92,7 @@ step "clippy (codec with v6 and defmt)" \
 # the codec and its tests run alone first, then everything else.
 step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-codec -p hans-host-tests --locked
 step "host tests" cargo test --workspace --exclude hans-host-tests --locked
+step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd-unit-test.sh
 
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
