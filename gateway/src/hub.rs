@@ -80,7 +80,7 @@ impl Hub {
     /// Records `event` in the audit log (the accounts' and the page's
     /// events; see `crate::audit`): at once, never blocking.
     #[cfg(feature = "audit")]
-    #[allow(dead_code)] // the accounts' hooks (being written) call it
+    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the page calls it
     pub(crate) fn audit(&self, event: Event<'_>) {
         self.audit.record(event)
     }

@@ -992,3 +992,61 @@ fn an_export_imports_whatever_the_plc_wrote_in_a_trigger_text() {
     assert_eq!(a.status, 400);
     assert_eq!(a.json()["errors"]["TRIG5"], "not a protocol message");
 }
+
+#[test]
+fn the_audit_log_names_who_logged_in_and_changed_what_from_where() {
+    let mut w = world();
+    // No reading it without an account, even with reading without login on.
+    assert_eq!(get(&mut w, "/api/audit").status, 403);
+    let admin = set_password(&mut w);
+    assert_eq!(get(&mut w, "/api/audit").status, 401);
+    assert_eq!(login(&mut w, "admin", "not the password").status, 401);
+    assert_eq!(login(&mut w, "admin", "correct horse").status, 200);
+    let a = post(
+        &mut w,
+        "/api/accounts",
+        Some(&admin),
+        &body(&[
+            ("op", "add"),
+            ("name", "night"),
+            ("role", "viewer"),
+            ("password", "long enough pw"),
+        ]),
+    );
+    assert_eq!(a.status, 200);
+    let a = post(
+        &mut w,
+        "/api/config",
+        Some(&admin),
+        br#"{"settings":{"link.poll_ms":"60"}}"#,
+    );
+    assert_eq!(a.status, 200);
+    w.run_for(ms(100));
+    let log = get_as(&mut w, "/api/audit", &admin).json();
+    let records = log["records"].as_array().expect("records");
+    let find = |kind: &str, actor: &str| {
+        records
+            .iter()
+            .find(|r| r["kind"] == kind && r["actor"] == actor)
+            .unwrap_or_else(|| panic!("no {kind} by {actor} in {records:#?}"))
+    };
+    // The setup's own record, then the viewer's.
+    assert!(find("account-created", "admin")["detail"]
+        .as_str()
+        .unwrap()
+        .starts_with("admin"));
+    let created = records
+        .iter()
+        .find(|r| r["kind"] == "account-created" && r["detail"].as_str().unwrap().contains("night"))
+        .expect("the viewer's creation");
+    assert_eq!(created["actor"], "admin");
+    assert_eq!(created["from"], "10.0.0.50");
+    assert_eq!(find("login-failed", "admin")["from"], "10.0.0.50");
+    find("login", "admin");
+    let config = find("config", "admin");
+    assert_eq!(config["interface"], "web");
+    assert!(
+        config["detail"].as_str().unwrap().contains("link.poll_ms"),
+        "{config}"
+    );
+}

@@ -124,8 +124,7 @@ impl<'a> Who<'a> {
 
 /// An event the accounts and the page record (see the module
 /// documentation for how).
-// Recorded by the accounts and the page (being written): not all are
-// constructed yet.
+// `Firmware` is reserved for the update release (not constructed yet).
 #[allow(dead_code)]
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Event<'a> {
@@ -175,7 +174,7 @@ pub(crate) enum Event<'a> {
 }
 
 /// What changed in an account ([`Event::Account`]).
-#[allow(dead_code)] // see `Event`
+#[cfg_attr(not(feature = "web"), allow(dead_code))] // the page makes them
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum AccountChange<'a> {
     /// Created with this role (`viewer`, `operator`, `admin`).

@@ -38,9 +38,12 @@ pub(crate) enum Format {
 impl<C: Clock> App<'_, C> {
     /// The answer to `GET /api/audit`: for whoever may read the
     /// configuration (see [`reply`]).
+    /// `GET /api/audit`: a session of any account (viewer and up), also
+    /// while reading without login is on: who did what is not for
+    /// everyone who reaches the page.
     pub(super) fn audit(&self, parts: &RequestParts<'_>) -> Reply {
-        match self.may_read(parts) {
-            Ok(()) => reply(parts),
+        match self.require(parts, crate::access::accounts::Role::Viewer) {
+            Ok(_) => reply(parts),
             Err(refused) => refused,
         }
     }

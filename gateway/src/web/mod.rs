@@ -49,10 +49,11 @@ use picoserve::response::{Content, IntoResponse, Response, ResponseWriter, Statu
 use picoserve::routing::PathRouterService;
 use picoserve::{ResponseSent, Router};
 
-use crate::access::accounts::Role;
+use crate::access::accounts::{Role, UserName};
 use crate::access::limit::Limiter;
 use crate::access::session::{Sessions, Token, Who};
 use crate::access::setup::SetupCode;
+use crate::audit::{Event, Who as AuditWho};
 use crate::clock::Clock;
 use crate::hub::Hub;
 use crate::net::{Net, Socket};
@@ -477,6 +478,13 @@ impl<C: Clock> App<'_, C> {
         self.require(parts, Role::Viewer).map(|_| ())
     }
 
+    /// The name of the account of session `who` (gone if it was removed
+    /// meanwhile).
+    pub(crate) fn name_of(&self, who: Who) -> Option<UserName> {
+        self.hub
+            .with(|m| m.access.accounts.at(who.account).map(|a| a.name))
+    }
+
     fn admin_exists(&self) -> bool {
         self.hub.with(|m| m.access.accounts.admin_exists())
     }
@@ -613,7 +621,7 @@ impl<C: Clock> App<'_, C> {
                     _ => Doc::Log,
                 })
             }
-            // role: viewer (as /api/config for now).
+            // role: viewer, always.
             "/api/audit" if get => self.audit(&request.parts),
             "/api/session" if get => Reply::Json(
                 StatusCode::OK,
@@ -622,6 +630,14 @@ impl<C: Clock> App<'_, C> {
             "/api/setup" if post => self.setup(request).await,
             "/api/login" if post => self.login(request).await,
             "/api/logout" if post => {
+                if let Some(who) = self.peek_who(&request.parts) {
+                    let name = self.name_of(who);
+                    let from = self.peer.map(|p| *p.ip());
+                    self.hub.audit(Event::Logout {
+                        name: name.as_ref().map_or(&[][..], |n| n.as_bytes()),
+                        from,
+                    });
+                }
                 if let Some(t) = token(&request.parts) {
                     self.web.sessions.borrow_mut().close(&t);
                 }
@@ -644,13 +660,22 @@ impl<C: Clock> App<'_, C> {
                     || p == "/api/restart"
                     || p.starts_with("/api/trigger/")) =>
             {
-                if let Err(r) = self.require(&request.parts, Role::Admin) {
-                    return r;
-                }
+                let who = match self.require(&request.parts, Role::Admin) {
+                    Ok(w) => w,
+                    Err(r) => return r,
+                };
                 match p {
-                    "/api/config" => self.post_config(request).await,
+                    "/api/config" => self.post_config(who, request).await,
                     "/api/restart" => match self.web.restart {
-                        Some(_) => Reply::Restart(post::ok_json()),
+                        Some(_) => {
+                            let name = self.name_of(who);
+                            let actor = name.as_ref().map_or(&[][..], |n| n.as_bytes());
+                            let from = self.peer.map(|p| *p.ip());
+                            self.hub.audit(Event::Restart {
+                                who: AuditWho::web(actor, from),
+                            });
+                            Reply::Restart(post::ok_json())
+                        }
                         None => error(
                             StatusCode::NOT_IMPLEMENTED,
                             "this gateway cannot restart itself (restart the service)",
@@ -660,7 +685,7 @@ impl<C: Clock> App<'_, C> {
                         let n = p
                             .strip_prefix("/api/trigger/")
                             .and_then(|n| n.parse::<usize>().ok());
-                        self.post_trigger(n, request).await
+                        self.post_trigger(who, n, request).await
                     }
                 }
             }

@@ -16,6 +16,7 @@ use crate::access::accounts::{Account, AccountError, Role, UserName, ACCOUNTS, N
 use crate::access::password::{self, PasswordHash, SALT_LEN};
 use crate::access::session::Who;
 use crate::access::setup::SetupCode;
+use crate::audit::{AccountChange, Event, Who as AuditWho};
 use crate::clock::Clock;
 use crate::config::{schema, Config, Value, SETTINGS};
 use crate::registers::config::{Layout, REGISTERS};
@@ -28,6 +29,15 @@ pub(crate) const FORMAT: &str = "hans-gateway-config-2";
 /// The format of the previous version's exports: settings by register
 /// name (`CFG_POLL_MS`), still imported.
 pub(crate) const FORMAT_1: &str = "hans-gateway-config-1";
+
+/// An account's name for the audit log, or none.
+struct Actor(Option<UserName>);
+
+impl Actor {
+    fn as_bytes(&self) -> &[u8] {
+        self.0.as_ref().map_or(&[][..], UserName::as_bytes)
+    }
+}
 
 /// What a name must be.
 const NAME_RULE: &str = "a name is 1 to 16 of a-z 0-9 . _ - beginning with a letter";
@@ -365,10 +375,27 @@ impl<C: Clock> App<'_, C> {
     }
 
     /// A login (or a wrong current password) for the audit log.
-    fn audit_login(&self, _name: &[u8], _ok: bool, _from: Option<core::net::Ipv4Addr>) {}
+    fn audit_login(&self, name: &[u8], ok: bool) {
+        let from = self.ip();
+        self.hub.audit(Event::Login { name, ok, from });
+    }
 
-    /// An account change for the audit log.
-    fn audit_account(&self, _name: &[u8], _what: &str, _from: Option<core::net::Ipv4Addr>) {}
+    /// A change of account `name` by account `by`, for the audit log.
+    fn audit_account(&self, name: &[u8], change: AccountChange<'_>, by: &[u8]) {
+        let from = self.ip();
+        self.hub.audit(Event::Account {
+            name,
+            change,
+            by,
+            from,
+        });
+    }
+
+    /// The name of session `who`'s account, for the audit log's records
+    /// (`None`: removed meanwhile, recorded as `-`).
+    fn actor(&self, who: Who) -> Actor {
+        Actor(self.name_of(who))
+    }
 
     /// `{"name":…,"password":…}`: opens a session of that account.
     pub(super) async fn login<R: Read>(&self, request: &mut Request<'_, R>) -> Reply {
@@ -413,12 +440,12 @@ impl<C: Clock> App<'_, C> {
                     "web: {} logged in",
                     core::str::from_utf8(name).unwrap_or("?")
                 );
-                self.audit_login(name, true, self.ip());
+                self.audit_login(name, true);
                 Reply::Session(StatusCode::OK, ok_json(), t)
             }
             None => {
                 warn!("web: wrong name or password");
-                self.audit_login(name, false, self.ip());
+                self.audit_login(name, false);
                 error(StatusCode::UNAUTHORIZED, "wrong name or password")
             }
         }
@@ -470,9 +497,12 @@ impl<C: Clock> App<'_, C> {
             Err(r) => return r,
         };
         self.web.limiter.borrow_mut().succeeded(ticket);
+        let existed = self
+            .hub
+            .with(|m| m.access.accounts.get(name.as_bytes()).is_some());
         let saved = self
             .hub
-            .change(|m| {
+            .change_by(AuditWho::web(name.as_bytes(), self.ip()), |m| {
                 let a = &mut m.access.accounts;
                 if a.get(name.as_bytes()).is_some() {
                     a.set_hash(name.as_bytes(), hash)?;
@@ -507,7 +537,12 @@ impl<C: Clock> App<'_, C> {
                     "web: administrator {} created with the setup code",
                     name.as_str()
                 );
-                self.audit_account(name.as_bytes(), "setup", self.ip());
+                let change = if existed {
+                    AccountChange::Password
+                } else {
+                    AccountChange::Created { role: "admin" }
+                };
+                self.audit_account(name.as_bytes(), change, name.as_bytes());
                 Reply::Session(StatusCode::OK, saved_json(saved, false), t)
             }
             (Err(e), _) => error(StatusCode::CONFLICT, e.as_str()),
@@ -545,7 +580,7 @@ impl<C: Clock> App<'_, C> {
         };
         if !acc.hash.verify(bytes(&doc.current)).await {
             warn!("web: wrong password");
-            self.audit_login(acc.name.as_bytes(), false, self.ip());
+            self.audit_login(acc.name.as_bytes(), false);
             return error(StatusCode::UNAUTHORIZED, "wrong password");
         }
         self.web.limiter.borrow_mut().succeeded(ticket);
@@ -555,7 +590,7 @@ impl<C: Clock> App<'_, C> {
         };
         let saved = self
             .hub
-            .change(|m| {
+            .change_by(AuditWho::web(acc.name.as_bytes(), self.ip()), |m| {
                 m.access
                     .accounts
                     .set_hash(acc.name.as_bytes(), hash)
@@ -568,7 +603,11 @@ impl<C: Clock> App<'_, C> {
             s.open(who, self.clock.now())
         };
         info!("web: password of {} changed", acc.name.as_str());
-        self.audit_account(acc.name.as_bytes(), "password", self.ip());
+        self.audit_account(
+            acc.name.as_bytes(),
+            AccountChange::Password,
+            acc.name.as_bytes(),
+        );
         match saved {
             Ok(saved) => Reply::Session(StatusCode::OK, saved_json(saved, false), t),
             Err(e) => error(StatusCode::CONFLICT, e.as_str()),
@@ -604,6 +643,7 @@ impl<C: Clock> App<'_, C> {
         who: Who,
         request: &mut Request<'_, R>,
     ) -> Reply {
+        let admin = self.actor(who);
         let Ok(body) = request.body_connection.body().read_all().await else {
             return error(StatusCode::PAYLOAD_TOO_LARGE, "request too long");
         };
@@ -626,7 +666,7 @@ impl<C: Clock> App<'_, C> {
         let before = self.hub.with(|m| m.access.accounts.index_of(name));
         let result = self
             .hub
-            .change(|m| {
+            .change_by(AuditWho::web(admin.as_bytes(), self.ip()), |m| {
                 let a = &mut m.access.accounts;
                 match (op, role, hash) {
                     (b"add", Some(role), Some(hash)) => {
@@ -669,7 +709,14 @@ impl<C: Clock> App<'_, C> {
                     "web: account {} changed",
                     core::str::from_utf8(name).unwrap_or("?")
                 );
-                self.audit_account(name, core::str::from_utf8(op).unwrap_or("?"), self.ip());
+                let role = role.map_or("", Role::as_str);
+                let change = match op {
+                    b"add" => AccountChange::Created { role },
+                    b"remove" => AccountChange::Removed,
+                    b"role" => AccountChange::Role { role },
+                    _ => AccountChange::Password,
+                };
+                self.audit_account(name, change, admin.as_bytes());
                 Reply::Json(StatusCode::OK, saved_json(saved, false))
             }
             Err(why) => error(StatusCode::BAD_REQUEST, why),
@@ -678,7 +725,12 @@ impl<C: Clock> App<'_, C> {
 
     // The closure's error is the answer (see `read_config`).
     #[allow(clippy::result_large_err)]
-    pub(super) async fn post_config<R: Read>(&self, request: &mut Request<'_, R>) -> Reply {
+    pub(super) async fn post_config<R: Read>(
+        &self,
+        who: Who,
+        request: &mut Request<'_, R>,
+    ) -> Reply {
+        let actor = self.actor(who);
         let Ok(body) = request.body_connection.body().read_all().await else {
             return error(StatusCode::PAYLOAD_TOO_LARGE, "request too long");
         };
@@ -687,7 +739,7 @@ impl<C: Clock> App<'_, C> {
         // trigger texts (3 KiB) stay off the connection's future.
         let saved = self
             .hub
-            .change(|m| {
+            .change_by(AuditWho::web(actor.as_bytes(), self.ip()), |m| {
                 let (new, triggers) = read_config(body, &m.config.active)?;
                 m.config.apply(new);
                 if let Some(t) = triggers {
@@ -710,9 +762,11 @@ impl<C: Clock> App<'_, C> {
 
     pub(super) async fn post_trigger<R: Read>(
         &self,
+        who: Who,
         n: Option<usize>,
         request: &mut Request<'_, R>,
     ) -> Reply {
+        let actor = self.actor(who);
         let Some(n) = n.filter(|&n| n < TRIGGERS) else {
             return error(StatusCode::NOT_FOUND, "no such trigger entry");
         };
@@ -728,7 +782,7 @@ impl<C: Clock> App<'_, C> {
         };
         let saved = self
             .hub
-            .change(|m| {
+            .change_by(AuditWho::web(actor.as_bytes(), self.ip()), |m| {
                 if let Some(e) = m.triggers.entries.get_mut(n) {
                     *e = text;
                 }
