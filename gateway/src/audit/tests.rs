@@ -593,10 +593,30 @@ fn web_world() -> World {
     })
 }
 
+/// Creates the administrator with the setup code; returns the headers of
+/// its session (`Origin`, JSON, the cookie).
+fn admin_session(w: &mut World) -> String {
+    let origin = format!("Origin: http://{HOST}\r\nContent-Type: application/json\r\n");
+    let setup = format!(r#"{{"code":"{SETUP_CODE}","name":"admin","password":"correct horse"}}"#);
+    let (head, _) = http(w, "POST", "/api/setup", &origin, &setup);
+    assert!(head.starts_with("http/1.1 200"), "{head}");
+    let cookie = head
+        .lines()
+        .find_map(|l| l.strip_prefix("set-cookie: "))
+        .and_then(|c| c.split(';').next())
+        .unwrap()
+        .to_string();
+    format!("{origin}Cookie: {cookie}\r\n")
+}
+
 #[test]
 fn the_export_is_json_by_default_and_csv_as_a_download() {
     let mut w = web_world();
-    let (head, body) = http(&mut w, "GET", "/api/audit", "", "");
+    // An account is needed to read it.
+    let (head, _) = http(&mut w, "GET", "/api/audit", "", "");
+    assert!(head.starts_with("http/1.1 403"), "{head}");
+    let session = admin_session(&mut w);
+    let (head, body) = http(&mut w, "GET", "/api/audit", &session, "");
     assert!(head.starts_with("http/1.1 200"), "{head}");
     assert!(head.contains("content-type: application/json"));
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
@@ -611,7 +631,7 @@ fn the_export_is_json_by_default_and_csv_as_a_download() {
     assert!(records[0]["from"].is_null() && records[0]["time"].is_null());
     assert_eq!(records[1]["kind"], "config-loaded");
 
-    let (head, body) = http(&mut w, "GET", "/api/audit?format=csv", "", "");
+    let (head, body) = http(&mut w, "GET", "/api/audit?format=csv", &session, "");
     assert!(head.contains("content-type: text/csv"), "{head}");
     assert!(head.contains("content-disposition: attachment; filename=\"hans-gateway-audit.csv\""));
     let text = String::from_utf8(body).unwrap();
@@ -627,30 +647,20 @@ fn the_export_is_json_by_default_and_csv_as_a_download() {
         lines[2]
     );
 
-    let (head, body) = http(&mut w, "HEAD", "/api/audit?format=csv", "", "");
+    let (head, body) = http(&mut w, "HEAD", "/api/audit?format=csv", &session, "");
     assert!(
         head.starts_with("http/1.1 200") && head.contains("text/csv"),
         "{head}"
     );
     assert!(body.is_empty());
-    let (head, _) = http(&mut w, "GET", "/api/audit?format=xml", "", "");
+    let (head, _) = http(&mut w, "GET", "/api/audit?format=xml", &session, "");
     assert!(head.starts_with("http/1.1 400"), "{head}");
 }
 
 #[test]
 fn a_change_from_the_page_is_recorded_with_its_client() {
     let mut w = web_world();
-    let origin = format!("Origin: http://{HOST}\r\nContent-Type: application/json\r\n");
-    let setup = format!(r#"{{"code":"{SETUP_CODE}","name":"admin","password":"correct horse"}}"#);
-    let (head, _) = http(&mut w, "POST", "/api/setup", &origin, &setup);
-    assert!(head.starts_with("http/1.1 200"), "{head}");
-    let cookie = head
-        .lines()
-        .find_map(|l| l.strip_prefix("set-cookie: "))
-        .and_then(|c| c.split(';').next())
-        .unwrap()
-        .to_string();
-    let headers = format!("{origin}Cookie: {cookie}\r\n");
+    let headers = admin_session(&mut w);
     let (head, _) = http(
         &mut w,
         "POST",
