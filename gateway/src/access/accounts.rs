@@ -67,7 +67,7 @@ impl Role {
     }
 }
 
-/// An account's name: 1 to [`NAME_MAX`] characters, lower-case letters,
+/// An account's name: 1 to 16 characters, lower-case letters,
 /// digits, `.`, `_` and `-`, beginning with a letter (nothing a log, a CSV
 /// file or a page must escape).
 #[derive(Clone, Copy, PartialEq, Eq)]

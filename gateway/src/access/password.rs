@@ -120,7 +120,7 @@ impl PasswordHash {
     }
 
     /// Reads the stored form; `None` if the rounds are 0 or out of reason
-    /// (above 10 × [`ITERATIONS`]: a damaged image must not stall the
+    /// (above 10 × the 10,000 rounds of a new password: a damaged image must not stall the
     /// gateway for minutes at each login).
     pub fn from_bytes(b: &[u8; STORED_LEN]) -> Option<PasswordHash> {
         let (it, rest) = b.split_at(4);
