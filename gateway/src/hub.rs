@@ -10,7 +10,7 @@
 //! | from | to | what |
 //! |---|---|---|
 //! | a session (a PLC write) | engine | `job_queued`: a job was queued |
-//! | a session (`CONFIG_COMMAND` 1), the page | engine | `config_applied` (a `Watch<Config>`): the configuration now in use |
+//! | a session (`CONFIG_COMMAND` 1), the page | engine, web server | `config_applied` (a `Watch<Config>`): the configuration now in use |
 //! | a session (`CONFIG_COMMAND` 1) | storage task | `save_request`, answered by `save_done` ([`SaveOutcome`]) |
 //! | anyone (feature `audit`) | storage task | `audit`: records for the audit log ([`Hub::audit`]; changes, refusals are recorded here) |
 //!
@@ -37,7 +37,7 @@ use crate::state::Model;
 use crate::storage::SaveOutcome;
 
 /// The engine's end of [`Hub::config_applied`].
-pub(crate) type ConfigReceiver<'a> = Receiver<'a, NoopRawMutex, Config, 1>;
+pub(crate) type ConfigReceiver<'a> = Receiver<'a, NoopRawMutex, Config, 2>;
 
 /// Shared state and signals (see the module documentation).
 pub struct Hub {
@@ -45,8 +45,9 @@ pub struct Hub {
     /// Wakes the engine: a job was queued.
     pub(crate) job_queued: Signal<NoopRawMutex, ()>,
     /// The configuration in use, each time one is applied (the engine
-    /// follows it; the model keeps it too, for the views).
-    pub(crate) config_applied: Watch<NoopRawMutex, Config, 1>,
+    /// follows it, the web server closes the connections its allow-list
+    /// no longer permits; the model keeps it too, for the views).
+    pub(crate) config_applied: Watch<NoopRawMutex, Config, 2>,
     /// Asks the storage task to save the configuration and trigger table.
     pub(crate) save_request: Signal<NoopRawMutex, ()>,
     /// The storage task's answer to `save_request`.

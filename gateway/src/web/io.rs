@@ -9,20 +9,33 @@
 //! The write half collects small writes (picoserve writes a header line at
 //! a time) into [`WRITE_BUF`] bytes before they go to the socket.
 //!
+//! The halves also keep the connection's [`Exchange`]: a read that brings
+//! the first byte of a request marks the connection busy (in the server's
+//! [`Slots`](super::slots::Slots)); an answer must be written within
+//! [`ANSWER_DEADLINE`] of its first write (a client that reads slowly
+//! cannot hold a slot longer); and once the connection is asked to close
+//! (a newcomer takes its slot, or the allow-list no longer permits its
+//! client) nothing more is read ([`IoError::Asked`]).
+//!
 //! An answer can close the connection (a request whose body cannot be
-//! delimited): the server sets the shared `closing` flag, after which the
-//! read half sees the end of the stream and the write half refuses
-//! ([`IoError::Closing`]), so that picoserve ends the connection even when
-//! more bytes are already buffered as a next request.
+//! delimited, the last request a connection serves): the server sets the
+//! exchange's `closing` flag, after which the read half sees the end of
+//! the stream and the write half refuses ([`IoError::Closing`]), so that
+//! picoserve ends the connection even when more bytes are already
+//! buffered as a next request.
 
 use core::cell::{Cell, RefCell};
 use core::future::Future;
 
+use embassy_futures::select::{select, Either};
+use embassy_time::Instant;
 use picoserve::io::embedded_io_async::{self, ErrorKind, ErrorType};
 use picoserve::io::Read;
 use picoserve::mem::{BorrowedBuffer, BorrowedCursor};
 
-use crate::clock::Clock;
+use super::slots::{Close, Session};
+use super::ANSWER_DEADLINE;
+use crate::clock::{with_deadline, Clock};
 use crate::net::{NetError, Socket};
 
 /// Bytes the write half collects before writing to the socket.
@@ -37,6 +50,10 @@ pub(crate) enum IoError {
     Busy,
     /// The connection is closing: nothing more is written.
     Closing,
+    /// The connection was asked to close, and why: nothing more is read.
+    Asked(Close),
+    /// An answer was not written within [`ANSWER_DEADLINE`].
+    Slow,
 }
 
 impl core::fmt::Display for IoError {
@@ -45,6 +62,9 @@ impl core::fmt::Display for IoError {
             IoError::Net(e) => f.write_str(e.as_str()),
             IoError::Busy => f.write_str("socket busy"),
             IoError::Closing => f.write_str("connection closing"),
+            IoError::Asked(Close::Evicted) => f.write_str("closed for a new client"),
+            IoError::Asked(Close::NotAllowed) => f.write_str("client no longer allowed"),
+            IoError::Slow => f.write_str("answer not taken in time"),
         }
     }
 }
@@ -57,6 +77,7 @@ impl embedded_io_async::Error for IoError {
             IoError::Net(NetError::Reset) | IoError::Net(NetError::NotConnected) => {
                 ErrorKind::ConnectionReset
             }
+            IoError::Slow => ErrorKind::TimedOut,
             _ => ErrorKind::Other,
         }
     }
@@ -75,78 +96,160 @@ impl<C: Clock> picoserve::Timer<GatewayRuntime> for ClockTimer<'_, C> {
     }
 }
 
-/// A connected socket, as picoserve sees it.
-pub(crate) struct Conn<'s, S: Socket> {
-    sock: RefCell<&'s mut S>,
-    closing: &'s Cell<bool>,
+/// Where one connection is between its requests, shared by the socket's
+/// halves and the server's routes.
+pub(crate) struct Exchange<'a, C: Clock> {
+    clock: &'a C,
+    session: Session<'a>,
+    /// Set once an answer closed the connection: nothing more on it is
+    /// read or written (see the module documentation).
+    pub closing: Cell<bool>,
+    /// A request in progress (its first byte read).
+    busy: Cell<bool>,
+    /// When the answer in progress must be written by.
+    answer_by: Cell<Option<Instant>>,
+    /// Requests served on the connection.
+    served: Cell<u32>,
 }
 
-impl<'s, S: Socket> Conn<'s, S> {
-    /// Wraps a connected socket; once `closing` is set, the connection
-    /// ends (see the module documentation).
-    pub(crate) fn new(sock: &'s mut S, closing: &'s Cell<bool>) -> Self {
+impl<'a, C: Clock> Exchange<'a, C> {
+    /// A new connection, its entry in the server's table being `session`.
+    pub(crate) fn new(clock: &'a C, session: Session<'a>) -> Self {
+        Exchange {
+            clock,
+            session,
+            closing: Cell::new(false),
+            busy: Cell::new(false),
+            answer_by: Cell::new(None),
+            served: Cell::new(0),
+        }
+    }
+
+    /// A request started (its first byte came, or it was whole in what
+    /// was read before).
+    pub(crate) fn started(&self) {
+        if !self.busy.replace(true) {
+            self.session.started(self.clock.now());
+        }
+    }
+
+    /// Its answer is written.
+    pub(crate) fn answered(&self) {
+        self.busy.set(false);
+        self.answer_by.set(None);
+        self.session.answered(self.clock.now());
+        self.served.set(self.served.get().saturating_add(1));
+    }
+
+    /// Requests the connection has served.
+    pub(crate) fn served(&self) -> u32 {
+        self.served.get()
+    }
+
+    /// Why the connection was asked to close, if it was.
+    pub(crate) fn asked(&self) -> Option<Close> {
+        self.session.asked()
+    }
+
+    /// When the answer in progress must be written by (from its first
+    /// write).
+    fn answer_deadline(&self) -> Instant {
+        match self.answer_by.get() {
+            Some(t) => t,
+            None => {
+                let t = self.clock.now() + ANSWER_DEADLINE;
+                self.answer_by.set(Some(t));
+                t
+            }
+        }
+    }
+}
+
+/// A connected socket, as picoserve sees it.
+pub(crate) struct Conn<'s, S: Socket, C: Clock> {
+    sock: RefCell<&'s mut S>,
+    ex: &'s Exchange<'s, C>,
+}
+
+impl<'s, S: Socket, C: Clock> Conn<'s, S, C> {
+    /// Wraps a connected socket, whose connection is `ex`.
+    pub(crate) fn new(sock: &'s mut S, ex: &'s Exchange<'s, C>) -> Self {
         Conn {
             sock: RefCell::new(sock),
-            closing,
+            ex,
         }
     }
 }
 
 /// The read half.
-pub(crate) struct ReadHalf<'c, 's, S: Socket> {
+pub(crate) struct ReadHalf<'c, 's, S: Socket, C: Clock> {
     sock: &'c RefCell<&'s mut S>,
-    closing: &'s Cell<bool>,
+    ex: &'s Exchange<'s, C>,
 }
 
 /// The write half, with its buffer.
-pub(crate) struct WriteHalf<'c, 's, S: Socket> {
+pub(crate) struct WriteHalf<'c, 's, S: Socket, C: Clock> {
     sock: &'c RefCell<&'s mut S>,
-    closing: &'s Cell<bool>,
+    ex: &'s Exchange<'s, C>,
     buf: [u8; WRITE_BUF],
     len: usize,
 }
 
-impl<S: Socket> ErrorType for ReadHalf<'_, '_, S> {
+impl<S: Socket, C: Clock> ErrorType for ReadHalf<'_, '_, S, C> {
     type Error = IoError;
 }
 
-impl<S: Socket> ErrorType for WriteHalf<'_, '_, S> {
+impl<S: Socket, C: Clock> ErrorType for WriteHalf<'_, '_, S, C> {
     type Error = IoError;
 }
 
-impl<S: Socket> Read for ReadHalf<'_, '_, S> {
+impl<S: Socket, C: Clock> Read for ReadHalf<'_, '_, S, C> {
     // The borrow is held while the socket reads: see the module
     // documentation for why the other half cannot want it meanwhile.
     #[allow(clippy::await_holding_refcell_ref)]
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, IoError> {
-        if self.closing.get() {
+        if self.ex.closing.get() {
             return Ok(0);
         }
         let mut sock = self.sock.try_borrow_mut().map_err(|_| IoError::Busy)?;
-        sock.read(buf).await.map_err(IoError::Net)
+        // Asked to close: that comes first, even with bytes waiting.
+        match select(self.ex.session.closing(), sock.read(buf)).await {
+            Either::First(why) => Err(IoError::Asked(why)),
+            Either::Second(Ok(n)) => {
+                if n > 0 {
+                    self.ex.started();
+                }
+                Ok(n)
+            }
+            Either::Second(Err(e)) => Err(IoError::Net(e)),
+        }
     }
 }
 
-impl<S: Socket> WriteHalf<'_, '_, S> {
+impl<S: Socket, C: Clock> WriteHalf<'_, '_, S, C> {
     #[allow(clippy::await_holding_refcell_ref)]
     async fn drain(&mut self) -> Result<(), IoError> {
-        if self.closing.get() {
+        if self.ex.closing.get() {
             return Err(IoError::Closing);
         }
         if self.len == 0 {
             return Ok(());
         }
+        let by = self.ex.answer_deadline();
         let mut sock = self.sock.try_borrow_mut().map_err(|_| IoError::Busy)?;
         let data = self.buf.get(..self.len).unwrap_or(&[]);
-        sock.write_all(data).await.map_err(IoError::Net)?;
+        with_deadline(self.ex.clock, by, sock.write_all(data))
+            .await
+            .map_err(|_| IoError::Slow)?
+            .map_err(IoError::Net)?;
         self.len = 0;
         Ok(())
     }
 }
 
-impl<S: Socket> embedded_io_async::Write for WriteHalf<'_, '_, S> {
+impl<S: Socket, C: Clock> embedded_io_async::Write for WriteHalf<'_, '_, S, C> {
     async fn write(&mut self, data: &[u8]) -> Result<usize, IoError> {
-        if self.closing.get() {
+        if self.ex.closing.get() {
             return Err(IoError::Closing);
         }
         if data.is_empty() {
@@ -169,12 +272,12 @@ impl<S: Socket> embedded_io_async::Write for WriteHalf<'_, '_, S> {
     }
 }
 
-impl<S: Socket> picoserve::io::Write for WriteHalf<'_, '_, S> {
+impl<S: Socket, C: Clock> picoserve::io::Write for WriteHalf<'_, '_, S, C> {
     async fn write_with<F: FnOnce(BorrowedCursor<'_>) -> R, R>(
         &mut self,
         f: F,
     ) -> Result<R, IoError> {
-        if self.closing.get() {
+        if self.ex.closing.get() {
             return Err(IoError::Closing);
         }
         if self.len == WRITE_BUF {
@@ -188,14 +291,14 @@ impl<S: Socket> picoserve::io::Write for WriteHalf<'_, '_, S> {
     }
 }
 
-impl<'s, S: Socket> picoserve::io::Socket<GatewayRuntime> for Conn<'s, S> {
+impl<'s, S: Socket, C: Clock> picoserve::io::Socket<GatewayRuntime> for Conn<'s, S, C> {
     type Error = IoError;
     type ReadHalf<'c>
-        = ReadHalf<'c, 's, S>
+        = ReadHalf<'c, 's, S, C>
     where
         Self: 'c;
     type WriteHalf<'c>
-        = WriteHalf<'c, 's, S>
+        = WriteHalf<'c, 's, S, C>
     where
         Self: 'c;
 
@@ -203,11 +306,11 @@ impl<'s, S: Socket> picoserve::io::Socket<GatewayRuntime> for Conn<'s, S> {
         (
             ReadHalf {
                 sock: &self.sock,
-                closing: self.closing,
+                ex: self.ex,
             },
             WriteHalf {
                 sock: &self.sock,
-                closing: self.closing,
+                ex: self.ex,
                 buf: [0; WRITE_BUF],
                 len: 0,
             },
@@ -230,5 +333,67 @@ impl<'s, S: Socket> picoserve::io::Socket<GatewayRuntime> for Conn<'s, S> {
     ) -> Result<(), picoserve::Error<IoError>> {
         self.sock.into_inner().close().await;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::net::SocketAddrV4;
+    use core::pin::pin;
+    use core::task::{Context, Poll, Waker};
+
+    use embassy_time::Duration;
+    use picoserve::io::embedded_io_async::Write as _;
+    use picoserve::io::Socket as _;
+
+    use crate::testkit::clock::VirtualClock;
+    use crate::web::slots::Slots;
+
+    /// A client that takes its answer a write a second: each write ends
+    /// well within picoserve's timeout for one write.
+    struct SlowReader<'c>(&'c VirtualClock);
+
+    impl Socket for SlowReader<'_> {
+        async fn connect(&mut self, _: SocketAddrV4) -> Result<(), NetError> {
+            Ok(())
+        }
+        async fn accept(&mut self, _: u16) -> Result<(), NetError> {
+            Ok(())
+        }
+        async fn read(&mut self, _: &mut [u8]) -> Result<usize, NetError> {
+            core::future::pending().await
+        }
+        async fn write_all(&mut self, _: &[u8]) -> Result<(), NetError> {
+            self.0.sleep(Duration::from_secs(1)).await;
+            Ok(())
+        }
+        async fn close(&mut self) {}
+        fn remote(&self) -> Option<SocketAddrV4> {
+            None
+        }
+    }
+
+    #[test]
+    fn an_answer_taken_slowly_ends_at_the_answer_deadline() {
+        let clock = VirtualClock::new();
+        let slots = Slots::new();
+        let ex = Exchange::new(&clock, slots.session(0));
+        let mut sock = SlowReader(&clock);
+        let mut conn = Conn::new(&mut sock, &ex);
+        let (_, mut w) = conn.split();
+        // The page is ~12 KiB: 24 writes, 24 s at this pace.
+        let page = [b'x'; 12 * 1024];
+        let mut write = pin!(w.write_all(&page));
+        let mut cx = Context::from_waker(Waker::noop());
+        let got = loop {
+            if let Poll::Ready(r) = write.as_mut().poll(&mut cx) {
+                break r;
+            }
+            let next = clock.next_deadline().expect("a write waits for time");
+            clock.advance_to(next);
+        };
+        assert_eq!(got, Err(IoError::Slow));
+        assert_eq!(clock.now(), Instant::from_ticks(0) + ANSWER_DEADLINE);
     }
 }

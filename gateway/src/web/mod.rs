@@ -13,21 +13,58 @@
 //! `App` rather than picoserve's typed router: each route is one line
 //! to read, and a fuzz target drives the whole request path.
 //!
-//! * [`WEB_CONNECTIONS`] connections at once, each with an
+//! * [`WEB_SLOTS`] requests served at once, each slot with an
 //!   [`HTTP_BUF`]-byte request buffer: a request (line, headers and body)
 //!   longer than that gets 413 (body) or 400 and the connection closes.
-//! * Timeouts: 5 s to start a request, 3 s to read it, 3 s per write, 5 s
-//!   idle on a kept-alive connection.
+//!   [`WEB_CONNECTIONS`] sockets: the one more accepts a newcomer while
+//!   every slot is taken ([`slots`]).
+//! * Limits (see "Connections" below): a request whole within
+//!   [`REQUEST_DEADLINE`] of its first byte, its answer written within
+//!   [`ANSWER_DEADLINE`], [`IDLE_TIMEOUT`] between requests,
+//!   [`MAX_REQUESTS`] on one connection, [`PER_ADDRESS`] slots for one
+//!   address, and an idle connection gives its slot to a newcomer.
 //! * The page is one static, gzip-compressed file in flash ([`assets`]);
 //!   the answers of the API are JSON ([`api`], `gateway/WEB.md`).
 //! * Access: `WEB_ALLOW` is checked when a client connects (refused:
-//!   closed at once, counted); every change needs a session opened with
-//!   the password ([`crate::access`]).
+//!   closed at once, counted), before each request, and when a
+//!   configuration is applied (the connections it no longer permits are
+//!   closed); every change needs a session opened with the password
+//!   ([`crate::access`]).
 //! * Before a route is looked at: the body's framing (no
 //!   `Transfer-Encoding`, one `Content-Length`; else the answer closes
 //!   the connection), a `Host` naming the device ([`own_host`], against
 //!   DNS rebinding), and for a change the page's `Origin` and a JSON
 //!   content type. Every answer forbids framing; `HEAD` has no body.
+//!
+//! # Connections
+//!
+//! Three keep-alive browsers, or three slow clients, must not take the
+//! page away (issue 16, classes 4 and 5); the rules are those of the
+//! Modbus sessions (`crate::modbus`), with HTTP's times:
+//! * A request (line, headers and body) must be whole within
+//!   [`REQUEST_DEADLINE`] of its first byte, and its answer written within
+//!   [`ANSWER_DEADLINE`] of its first write, else the connection is closed:
+//!   a client sending a byte a second, or reading its answer as slowly,
+//!   holds a slot no longer than that.
+//! * Between requests a connection is closed after [`IDLE_TIMEOUT`]
+//!   (also before its first request); after [`MAX_REQUESTS`] answers it
+//!   is closed (the last says `Connection: close`).
+//! * A connection not in the middle of a request for [`EVICT_IDLE`] is
+//!   idle: when every slot is taken, a newcomer the allow-list admits
+//!   takes the slot of the longest-idle one, which is closed. With none
+//!   idle it waits, at most [`CLAIM_WAIT`] (by then every connection that
+//!   is not serving requests back to back was idle or closed), else it is
+//!   closed unanswered.
+//! * At most [`PER_ADDRESS`] slots per address: a newcomer whose address
+//!   has them takes the slot of its own least recently active connection
+//!   not in the middle of a request; if all are, it waits for the first to
+//!   finish (within [`CLAIM_WAIT`]), unless another newcomer of its
+//!   address waits already: then it is closed at once. A newcomer waiting
+//!   for its own address's connections holds up no other client.
+//! * The allow-list is checked at accept, before every request, and when a
+//!   configuration is applied (the engine's `Hub::config_applied`): the
+//!   connections it no longer permits are closed before anything more of
+//!   theirs is read (an answer being written is finished).
 
 pub(crate) mod api;
 pub(crate) mod assets;
@@ -35,17 +72,20 @@ pub(crate) mod audit;
 pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
+pub(crate) mod slots;
 
 use core::cell::{Cell, RefCell};
 use core::convert::Infallible;
 use core::net::SocketAddrV4;
 use core::pin::pin;
 
-use embassy_futures::join::join3;
+use embassy_futures::join::{join5, join_array};
 use embassy_time::Duration;
 use picoserve::io::Read;
 use picoserve::request::{Path, Request, RequestParts};
-use picoserve::response::{Content, IntoResponse, Response, ResponseWriter, StatusCode};
+use picoserve::response::{
+    Body, Content, HeadersIter, IntoResponse, Response, ResponseWriter, StatusCode,
+};
 use picoserve::routing::PathRouterService;
 use picoserve::{ResponseSent, Router};
 
@@ -55,14 +95,53 @@ use crate::access::session::{Sessions, Token, Who};
 use crate::access::setup::SetupCode;
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::Clock;
+use crate::config::AllowList;
 use crate::hub::Hub;
 use crate::net::{Net, Socket};
 use api::{Doc, Snapshot};
-use io::{ClockTimer, Conn};
+use io::{ClockTimer, Conn, Exchange};
 use json::Json;
+use slots::{Close, Refusal, Session, Slots};
 
-/// Web connections served at once.
-pub(crate) const WEB_CONNECTIONS: usize = 3;
+/// Requests served at once: slots, each with an [`HTTP_BUF`] and a
+/// request handler.
+pub(crate) const WEB_SLOTS: usize = 3;
+/// Sockets of the web server (connections open at once; what a board's
+/// stack reserves for the page): one more than [`WEB_SLOTS`], so that one
+/// always accepts a newcomer, which may then take an idle connection's
+/// slot. The one more costs its socket buffers ([`WEB_RX`] + [`WEB_TX`]),
+/// not a slot.
+pub(crate) const WEB_CONNECTIONS: usize = WEB_SLOTS + 1;
+/// Slots one address may hold: one fewer than all, so that one address
+/// (a scanner, a flood) always leaves a slot for another; a browser uses
+/// one or two.
+pub(crate) const PER_ADDRESS: usize = WEB_SLOTS - 1;
+/// A request (line, headers and body) must be whole this long after its
+/// first byte. The longest request ([`HTTP_BUF`], 6 KiB) is four or five
+/// segments: well within this on any link a browser uses, a lost segment
+/// included (sent again within a second).
+pub(crate) const REQUEST_DEADLINE: Duration = Duration::from_secs(2);
+/// An answer must be written this long after its first write (the page,
+/// ~12 KiB, needs ~32 kbit/s); a client reading more slowly is closed.
+pub(crate) const ANSWER_DEADLINE: Duration = Duration::from_secs(3);
+/// A connection with no request for this long is closed (from when it is
+/// given its slot for the first request, else from the last answer). The
+/// page polls every 0.5 s, so it keeps its connection.
+pub(crate) const IDLE_TIMEOUT: Duration = Duration::from_secs(3);
+/// A connection not in the middle of a request for this long is idle: a
+/// newcomer may take its slot. Twice the page's poll period, so that a
+/// polling page is never taken for idle.
+pub(crate) const EVICT_IDLE: Duration = Duration::from_secs(1);
+/// The longest a newcomer waits for a slot: by then a connection that was
+/// in the middle of a request has finished it (or was closed) and, unless
+/// it sent another, has been idle for [`EVICT_IDLE`].
+pub(crate) const CLAIM_WAIT: Duration = Duration::from_millis(
+    EVICT_IDLE.as_millis() + REQUEST_DEADLINE.as_millis() + ANSWER_DEADLINE.as_millis(),
+);
+/// Requests served on one connection: the last answer says
+/// `Connection: close` and the connection closes, so that no client keeps
+/// a slot (and its place among the idle) for ever.
+pub(crate) const MAX_REQUESTS: u32 = 100;
 /// Bytes of a request: line, headers and body (a configuration import of
 /// every setting and sixteen full trigger entries takes ~4.5 KiB).
 pub(crate) const HTTP_BUF: usize = 6144;
@@ -75,12 +154,20 @@ pub(crate) const WINDOW: usize = 1024;
 /// Name of the session cookie.
 pub(crate) const COOKIE: &str = "hgw_session";
 
+/// picoserve's duration of `d`.
+const fn pico(d: Duration) -> picoserve::time::Duration {
+    picoserve::time::Duration::from_millis(d.as_millis())
+}
+
+/// picoserve's timeouts: to the first byte of a request ([`IDLE_TIMEOUT`]),
+/// from it to the end of its body ([`REQUEST_DEADLINE`]), and per write
+/// (the whole answer is bounded by [`ANSWER_DEADLINE`] in [`io`]).
 static CONFIG: picoserve::Config = picoserve::Config {
     timeouts: picoserve::Timeouts {
-        start_read_request: picoserve::time::Duration::from_secs(5),
-        persistent_start_read_request: picoserve::time::Duration::from_secs(5),
-        read_request: picoserve::time::Duration::from_secs(3),
-        write: picoserve::time::Duration::from_secs(3),
+        start_read_request: pico(IDLE_TIMEOUT),
+        persistent_start_read_request: pico(IDLE_TIMEOUT),
+        read_request: pico(REQUEST_DEADLINE),
+        write: pico(ANSWER_DEADLINE),
     },
     connection: picoserve::KeepAlive::KeepAlive,
 };
@@ -114,7 +201,7 @@ impl Web {
 }
 
 /// Serves the web page on `port` with [`WEB_CONNECTIONS`] sockets of
-/// `net`, until the future is dropped.
+/// `net` and [`WEB_SLOTS`] slots, until the future is dropped.
 pub(crate) async fn run<N: Net, C: Clock>(
     hub: &Hub,
     clock: &C,
@@ -122,89 +209,286 @@ pub(crate) async fn run<N: Net, C: Clock>(
     net: &N,
     port: u16,
 ) -> Infallible {
-    let mut bufs = [const { ConnBufs::new() }; WEB_CONNECTIONS];
-    // Each connection's future (~18 KiB) is built where it stays, in this
+    let mut bufs = [const { SocketBufs::new() }; WEB_CONNECTIONS];
+    let mut http = [const { [0u8; HTTP_BUF] }; WEB_SLOTS];
+    let slots = Slots::new();
+    let socks = bufs
+        .each_mut()
+        .map(|b| RefCell::new(net.socket(&mut b.rx, &mut b.tx)));
+    let mut next = 0;
+    let accepts = socks.each_ref().map(|sock| {
+        let j = next;
+        next += 1;
+        accept(hub, clock, sock, &slots, port, j)
+    });
+    // Each slot's future (~14 KiB) is built where it stays, in this
     // future: an array of them built by `map` went through the stack first
-    // (54 KiB of the field device's stack). Hence one line per connection.
-    const _: () = assert!(WEB_CONNECTIONS == 3, "one line per connection below");
-    let [b0, b1, b2] = bufs.each_mut();
-    let c0 = pin!(connection(hub, clock, web, net, port, b0));
-    let c1 = pin!(connection(hub, clock, web, net, port, b1));
-    let c2 = pin!(connection(hub, clock, web, net, port, b2));
-    let _ = join3(c0, c1, c2).await;
+    // (54 KiB of the field device's stack). Hence one line per slot. The
+    // accepting futures are small.
+    const _: () = assert!(WEB_SLOTS == 3, "one line per slot below");
+    let [h0, h1, h2] = http.each_mut();
+    let s0 = pin!(slot(hub, clock, web, &socks, &slots, 0, h0));
+    let s1 = pin!(slot(hub, clock, web, &socks, &slots, 1, h1));
+    let s2 = pin!(slot(hub, clock, web, &socks, &slots, 2, h2));
+    let accepts = pin!(join_array(accepts));
+    let warden = pin!(warden(hub, &slots));
+    let _ = join5(s0, s1, s2, accepts, warden).await;
     core::future::pending().await
 }
 
-/// The buffers of one web connection.
-struct ConnBufs {
+/// The socket buffers of one web connection.
+struct SocketBufs {
     rx: [u8; WEB_RX],
     tx: [u8; WEB_TX],
-    http: [u8; HTTP_BUF],
 }
 
-impl ConnBufs {
+impl SocketBufs {
     const fn new() -> Self {
-        ConnBufs {
+        SocketBufs {
             rx: [0; WEB_RX],
             tx: [0; WEB_TX],
-            http: [0; HTTP_BUF],
         }
     }
 }
 
-async fn connection<N: Net, C: Clock>(
+/// `list` permits a client at `peer` (an unknown address only when the
+/// list is empty), as `Hub::admit_web` decides, without counting.
+fn permits(list: &AllowList, peer: Option<SocketAddrV4>) -> bool {
+    match peer {
+        Some(p) => list.permits(*p.ip()),
+        None => list.is_empty(),
+    }
+}
+
+/// A peer's address for logs (0.0.0.0 when unknown).
+fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
+    peer.map_or([0; 4], |p| p.ip().octets())
+}
+
+/// Socket `j`: accepts a client, has it admitted (`WEB_ALLOW`) and given a
+/// slot ([`Slots::claim`]), and waits until the slot's server is done
+/// with it; forever.
+// The socket's borrow is held while it accepts or closes: the slot's
+// future borrows it only between the claim and the release, while this
+// one waits without it (a failed borrow ends that connection, no panic).
+#[allow(clippy::await_holding_refcell_ref)]
+async fn accept<S: Socket, C: Clock>(
+    hub: &Hub,
+    clock: &C,
+    sock: &RefCell<S>,
+    slots: &Slots,
+    port: u16,
+    j: usize,
+) -> Infallible {
+    loop {
+        let accepted = match sock.try_borrow_mut() {
+            // Nobody else holds the socket while its entry is free.
+            Ok(mut s) => s.accept(port).await.map(|()| s.remote()),
+            Err(_) => Err(crate::net::NetError::ListenFailed),
+        };
+        let Ok(peer) = accepted else {
+            clock.sleep(Duration::from_millis(500)).await;
+            continue;
+        };
+        let [a, b, c, d] = octets(peer);
+        let refused = if !hub.admit_web(peer) {
+            warn!(
+                "web: client {}.{}.{}.{} refused (not in WEB_ALLOW)",
+                a, b, c, d
+            );
+            true
+        } else {
+            match slots.claim(j, peer, clock).await {
+                Ok(_) => {
+                    // A slot's future serves it, closes it and releases it.
+                    slots.released(j).await;
+                    false
+                }
+                Err(Refusal::PerAddress) => {
+                    warn!(
+                        "web: client {}.{}.{}.{} refused: {} connections from that address, all busy",
+                        a, b, c, d, PER_ADDRESS
+                    );
+                    true
+                }
+                Err(Refusal::Full) => {
+                    warn!(
+                        "web: client {}.{}.{}.{} refused: all {} connections busy, none idle",
+                        a, b, c, d, WEB_SLOTS
+                    );
+                    true
+                }
+                Err(Refusal::NotAllowed) => {
+                    warn!(
+                        "web: client {}.{}.{}.{} refused (not in WEB_ALLOW)",
+                        a, b, c, d
+                    );
+                    true
+                }
+            }
+        };
+        if refused {
+            if let Ok(mut s) = sock.try_borrow_mut() {
+                s.close().await;
+            }
+        }
+    }
+}
+
+/// Slot `k`: serves each connection it is given (with its request
+/// buffer `http`), then closes and releases it; forever.
+// The socket's borrow is held while serving: see `accept`.
+#[allow(clippy::await_holding_refcell_ref)]
+async fn slot<S: Socket, C: Clock>(
     hub: &Hub,
     clock: &C,
     web: &Web,
-    net: &N,
-    port: u16,
-    bufs: &mut ConnBufs,
+    socks: &[RefCell<S>],
+    slots: &Slots,
+    k: usize,
+    http: &mut [u8],
 ) -> Infallible {
-    let ConnBufs { rx, tx, http } = bufs;
-    let mut sock = net.socket(rx, tx);
     loop {
-        if sock.accept(port).await.is_err() {
-            clock.sleep(Duration::from_millis(500)).await;
-            continue;
-        }
-        let peer = sock.remote();
-        if !hub.admit_web(peer) {
-            if let Some(p) = peer {
-                let [a, b, c, d] = p.ip().octets();
-                warn!(
-                    "web: client {}.{}.{}.{} refused (not in WEB_ALLOW)",
-                    a, b, c, d
-                );
-            }
+        let (j, peer) = slots.assigned(k).await;
+        // The socket is the slot's until it is released: its accepting
+        // future waits meanwhile (a borrow that fails cannot happen).
+        if let Some(Ok(mut sock)) = socks.get(j).map(RefCell::try_borrow_mut) {
+            let [a, b, c, d] = octets(peer);
+            debug!("web: client {}.{}.{}.{} served in slot {}", a, b, c, d, k);
+            serve_one(hub, clock, web, peer, &mut *sock, http, slots.session(j)).await;
             sock.close().await;
-            continue;
         }
-        serve_one(hub, clock, web, peer, &mut sock, http).await;
-        sock.close().await;
+        slots.release(j);
     }
 }
 
-/// Serves one connection (its requests, kept alive) until it ends. Also
-/// the entry point of the HTTP fuzz target.
-pub(crate) async fn serve_one<S: Socket, C: Clock>(
+/// Closes the connections an applied configuration's `WEB_ALLOW` no
+/// longer permits, at each apply.
+async fn warden(hub: &Hub, slots: &Slots) -> Infallible {
+    let Some(mut applied) = hub.config_applied.receiver() else {
+        // Cannot happen (the watch has a receiver for the page).
+        warn!("web: applied allow-lists are checked at the next request only");
+        return core::future::pending().await;
+    };
+    loop {
+        let list = applied.changed().await.web_allow;
+        slots.close_unless(|peer| permits(&list, peer));
+    }
+}
+
+/// Serves one connection (its requests, kept alive) until it ends: the
+/// client leaves, a limit is reached, or it is asked to close
+/// (`session`).
+async fn serve_one<S: Socket, C: Clock>(
     hub: &Hub,
     clock: &C,
     web: &Web,
     peer: Option<SocketAddrV4>,
     sock: &mut S,
     http: &mut [u8],
+    session: Session<'_>,
 ) {
-    let closing = Cell::new(false);
-    let app = Router::from_service(App {
-        hub,
-        clock,
-        web,
-        peer,
-        closing: &closing,
+    let ex = Exchange::new(clock, session);
+    let app = Router::from_service(Served {
+        app: App {
+            hub,
+            clock,
+            web,
+            peer,
+            closing: &ex.closing,
+        },
+        ex: &ex,
     });
     let server = picoserve::Server::custom(&app, ClockTimer(clock), &CONFIG, http);
-    if server.serve(Conn::new(sock, &closing)).await.is_err() {
-        debug!("web: connection ended on an error (timeout, reset, malformed request)");
+    match server.serve(Conn::new(sock, &ex)).await {
+        Ok(_) => {}
+        Err(picoserve::Error::Read(io::IoError::Asked(why))) => {
+            let [a, b, c, d] = octets(peer);
+            match why {
+                Close::Evicted => info!(
+                    "web: client {}.{}.{}.{} idle, closed for a new client",
+                    a, b, c, d
+                ),
+                Close::NotAllowed => warn!(
+                    "web: client {}.{}.{}.{} no longer in WEB_ALLOW, closed",
+                    a, b, c, d
+                ),
+            }
+        }
+        Err(_) => {
+            debug!("web: connection ended on an error (timeout, reset, malformed request)")
+        }
+    }
+}
+
+/// The routes, as each request reaches them: the request counted (the
+/// connection marked busy if its bytes were all read before), the
+/// allow-list checked again, the last request's answer closing the
+/// connection.
+struct Served<'a, C: Clock> {
+    app: App<'a, C>,
+    ex: &'a Exchange<'a, C>,
+}
+
+impl<C: Clock> PathRouterService<()> for Served<'_, C> {
+    async fn call_path_router_service<R: Read, W: ResponseWriter<Error = R::Error>>(
+        &self,
+        state: &(),
+        params: (),
+        path: Path<'_>,
+        request: Request<'_, R>,
+        w: W,
+    ) -> Result<ResponseSent, W::Error> {
+        self.ex.started();
+        let app = &self.app;
+        let allowed = app
+            .hub
+            .with(|m| permits(&m.config.active.web_allow, app.peer));
+        if self.ex.asked().is_some() || !allowed {
+            // Closed unanswered, as at accept: the route is never looked
+            // at, and the write fails (the connection is closing), which
+            // ends it. (The same writer type as the routes': no code of
+            // its own.)
+            self.ex.closing.set(true);
+            let c = request.body_connection.finalize().await?;
+            let w = Answer { w, last: false };
+            return Response::empty(StatusCode::BAD_REQUEST)
+                .write_to(c, w)
+                .await;
+        }
+        // The count includes this request.
+        let last = self.ex.served() + 1 >= MAX_REQUESTS;
+        let w = Answer { w, last };
+        let sent = app
+            .call_path_router_service(state, params, path, request, w)
+            .await;
+        if last {
+            self.ex.closing.set(true);
+        }
+        self.ex.answered();
+        sent
+    }
+}
+
+/// An answer, which says `Connection: close` if it is the connection's
+/// last. (One writer type for every answer: the routes are compiled once.)
+struct Answer<W> {
+    w: W,
+    last: bool,
+}
+
+impl<W: ResponseWriter> ResponseWriter for Answer<W> {
+    type Error = W::Error;
+
+    // The inner writer's future itself: no state of its own.
+    fn write_response<R: Read<Error = Self::Error>, H: HeadersIter, B: Body>(
+        self,
+        connection: picoserve::response::Connection<'_, R>,
+        response: Response<H, B>,
+    ) -> impl core::future::Future<Output = Result<ResponseSent, Self::Error>> {
+        let close = self.last.then_some(("Connection", "close"));
+        self.w
+            .write_response(connection, response.with_headers(close))
     }
 }
 
