@@ -503,6 +503,20 @@ impl HttpClient {
         self.read_response()
     }
 
+    /// `POST path` with a JSON `body`, as the device's own page sends a
+    /// change (its `Origin`, `Content-Type: application/json`).
+    pub fn post_json(&mut self, path: &str, body: &str) -> io::Result<HttpResponse> {
+        let head = format!(
+            "POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nOrigin: http://127.0.0.1:{port}\r\n\
+             Content-Type: application/json\r\nContent-Length: {}\r\n\r\n",
+            body.len(),
+            port = self.port,
+        );
+        self.stream.write_all(head.as_bytes())?;
+        self.stream.write_all(body.as_bytes())?;
+        self.read_response()
+    }
+
     /// Reads until `pending` holds `n` bytes.
     fn fill(&mut self, n: usize) -> io::Result<()> {
         let mut buf = [0u8; 4096];

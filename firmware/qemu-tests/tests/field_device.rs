@@ -44,9 +44,24 @@ const FSM_STANDBY: u64 = 33;
 mod common;
 use common::{wait_for, Rig, STEP};
 
+/// The setup code the host hands the firmware (`setup=` on its command
+/// line), as it hands in the seed.
+const SETUP_CODE: &str = "ABCD-EFGH-JKMN";
+
 impl Rig {
     fn field_device(name: &'static str) -> Rig {
-        Rig::start("field-device", name, "")
+        Rig::start("field-device", name, &format!("setup={SETUP_CODE}"))
+    }
+
+    /// Creates the first administrator with the setup code: until one
+    /// exists, the access settings do not change over Modbus.
+    fn create_admin(&self) {
+        let body =
+            format!(r#"{{"code":"{SETUP_CODE}","name":"admin","password":"commission-2026"}}"#);
+        let r = qemu_tests::HttpClient::connect(self.web(), STEP)
+            .and_then(|mut c| c.post_json("/api/setup", &body))
+            .unwrap_or_else(|e| panic!("POST /api/setup: {e}"));
+        assert_eq!(r.status, 200, "POST /api/setup: {}", r.text());
     }
 
     fn web(&self) -> u16 {
@@ -259,6 +274,26 @@ fn clients(rig: &Rig) -> Vec<String> {
 fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees() {
     let rig = Rig::field_device("field-device-allow");
     let port = rig.qemu.ports.modbus;
+    // A fresh device refuses access-setting changes over Modbus
+    // (CONFIG_RESULT 4) until an administrator exists.
+    {
+        let mut plc = rig.modbus();
+        must(
+            plc.write_multiple_registers(MODBUS_ALLOW, &[0x0a00, 0x0202, 32]),
+            "MODBUS_ALLOW 10.0.2.2/32",
+        );
+        assert!(
+            plc.write_single_register(CONFIG_COMMAND, 1).is_err(),
+            "locked"
+        );
+        let result = must(plc.read_holding_registers(CONFIG_RESULT, 1), "result")[0];
+        assert_eq!(result, 4, "CONFIG_RESULT: access settings locked");
+        must(
+            plc.write_single_register(CONFIG_COMMAND, 2),
+            "discard the edit",
+        );
+    }
+    rig.create_admin();
     let local2 = Ipv4Addr::new(127, 0, 0, 2);
 
     // The address the firmware sees for forwarded clients: 10.0.2.2, from
