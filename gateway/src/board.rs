@@ -31,7 +31,9 @@
 //! the board's build-time address is only the factory default
 //! ([`Options::defaults`](crate::Options)), changed at run time through the
 //! `NET_*` registers or the web page and applied at the next start. Then
-//! the gateway is served ([`Gateway::serve`]).
+//! the gateway is served ([`Gateway::serve`]), and with the feature `sntp`
+//! the audit log's wall time is asked of the time server
+//! (`network.ntp_server`, see `crate::sntp`) beside it.
 //!
 //! Everything the gateway needs (sockets, buffers, queue, register map)
 //! lives inside the future of [`run`] (the storage too: it is moved in), so
@@ -50,8 +52,8 @@
 use core::convert::Infallible;
 use core::net::Ipv4Addr;
 
-#[cfg(feature = "dhcp")]
-use embassy_futures::join::join;
+#[cfg(any(feature = "dhcp", feature = "sntp"))]
+use embassy_futures::join::join3;
 use embassy_net::{ConfigV4, Ipv4Cidr, Stack, StaticConfigV4};
 
 use crate::clock::SystemClock;
@@ -76,12 +78,17 @@ const WEB_SOCKETS: usize = 0;
 /// DHCP is switched on).
 const DHCP_SOCKETS: usize = if cfg!(feature = "dhcp") { 1 } else { 0 };
 
+/// The SNTP client's UDP socket (feature `sntp`).
+const SNTP_SOCKETS: usize = if cfg!(feature = "sntp") { 1 } else { 0 };
+
 /// Sockets the gateway uses on the board's stack: the Modbus sessions
 /// ([`MAX_SESSIONS`]), two for the robot link, one for the DataSheet
 /// (feature `datasheet`), the web page's connections (feature `web`:
-/// `web::WEB_CONNECTIONS`) and the DHCP client's (feature `dhcp`). A
-/// board sizes its `StackResources` with this plus its own.
-pub const SOCKETS: usize = MAX_SESSIONS + 2 + DATASHEET_SOCKETS + WEB_SOCKETS + DHCP_SOCKETS;
+/// `web::WEB_CONNECTIONS`), the DHCP client's (feature `dhcp`) and the
+/// SNTP client's (feature `sntp`). A board sizes its `StackResources` with
+/// this plus its own.
+pub const SOCKETS: usize =
+    MAX_SESSIONS + 2 + DATASHEET_SOCKETS + WEB_SOCKETS + DHCP_SOCKETS + SNTP_SOCKETS;
 
 /// Runs the gateway on the board's network stack until the future is
 /// dropped (it never returns): loads the stored configuration, applies
@@ -101,12 +108,21 @@ pub async fn run<S: Storage>(
     let net = EmbassyNet::new(stack);
     // With DHCP the address comes (and may go) while the gateway runs: a
     // second future logs it. Without, apply_network has logged it.
-    #[cfg(feature = "dhcp")]
+    // With SNTP a third asks the time server (`crate::sntp`).
+    #[cfg(any(feature = "dhcp", feature = "sntp"))]
     {
-        let (never, _) = join(gateway.serve(&net, &clock, storage), announce(stack)).await;
+        #[cfg(feature = "dhcp")]
+        let announce = announce(stack);
+        #[cfg(not(feature = "dhcp"))]
+        let announce = core::future::pending::<Infallible>();
+        #[cfg(feature = "sntp")]
+        let sntp = crate::sntp::on_stack(stack, gateway.hub(), &clock, options.seed);
+        #[cfg(not(feature = "sntp"))]
+        let sntp = core::future::pending::<Infallible>();
+        let (never, _, _) = join3(gateway.serve(&net, &clock, storage), announce, sntp).await;
         never
     }
-    #[cfg(not(feature = "dhcp"))]
+    #[cfg(not(any(feature = "dhcp", feature = "sntp")))]
     gateway.serve(&net, &clock, storage).await
 }
 

@@ -71,6 +71,8 @@
 //! * `flash`: [`storage::flash::FlashStorage`] (sequential-storage over a
 //!   `NorFlash`).
 //! * `audit` (with `web`): the audit log, `audit`, kept by the storage.
+//! * `sntp`: the audit log's wall time on boards from an SNTP server
+//!   (`sntp`, run by [`board::run`]).
 //! * `testkit`: [`testkit`], the virtual world of the tests, simulations
 //!   and fuzz targets (needs `std`).
 // The gateway is one future of nested futures (engine, sessions, web
@@ -123,6 +125,8 @@ pub(crate) mod modbus;
 pub(crate) mod net;
 pub(crate) mod plc;
 pub mod registers;
+#[cfg(any(test, feature = "sntp"))]
+pub(crate) mod sntp;
 pub mod state;
 pub mod storage;
 #[cfg(any(test, feature = "testkit"))]
