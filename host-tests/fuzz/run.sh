@@ -3,7 +3,8 @@
 #
 #   bash host-tests/fuzz/run.sh [SECONDS_PER_TARGET]   (default 20)
 #
-# Seeds come from the test vectors (seeds.py, into the git-ignored corpus/).
+# Seeds come from the test vectors (seeds.py, into the git-ignored corpus/);
+# a target with a dictionary (dicts/<target>.dict) gets it with -dict.
 # Fails (non-zero exit) on the first crash; libFuzzer leaves the input in
 # artifacts/<target>/. Idempotent: run it again and it carries on from the
 # corpus it built. Needs the nightly toolchain and cargo-fuzz
@@ -45,9 +46,12 @@ for t in "${targets[@]}"; do
   # limit (or dozens of short ones), and keeps it above 2,000 inputs a second.
   max_len=8192
   [ "$t" = gateway_robot ] && max_len=2048
+  # A target's dictionary of words (dicts/<target>.dict), if it has one.
+  dict=()
+  [ -f "dicts/$t.dict" ] && dict=(-dict="dicts/$t.dict")
   cargo +nightly fuzz run "$t" "corpus/$t" -- \
     -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len" \
-    -print_final_stats=1 >"$log" 2>&1 || status=$?
+    "${dict[@]}" -print_final_stats=1 >"$log" 2>&1 || status=$?
   grep -E 'stat::number_of_executed_units|stat::new_units_added|Done [0-9]+ runs' "$log" || true
   if [ "$status" -ne 0 ]; then
     tail -n 60 "$log" >&2

@@ -148,6 +148,82 @@ def gateway_seeds():
                ["Cookie: hgw_session=00112233445566778899aabbccddeeff"]))
     put("gateway_http", bytes([33]) + http("POST", "/api/login", b"wrong password")
         + http("POST", "/api/trigger/3", b"SetBoxDO,1,1,;", ["Authorization: Bearer 00"]))
+    http_rule_seeds()
+
+
+def http_rule_seeds():
+    """Web requests at the edges of the rules the server checks before any
+    route (web/mod.rs: `framing`, `own_host`, `same_origin`, `json_type`)
+    and of its connection limits: each seed is one connection, requests
+    kept alive back to back, so that one input crosses several rules."""
+    def req(method, path, headers, body=b""):
+        head = f"{method} {path} HTTP/1.1\r\n" + "".join(f"{h}\r\n" for h in headers)
+        return head.encode() + b"\r\n" + body
+
+    def post(path, body, headers=("Host: 10.0.0.1", "Origin: http://10.0.0.1",
+                                  "Content-Type: application/json")):
+        return req("POST", path, list(headers) + [f"Content-Length: {len(body)}"], body)
+
+    host = "Host: 10.0.0.1"
+    # Host: none, two, a port, a bad port, names the device does not
+    # answer to, loopback names from a client that is not on loopback.
+    hosts = [
+        req("GET", "/api/session", []),
+        req("GET", "/api/session", [host, host]),
+        req("GET", "/api/session", ["Host: 10.0.0.1:8080"]),
+        req("GET", "/api/session", ["Host: 10.0.0.1:65536"]),
+        req("GET", "/api/session", ["Host: 10.0.0.1:+80"]),
+        req("GET", "/api/session", ["Host: 10.0.0.1:"]),
+        req("GET", "/api/session", ["Host: :80"]),
+        req("GET", "/api/session", ["Host: evil.example"]),
+        req("GET", "/api/session", ["Host: 10.0.0.1.evil.example"]),
+        req("GET", "/api/session", ["Host: localhost:80"]),
+        req("GET", "/api/session", ["Host: [::1]:80"]),
+        req("HEAD", "/api/status", [host]),
+    ]
+    put("gateway_http", bytes([3]) + b"".join(hosts))
+    # A change: Origin of another site, https, none (Sec-Fetch-Site instead),
+    # content types, then one that passes.
+    changes = [
+        post("/api/logout", b"", (host, "Origin: http://evil.example", "Content-Type: application/json")),
+        post("/api/logout", b"", (host, "Origin: https://10.0.0.1", "Content-Type: application/json")),
+        post("/api/logout", b"", (host, "Origin: http://10.0.0.1:8080", "Content-Type: application/json")),
+        post("/api/logout", b"", (host, "Origin: null", "Content-Type: application/json")),
+        post("/api/logout", b"", (host, "Sec-Fetch-Site: same-origin", "Content-Type: application/json")),
+        post("/api/logout", b"", (host, "Sec-Fetch-Site: cross-site", "Content-Type: application/json")),
+        post("/api/logout", b"", (host, "Origin: http://10.0.0.1", "Content-Type: text/plain")),
+        post("/api/logout", b"", (host, "Origin: http://10.0.0.1", "Content-Type: application/json; charset=utf-8")),
+        post("/api/logout", b"", (host, "Origin: http://10.0.0.1", "Content-Type: APPLICATION/JSON")),
+        post("/api/logout", b"", (host, "Origin: http://10.0.0.1")),
+        post("/api/login", b"correct horse"),
+    ]
+    put("gateway_http", bytes([11]) + b"".join(changes))
+    # Framing: Content-Length twice (equal, different), a list, a sign,
+    # empty, too long; Transfer-Encoding chunked (with a request smuggled
+    # in its body) and others. Each closes the connection: one per seed.
+    hidden = b"GET /api/config HTTP/1.1\r\nHost: 10.0.0.1\r\n\r\n"
+    framing = [
+        ["Content-Length: 4", "Content-Length: 4"],
+        ["Content-Length: 4", "Content-Length: 5"],
+        ["Content-Length: 4, 4"],
+        ["Content-Length: +4"],
+        ["Content-Length: "],
+        ["Content-Length: 1234567890"],
+        ["Transfer-Encoding: chunked"],
+        ["Transfer-Encoding: gzip, chunked"],
+        ["Transfer-Encoding: chunked", "Content-Length: 4"],
+        ["Transfer-Encoding:  CHUNKED"],
+    ]
+    for i, extra in enumerate(framing):
+        body = b"4\r\nnull\r\n0\r\n\r\n" if any("Transfer" in h for h in extra) else b"null"
+        put("gateway_http", bytes([20 + i])
+            + req("POST", "/api/logout", [host, "Origin: http://10.0.0.1", "Content-Type: application/json"] + extra, body)
+            + hidden)
+    # Keep-alive to its end: 101 requests on one connection (the 100th
+    # answer closes it), and a request after `Connection: close`.
+    small = req("GET", "/api/session", [host])
+    put("gateway_http", bytes([64]) + small * 101)
+    put("gateway_http", bytes([5]) + small + req("GET", "/api/session", [host, "Connection: close"]) + small)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@
 //! the robot's bring-up): under the sanitizers that costs milliseconds,
 //! and every input would cover those same edges again. So a target builds
 //! it once, and each input only drives the part it fuzzes; what that input
-//! stored (configuration, triggers, password, the storage image) is reset
+//! stored (configuration, triggers, accounts, the storage image) is reset
 //! at its end by [`reset`]. State that is not stored (channel
 //! statuses, web sessions, the robot link) carries on from input to input,
 //! as on a gateway that runs: a crash may need what inputs before
@@ -17,6 +17,7 @@ use std::cell::RefCell;
 use std::thread::LocalKey;
 
 use hans_gateway::config::Config;
+use hans_gateway::Accounts;
 use hans_gateway::state::Triggers;
 use hans_gateway::testkit::world::World;
 
@@ -46,7 +47,7 @@ pub fn with_world<R>(
 }
 
 /// Puts back what an input may have stored: the configuration in use and
-/// its edit area, the trigger entries, the web password, the stored image
+/// its edit area, the trigger entries, the web accounts, the stored image
 /// (empty, as at the start) and a storage that saves.
 pub fn reset(w: &mut World, base: &Config) {
     w.config.storage.data.borrow_mut().clear();
@@ -56,7 +57,7 @@ pub fn reset(w: &mut World, base: &Config) {
             m.config.apply(*base);
         }
         m.config.edit = None;
-        m.access.password = None;
+        m.access.accounts = Accounts::NONE;
         m.triggers.entries = Triggers::default().entries;
     });
     // The robot's request log would grow without end.

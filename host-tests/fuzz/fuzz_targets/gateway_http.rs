@@ -1,6 +1,8 @@
 //! HTTP bytes from a browser or a script, in reads of any size, through
 //! the gateway's web server (the real gateway future, in virtual time):
-//! request lines, headers, bodies, logins, configuration posts. Never a
+//! request lines, headers (the Host, Origin, content type and framing
+//! rules: seeds and `dicts/gateway_http.dict` name them), bodies, logins,
+//! configuration posts, requests kept alive to the connection's limit. Never a
 //! panic; memory is bounded by construction (fixed buffers, no heap in the
 //! gateway); whatever comes back is an HTTP answer; the connection is
 //! closed within the server's timeouts once the client stops sending; the
@@ -8,7 +10,7 @@
 //! next client and its PLC.
 //!
 //! One world per process (`common.rs`): each input is a new web client of
-//! it; what the input stored (settings, triggers, the password) is put
+//! it; what the input stored (settings, triggers, the accounts) is put
 //! back before the next. The robot is not reachable (connects are
 //! refused), which keeps the seconds of virtual time the timeouts take
 //! cheap.
@@ -68,8 +70,9 @@ fuzz_target!(|data: &[u8]| {
             got.extend(conn.read());
             rest = tail;
         }
-        // The client stops sending: within the timeouts (5 s idle, 3 s to
-        // read a request, 3 s per write) the server closes the connection.
+        // The client stops sending: within the limits (3 s without a
+        // request, 2 s to read one, 3 s to write an answer) the server
+        // closes the connection.
         w.run_until_cond(Duration::from_secs(12), |_| !conn.is_open());
         got.extend(conn.read());
         assert!(!conn.is_open(), "connection still open after the timeouts");
