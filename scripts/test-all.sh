@@ -54,7 +54,7 @@ step "rustdoc (codec) without warnings" \
   env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec --no-deps --features defmt,v6 --locked
 step "rustdoc (gateway, every feature) without warnings" \
   env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-gateway --no-deps \
-  --features embassy-net,flash,testkit,web,v6,dhcp,datasheet,defmt --locked
+  --features embassy-net,flash,testkit,web,v6,dhcp,datasheet,defmt,sntp --locked
 
 # --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
 # gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,
@@ -108,8 +108,8 @@ step "clippy (gateway, embassy-net + defmt + flash + datasheet, thumbv7em)" \
   cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet --locked -- -D warnings
 # The field-device build of the library (the board crates compile it, but
 # clippy lints only their own workspace): web page and DHCP client.
-step "clippy (gateway as in the field-device firmware: + web + dhcp, thumbv7em)" \
-  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,web,dhcp --locked -- -D warnings
+step "clippy (gateway as in the field-device firmware: + web + dhcp + sntp + v6, thumbv7em)" \
+  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,web,dhcp,sntp,v6 --locked -- -D warnings
 
 # --- the footprint goal, benchmark builds (run them with cargo bench) and bounded fuzzing
 step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check

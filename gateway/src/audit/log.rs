@@ -274,7 +274,7 @@ impl Log {
     /// The wall clock was set to `unix` (Unix seconds) at `at` (a time
     /// server): recorded when it was not known or moved by more than a
     /// second.
-    #[allow(dead_code)] // used by the SNTP client (not yet written)
+    #[cfg_attr(not(feature = "sntp"), allow(dead_code))] // the SNTP client calls it
     pub(crate) fn set_wall_time(&self, unix: u64, at: Instant, source: Option<Ipv4Addr>) {
         let before = self.with(|i| {
             let before = i.wall_at(at);
