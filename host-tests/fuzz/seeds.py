@@ -132,6 +132,18 @@ def gateway_seeds():
         settings = b"".join(struct.pack("<HB", i, len(v)) + v for i, v in entries)
         body = b"HGW1" + struct.pack("<HH", 3, len(settings)) + settings + tbytes + bytes(52)
         put("gateway_image", body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF))
+    # Format 4 (written since accounts): format 3's settings and triggers,
+    # then the accounts: a count, and each its name's length, the name
+    # (16, zero-padded), the role (3 admin, 1 viewer) and its password
+    # (PBKDF2 rounds, salt, hash).
+    def account(name, role):
+        return bytes([len(name)]) + name.ljust(16, b"\0") + bytes([role]) \
+            + struct.pack("<I", 10) + bytes(range(16)) + bytes(range(32, 64))
+    for accounts in ([], [account(b"admin", 3), account(b"night-shift", 1)]):
+        settings = struct.pack("<HB", 8, 2) + struct.pack("<H", 50)
+        body = b"HGW1" + struct.pack("<HH", 4, len(settings)) + settings + tbytes \
+            + bytes([len(accounts)]) + b"".join(accounts)
+        put("gateway_image", body + struct.pack("<I", zlib.crc32(body) & 0xFFFFFFFF))
     # Web requests: reads, the first password, a configuration post, a login.
     # Named by the device's address; changes come from its own page (Origin)
     # with the JSON content type, so that the seeds get past those checks.
@@ -143,11 +155,22 @@ def gateway_seeds():
         return head.encode() + f"Content-Length: {len(body)}\r\n\r\n".encode() + body
     put("gateway_http", bytes([9]) + http("GET", "/api/status") + http("GET", "/api/log"))
     put("gateway_http", bytes([64]) + http("GET", "/"))
-    put("gateway_http", bytes([17]) + http("POST", "/api/password", b"\ncorrect horse")
+    # The first administrator with the test world's setup code, then what
+    # an administrator does; a login with a wrong password; account changes.
+    setup = b'{"code":"ABCD-EFGH-JKMN","name":"admin","password":"correct horse"}'
+    put("gateway_http", bytes([17]) + http("POST", "/api/setup", setup)
         + http("POST", "/api/config", b'{"settings":{"link.poll_ms":"50"},"triggers":["GrpStop,0,;"]}',
                ["Cookie: hgw_session=00112233445566778899aabbccddeeff"]))
-    put("gateway_http", bytes([33]) + http("POST", "/api/login", b"wrong password")
+    put("gateway_http", bytes([33]) + http("POST", "/api/setup", setup)
+        + http("POST", "/api/login", b'{"name":"admin","password":"wrong password"}')
+        + http("POST", "/api/login", b'{"name":"admin","password":"correct horse"}')
         + http("POST", "/api/trigger/3", b"SetBoxDO,1,1,;", ["Authorization: Bearer 00"]))
+    put("gateway_http", bytes([41]) + http("POST", "/api/setup", b'{"code":"abcd efgh jkmn","name":"root","password":"a \\"quoted\\" one"}')
+        + http("POST", "/api/accounts", b'{"op":"add","name":"view","role":"viewer","password":"long enough pw"}')
+        + http("POST", "/api/accounts", b'{"op":"role","name":"view","role":"admin"}')
+        + http("POST", "/api/accounts", b'{"op":"remove","name":"root"}')
+        + http("GET", "/api/accounts") + http("GET", "/api/audit?format=csv")
+        + http("POST", "/api/password", b'{"current":"x","password":"\\u0041\\u0042cdefghijk"}'))
     http_rule_seeds()
 
 

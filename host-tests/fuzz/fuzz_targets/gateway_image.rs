@@ -2,7 +2,7 @@
 //! it: the decoder refuses it whole or gives a configuration whose every
 //! setting is in range (and which encodes to an image that decodes to the
 //! same); a gateway started on it ([`Gateway::load`], what `Gateway::run`
-//! does first) runs with exactly that configuration, password and trigger
+//! does first) runs with exactly that configuration, accounts and trigger
 //! table, or with the defaults, and its registers show a configuration in
 //! range. Never a panic.
 //!
@@ -16,11 +16,11 @@ use core::pin::pin;
 use core::task::{Context, Waker};
 
 use hans_gateway::config::Config;
-use hans_gateway::registers::config::{decode as from_registers, Words, CONFIG_WORDS};
 use hans_gateway::registers as r;
+use hans_gateway::registers::config::{decode as from_registers, Words, CONFIG_WORDS};
 use hans_gateway::state::{Text, Triggers};
-use hans_gateway::storage::image::{decode, encode, Entries};
 use hans_gateway::storage::image::crc32;
+use hans_gateway::storage::image::{decode, encode, Entries};
 use hans_gateway::storage::IMAGE_LEN;
 use hans_gateway::testkit::clock::VirtualClock;
 use hans_gateway::testkit::world::MemStorage;
@@ -65,18 +65,22 @@ fn check(data: &[u8]) {
             .is_ready(),
         "loading from memory waits"
     );
-    let (active, password, loaded) = gw
+    let (active, accounts, loaded) = gw
         .hub()
-        .with(|m| (m.config.active, m.access.password, m.triggers.entries));
+        .with(|m| (m.config.active, m.access.accounts, m.triggers.entries));
     match decoded {
         Ok(stored) => {
             assert_eq!(active, stored.config, "not the stored configuration");
-            assert_eq!(password, stored.password);
+            assert_eq!(accounts, stored.accounts);
+            assert!(
+                accounts.is_empty() || accounts.admin_exists(),
+                "accounts without an administrator loaded"
+            );
             assert_eq!(loaded, entries);
         }
         Err(_) => {
             assert_eq!(active, defaults, "a refused image, not the defaults");
-            assert_eq!(password, None);
+            assert!(accounts.is_empty(), "accounts of a refused image");
             assert_eq!(loaded, Triggers::default().entries);
         }
     }
@@ -96,4 +100,3 @@ fn check(data: &[u8]) {
     }
     assert_eq!(from_registers(&words, &active), Ok(active));
 }
-
