@@ -178,6 +178,19 @@ impl Plc {
             .unwrap_or_else(|e| panic!("exception {e:?} writing {addr}"));
     }
 
+    /// Writes registers (FC 16): `Err` with the exception if the device
+    /// refused them (a transport error still panics).
+    pub async fn try_write(
+        &mut self,
+        addr: u16,
+        values: &[u16],
+    ) -> Result<(), tokio_modbus::ExceptionCode> {
+        self.ctx
+            .write_multiple_registers(addr, values)
+            .await
+            .expect("transport")
+    }
+
     /// One register.
     pub async fn read1(&mut self, addr: u16) -> u16 {
         self.read(addr, 1).await[0]

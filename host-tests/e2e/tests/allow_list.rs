@@ -62,6 +62,30 @@ async fn web_answer(from: Ipv4Addr, to: SocketAddrV4) -> String {
         .to_string()
 }
 
+/// `POST path` with a JSON body from 127.0.0.1, as the device's page
+/// sends it: the answer's first line.
+async fn web_post(to: SocketAddrV4, path: &str, body: &str) -> String {
+    let mut s = connect_from(Ipv4Addr::LOCALHOST, to).await;
+    let request = format!(
+        "POST {path} HTTP/1.1\r\nHost: {to}\r\nOrigin: http://{to}\r\n\
+         Content-Type: application/json\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{body}",
+        body.len()
+    );
+    s.write_all(request.as_bytes()).await.expect("send");
+    let mut got = Vec::new();
+    let _ = tokio::time::timeout(LIMIT, s.read_to_end(&mut got))
+        .await
+        .expect("an answer in time");
+    String::from_utf8_lossy(&got)
+        .lines()
+        .next()
+        .unwrap_or("")
+        .to_string()
+}
+
+/// The setup code handed to the gateway, as `hans-gateway` prints one.
+const SETUP_CODE: &str = "ABCD-EFGH-JKMN";
+
 /// The registers of an allow-list holding `entries` (`ip/prefix`).
 fn allow_words(entries: &[(Ipv4Addr, u16)]) -> Vec<u16> {
     let mut w = vec![0u16; 12];
@@ -94,6 +118,7 @@ async fn a_client_from_127_0_0_2_is_refused_until_allowed() {
     opts.defaults.modbus_allow = only_first;
     opts.defaults.web_allow = only_first;
     opts.web_listen = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0));
+    opts.setup_code = hans_gateway::SetupCode::parse(SETUP_CODE.as_bytes());
     let gw = RunningGateway::start(opts).expect("gateway");
     let modbus = gw.modbus_addr();
     let web = gw.web_addr().expect("web page");
@@ -112,10 +137,19 @@ async fn a_client_from_127_0_0_2_is_refused_until_allowed() {
     assert_eq!(web_answer(SECOND, web).await, "", "web from 127.0.0.2");
     assert_eq!(plc.read1(r::STATUS_WEB_REFUSED).await, 1);
 
-    // Allowed (as a PLC would: the registers, then CONFIG_COMMAND 1): served.
+    // Allowed (as a PLC would: the registers, then CONFIG_COMMAND 1): not
+    // before an administrator exists (CONFIG_RESULT 4), then served.
     let both = allow_words(&[(Ipv4Addr::LOCALHOST, 32), (SECOND, 32)]);
     plc.write(r::MODBUS_ALLOW, &both).await;
     plc.write(r::WEB_ALLOW, &both).await;
+    assert!(plc
+        .try_write(r::CONTROL_CONFIG_COMMAND, &[1])
+        .await
+        .is_err());
+    assert_eq!(plc.read1(r::CONTROL_CONFIG_RESULT).await, 4, "locked");
+    let setup = format!(r#"{{"code":"{SETUP_CODE}","name":"admin","password":"commission-2026"}}"#);
+    let answer = web_post(web, "/api/setup", &setup).await;
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
     plc.write(r::CONTROL_CONFIG_COMMAND, &[1]).await;
     assert_eq!(plc.read1(r::CONTROL_CONFIG_RESULT).await, 3, "applied");
     assert!(modbus_served(SECOND, modbus).await, "Modbus from 127.0.0.2");
