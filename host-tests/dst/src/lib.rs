@@ -724,6 +724,7 @@ impl Scenario {
             storage: MemStorage::default(),
             web: false,
             recovery: false,
+            setup_code: None,
         });
         let mut p = || rng.below(12) as u32;
         world.robot.faults = RandomFaults {
