@@ -86,6 +86,14 @@ impl Hub {
         self.audit.record(event)
     }
 
+    /// A connection to the robot link's listen port from another address
+    /// than the controller's was refused (counted per period in the audit
+    /// log, as the allow-lists' refusals are).
+    #[cfg(feature = "audit")]
+    pub(crate) fn audit_refused_robot(&self, peer: Option<core::net::Ipv4Addr>) {
+        self.audit.refused(Interface::Robot, peer);
+    }
+
     /// Runs `f` on the state. Never call it from inside `f`.
     pub fn with<R>(&self, f: impl FnOnce(&mut Model) -> R) -> R {
         self.model.lock(|m| f(&mut m.borrow_mut()))

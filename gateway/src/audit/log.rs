@@ -96,7 +96,7 @@ struct Inner {
     keeping: bool,
     wall: Wall,
     /// Modbus, web.
-    refused: [Refusals; 2],
+    refused: [Refusals; 3],
     /// CRC of each trigger entry as last recorded.
     triggers: [u32; TRIGGERS],
 }
@@ -137,7 +137,7 @@ impl Log {
                 lost: 0,
                 keeping: false,
                 wall: Wall::Unknown,
-                refused: [Refusals::NONE; 2],
+                refused: [Refusals::NONE; 3],
                 triggers: [0; TRIGGERS],
             })),
             fresh: Signal::new(),
@@ -344,7 +344,7 @@ impl Log {
     /// Ends the refusal periods due at `now`, with a record each (stamped
     /// `now`).
     pub(crate) fn end_refusal_periods(&self, now: Instant) {
-        for interface in [Interface::Modbus, Interface::Web] {
+        for interface in [Interface::Modbus, Interface::Web, Interface::Robot] {
             let ended = self.with(|i| {
                 let r = i.refused.get_mut(refusal_index(interface))?;
                 let since = r.since.filter(|s| *s + r.period <= now)?;
@@ -361,10 +361,14 @@ impl Log {
                     interface,
                     from: last,
                 };
+                let why = match interface {
+                    Interface::Robot => "not the controller",
+                    _ => "allow-list",
+                };
                 self.add(Kind::Refused, &who, |d| {
                     let _ = write!(
                         d,
-                        "{count} connections refused in {} s (allow-list)",
+                        "{count} connections refused in {} s ({why})",
                         over.as_secs()
                     );
                 });
@@ -470,7 +474,11 @@ impl Log {
 
 /// Which counter of [`Inner::refused`] an interface has (web: 1, else 0).
 fn refusal_index(interface: Interface) -> usize {
-    usize::from(interface == Interface::Web)
+    match interface {
+        Interface::Web => 1,
+        Interface::Robot => 2,
+        _ => 0,
+    }
 }
 
 impl Inner {

@@ -158,6 +158,8 @@ coded! {
         File = 3, "file";
         /// The board's button (a recovery start).
         Button = 4, "button";
+        /// The robot link's listen port (listen mode).
+        Robot = 5, "robot";
     }
 }
 

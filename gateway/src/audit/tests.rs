@@ -418,6 +418,44 @@ fn a_configuration_applied_over_modbus_is_recorded_setting_by_setting() {
 }
 
 #[test]
+fn a_host_refused_by_the_listen_port_is_recorded_with_its_address() {
+    let controller = Ipv4Addr::new(10, 0, 0, 2);
+    let mut w = world(WorldConfig {
+        listen_mode: true,
+        config: Config {
+            robot_ip: controller,
+            ..Config::default()
+        },
+        ..WorldConfig::default()
+    });
+    let port = w.model(|m| m.config.active.listen_port);
+    let intruder = Ipv4Addr::new(10, 0, 0, 66);
+    for k in 0..3 {
+        let s = w
+            .net
+            .connect(core::net::SocketAddrV4::new(intruder, 40000 + k), port)
+            .expect("the gateway listens");
+        w.run_for(secs(1));
+        assert!(!s.is_open(), "refused");
+    }
+    w.run_for(secs(61));
+    let got = log_of(&w);
+    let refused: Vec<_> = got.iter().filter(|r| r.kind == Kind::Refused).collect();
+    assert_eq!(refused.len(), 1, "{got:?}");
+    assert_eq!(refused[0].interface, Interface::Robot);
+    assert_eq!(refused[0].from, Some(intruder));
+    assert!(
+        refused[0]
+            .detail
+            .as_str()
+            .starts_with("3 connections refused")
+            && refused[0].detail.as_str().ends_with("(not the controller)"),
+        "{}",
+        refused[0].detail.as_str()
+    );
+}
+
+#[test]
 fn refused_modbus_clients_are_counted_over_a_period_not_recorded_one_by_one() {
     let mut w = world(WorldConfig {
         config: Config {

@@ -576,6 +576,8 @@ impl<'a, C: Clock> Engine<'a, C> {
         }
         self.hub
             .with(|m| m.link.refused = m.link.refused.wrapping_add(1));
+        #[cfg(feature = "audit")]
+        self.hub.audit_refused_robot(peer.map(|p| *p.ip()));
     }
 
     fn on_connected<S: Socket>(&mut self, link: &Link<S>) {
