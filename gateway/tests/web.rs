@@ -1050,3 +1050,52 @@ fn the_audit_log_names_who_logged_in_and_changed_what_from_where() {
         "{config}"
     );
 }
+
+#[test]
+fn guesses_sent_in_parallel_gain_nothing_over_guesses_sent_one_after_the_other() {
+    let mut w = world();
+    set_password(&mut w);
+    // The 3 free guesses, one after the other.
+    for _ in 0..3 {
+        assert_eq!(login(&mut w, "admin", "wrong guess!").status, 401);
+    }
+    // Then two at once, on two connections from this PC (its cap of
+    // slots), both sent before any answer: their hashes would run
+    // interleaved. Each guess is counted before its hash, so the first
+    // starts the wait and the second waits, as one after the other: a
+    // limit checked before and counted after the hash let both through.
+    let guess = body(&[("name", "admin"), ("password", "wrong guess!")]);
+    let one = format!(
+        "POST /api/login HTTP/1.1\r\nHost: {HOST}\r\nOrigin: {ORIGIN}\r\n\
+         Content-Type: application/json\r\nContent-Length: {}\r\n\r\n",
+        guess.len()
+    );
+    let mut req = one.into_bytes();
+    req.extend_from_slice(&guess);
+    let mut conns: Vec<_> = (0..2)
+        .map(|_| w.web_connect(PC).expect("a connection"))
+        .collect();
+    for c in &mut conns {
+        c.write(&req);
+    }
+    let mut got = vec![Vec::new(); 2];
+    for _ in 0..200 {
+        w.run_for(ms(10));
+        for (c, g) in conns.iter_mut().zip(&mut got) {
+            g.extend(c.read());
+        }
+        let answers: usize = got
+            .iter()
+            .map(|g| String::from_utf8_lossy(g).matches("HTTP/1.1 ").count())
+            .sum();
+        if answers == 2 {
+            break;
+        }
+    }
+    let all: String = got
+        .iter()
+        .map(|g| String::from_utf8_lossy(g).to_string())
+        .collect();
+    assert_eq!(all.matches("HTTP/1.1 401").count(), 1, "{all}");
+    assert_eq!(all.matches("HTTP/1.1 429").count(), 1, "{all}");
+}
