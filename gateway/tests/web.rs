@@ -1099,3 +1099,39 @@ fn guesses_sent_in_parallel_gain_nothing_over_guesses_sent_one_after_the_other()
     assert_eq!(all.matches("HTTP/1.1 401").count(), 1, "{all}");
     assert_eq!(all.matches("HTTP/1.1 429").count(), 1, "{all}");
 }
+
+#[test]
+fn guesses_from_other_addresses_do_not_lock_the_administrator_out() {
+    let mut w = world();
+    set_password(&mut w);
+    // The administrator logs in from this PC: one of the account's own
+    // addresses from now on.
+    assert_eq!(login(&mut w, "admin", "correct horse").status, 200);
+    // Hosts elsewhere guess the administrator's password, each within its
+    // address's free tries, more than the account's 10: the account's wait
+    // begins (429 for them).
+    let guess = body(&[("name", "admin"), ("password", "wrong guess!")]);
+    let mut statuses = Vec::new();
+    for host in 100..105u8 {
+        for _ in 0..3 {
+            let a = post_from(&mut w, Ipv4Addr::new(10, 0, 0, host), "/api/login", &guess);
+            statuses.push(a.status);
+        }
+    }
+    assert_eq!(
+        statuses.iter().filter(|&&s| s == 401).count(),
+        11,
+        "{statuses:?}"
+    );
+    assert!(
+        statuses.iter().all(|&s| s == 401 || s == 429),
+        "{statuses:?}"
+    );
+    // The account now waits for other addresses, even with the right
+    // password...
+    let right = body(&[("name", "admin"), ("password", "correct horse")]);
+    let a = post_from(&mut w, Ipv4Addr::new(10, 0, 0, 200), "/api/login", &right);
+    assert_eq!(a.status, 429, "{}", String::from_utf8_lossy(&a.body));
+    // ...but not for the administrator's own desk.
+    assert_eq!(login(&mut w, "admin", "correct horse").status, 200);
+}
