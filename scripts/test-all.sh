@@ -93,6 +93,13 @@ step "clippy (codec with v6 and defmt)" \
 step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-codec -p hans-host-tests --locked
 step "host tests" cargo test --workspace --exclude hans-host-tests --locked
 step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd-unit-test.sh
+# Sparkplug B (feature `sparkplug`, not in `default` yet): its unit tests
+# (payloads decoded with prost, SPARKPLUG.md against the table), clippy with
+# it, and a no_std build of it for the boards.
+step "Sparkplug B edge node (feature sparkplug): tests, clippy, thumbv7em build" \
+  bash -c 'cargo test -p hans-gateway --features sparkplug --lib --locked sparkplug &&
+    cargo clippy -p hans-gateway --all-targets --features sparkplug --locked -- -D warnings &&
+    cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,sparkplug --locked'
 
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \

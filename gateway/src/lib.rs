@@ -32,6 +32,7 @@
 //! | `net` | the socket interface and its adapters |
 //! | `web` | the web page and its JSON API (feature `web`) |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
+//! | `sparkplug` | Sparkplug B edge node: topics, metrics, payloads, publishing rules (feature `sparkplug`) |
 //! | [`testkit`] | a virtual world for tests: clock, network, robot, PLC (feature `testkit`) |
 //!
 //! ## Bounds
@@ -73,6 +74,8 @@
 //! * `audit` (with `web`): the audit log, `audit`, kept by the storage.
 //! * `sntp`: the audit log's wall time on boards from an SNTP server
 //!   (`sntp`, run by [`board::run`]).
+//! * `sparkplug`: `sparkplug`, the Sparkplug B edge node's messages and
+//!   publishing rules (no networking).
 //! * `testkit`: [`testkit`], the virtual world of the tests, simulations
 //!   and fuzz targets (needs `std`).
 // The gateway is one future of nested futures (engine, sessions, web
@@ -125,6 +128,8 @@ pub(crate) mod modbus;
 pub(crate) mod net;
 pub(crate) mod plc;
 pub mod registers;
+#[cfg(feature = "sparkplug")]
+pub mod sparkplug;
 #[cfg(any(test, feature = "sntp"))]
 pub(crate) mod sntp;
 pub mod state;
