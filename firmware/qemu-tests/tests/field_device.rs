@@ -283,8 +283,8 @@ fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees(
             "MODBUS_ALLOW 10.0.2.2/32",
         );
         assert!(
-            plc.write_single_register(CONFIG_COMMAND, 1).is_err(),
-            "locked"
+            matches!(plc.write_single_register(CONFIG_COMMAND, 1), Ok(Err(_))),
+            "locked: a Modbus exception"
         );
         let result = must(plc.read_holding_registers(CONFIG_RESULT, 1), "result")[0];
         assert_eq!(result, 4, "CONFIG_RESULT: access settings locked");
