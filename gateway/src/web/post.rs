@@ -70,9 +70,12 @@ fn saved_json(outcome: SaveOutcome, restart_pending: bool) -> Json {
 /// The settings of an import: name and text, in the order given.
 struct Settings<'a>(heapless::Vec<(&'a str, &'a str), { SETTINGS.len() }>);
 
-/// The trigger entries of an import, unescaped (a PLC may have stored
-/// quotes or backslashes, which the export escapes).
-struct Triggers(heapless::Vec<Field<TRIGGER_TEXT>, TRIGGERS>);
+/// The trigger entries of an import as written, escapes and all (a PLC
+/// may have stored quotes or backslashes, which the export escapes):
+/// [`unescape`] reads each into its entry. Borrowed, not copied: an owned
+/// copy of 16 texts was moved through the reader's layers and took 26 KiB
+/// of the field device's stack.
+struct Triggers<'a>(heapless::Vec<&'a str, TRIGGERS>);
 
 fn plain<E: de::Error>(s: &str) -> Result<&str, E> {
     // Without an unescape buffer the reader hands strings over as written:
@@ -104,25 +107,63 @@ impl<'de: 'a, 'a> Deserialize<'de> for Settings<'a> {
     }
 }
 
-impl<'de> Deserialize<'de> for Triggers {
+impl<'de: 'a, 'a> Deserialize<'de> for Triggers<'a> {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Triggers;
+        struct V<'a>(core::marker::PhantomData<&'a ()>);
+        impl<'de: 'a, 'a> Visitor<'de> for V<'a> {
+            type Value = Triggers<'a>;
             fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
                 f.write_str("an array of 16 trigger texts")
             }
             fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
                 let mut v = heapless::Vec::new();
-                while let Some(t) = seq.next_element::<Field<TRIGGER_TEXT>>()? {
+                while let Some(t) = seq.next_element::<&'a str>()? {
                     v.push(t)
                         .map_err(|_| de::Error::custom("more than 16 trigger entries"))?;
                 }
                 Ok(Triggers(v))
             }
         }
-        d.deserialize_seq(V)
+        d.deserialize_seq(V(core::marker::PhantomData))
     }
+}
+
+/// A JSON string's content as written (`raw`, between its quotes) into
+/// `out`, its escapes read (`\"`, `\\`, `\/`, `\b`, `\f`, `\n`, `\r`,
+/// `\t`, `\u00XX` for ASCII); a text longer than `out` or another escape
+/// is refused with the reason.
+fn unescape<const N: usize>(raw: &str, out: &mut heapless::Vec<u8, N>) -> Result<(), &'static str> {
+    const LONG: &str = "longer than 192 characters";
+    let mut b = raw.bytes();
+    while let Some(c) = b.next() {
+        let c = match c {
+            b'\\' => match b.next() {
+                Some(b'"') => b'"',
+                Some(b'\\') => b'\\',
+                Some(b'/') => b'/',
+                Some(b'b') => 8,
+                Some(b'f') => 12,
+                Some(b'n') => b'\n',
+                Some(b'r') => b'\r',
+                Some(b't') => b'\t',
+                Some(b'u') => {
+                    let mut v: u32 = 0;
+                    for _ in 0..4 {
+                        let d = b.next().and_then(|d| char::from(d).to_digit(16));
+                        v = v * 16 + d.ok_or("a broken \\u escape")?;
+                    }
+                    u8::try_from(v)
+                        .ok()
+                        .filter(u8::is_ascii)
+                        .ok_or("not a protocol message")?
+                }
+                _ => return Err("a broken escape"),
+            },
+            c => c,
+        };
+        out.push(c).map_err(|_| LONG)?;
+    }
+    Ok(())
 }
 
 /// A configuration as posted (and as exported by `/api/config`).
@@ -133,8 +174,8 @@ struct ConfigDoc<'a> {
     format: Option<&'a str>,
     #[serde(borrow, default)]
     settings: Option<Settings<'a>>,
-    #[serde(default)]
-    triggers: Option<Triggers>,
+    #[serde(borrow, default)]
+    triggers: Option<Triggers<'a>>,
 }
 
 /// Problems found in a posted configuration, as `{"ok":false,"errors":
@@ -240,10 +281,7 @@ pub(crate) fn read_config(
     body: &[u8],
     base: &Config,
 ) -> Result<(Config, Option<[Text<TRIGGER_TEXT>; TRIGGERS]>), Json> {
-    // Strings with escapes are unescaped here (one at a time): trigger
-    // texts may hold quotes and backslashes.
-    let mut unescape = [0u8; TRIGGER_TEXT];
-    let doc = match serde_json_core::from_slice_escaped::<ConfigDoc<'_>>(body, &mut unescape) {
+    let doc = match serde_json_core::from_slice::<ConfigDoc<'_>>(body) {
         Ok((d, _)) => d,
         Err(e) => {
             let mut reason: heapless::String<96> = heapless::String::new();
@@ -264,8 +302,10 @@ pub(crate) fn read_config(
     let mut triggers = None;
     if let Some(t) = &doc.triggers {
         let mut all = [Text::EMPTY; TRIGGERS];
-        for (i, (slot, text)) in all.iter_mut().zip(&t.0).enumerate() {
-            let text = core::str::from_utf8(&text.0).map_err(|_| "not UTF-8");
+        for (i, (slot, raw)) in all.iter_mut().zip(&t.0).enumerate() {
+            let mut text = heapless::Vec::<u8, TRIGGER_TEXT>::new();
+            let text = unescape(raw, &mut text)
+                .and_then(|()| core::str::from_utf8(&text).map_err(|_| "not UTF-8"));
             match text.and_then(check_trigger) {
                 Ok(v) => *slot = v,
                 Err(e) => {
@@ -800,6 +840,21 @@ impl<C: Clock> App<'_, C> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn json_escapes_are_read_and_bad_ones_refused() {
+        let read = |raw: &str| {
+            let mut out = heapless::Vec::<u8, 8>::new();
+            unescape(raw, &mut out).map(|()| out.to_vec())
+        };
+        assert_eq!(read(r#"a\"b\\c"#), Ok(b"a\"b\\c".to_vec()));
+        assert_eq!(read(r"\/\t\u0041"), Ok(b"/\tA".to_vec()));
+        assert_eq!(read(r"\u00e9"), Err("not a protocol message"));
+        assert_eq!(read(r"\u12"), Err("a broken \\u escape"));
+        assert_eq!(read(r"\x"), Err("a broken escape"));
+        assert_eq!(read(r"\"), Err("a broken escape"));
+        assert_eq!(read("123456789"), Err("longer than 192 characters"));
+    }
 
     fn text(j: &Json) -> &str {
         core::str::from_utf8(j.as_bytes()).unwrap()
