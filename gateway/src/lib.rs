@@ -128,10 +128,10 @@ pub(crate) mod modbus;
 pub(crate) mod net;
 pub(crate) mod plc;
 pub mod registers;
-#[cfg(feature = "sparkplug")]
-pub mod sparkplug;
 #[cfg(any(test, feature = "sntp"))]
 pub(crate) mod sntp;
+#[cfg(feature = "sparkplug")]
+pub mod sparkplug;
 pub mod state;
 pub mod storage;
 #[cfg(any(test, feature = "testkit"))]
