@@ -125,6 +125,8 @@ pub(crate) mod hub;
 pub mod job;
 pub(crate) mod link;
 pub(crate) mod modbus;
+#[cfg(feature = "mqtt")]
+pub mod mqtt;
 pub(crate) mod net;
 pub(crate) mod plc;
 pub mod registers;

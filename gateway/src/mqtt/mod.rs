@@ -1,0 +1,507 @@
+//! The MQTT 3.1.1 client of the Sparkplug edge node (feature `mqtt`).
+//!
+//! [`run`] keeps one connection to the broker over the gateway's socket
+//! interface (`crate::net`: the same code on tokio and embassy-net) and
+//! drives a [`EdgeNode`]: CONNECT with the node's NDEATH as the Will (QoS 1,
+//! not retained), SUBSCRIBE to its NCMD and its device's DCMD, then the
+//! births and the data [`EdgeNode::poll`] gives, published at QoS 0;
+//! rebirth requests are answered through [`EdgeNode::command`] (every
+//! write is refused: MQTT sees the robot, never moves it). PINGREQ keeps
+//! the connection alive. Any failure (refused, reset, closed, silent, a
+//! write that does not finish) closes the socket, ends the Sparkplug
+//! session ([`EdgeNode::disconnect`]: the broker publishes the Will) and
+//! connects again after a backoff of 1 s, doubling to 30 s, back to 1 s
+//! after an accepted CONNECT.
+//!
+//! ## Why the packets are written here
+//! The client needs eight packets (CONNECT with a Will, CONNACK, PUBLISH
+//! QoS 0 out and in, SUBSCRIBE/SUBACK, PINGREQ/PINGRESP, DISCONNECT), about
+//! 250 lines in `packet`. The crates were checked (2026-11):
+//! `mqttrs` 0.4.1 (last release 2021) encodes without `std` but keeps
+//! SUBSCRIBE's topics in heapless 0.5 vectors beside our 0.9;
+//! `rust-mqtt` 0.6.0 and `minimq` are whole clients that own the
+//! connection, the keep-alive and the timers over `embedded-io-async` /
+//! `embedded-nal`: they would need an adapter of our `Socket` and would
+//! take the reconnect and time rules (virtual time in the tests, the
+//! bounded reads below) out of our hands. Writing the packets keeps one
+//! code path, virtual-time testable, at a few hundred bytes of flash.
+//!
+//! ## Bounds and time
+//! * The broker is an IPv4 address and a port ([`Settings::broker`]);
+//!   resolving a host name (the `mqtt.broker` setting may be one) is not
+//!   done here: the caller resolves it first.
+//! * Buffers: [`PAYLOAD_BUF`] for one Sparkplug payload, [`RX_BUF`] for a
+//!   received packet (longer ones, e.g. a large retained message on a
+//!   command topic, are skipped and counted, the connection stays),
+//!   [`PACKET_BUF`] for the packets' headers.
+//! * Every wait is bounded: the TCP connect and the CONNACK
+//!   [`CONNECT_TIMEOUT`], each write [`WRITE_TIMEOUT`] (a broker that does
+//!   not take the data ends the connection: what was not sent is dropped
+//!   and counted, births follow the next connect), a PINGRESP one
+//!   keep-alive.
+//! * It never holds the engine: the state is read under the hub's lock
+//!   only while one payload is encoded ([`Hub::with`]), and every wait is
+//!   this task's own.
+
+pub mod packet;
+
+#[cfg(test)]
+mod tests;
+
+use core::cell::Cell;
+use core::convert::Infallible;
+use core::net::SocketAddrV4;
+
+use embassy_time::{Duration, Instant};
+
+use crate::clock::{with_deadline, with_timeout, Clock};
+use crate::hub::Hub;
+use crate::net::{Net, NetError, Socket};
+use crate::sparkplug::{EdgeNode, MessageType, NodeConfig};
+
+pub use crate::sparkplug::PAYLOAD_BUF;
+use packet::{Frame, Packet, Will};
+
+/// The largest packet received whole (an NCMD/DCMD is a few dozen bytes).
+pub const RX_BUF: usize = 1024;
+/// The buffer of CONNECT, SUBSCRIBE and PUBLISH headers.
+pub const PACKET_BUF: usize = 512;
+/// The socket's own buffers (embassy-net), each.
+pub const SOCKET_BUF: usize = 1024;
+/// The TCP connect and the CONNACK must come within this.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
+/// One packet must be written within this.
+pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
+/// The first wait before connecting again.
+pub const BACKOFF_MIN: Duration = Duration::from_secs(1);
+/// The longest wait before connecting again.
+pub const BACKOFF_MAX: Duration = Duration::from_secs(30);
+/// The SUBSCRIBE's packet id.
+const SUBSCRIBE_ID: u16 = 1;
+
+/// The client's settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The broker (an address: names are resolved by the caller).
+    pub broker: SocketAddrV4,
+    /// The Sparkplug node (its edge id is also the MQTT client id).
+    pub node: NodeConfig,
+    /// The keep-alive told to the broker (whole seconds, 1 to 65535): a
+    /// silent gateway is dead after 1.5 times it.
+    pub keep_alive: Duration,
+}
+
+impl Settings {
+    /// Node `node` to `broker`, keep-alive 30 s.
+    pub fn new(broker: SocketAddrV4, node: NodeConfig) -> Settings {
+        Settings {
+            broker,
+            node,
+            keep_alive: Duration::from_secs(30),
+        }
+    }
+}
+
+/// Why a connection ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Error {
+    /// The socket failed.
+    Net(NetError),
+    /// The broker closed the connection.
+    Closed,
+    /// The broker did not answer or take data in time.
+    Timeout,
+    /// The broker refused the CONNECT with this return code (4: bad user
+    /// name or password, 5: not authorised).
+    Refused(u8),
+    /// The broker sent something that is not MQTT 3.1.1 here.
+    Protocol,
+    /// A packet does not fit its buffer.
+    TooLong,
+}
+
+impl Error {
+    /// A short text for logs and the status page.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Error::Net(e) => e.as_str(),
+            Error::Closed => "closed by the broker",
+            Error::Timeout => "broker timeout",
+            Error::Refused(_) => "refused by the broker",
+            Error::Protocol => "protocol error",
+            Error::TooLong => "packet too long",
+        }
+    }
+}
+
+impl From<NetError> for Error {
+    fn from(e: NetError) -> Error {
+        Error::Net(e)
+    }
+}
+
+impl From<packet::TooLong> for Error {
+    fn from(_: packet::TooLong) -> Error {
+        Error::TooLong
+    }
+}
+
+/// The client's counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Connected (CONNACK accepted) now.
+    pub connected: bool,
+    /// Accepted connections since start.
+    pub connects: u32,
+    /// Connection attempts and connections that ended in an error.
+    pub failures: u32,
+    /// The last error.
+    pub last_error: Option<Error>,
+    /// PUBLISH packets sent.
+    pub sent: u32,
+    /// Messages made but not sent (the connection failed while writing,
+    /// or a birth did not fit).
+    pub dropped: u32,
+    /// Received packets too long for [`RX_BUF`], skipped.
+    pub skipped: u32,
+    /// The edge node's counters.
+    pub node: crate::sparkplug::Stats,
+}
+
+/// The client's state for others to read (the status page, tests).
+#[derive(Debug, Default)]
+pub struct Status(Cell<Stats>);
+
+impl Status {
+    /// No connection yet.
+    pub const fn new() -> Status {
+        Status(Cell::new(Stats {
+            connected: false,
+            connects: 0,
+            failures: 0,
+            last_error: None,
+            sent: 0,
+            dropped: 0,
+            skipped: 0,
+            node: crate::sparkplug::Stats {
+                messages: 0,
+                dropped: 0,
+                events_lost: 0,
+                refused: 0,
+                malformed: 0,
+                rebirths: 0,
+            },
+        }))
+    }
+
+    /// The counters now.
+    pub fn get(&self) -> Stats {
+        self.0.get()
+    }
+
+    fn update(&self, f: impl FnOnce(&mut Stats)) {
+        let mut s = self.0.get();
+        f(&mut s);
+        self.0.set(s);
+    }
+}
+
+/// The buffers of one client.
+struct Buffers {
+    /// A Sparkplug payload (and the Will).
+    pay: [u8; PAYLOAD_BUF],
+    /// Packet headers, CONNECT, SUBSCRIBE.
+    pkt: [u8; PACKET_BUF],
+}
+
+/// Received bytes, framed into packets.
+struct Reader {
+    buf: [u8; RX_BUF],
+    len: usize,
+    /// Bytes of a too-long packet still to throw away.
+    skip: usize,
+}
+
+impl Reader {
+    fn new() -> Reader {
+        Reader {
+            buf: [0; RX_BUF],
+            len: 0,
+            skip: 0,
+        }
+    }
+
+    /// The length of the whole packet at the start of the buffer, if one
+    /// is there (packets longer than the buffer are skipped).
+    fn ready(&mut self, status: &Status) -> Result<Option<usize>, Error> {
+        loop {
+            if self.skip > 0 {
+                let k = self.skip.min(self.len);
+                self.consume(k);
+                self.skip -= k;
+                if self.skip > 0 {
+                    return Ok(None);
+                }
+            }
+            match packet::frame(self.buf.get(..self.len).unwrap_or(&[]), RX_BUF) {
+                Frame::Incomplete => return Ok(None),
+                Frame::Whole { len } => return Ok(Some(len)),
+                Frame::TooLong { len } => {
+                    status.update(|s| s.skipped = s.skipped.wrapping_add(1));
+                    self.skip = len;
+                }
+                Frame::Malformed => return Err(Error::Protocol),
+            }
+        }
+    }
+
+    /// The packet of `len` bytes at the start.
+    fn packet(&self, len: usize) -> Result<Packet<'_>, Error> {
+        self.buf
+            .get(..len)
+            .and_then(packet::parse)
+            .ok_or(Error::Protocol)
+    }
+
+    fn consume(&mut self, n: usize) {
+        let n = n.min(self.len);
+        self.buf.copy_within(n..self.len, 0);
+        self.len -= n;
+    }
+
+    /// Reads what the socket has (waits for at least one byte).
+    async fn fill<S: Socket>(&mut self, sock: &mut S) -> Result<(), Error> {
+        let room = self.buf.get_mut(self.len..).unwrap_or(&mut []);
+        if room.is_empty() {
+            // Cannot happen: a full buffer holds a whole or a too-long packet.
+            return Err(Error::TooLong);
+        }
+        let n = sock.read(room).await?;
+        if n == 0 {
+            return Err(Error::Closed);
+        }
+        self.len += n;
+        Ok(())
+    }
+}
+
+/// Writes `bytes` within [`WRITE_TIMEOUT`].
+async fn send<C: Clock, S: Socket>(clock: &C, sock: &mut S, bytes: &[u8]) -> Result<(), Error> {
+    match with_timeout(clock, WRITE_TIMEOUT, sock.write_all(bytes)).await {
+        Ok(r) => Ok(r?),
+        Err(_) => Err(Error::Timeout),
+    }
+}
+
+/// Keeps the edge node `settings.node` connected to the broker, for ever
+/// (see the module documentation). `status` shows how it goes.
+pub async fn run<C: Clock, N: Net>(
+    hub: &Hub,
+    clock: &C,
+    net: &N,
+    settings: &Settings,
+    status: &Status,
+) -> Infallible {
+    let mut rx = [0u8; SOCKET_BUF];
+    let mut tx = [0u8; SOCKET_BUF];
+    let mut sock = net.socket(&mut rx, &mut tx);
+    let mut node = EdgeNode::new(settings.node.clone());
+    let mut bufs = Buffers {
+        pay: [0; PAYLOAD_BUF],
+        pkt: [0; PACKET_BUF],
+    };
+    let mut reader = Reader::new();
+    let mut backoff = BACKOFF_MIN;
+    loop {
+        reader.len = 0;
+        reader.skip = 0;
+        let Err(e) = session(
+            hub,
+            clock,
+            &mut sock,
+            &mut node,
+            settings,
+            status,
+            &mut bufs,
+            &mut reader,
+            &mut backoff,
+        )
+        .await;
+        let _ = with_timeout(clock, WRITE_TIMEOUT, sock.close()).await;
+        node.disconnect();
+        status.update(|s| {
+            s.connected = false;
+            s.failures = s.failures.wrapping_add(1);
+            s.last_error = Some(e);
+            s.node = node.stats();
+        });
+        warn!(
+            "mqtt: {}; connecting again in {} ms",
+            e.as_str(),
+            backoff.as_millis()
+        );
+        clock.sleep(backoff).await;
+        backoff = (backoff * 2).min(BACKOFF_MAX);
+    }
+}
+
+/// One connection, until it fails.
+#[allow(clippy::too_many_arguments)]
+async fn session<C: Clock, S: Socket>(
+    hub: &Hub,
+    clock: &C,
+    sock: &mut S,
+    node: &mut EdgeNode,
+    settings: &Settings,
+    status: &Status,
+    bufs: &mut Buffers,
+    reader: &mut Reader,
+    backoff: &mut Duration,
+) -> Result<Infallible, Error> {
+    let start = clock.now();
+    match with_deadline(
+        clock,
+        start + CONNECT_TIMEOUT,
+        sock.connect(settings.broker),
+    )
+    .await
+    {
+        Ok(r) => r?,
+        Err(_) => return Err(Error::Timeout),
+    }
+    let keep_alive_s = u16::try_from(settings.keep_alive.as_secs().max(1)).unwrap_or(u16::MAX);
+    let keep_alive = Duration::from_secs(keep_alive_s.into());
+    let will = node
+        .connect(clock.now(), &mut bufs.pay)
+        .map_err(|_| Error::TooLong)?;
+    let n = packet::connect(
+        &mut bufs.pkt,
+        settings.node.edge.as_str(),
+        keep_alive_s,
+        Some(Will {
+            topic: will.topic.as_str(),
+            payload: will.payload,
+            qos: MessageType::NDeath.qos(),
+        }),
+        None,
+    )?;
+    send(clock, sock, bufs.pkt.get(..n).unwrap_or(&[])).await?;
+    // CONNACK first.
+    let connack_by = start + CONNECT_TIMEOUT;
+    let len = loop {
+        if let Some(len) = reader.ready(status)? {
+            break len;
+        }
+        match with_deadline(clock, connack_by, reader.fill(sock)).await {
+            Ok(r) => r?,
+            Err(_) => return Err(Error::Timeout),
+        }
+    };
+    match reader.packet(len)? {
+        Packet::ConnAck { code: 0 } => {}
+        Packet::ConnAck { code } => return Err(Error::Refused(code)),
+        _ => return Err(Error::Protocol),
+    }
+    reader.consume(len);
+    *backoff = BACKOFF_MIN;
+    status.update(|s| {
+        s.connected = true;
+        s.connects = s.connects.wrapping_add(1);
+    });
+    info!("mqtt: connected, bdSeq {}", node.bd_seq());
+    let ncmd = node.topic(MessageType::NCmd);
+    let dcmd = node.topic(MessageType::DCmd);
+    let n = packet::subscribe(&mut bufs.pkt, SUBSCRIBE_ID, &[ncmd.as_str(), dcmd.as_str()])?;
+    send(clock, sock, bufs.pkt.get(..n).unwrap_or(&[])).await?;
+    let mut last_sent = clock.now();
+    let mut ping_sent: Option<Instant> = None;
+    loop {
+        publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
+        while let Some(len) = reader.ready(status)? {
+            match reader.packet(len)? {
+                Packet::Publish {
+                    topic,
+                    qos,
+                    id,
+                    payload,
+                } => {
+                    if let Some(id) = id.filter(|_| qos == 1) {
+                        send(clock, sock, &packet::puback(id)).await?;
+                        last_sent = clock.now();
+                    }
+                    if let Some(ty) = node.inbound(topic) {
+                        // Malformed and refused commands are counted by the node.
+                        let _ = node.command(ty, payload);
+                    }
+                }
+                Packet::PingResp => ping_sent = None,
+                Packet::SubAck { granted, .. } => {
+                    if !granted {
+                        warn!("mqtt: the broker refused the command subscription");
+                    }
+                }
+                Packet::ConnAck { .. } => return Err(Error::Protocol),
+                Packet::Other(_) => {}
+            }
+            reader.consume(len);
+        }
+        // Births or a rebirth may be due at once after a command.
+        publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
+        let now = clock.now();
+        if let Some(t) = ping_sent {
+            if now >= t + keep_alive {
+                return Err(Error::Timeout);
+            }
+        } else if now >= last_sent + keep_alive / 2 {
+            send(clock, sock, &packet::PINGREQ).await?;
+            last_sent = now;
+            ping_sent = Some(now);
+        }
+        let ping_at = match ping_sent {
+            Some(t) => t + keep_alive,
+            None => last_sent + keep_alive / 2,
+        };
+        let poll_at = (now + settings.node.period).max(node.next_round());
+        if let Ok(r) = with_deadline(clock, ping_at.min(poll_at), reader.fill(sock)).await {
+            r?;
+        }
+    }
+}
+
+/// Publishes every message the node has now.
+async fn publish_due<C: Clock, S: Socket>(
+    hub: &Hub,
+    clock: &C,
+    sock: &mut S,
+    node: &mut EdgeNode,
+    status: &Status,
+    bufs: &mut Buffers,
+    last_sent: &mut Instant,
+) -> Result<(), Error> {
+    loop {
+        let now = clock.now();
+        let (n, pay) = (&mut *node, &mut bufs.pay);
+        let msg = match hub.with(move |m| n.poll(now, m, pay)) {
+            Ok(Some(msg)) => msg,
+            Ok(None) => break,
+            Err(_) => {
+                // Cannot happen with PAYLOAD_BUF; retried at the next poll.
+                status.update(|s| s.dropped = s.dropped.wrapping_add(1));
+                break;
+            }
+        };
+        let h = packet::publish_head(&mut bufs.pkt, msg.topic.as_str(), msg.payload.len())?;
+        let sent = match send(clock, sock, bufs.pkt.get(..h).unwrap_or(&[])).await {
+            Ok(()) => send(clock, sock, msg.payload).await,
+            Err(e) => Err(e),
+        };
+        if let Err(e) = sent {
+            status.update(|s| s.dropped = s.dropped.wrapping_add(1));
+            return Err(e);
+        }
+        *last_sent = clock.now();
+        status.update(|s| s.sent = s.sent.wrapping_add(1));
+    }
+    status.update(|s| s.node = node.stats());
+    Ok(())
+}
