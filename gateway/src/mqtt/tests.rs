@@ -1,1 +1,360 @@
-//! Tests of the client against a fake broker in virtual time.
+//! The client against a fake broker in virtual time: the broker is written
+//! here (its framing and payload decoding are the test's own, not the
+//! client's `packet` module nor femtopb).
+
+use std::convert::Infallible;
+use std::future::Future;
+use std::net::{Ipv4Addr, SocketAddrV4};
+use std::pin::Pin;
+use std::rc::Rc;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::task::Waker;
+use std::vec::Vec;
+
+use embassy_time::{Duration, Instant};
+use prost::Message as _;
+
+use super::*;
+use crate::config::Config;
+use crate::state::{LinkState, Model};
+use crate::testkit::clock::VirtualClock;
+use crate::testkit::net::{SimNet, SimStream};
+use crate::testkit::world::{poll_until_waiting, Flag, GATEWAY_IP};
+
+const BROKER: SocketAddrV4 = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 50), 1883);
+
+#[derive(Clone, PartialEq, prost::Message)]
+struct PPayload {
+    #[prost(message, repeated, tag = "2")]
+    metrics: Vec<PMetric>,
+    #[prost(uint64, optional, tag = "3")]
+    seq: Option<u64>,
+}
+
+#[derive(Clone, PartialEq, prost::Message)]
+struct PMetric {
+    #[prost(string, optional, tag = "1")]
+    name: Option<String>,
+    #[prost(uint64, optional, tag = "11")]
+    long: Option<u64>,
+    #[prost(bool, optional, tag = "14")]
+    boolean: Option<bool>,
+}
+
+fn bd_seq(payload: &[u8]) -> Option<u64> {
+    let p = PPayload::decode(payload).ok()?;
+    p.metrics
+        .iter()
+        .find(|m| m.name.as_deref() == Some("bdSeq"))
+        .and_then(|m| m.long)
+}
+
+/// A packet as the broker sees it.
+#[derive(Debug)]
+struct Pkt {
+    first: u8,
+    body: Vec<u8>,
+}
+
+fn mqtt_str(b: &[u8], at: usize) -> (String, usize) {
+    let n = usize::from(u16::from_be_bytes([b[at], b[at + 1]]));
+    (
+        String::from_utf8(b[at + 2..at + 2 + n].to_vec()).unwrap(),
+        at + 2 + n,
+    )
+}
+
+impl Pkt {
+    fn publish(&self) -> (String, Vec<u8>) {
+        assert_eq!(self.first, 0x30, "PUBLISH QoS 0, not retained");
+        let (t, k) = mqtt_str(&self.body, 0);
+        (t, self.body[k..].to_vec())
+    }
+}
+
+/// The fake broker: one connection at a time.
+struct Broker {
+    net: SimNet,
+    conn: Option<SimStream>,
+    inbox: Vec<u8>,
+}
+
+impl Broker {
+    fn accept(&mut self) -> bool {
+        self.conn = self.net.accept(BROKER);
+        self.inbox.clear();
+        self.conn.is_some()
+    }
+
+    fn packets(&mut self) -> Vec<Pkt> {
+        if let Some(c) = self.conn.as_mut() {
+            self.inbox.extend(c.read());
+        }
+        let mut out = Vec::new();
+        loop {
+            let (mut n, mut mult, mut i) = (0usize, 1usize, 1usize);
+            let done = loop {
+                let Some(&b) = self.inbox.get(i) else {
+                    break false;
+                };
+                n += usize::from(b & 0x7f) * mult;
+                mult *= 128;
+                i += 1;
+                if b & 0x80 == 0 {
+                    break true;
+                }
+            };
+            if !done || self.inbox.len() < i + n {
+                return out;
+            }
+            out.push(Pkt {
+                first: self.inbox[0],
+                body: self.inbox[i..i + n].to_vec(),
+            });
+            self.inbox.drain(..i + n);
+        }
+    }
+
+    fn send(&mut self, b: &[u8]) {
+        self.conn.as_mut().unwrap().write(b);
+    }
+
+    fn publish(&mut self, topic: &str, payload: &[u8]) {
+        let mut body = Vec::new();
+        body.extend((topic.len() as u16).to_be_bytes());
+        body.extend(topic.as_bytes());
+        body.extend(payload);
+        let mut p = vec![0x30, body.len() as u8];
+        p.extend(body);
+        self.send(&p);
+    }
+}
+
+struct T {
+    clock: Rc<VirtualClock>,
+    hub: Rc<Hub>,
+    status: Rc<Status>,
+    broker: Broker,
+    fut: Pin<Box<dyn Future<Output = Infallible>>>,
+    flag: Arc<Flag>,
+    waker: Waker,
+}
+
+fn model() -> Model {
+    let mut m = Model::new(Config::default(), Config::default());
+    m.link.state = LinkState::Connected;
+    m.robot.joints = Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    m
+}
+
+impl T {
+    fn new(keep_alive: Duration) -> T {
+        let clock = Rc::new(VirtualClock::new());
+        let net = SimNet::new(GATEWAY_IP);
+        net.listen(BROKER);
+        let hub = Rc::new(Hub::new(model()));
+        let status = Rc::new(Status::new());
+        let mut settings = Settings::new(BROKER, NodeConfig::new("Plant A", "cell-7").unwrap());
+        settings.keep_alive = keep_alive;
+        let (c, n, h, s) = (clock.clone(), net.clone(), hub.clone(), status.clone());
+        let fut: Pin<Box<dyn Future<Output = Infallible>>> =
+            Box::pin(async move { run(&h, &*c, &n, &settings, &s).await });
+        let flag = Arc::new(Flag(AtomicBool::new(true)));
+        let waker = Waker::from(flag.clone());
+        T {
+            clock,
+            hub,
+            status,
+            broker: Broker {
+                net,
+                conn: None,
+                inbox: Vec::new(),
+            },
+            fut,
+            flag,
+            waker,
+        }
+    }
+
+    fn now(&self) -> Instant {
+        crate::clock::Clock::now(&*self.clock)
+    }
+
+    /// Runs until `cond` holds, at most `limit`; `true` if it held.
+    fn run_until(&mut self, limit: Duration, mut cond: impl FnMut(&mut T) -> bool) -> bool {
+        let end = self.now() + limit;
+        loop {
+            let now = self.now();
+            poll_until_waiting(&self.flag, &self.waker, &mut self.fut, 10_000, now);
+            if cond(self) {
+                return true;
+            }
+            if now >= end {
+                return false;
+            }
+            let next = self
+                .clock
+                .next_deadline()
+                .filter(|t| *t > now)
+                .unwrap_or(end);
+            self.clock.advance_to(next.min(end));
+        }
+    }
+
+    /// Waits for `n` packets from the gateway (within `limit`).
+    fn expect(&mut self, n: usize, limit: Duration) -> Vec<Pkt> {
+        let mut got = Vec::new();
+        let ok = self.run_until(limit, |t| {
+            got.extend(t.broker.packets());
+            got.len() >= n
+        });
+        assert!(ok, "{n} packets within {limit:?}, got {got:?}");
+        got
+    }
+
+    /// Accepts the gateway's connection, checks its CONNECT, answers
+    /// CONNACK, reads the SUBSCRIBE and the births; returns the births.
+    fn session(&mut self, limit: Duration) -> (u64, Vec<(String, Vec<u8>)>) {
+        assert!(
+            self.run_until(limit, |t| t.broker.accept()),
+            "the gateway connects within {limit:?}"
+        );
+        let c = self.expect(1, Duration::from_secs(1));
+        assert_eq!(c[0].first, 0x10, "CONNECT");
+        let b = &c[0].body;
+        assert_eq!(&b[..7], b"\0\x04MQTT\x04", "MQTT 3.1.1");
+        assert_eq!(b[7], 0x0E, "clean session, a Will of QoS 1, not retained");
+        let (id, k) = mqtt_str(b, 10);
+        assert_eq!(id, "cell-7");
+        let (will_topic, k) = mqtt_str(b, k);
+        assert_eq!(will_topic, "spBv1.0/Plant A/NDEATH/cell-7");
+        let n = usize::from(u16::from_be_bytes([b[k], b[k + 1]]));
+        assert_eq!(k + 2 + n, b.len(), "no user name");
+        let will_bd = bd_seq(&b[k + 2..]).expect("the Will is an NDEATH with bdSeq");
+        self.broker.send(&[0x20, 2, 0, 0]);
+        let p = self.expect(3, Duration::from_secs(1));
+        assert_eq!(p[0].first, 0x82, "SUBSCRIBE");
+        let (t1, k) = mqtt_str(&p[0].body, 2);
+        let (t2, _) = mqtt_str(&p[0].body, k + 1);
+        assert_eq!(t1, "spBv1.0/Plant A/NCMD/cell-7");
+        assert_eq!(t2, "spBv1.0/Plant A/DCMD/cell-7/robot");
+        self.broker.send(&[0x90, 4, 0, 1, 0, 0]);
+        let births: Vec<_> = p[1..].iter().map(Pkt::publish).collect();
+        assert_eq!(births[0].0, "spBv1.0/Plant A/NBIRTH/cell-7");
+        assert_eq!(
+            bd_seq(&births[0].1),
+            Some(will_bd),
+            "the NBIRTH's bdSeq is the Will's"
+        );
+        assert_eq!(births[1].0, "spBv1.0/Plant A/DBIRTH/cell-7/robot");
+        (will_bd, births)
+    }
+}
+
+const KA: Duration = Duration::from_secs(30);
+
+#[test]
+fn connects_with_the_will_publishes_births_then_data_and_answers_a_rebirth() {
+    let mut t = T::new(KA);
+    let (bd, _) = t.session(Duration::from_secs(1));
+    assert_eq!(bd, 0);
+    assert!(t.status.get().connected);
+    // A robot change: DDATA within 200 ms.
+    t.run_until(Duration::from_millis(500), |_| false);
+    assert!(
+        t.broker.packets().is_empty(),
+        "nothing changed, nothing sent"
+    );
+    t.hub
+        .with(|m| m.robot.joints = Some([9.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+    let p = t.expect(1, Duration::from_millis(200));
+    let (topic, payload) = p[0].publish();
+    assert_eq!(topic, "spBv1.0/Plant A/DDATA/cell-7/robot");
+    let names: Vec<_> = PPayload::decode(&payload[..])
+        .unwrap()
+        .metrics
+        .into_iter()
+        .filter_map(|m| m.name)
+        .collect();
+    assert!(names.iter().any(|n| n.contains("J1")), "{names:?}");
+    // NCMD rebirth: the births again, same bdSeq.
+    let rebirth = PPayload {
+        metrics: vec![PMetric {
+            name: Some("Node Control/Rebirth".into()),
+            long: None,
+            boolean: Some(true),
+        }],
+        seq: None,
+    }
+    .encode_to_vec();
+    t.broker.publish("spBv1.0/Plant A/NCMD/cell-7", &rebirth);
+    let p = t.expect(2, Duration::from_millis(200));
+    let (topic, payload) = p[0].publish();
+    assert_eq!(topic, "spBv1.0/Plant A/NBIRTH/cell-7");
+    assert_eq!(bd_seq(&payload), Some(0));
+    assert_eq!(PPayload::decode(&payload[..]).unwrap().seq, Some(0));
+    assert_eq!(p[1].publish().0, "spBv1.0/Plant A/DBIRTH/cell-7/robot");
+    assert_eq!(t.status.get().node.rebirths, 1);
+    // Another node's NCMD is not ours.
+    t.broker.publish("spBv1.0/Plant A/NCMD/cell-8", &rebirth);
+    t.run_until(Duration::from_millis(300), |_| false);
+    assert!(t.broker.packets().is_empty());
+}
+
+#[test]
+fn a_closed_connection_reconnects_with_backoff_and_a_new_bd_seq() {
+    let mut t = T::new(KA);
+    t.session(Duration::from_secs(1));
+    // The broker goes away: closed, then refusing.
+    t.broker.conn.as_mut().unwrap().close();
+    t.broker.net.unlisten(BROKER);
+    let lost = t.now();
+    let mut tries = Vec::new();
+    let mut seen = t.broker.net.attempts(BROKER);
+    t.run_until(Duration::from_secs(70), |t| {
+        let n = t.broker.net.attempts(BROKER);
+        if n > seen {
+            seen = n;
+            tries.push((t.now() - lost).as_millis());
+        }
+        false
+    });
+    assert!(!t.status.get().connected);
+    assert_eq!(
+        t.status.get().last_error,
+        Some(Error::Net(NetError::ConnectFailed))
+    );
+    // Waits of 1, 2, 4, 8, 16, then 30 s.
+    let gaps: Vec<_> = tries.windows(2).map(|w| w[1] - w[0]).collect();
+    assert_eq!(tries[0], 1000, "{tries:?}");
+    assert_eq!(gaps, [2000, 4000, 8000, 16000, 30000], "{tries:?}");
+    // Back: a new session, a new bdSeq, new births.
+    t.broker.net.listen(BROKER);
+    let (bd, _) = t.session(Duration::from_secs(31));
+    assert_eq!(bd, 1);
+    assert_eq!(t.status.get().connects, 2);
+}
+
+#[test]
+fn pings_at_the_keep_alive_and_a_silent_broker_ends_the_connection() {
+    let mut t = T::new(Duration::from_secs(4));
+    t.session(Duration::from_secs(1));
+    let start = t.now();
+    let p = t.expect(1, Duration::from_secs(3));
+    assert_eq!(p[0].first, 0xC0, "PINGREQ");
+    assert_eq!((t.now() - start).as_millis(), 2000, "half the keep-alive");
+    t.broker.send(&[0xD0, 0]);
+    let p = t.expect(1, Duration::from_secs(3));
+    assert_eq!(p[0].first, 0xC0, "PINGREQ again");
+    // No PINGRESP: the connection ends within one keep-alive.
+    let ok = t.run_until(Duration::from_secs(5), |t| !t.status.get().connected);
+    assert!(ok);
+    assert_eq!(t.status.get().last_error, Some(Error::Timeout));
+    // A refused CONNECT (bad password) is an error too, and backs off.
+    assert!(t.run_until(Duration::from_secs(2), |t| t.broker.accept()));
+    t.expect(1, Duration::from_secs(1));
+    t.broker.send(&[0x20, 2, 0, 5]);
+    t.run_until(Duration::from_millis(10), |_| false);
+    assert_eq!(t.status.get().last_error, Some(Error::Refused(5)));
+}
