@@ -358,3 +358,155 @@ fn pings_at_the_keep_alive_and_a_silent_broker_ends_the_connection() {
     t.run_until(Duration::from_millis(10), |_| false);
     assert_eq!(t.status.get().last_error, Some(Error::Refused(5)));
 }
+
+/// What the broker does in [`plc_view`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Down {
+    /// No MQTT client at all (the reference).
+    NoClient,
+    /// The broker refuses connections.
+    Refusing,
+    /// The broker's host never answers.
+    Blackhole,
+    /// The broker accepts, answers CONNACK, takes the births and closes
+    /// after 700 ms, again and again.
+    Flapping,
+}
+
+/// A gateway, a robot, a PLC and (unless `NoClient`) the MQTT client with
+/// a broker that is `down`: what the PLC reads every 100 ms for 60 s (the
+/// time of the answer after the request, and the registers).
+fn plc_view(down: Down) -> (Vec<(u64, Vec<u16>)>, Stats) {
+    use crate::gateway::{Gateway, Options};
+    use crate::testkit::plc::{pdu, Answer, Plc};
+    use crate::testkit::robot::SimRobot;
+    use crate::testkit::world::{MemStorage, MODBUS_PORT, ROBOT_IP, ROBOT_PORT};
+
+    let clock = Rc::new(VirtualClock::new());
+    let net = SimNet::new(GATEWAY_IP);
+    let mut robot = SimRobot::new(&net, SocketAddrV4::new(ROBOT_IP, ROBOT_PORT), 1);
+    let defaults = Config {
+        robot_ip: ROBOT_IP,
+        robot_port: ROBOT_PORT,
+        ..Config::default()
+    };
+    let gateway = Rc::new(Gateway::new(Options {
+        modbus_port: MODBUS_PORT,
+        defaults,
+        seed: [1; 32],
+        ..Default::default()
+    }));
+    match down {
+        Down::Blackhole => net.blackhole(*BROKER.ip(), true),
+        Down::Flapping => net.listen(BROKER),
+        Down::NoClient | Down::Refusing => {}
+    }
+    let status = Rc::new(Status::new());
+    let settings = Settings::new(BROKER, NodeConfig::new("Plant A", "cell-7").unwrap());
+    let (c, n, g, s) = (clock.clone(), net.clone(), gateway.clone(), status.clone());
+    let mut fut: Pin<Box<dyn Future<Output = Infallible>>> = Box::pin(async move {
+        let client = async {
+            if down == Down::NoClient {
+                core::future::pending().await
+            } else {
+                run(g.hub(), &*c, &n, &settings, &s).await
+            }
+        };
+        let (never, _) =
+            embassy_futures::join::join(g.run(&n, &*c, MemStorage::default()), client).await;
+        never
+    });
+    let flag = Arc::new(Flag(AtomicBool::new(true)));
+    let waker = Waker::from(flag.clone());
+    let mut broker = Broker {
+        net: net.clone(),
+        conn: None,
+        inbox: Vec::new(),
+    };
+    let mut since = Instant::from_ticks(0);
+    let mut plc: Option<Plc> = None;
+    let mut seen = Vec::new();
+    let mut pending: Option<(u16, Instant)> = None;
+    let mut next_read = Instant::from_millis(1000);
+    let end = Instant::from_secs(60);
+    loop {
+        let now = crate::clock::Clock::now(&*clock);
+        loop {
+            poll_until_waiting(&flag, &waker, &mut fut, 100_000, now);
+            if !robot.step(now) {
+                break;
+            }
+        }
+        if down == Down::Flapping {
+            if broker.conn.is_none() && broker.accept() {
+                since = now;
+            }
+            if broker.conn.is_some() {
+                for p in broker.packets() {
+                    if p.first == 0x10 {
+                        broker.send(&[0x20, 2, 0, 0]);
+                    }
+                }
+                if now >= since + Duration::from_millis(700) {
+                    broker.conn = None;
+                }
+            }
+        }
+        if plc.is_none() {
+            plc = net
+                .connect(
+                    SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 10), 50000),
+                    MODBUS_PORT,
+                )
+                .map(Plc::new);
+        }
+        if let (Some(p), Some((tid, sent))) = (plc.as_mut(), pending) {
+            if let Some(a) = p.answer(tid) {
+                let Answer::Pdu(pdu) = a else {
+                    panic!("exception {a:?}");
+                };
+                seen.push(((now - sent).as_millis(), pdu::registers(&pdu)));
+                pending = None;
+            }
+        }
+        if pending.is_none() && now >= next_read {
+            if let Some(p) = plc.as_mut() {
+                pending = Some((p.send(&pdu::read(0, 32)), now));
+                next_read += Duration::from_millis(100);
+                flag.0.store(true, std::sync::atomic::Ordering::Relaxed);
+                continue;
+            }
+        }
+        if now >= end {
+            return (seen, status.get());
+        }
+        let next = [clock.next_deadline(), robot.next_wakeup(), Some(next_read)]
+            .into_iter()
+            .flatten()
+            .filter(|t| *t > now)
+            .min()
+            .unwrap_or(end)
+            .min(end);
+        clock.advance_to(next);
+    }
+}
+
+#[test]
+fn the_plc_sees_the_same_gateway_with_the_broker_down_silent_or_flapping() {
+    let (reference, _) = plc_view(Down::NoClient);
+    assert!(reference.len() > 500, "{} answers", reference.len());
+    for down in [Down::Refusing, Down::Blackhole, Down::Flapping] {
+        let (seen, stats) = plc_view(down);
+        if down == Down::Flapping {
+            assert!(stats.connects >= 3, "{stats:?}");
+            assert!(stats.sent >= 6, "births published: {stats:?}");
+        } else {
+            assert_eq!(stats.connects, 0);
+            assert!(stats.failures >= 3, "{stats:?}");
+        }
+        assert_eq!(seen.len(), reference.len(), "{down:?}");
+        for (i, (a, b)) in seen.iter().zip(&reference).enumerate() {
+            assert_eq!(a, b, "{down:?}: answer {i} differs");
+        }
+    }
+}
