@@ -19,6 +19,7 @@ command -v qemu-system-arm >/dev/null || need_apt+=(qemu-system-arm)
 command -v mbpoll >/dev/null || need_apt+=(mbpoll)
 # socat relays QEMU's guest forward to the simulator, one relay per connection.
 command -v socat >/dev/null || need_apt+=(socat)
+[ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || need_apt+=(mosquitto) # the MQTT broker of gateway/tests/mqtt.rs
 # llvm-size and llvm-objdump read the Cortex-M binaries for the size reports.
 command -v llvm-size >/dev/null || need_apt+=(llvm)
 # Headless Chromium drives the web page in the browser tests (host-tests/web-e2e).

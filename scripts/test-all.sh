@@ -102,9 +102,11 @@ step "Sparkplug B edge node (feature sparkplug): tests, clippy, thumbv7em build"
     cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,sparkplug --locked'
 # The MQTT client of the edge node (feature `mqtt`, not wired in yet): packet
 # tests and the client against a fake broker in virtual time (the PLC's view
-# unchanged with the broker down), clippy, and a no_std build for the boards.
-step "MQTT client (feature mqtt): tests, clippy, thumbv7em build" \
+# unchanged with the broker down), the NBIRTH through Debian's Mosquitto to
+# an independent subscriber (rumqttc), clippy, and a no_std build for boards.
+step "MQTT client (feature mqtt): tests (fake broker, Mosquitto), clippy, thumbv7em build" \
   bash -c 'cargo test -p hans-gateway --features mqtt --lib --locked mqtt &&
+    cargo test -p hans-gateway --features mqtt --test mqtt --locked &&
     cargo clippy -p hans-gateway --all-targets --features mqtt --locked -- -D warnings &&
     cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,mqtt --locked'
 

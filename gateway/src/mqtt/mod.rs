@@ -505,3 +505,11 @@ async fn publish_due<C: Clock, S: Socket>(
     status.update(|s| s.node = node.stats());
     Ok(())
 }
+
+/// [`run`] on Linux, over tokio's sockets and the system clock (on a
+/// current-thread runtime: the future is not `Send`).
+#[cfg(feature = "std")]
+pub async fn run_host(hub: &Hub, settings: &Settings, status: &Status) -> Infallible {
+    let net = crate::net::tokio::TokioNet::new(core::net::Ipv4Addr::UNSPECIFIED);
+    run(hub, &crate::SystemClock, &net, settings, status).await
+}

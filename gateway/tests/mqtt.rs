@@ -1,0 +1,158 @@
+//! The MQTT client against a real broker: Debian's Mosquitto, started here
+//! on 127.0.0.1 at a free port, and an independent subscriber (rumqttc,
+//! payloads decoded with prost from the specification's field numbers).
+//! Needs the `mqtt` feature: `cargo test -p hans-gateway --features mqtt
+//! --test mqtt`.
+
+use std::net::{Ipv4Addr, SocketAddrV4, TcpListener, TcpStream};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use hans_gateway::mqtt::{run_host, Settings, Status};
+use hans_gateway::sparkplug::NodeConfig;
+use hans_gateway::{Gateway, Options};
+use prost::Message as _;
+use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
+
+#[derive(Clone, PartialEq, prost::Message)]
+struct PPayload {
+    #[prost(uint64, optional, tag = "1")]
+    timestamp: Option<u64>,
+    #[prost(message, repeated, tag = "2")]
+    metrics: Vec<PMetric>,
+    #[prost(uint64, optional, tag = "3")]
+    seq: Option<u64>,
+}
+
+#[derive(Clone, PartialEq, prost::Message)]
+struct PMetric {
+    #[prost(string, optional, tag = "1")]
+    name: Option<String>,
+    #[prost(uint32, optional, tag = "4")]
+    datatype: Option<u32>,
+    #[prost(uint64, optional, tag = "11")]
+    long: Option<u64>,
+}
+
+/// The broker, killed when dropped.
+struct Mosquitto {
+    child: Child,
+    port: u16,
+    _dir: PathBuf,
+}
+
+impl Drop for Mosquitto {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_dir_all(&self._dir);
+    }
+}
+
+fn mosquitto() -> Mosquitto {
+    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
+        .into_iter()
+        .map(PathBuf::from)
+        .find(|p| p.exists())
+        .unwrap_or_else(|| {
+            panic!("mosquitto is not installed: `bash scripts/setup.sh` installs it (Debian's package)")
+        });
+    let port = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let dir = std::env::temp_dir().join(format!("hans-mqtt-{}-{port}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let conf = dir.join("mosquitto.conf");
+    std::fs::write(
+        &conf,
+        format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
+    )
+    .unwrap();
+    let child = Command::new(bin)
+        .arg("-c")
+        .arg(&conf)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let m = Mosquitto {
+        child,
+        port,
+        _dir: dir,
+    };
+    let end = Instant::now() + Duration::from_secs(5);
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(Instant::now() < end, "mosquitto did not listen on {port}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    m
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn mosquitto_passes_the_nbirth_to_an_independent_subscriber() {
+    let broker = mosquitto();
+    let mut opts = MqttOptions::new("checker", "127.0.0.1", broker.port);
+    opts.set_keep_alive(Duration::from_secs(5));
+    let (client, mut events) = AsyncClient::new(opts, 10);
+    client
+        .subscribe("spBv1.0/Plant A/#", QoS::AtMostOnce)
+        .await
+        .unwrap();
+    // Subscribed before the gateway connects.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        let ev = tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("SUBACK within 5 s")
+            .unwrap();
+        if let Event::Incoming(Packet::SubAck(_)) = ev {
+            break;
+        }
+    }
+
+    let gateway = Gateway::new(Options::default());
+    let settings = Settings::new(
+        SocketAddrV4::new(Ipv4Addr::LOCALHOST, broker.port),
+        NodeConfig::new("Plant A", "cell-7").unwrap(),
+    );
+    let status = Status::new();
+    let run = run_host(gateway.hub(), &settings, &status);
+    tokio::pin!(run);
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    let nbirth = loop {
+        tokio::select! {
+            never = &mut run => match never {},
+            ev = tokio::time::timeout_at(deadline, events.poll()) => {
+                match ev.expect("an NBIRTH within 5 s").unwrap() {
+                    Event::Incoming(Packet::Publish(p)) => break p,
+                    _ => continue,
+                }
+            }
+        }
+    };
+    assert_eq!(nbirth.topic, "spBv1.0/Plant A/NBIRTH/cell-7");
+    assert_eq!(nbirth.qos, QoS::AtMostOnce);
+    assert!(!nbirth.retain);
+    let p = PPayload::decode(&nbirth.payload[..]).unwrap();
+    assert_eq!(p.seq, Some(0));
+    let bd = p
+        .metrics
+        .iter()
+        .find(|m| m.name.as_deref() == Some("bdSeq"))
+        .expect("bdSeq in the NBIRTH");
+    assert_eq!(
+        (bd.long, bd.datatype),
+        (Some(0), Some(8)),
+        "bdSeq 0, UInt64"
+    );
+    assert!(
+        p.metrics.len() > 20,
+        "every node metric: {}",
+        p.metrics.len()
+    );
+    let s = status.get();
+    assert!(s.connected && s.connects == 1 && s.sent >= 1, "{s:?}");
+}
