@@ -40,7 +40,7 @@
 //!   and counted, births follow the next connect), a PINGRESP one
 //!   keep-alive.
 //! * It never holds the engine: the state is read under the hub's lock
-//!   only while one payload is encoded ([`Hub::with`]), and every wait is
+//!   only while one payload is encoded (`Hub::with`), and every wait is
 //!   this task's own.
 
 pub mod packet;
