@@ -125,7 +125,16 @@ impl Broker {
         body.extend((topic.len() as u16).to_be_bytes());
         body.extend(topic.as_bytes());
         body.extend(payload);
-        let mut p = vec![0x30, body.len() as u8];
+        let mut p = vec![0x30];
+        let mut n = body.len();
+        loop {
+            let b = (n % 128) as u8;
+            n /= 128;
+            p.push(if n > 0 { b | 0x80 } else { b });
+            if n == 0 {
+                break;
+            }
+        }
         p.extend(body);
         self.send(&p);
     }
@@ -300,6 +309,31 @@ fn connects_with_the_will_publishes_births_then_data_and_answers_a_rebirth() {
     t.broker.publish("spBv1.0/Plant A/NCMD/cell-8", &rebirth);
     t.run_until(Duration::from_millis(300), |_| false);
     assert!(t.broker.packets().is_empty());
+}
+
+#[test]
+fn a_packet_longer_than_the_buffer_is_skipped_and_the_connection_stays() {
+    let mut t = T::new(KA);
+    t.session(Duration::from_secs(1));
+    let rebirth = PPayload {
+        metrics: vec![PMetric {
+            name: Some("Node Control/Rebirth".into()),
+            long: None,
+            boolean: Some(true),
+        }],
+        seq: None,
+    }
+    .encode_to_vec();
+    // A long one, in pieces, then a rebirth right behind it.
+    let mut big = rebirth.clone();
+    big.resize(3 * RX_BUF, 0);
+    t.broker.publish("spBv1.0/Plant A/NCMD/cell-7", &big);
+    t.broker.publish("spBv1.0/Plant A/NCMD/cell-7", &rebirth);
+    let p = t.expect(2, Duration::from_millis(200));
+    assert_eq!(p[0].publish().0, "spBv1.0/Plant A/NBIRTH/cell-7");
+    let s = t.status.get();
+    assert_eq!((s.skipped, s.connects, s.node.rebirths), (1, 1, 1), "{s:?}");
+    assert!(s.connected);
 }
 
 #[test]
