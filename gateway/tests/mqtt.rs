@@ -138,6 +138,12 @@ async fn mosquitto_passes_the_nbirth_to_an_independent_subscriber() {
     assert!(!nbirth.retain);
     let p = PPayload::decode(&nbirth.payload[..]).unwrap();
     assert_eq!(p.seq, Some(0));
+    let utc = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_millis() as u64;
+    let ts = p.timestamp.expect("a timestamp");
+    assert!(utc.abs_diff(ts) < 10_000, "wall time: {ts} vs {utc}");
     let bd = p
         .metrics
         .iter()

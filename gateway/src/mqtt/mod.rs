@@ -89,6 +89,10 @@ pub struct Settings {
     /// The keep-alive told to the broker (whole seconds, 1 to 65535): a
     /// silent gateway is dead after 1.5 times it.
     pub keep_alive: Duration,
+    /// The wall time at `Instant` 0 (ms since 1970 UTC), for the
+    /// payloads' timestamps; without it they count from the start
+    /// ([`EdgeNode::set_wall_time`]). [`run_host`] sets it from the host.
+    pub utc_at_zero: Option<u64>,
 }
 
 impl Settings {
@@ -98,6 +102,7 @@ impl Settings {
             broker,
             node,
             keep_alive: Duration::from_secs(30),
+            utc_at_zero: None,
         }
     }
 }
@@ -306,6 +311,9 @@ pub async fn run<C: Clock, N: Net>(
     let mut tx = [0u8; SOCKET_BUF];
     let mut sock = net.socket(&mut rx, &mut tx);
     let mut node = EdgeNode::new(settings.node.clone());
+    if let Some(utc) = settings.utc_at_zero {
+        node.set_wall_time(Instant::from_ticks(0), utc);
+    }
     let mut bufs = Buffers {
         pay: [0; PAYLOAD_BUF],
         pkt: [0; PACKET_BUF],
@@ -507,9 +515,18 @@ async fn publish_due<C: Clock, S: Socket>(
 }
 
 /// [`run`] on Linux, over tokio's sockets and the system clock (on a
-/// current-thread runtime: the future is not `Send`).
+/// current-thread runtime: the future is not `Send`); the timestamps from
+/// the host's wall clock unless `settings` has one.
 #[cfg(feature = "std")]
 pub async fn run_host(hub: &Hub, settings: &Settings, status: &Status) -> Infallible {
+    let mut settings = settings.clone();
+    if settings.utc_at_zero.is_none() {
+        let utc = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
+            .unwrap_or(0);
+        settings.utc_at_zero = Some(utc.saturating_sub(Instant::now().as_millis()));
+    }
     let net = crate::net::tokio::TokioNet::new(core::net::Ipv4Addr::UNSPECIFIED);
-    run(hub, &crate::SystemClock, &net, settings, status).await
+    run(hub, &crate::SystemClock, &net, &settings, status).await
 }
