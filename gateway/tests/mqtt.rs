@@ -92,7 +92,7 @@ fn mosquitto() -> Mosquitto {
 }
 
 #[tokio::test(flavor = "current_thread")]
-async fn mosquitto_passes_the_nbirth_to_an_independent_subscriber() {
+async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independent_subscriber() {
     let broker = mosquitto();
     let mut opts = MqttOptions::new("checker", "127.0.0.1", broker.port);
     opts.set_keep_alive(Duration::from_secs(5));
@@ -119,8 +119,7 @@ async fn mosquitto_passes_the_nbirth_to_an_independent_subscriber() {
         NodeConfig::new("Plant A", "cell-7").unwrap(),
     );
     let status = Status::new();
-    let run = run_host(gateway.hub(), &settings, &status);
-    tokio::pin!(run);
+    let mut run = Box::pin(run_host(gateway.hub(), &settings, &status));
     let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
     let nbirth = loop {
         tokio::select! {
@@ -161,4 +160,27 @@ async fn mosquitto_passes_the_nbirth_to_an_independent_subscriber() {
     );
     let s = status.get();
     assert!(s.connected && s.connects == 1 && s.sent >= 1, "{s:?}");
+
+    // The gateway gone without a DISCONNECT (its socket closed): the broker
+    // publishes the Will, the NDEATH of the same bdSeq.
+    drop(run);
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    let ndeath = loop {
+        match tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("the NDEATH within 5 s")
+            .unwrap()
+        {
+            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NDEATH/") => break p,
+            _ => continue,
+        }
+    };
+    assert_eq!(ndeath.topic, "spBv1.0/Plant A/NDEATH/cell-7");
+    let p = PPayload::decode(&ndeath.payload[..]).unwrap();
+    let bd = p
+        .metrics
+        .iter()
+        .find(|m| m.name.as_deref() == Some("bdSeq"));
+    assert_eq!(bd.and_then(|m| m.long), Some(0));
+    assert_eq!(p.seq, None, "an NDEATH has no seq");
 }
