@@ -55,6 +55,14 @@ cleanup() {
 trap 'cleanup; exit 130' INT TERM
 trap cleanup EXIT
 
+# The one-time code that creates the page's first administrator: the host
+# hands it in (qemu-run.sh passes SETUP_CODE as `setup=CODE`), as someone at
+# a board reads it from its probe's log. New each run.
+alphabet=23456789ABCDEFGHJKMNPQRSTUVWXYZ_ # as hans_gateway::SetupCode's
+code=""
+for b in $(od -An -N12 -tu1 /dev/urandom); do code+=${alphabet:$((b % 32)):1}; done
+export SETUP_CODE="${code:0:4}-${code:4:4}-${code:8:4}"
+
 "$HOST_TARGET/release/hans-sim" --host 127.0.0.1 --command-port "$SIM_PORT" --datasheet-ports "" &
 pids+=($!)
 if command -v defmt-print >/dev/null; then
@@ -74,7 +82,8 @@ cat <<MSG
   Field-device firmware running under QEMU (mps2-an386), robot simulator on 127.0.0.1:$SIM_PORT.
 
   Web page:           http://127.0.0.1:$WEB_PORT/
-                      (a fresh device asks for a password before any change)
+                      (a fresh device changes nothing until its first administrator
+                      exists: create it there with the setup code $SETUP_CODE)
   Modbus TCP server:  127.0.0.1:$MODBUS_PORT   (unit id: any)
   Try:                mbpoll -m tcp -p $MODBUS_PORT -0 -r 0 -c 8 -1 127.0.0.1
   Diagnostics:        echo report | socat - TCP:127.0.0.1:$ADMIN_PORT
