@@ -123,6 +123,16 @@ pub enum Outcome {
 }
 
 impl Outcome {
+    /// Its word in the views (`done`, `error`, `aborted`: the page, the
+    /// API, the Sparkplug metrics).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Outcome::Done => "done",
+            Outcome::Error(..) => "error",
+            Outcome::Aborted => "aborted",
+        }
+    }
+
     /// A gateway error.
     pub const fn gateway(e: GatewayError) -> Outcome {
         Outcome::Error(ErrorSource::Gateway, e.code())

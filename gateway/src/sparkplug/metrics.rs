@@ -19,7 +19,7 @@ use hans_codec::{ErrorCode, FsmState, ProtocolLevel};
 use crate::error::Outcome;
 use crate::job::{Source, CHANNELS, TRIGGERS};
 use crate::state::history::CommandEntry;
-use crate::state::{Io, LinkState, Model, Phase, RobotFlags};
+use crate::state::{Io, LinkState, Model, RobotFlags};
 
 /// A Sparkplug B basic datatype (the specification's `DataType` enum; only
 /// the basic types, 1-14).
@@ -518,24 +518,6 @@ pub(crate) struct Ctx<'a> {
 /// The gateway's version.
 const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-fn phase_name(p: Phase) -> &'static str {
-    match p {
-        Phase::Idle => "idle",
-        Phase::Queued => "queued",
-        Phase::Running => "running",
-        Phase::Moving => "moving",
-        Phase::Ended(o) => outcome_name(o),
-    }
-}
-
-fn outcome_name(o: Outcome) -> &'static str {
-    match o {
-        Outcome::Done => "done",
-        Outcome::Error(..) => "error",
-        Outcome::Aborted => "aborted",
-    }
-}
-
 fn error_id(o: Outcome) -> i32 {
     match o {
         Outcome::Error(_, id) => id,
@@ -627,7 +609,7 @@ pub(crate) fn read<'a>(metric: &Metric, ctx: &Ctx<'a>) -> Val<'a> {
                     }
                     Cmd::Code => Val::U32(c.code.into()),
                     Cmd::Text => Val::Str(utf8(&c.sent)),
-                    Cmd::Result => Val::Str(outcome_name(o)),
+                    Cmd::Result => Val::Str(o.as_str()),
                     Cmd::ErrorId => Val::I32(error_id(o)),
                     Cmd::ErrorSource => Val::U32(match o {
                         Outcome::Error(s, _) => s as u32,
@@ -637,8 +619,8 @@ pub(crate) fn read<'a>(metric: &Metric, ctx: &Ctx<'a>) -> Val<'a> {
                 }
             }
         },
-        Field::Phase => Val::Str(phase_name(handshake.phase)),
-        Field::LastOutcome => last.map_or(Val::Null, |o| Val::Str(outcome_name(o))),
+        Field::Phase => Val::Str(handshake.phase.as_str()),
+        Field::LastOutcome => last.map_or(Val::Null, |o| Val::Str(o.as_str())),
         Field::LastErrorId => Val::I32(last.map_or(0, error_id)),
         Field::FsmCode => r.fsm.map_or(Val::Null, |s| Val::I32(i32::from(s))),
         Field::FsmName => r

@@ -22,6 +22,20 @@ pub enum Phase {
     Ended(Outcome),
 }
 
+impl Phase {
+    /// Its word in the views (`idle`, `queued`, `running`, `moving`, or the
+    /// outcome's: the page, the API, the Sparkplug metrics).
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Phase::Idle => "idle",
+            Phase::Queued => "queued",
+            Phase::Running => "running",
+            Phase::Moving => "moving",
+            Phase::Ended(o) => o.as_str(),
+        }
+    }
+}
+
 /// A source's handshake outputs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

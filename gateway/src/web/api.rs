@@ -30,8 +30,8 @@ use crate::registers::map as r;
 use crate::state::history::{LogEntry, LogEvent, LOG_LEN};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 use crate::state::{
-    ErrorText, Handshake, Io, LinkState, LinkStatus, Model, Phase, PlcState, RobotStatus,
-    TextSource, Triggers,
+    ErrorText, Handshake, Io, LinkState, LinkStatus, Model, PlcState, RobotStatus, TextSource,
+    Triggers,
 };
 
 /// A JSON document of the API.
@@ -283,19 +283,6 @@ impl StatusSnapshot {
     }
 }
 
-/// The name of a phase.
-pub(crate) fn phase_name(p: Phase) -> &'static str {
-    match p {
-        Phase::Idle => "idle",
-        Phase::Queued => "queued",
-        Phase::Running => "running",
-        Phase::Moving => "moving",
-        Phase::Ended(Outcome::Done) => "done",
-        Phase::Ended(Outcome::Error(..)) => "error",
-        Phase::Ended(Outcome::Aborted) => "aborted",
-    }
-}
-
 fn source_name(s: Source) -> &'static str {
     match s {
         Source::Channel(_) => "channel",
@@ -330,7 +317,7 @@ fn error_text(src: ErrorSource, id: i32) -> Option<&'static [u8]> {
 
 /// The members of a handshake (in the object of its source).
 fn handshake(j: &mut Object<'_, '_>, h: &Handshake) {
-    j.key("phase").str(phase_name(h.phase).as_bytes());
+    j.key("phase").str(h.phase.as_str().as_bytes());
     j.key("seq").uint(h.seq_echo.into());
     outcome(j.key("outcome"), h.outcome());
 }
@@ -641,7 +628,7 @@ mod tests {
     use crate::config::{AllowEntry, AllowList, Config, ALLOW_ENTRIES};
     use crate::error::GatewayError;
     use crate::state::robot::RobotFlags;
-    use crate::state::ERROR_TEXT;
+    use crate::state::{Phase, ERROR_TEXT};
     use std::string::String;
     use std::vec::Vec;
 
