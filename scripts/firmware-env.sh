@@ -11,6 +11,19 @@
 # Cargo appends CARGO_TARGET_<triple>_RUSTFLAGS to the rustflags of
 # firmware/.cargo/config.toml (the linker scripts stay); a build by hand
 # without this file works too, only larger.
+#
+# CI may run without HOME (cargo then asks the password database, and so do
+# we) and in a directory whose path holds a space (this variable is split at
+# whitespace: such a prefix is left out, with a warning, and the build is
+# only larger).
 _fw_root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-export CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="--remap-path-prefix=${CARGO_HOME:-$HOME/.cargo}/registry/src/= --remap-path-prefix=$_fw_root/="
-unset _fw_root
+_fw_home=${HOME:-$(getent passwd "$(id -u)" | cut -d: -f6)}
+_fw_flags=""
+for _fw_prefix in "${CARGO_HOME:-$_fw_home/.cargo}/registry/src/" "$_fw_root/"; do
+  case $_fw_prefix in
+    *[[:space:]]*) echo "firmware-env: not remapping '$_fw_prefix' (it holds whitespace)" >&2 ;;
+    *) _fw_flags="$_fw_flags --remap-path-prefix=$_fw_prefix=" ;;
+  esac
+done
+export CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="${_fw_flags# }"
+unset _fw_root _fw_home _fw_flags _fw_prefix
