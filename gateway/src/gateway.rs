@@ -7,11 +7,11 @@ use core::convert::Infallible;
 use core::net::Ipv4Addr;
 use core::pin::pin;
 
-use embassy_futures::join::{join5, join_array};
+use embassy_futures::join::{join, join5, join_array};
 
 use crate::access::setup::SetupCode;
 use crate::clock::Clock;
-use crate::config::{self, Config};
+use crate::config::{self, Config, HostName};
 use crate::hub::{Hub, PlcPort};
 use crate::net::Net;
 use crate::state::Model;
@@ -68,6 +68,33 @@ pub struct Options {
     /// carry it; without it they have only the uptime until a time server
     /// answers.
     pub wall_clock: Option<fn() -> Option<u64>>,
+    /// The device's own name: the Sparkplug edge node id (and MQTT client
+    /// id) when `mqtt.edge_id` is empty. Boards: `hans-` and the MAC
+    /// address; Linux: the host name.
+    pub node_name: HostName,
+    /// The MQTT broker given at start (host `--mqtt`): for this run the
+    /// telemetry is on, to this broker, whatever the stored `mqtt.*` say
+    /// (the configuration views show it; a save stores it).
+    pub mqtt_override: Option<MqttOverride>,
+}
+
+/// A broker given at start (see [`Options::mqtt_override`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MqttOverride {
+    /// Its name or address.
+    pub broker: HostName,
+    /// Its port.
+    pub port: u16,
+}
+
+impl MqttOverride {
+    /// `config` with the telemetry on, to this broker.
+    pub fn apply(self, mut config: Config) -> Config {
+        config.mqtt.enabled = true;
+        config.mqtt.broker = self.broker;
+        config.mqtt.port = self.port;
+        config
+    }
 }
 
 /// A robot address given at start (host `--robot` / `--robot-listen`). It
@@ -114,6 +141,8 @@ impl Default for Options {
             restart: None,
             setup_code: None,
             wall_clock: None,
+            node_name: HostName::from_static("hans-gateway"),
+            mqtt_override: None,
         }
     }
 }
@@ -122,9 +151,13 @@ impl Options {
     /// What `CONFIG_COMMAND` 3 loads: the defaults, with the robot address
     /// given at start.
     pub fn factory(&self) -> Config {
-        match self.robot_override {
+        let config = match self.robot_override {
             Some(o) => o.apply(self.defaults),
             None => self.defaults,
+        };
+        match self.mqtt_override {
+            Some(o) => o.apply(config),
+            None => config,
         }
     }
 }
@@ -233,11 +266,22 @@ impl Gateway {
             let _ = web_port;
             core::future::pending::<Infallible>()
         };
+        #[cfg(feature = "mqtt")]
+        let telemetry = {
+            let utc = self.opts.wall_clock.and_then(|f| f()).map(|secs| {
+                secs.saturating_mul(1000)
+                    .saturating_sub(clock.now().as_millis())
+            });
+            crate::mqtt::serve(hub, clock, net, self.opts.node_name.as_str(), utc)
+        };
+        #[cfg(not(feature = "mqtt"))]
+        let telemetry = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
         // built, instead of being moved into the join (through the stack).
         let (engine, sessions) = (pin!(engine), pin!(join_array(sessions)));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
-        let _ = join5(engine, sessions, datasheet, saver, page).await;
+        let telemetry = pin!(telemetry);
+        let _ = join(join5(engine, sessions, datasheet, saver, page), telemetry).await;
         // The engine, the sessions, the reader and the saver loop forever.
         core::future::pending().await
     }
@@ -321,6 +365,9 @@ impl Gateway {
                         saved.listen_port
                     );
                 }
+            }
+            if let Some(o) = opts.mqtt_override {
+                config = o.apply(config);
             }
             m.config.active = config;
             m.config.edit = None;

@@ -23,7 +23,8 @@ use std::thread;
 
 use crate::access::setup::SetupCode;
 use crate::clock::SystemClock;
-use crate::gateway::{Options, RobotOverride};
+use crate::config::HostName;
+use crate::gateway::{MqttOverride, Options, RobotOverride};
 use crate::net::tokio::TokioNet;
 use crate::state::inputs::{Text, TRIGGERS};
 use crate::storage::image::{self, Entries};
@@ -181,6 +182,10 @@ pub struct HostOptions {
     /// at the machine reads it (`hans-gateway` makes a new one at each
     /// start, from [`os_random`]). `None`: no administrator can be created.
     pub setup_code: Option<SetupCode>,
+    /// The MQTT broker given at start (`--mqtt`): [`Options::mqtt_override`].
+    pub mqtt: Option<MqttOverride>,
+    /// The machine's name ([`Options::node_name`]).
+    pub node_name: HostName,
 }
 
 impl HostOptions {
@@ -194,6 +199,8 @@ impl HostOptions {
             defaults: crate::Config::default(),
             web_listen: None,
             setup_code: None,
+            mqtt: None,
+            node_name: Options::default().node_name,
         }
     }
 }
@@ -369,6 +376,8 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         wall_clock: Some(audit_file::unix_now),
         #[cfg(not(feature = "audit"))]
         wall_clock: None,
+        node_name: opts.node_name,
+        mqtt_override: opts.mqtt,
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;

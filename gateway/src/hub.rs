@@ -60,6 +60,10 @@ pub struct Hub {
     /// The audit log (the storage task keeps its records).
     #[cfg(feature = "audit")]
     pub(crate) audit: Log,
+    /// The MQTT client's connection and counters (the status page shows
+    /// them).
+    #[cfg(feature = "mqtt")]
+    pub mqtt: crate::mqtt::Status,
 }
 
 impl Hub {
@@ -75,6 +79,8 @@ impl Hub {
             modbus_slots: Slots::new(),
             #[cfg(feature = "audit")]
             audit: Log::new(),
+            #[cfg(feature = "mqtt")]
+            mqtt: crate::mqtt::Status::new(),
         }
     }
 

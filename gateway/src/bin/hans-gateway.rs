@@ -20,10 +20,11 @@ use std::process::ExitCode;
 
 use clap::error::ErrorKind;
 use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
+use hans_gateway::config::HostName;
 use hans_gateway::host::config_file::{self, Error as FileProblem};
 use hans_gateway::host::{os_random, FileStorage, HostOptions, RunningGateway};
 use hans_gateway::registers::MAP_VERSION;
-use hans_gateway::{SetupCode, SETUP_CODE_LEN};
+use hans_gateway::{MqttOverride, SetupCode, SETUP_CODE_LEN};
 
 /// The robot controller's command port, used when `--robot` names none.
 const ROBOT_PORT: u16 = 10003;
@@ -114,6 +115,13 @@ struct Cli {
     #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
     #[arg(verbatim_doc_comment)]
     web_listen: Option<Endpoint>,
+    /// Publish the cell's state as a Sparkplug B edge node to the MQTT
+    /// broker at HOST:PORT (gateway/SPARKPLUG.md), for this run: turns
+    /// mqtt.enabled on and overrides mqtt.broker and mqtt.port. A name
+    /// is resolved at each connect. MQTT sees the robot, never moves it.
+    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    #[arg(verbatim_doc_comment)]
+    mqtt: Option<Endpoint>,
     /// Keep the configuration and the trigger table in FILE (TOML):
     /// checked and read at start, written when the PLC writes 1 to
     /// CONFIG_COMMAND.
@@ -333,7 +341,26 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
         config_file: cli.config,
         defaults: hans_gateway::Config::default(),
         setup_code: None,
+        mqtt: match &cli.mqtt {
+            Some(e) => Some(MqttOverride {
+                broker: HostName::new(&e.host)
+                    .ok_or_else(|| format!("--mqtt {e}: not a host name or an IPv4 address"))?,
+                port: e.port,
+            }),
+            None => None,
+        },
+        node_name: host_name(),
     })
+}
+
+/// This machine's host name (the Sparkplug edge node id when the
+/// configuration names none), from the kernel; `hans-gateway` if it has
+/// none a Sparkplug id may hold.
+fn host_name() -> HostName {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .and_then(|n| HostName::new(n.trim()).filter(|h| (1..=32).contains(&h.as_str().len())))
+        .unwrap_or_else(|| HostName::new("hans-gateway").unwrap_or(HostName::EMPTY))
 }
 
 /// Checks the configuration file before anything starts: a file that is

@@ -269,6 +269,25 @@ impl HostName {
                 .all(|&c| c.is_ascii_alphanumeric() || matches!(c, b'.' | b'-' | b'_' | b':'))
     }
 
+    /// The name `t`, checked when the constant is evaluated (defaults).
+    // Indexing within the lengths just asserted; used for constants, so a
+    // bad name fails the build, never a device.
+    #[allow(clippy::indexing_slicing)]
+    pub(crate) const fn from_static(t: &str) -> HostName {
+        let b = t.as_bytes();
+        assert!(b.len() <= HostName::MAX);
+        let mut h = HostName::EMPTY;
+        let mut i = 0;
+        while i < b.len() {
+            let c = b[i];
+            assert!(c.is_ascii_alphanumeric() || c == b'.' || c == b'-' || c == b'_');
+            h.bytes[i] = c;
+            i += 1;
+        }
+        h.len = b.len() as u8;
+        h
+    }
+
     /// The name `t`, if valid.
     pub fn new(t: &str) -> Option<HostName> {
         Self::from_bytes(t.as_bytes())
@@ -294,6 +313,55 @@ impl HostName {
     pub fn as_str(&self) -> &str {
         core::str::from_utf8(self.as_bytes()).unwrap_or("")
     }
+}
+
+/// The Sparkplug B edge node's settings (`mqtt.*`, used with the feature
+/// `mqtt`): where it publishes and how often. Off in the factory state:
+/// nothing leaves the device until someone names a broker and turns it on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MqttConfig {
+    /// Publish (with a broker named).
+    pub enabled: bool,
+    /// The broker's address (boards: an IPv4 address; Linux also resolves
+    /// a host name); empty = none.
+    pub broker: HostName,
+    /// The broker's port, default 1883.
+    pub port: u16,
+    /// The Sparkplug group id, default `cells`.
+    pub group: HostName,
+    /// The edge node id (also the MQTT client id); empty = the platform's
+    /// own (a board: `hans-` and its MAC address; Linux: the host name).
+    pub edge: HostName,
+    /// A Sparkplug 3.0 primary host id: births wait for its STATE online
+    /// message; empty = none.
+    pub primary_host: HostName,
+    /// The keep-alive \[s\], 5-3600, default 30: the broker publishes the
+    /// NDEATH 1.5 times this after the gateway goes silent.
+    pub keep_alive_s: u16,
+    /// The shortest time between two data rounds \[ms\], 10-60000,
+    /// default 100.
+    pub period_ms: u16,
+    /// Joints deadband \[0.01 degree\], 0-10000, default 10 (0.1 degree).
+    pub joint_deadband: u16,
+    /// Pose deadband \[0.01 mm or degree\], 0-10000, default 10.
+    pub pose_deadband: u16,
+}
+
+impl MqttConfig {
+    /// The factory defaults: off, no broker, port 1883, group `cells`.
+    pub const DEFAULT: MqttConfig = MqttConfig {
+        enabled: false,
+        broker: HostName::EMPTY,
+        port: 1883,
+        group: HostName::from_static("cells"),
+        edge: HostName::EMPTY,
+        primary_host: HostName::EMPTY,
+        keep_alive_s: 30,
+        period_ms: 100,
+        joint_deadband: 10,
+        pose_deadband: 10,
+    };
 }
 
 /// The configuration.
@@ -346,9 +414,9 @@ pub struct Config {
     pub modbus_allow: AllowList,
     /// Who may open the web page.
     pub web_allow: AllowList,
-    /// The MQTT broker's host name or address (no registers; used from
-    /// the MQTT release on).
-    pub mqtt_broker: HostName,
+    /// The Sparkplug B telemetry to an MQTT broker (no registers: the
+    /// page and the TOML file set it).
+    pub mqtt: MqttConfig,
     /// A DNS name the web page is also served under (besides the device's
     /// addresses); empty = addresses only.
     pub web_host: HostName,
@@ -410,7 +478,7 @@ impl Config {
         write_protect: false,
         modbus_allow: AllowList::EVERYONE,
         web_allow: AllowList::EVERYONE,
-        mqtt_broker: HostName::EMPTY,
+        mqtt: MqttConfig::DEFAULT,
         web_host: HostName::EMPTY,
         read_without_login: true,
         ntp_server: Ipv4Addr::UNSPECIFIED,

@@ -689,11 +689,70 @@ setting!(
     27,
     Kind::Host,
     "",
-    "MQTT broker host name or address, empty = no telemetry (used from the MQTT release on)",
-    false,
-    |c| Value::Host(c.mqtt_broker),
-    |c, v| c.mqtt_broker = host(v)
+    "MQTT broker for the Sparkplug B telemetry: an address (boards), or a host name (Linux); empty = none; at the next start",
+    true,
+    |c| Value::Host(c.mqtt.broker),
+    |c, v| c.mqtt.broker = host(v)
 );
+setting!(MQTT_ENABLED, "mqtt.enabled", 31, Kind::Flag, "",
+    "publish the cell's state to the broker (Sparkplug B; MQTT sees the robot, never moves it); at the next start", true,
+    |c| Value::Flag(c.mqtt.enabled), |c, v| c.mqtt.enabled = flag(v));
+setting!(
+    MQTT_PORT,
+    "mqtt.port",
+    32,
+    num(1, 65535),
+    "",
+    "the broker's port (1883: MQTT without TLS); at the next start",
+    true,
+    |c| Value::Number(c.mqtt.port),
+    |c, v| c.mqtt.port = number(v)
+);
+setting!(
+    MQTT_GROUP,
+    "mqtt.group_id",
+    33,
+    Kind::Host,
+    "",
+    "Sparkplug group id, 1-32 characters; at the next start",
+    true,
+    |c| Value::Host(c.mqtt.group),
+    |c, v| c.mqtt.group = host(v)
+);
+setting!(MQTT_EDGE, "mqtt.edge_id", 34, Kind::Host, "",
+    "Sparkplug edge node id (also the MQTT client id), 1-32 characters; empty = hans- and the MAC address (boards), the host name (Linux); at the next start", true,
+    |c| Value::Host(c.mqtt.edge), |c, v| c.mqtt.edge = host(v));
+setting!(MQTT_PRIMARY_HOST, "mqtt.primary_host", 35, Kind::Host, "",
+    "Sparkplug primary host id: births wait for its STATE online message; empty = none; at the next start", true,
+    |c| Value::Host(c.mqtt.primary_host), |c, v| c.mqtt.primary_host = host(v));
+setting!(MQTT_KEEP_ALIVE, "mqtt.keep_alive_s", 36, num(5, 3600), "s",
+    "MQTT keep-alive: the broker declares the gateway dead (NDEATH) 1.5 times this after it goes silent; at the next start", true,
+    |c| Value::Number(c.mqtt.keep_alive_s), |c, v| c.mqtt.keep_alive_s = number(v));
+setting!(
+    MQTT_PERIOD,
+    "mqtt.period_ms",
+    37,
+    num(10, 60000),
+    "ms",
+    "shortest time between two publications of changed values; at the next start",
+    true,
+    |c| Value::Number(c.mqtt.period_ms),
+    |c, v| c.mqtt.period_ms = number(v)
+);
+setting!(
+    MQTT_JOINT_DEADBAND,
+    "mqtt.joint_deadband",
+    38,
+    num(0, 10000),
+    "0.01 deg",
+    "a joint angle is published when it moved by this much (10 = 0.1 degree); at the next start",
+    true,
+    |c| Value::Number(c.mqtt.joint_deadband),
+    |c, v| c.mqtt.joint_deadband = number(v)
+);
+setting!(MQTT_POSE_DEADBAND, "mqtt.pose_deadband", 39, num(0, 10000), "0.01 mm",
+    "a pose coordinate is published when it moved by this much (10 = 0.1 mm or degree); at the next start", true,
+    |c| Value::Number(c.mqtt.pose_deadband), |c, v| c.mqtt.pose_deadband = number(v));
 
 setting!(WEB_HOST_NAME, "web.host_name", 28, Kind::Host, "",
     "a DNS name the page also answers to, besides the device's addresses (others get 421: DNS rebinding); empty = addresses only", false,
@@ -717,7 +776,7 @@ setting!(
 
 /// Every setting, in the order the views list them (a group's settings
 /// together).
-pub const SETTINGS: [&Setting; 30] = [
+pub const SETTINGS: [&Setting; 39] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -746,8 +805,17 @@ pub const SETTINGS: [&Setting; 30] = [
     &ACCESS_MODBUS_ALLOW,
     &ACCESS_WEB_ALLOW,
     &ACCESS_READ_WITHOUT_LOGIN,
-    &MQTT_BROKER,
     &WEB_HOST_NAME,
+    &MQTT_ENABLED,
+    &MQTT_BROKER,
+    &MQTT_PORT,
+    &MQTT_GROUP,
+    &MQTT_EDGE,
+    &MQTT_PRIMARY_HOST,
+    &MQTT_KEEP_ALIVE,
+    &MQTT_PERIOD,
+    &MQTT_JOINT_DEADBAND,
+    &MQTT_POSE_DEADBAND,
 ];
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a
@@ -876,7 +944,7 @@ mod tests {
             MQTT_BROKER.parse_into("broker-1.plant.local", &mut c),
             Ok(())
         );
-        assert_eq!(c.mqtt_broker.as_str(), "broker-1.plant.local");
+        assert_eq!(c.mqtt.broker.as_str(), "broker-1.plant.local");
         assert_eq!(
             MQTT_BROKER.parse_into("bad host", &mut c),
             Err(FieldError::NotAHost)

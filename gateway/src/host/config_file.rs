@@ -86,8 +86,17 @@
 //! | `access.modbus_allow` | MODBUS_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `access.web_allow` | WEB_ALLOW | `["a.b.c.d/prefix", ...]` |
 //! | `access.read_without_login` | (none) | `true` / `false` |
-//! | `mqtt.broker` | (none) | `"host"`, `""` = none |
 //! | `web.host_name` | (none) | `"host"`, `""` = addresses only |
+//! | `mqtt.enabled` | (none) | `true` / `false` |
+//! | `mqtt.broker` | (none) | `"host"`, `""` = none |
+//! | `mqtt.port` | (none) | integer |
+//! | `mqtt.group_id` | (none) | `"id"` |
+//! | `mqtt.edge_id` | (none) | `"id"`, `""` = the platform's name |
+//! | `mqtt.primary_host` | (none) | `"id"`, `""` = none |
+//! | `mqtt.keep_alive_s` | (none) | integer |
+//! | `mqtt.period_ms` | (none) | integer |
+//! | `mqtt.joint_deadband` | (none) | integer, 0.01 degree |
+//! | `mqtt.pose_deadband` | (none) | integer, 0.01 mm or degree |
 //! | `access.accounts` | (the web page's accounts) | `[{ name = "...", role = "admin", password = "pbkdf2-sha256$ROUNDS$SALT$HASH" }, ...]` |
 //! | `access.password` | (the previous version's one password: read as the administrator `admin`, never written) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |

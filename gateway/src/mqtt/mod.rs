@@ -52,14 +52,16 @@ mod tests;
 
 use core::cell::Cell;
 use core::convert::Infallible;
-use core::net::SocketAddrV4;
+use core::net::{Ipv4Addr, SocketAddrV4};
 
 use embassy_time::{Duration, Instant};
 
 use crate::clock::{with_deadline, with_timeout, Clock};
+use crate::config::MqttConfig;
 use crate::hub::Hub;
 use crate::net::{Net, NetError, Socket};
-use crate::sparkplug::{EdgeNode, MessageType, NodeConfig};
+use crate::sparkplug::topic::ID_MAX;
+use crate::sparkplug::{EdgeNode, Id, IdError, MessageType, NodeConfig};
 
 pub use crate::sparkplug::PAYLOAD_BUF;
 use packet::{Frame, Packet, Will};
@@ -95,6 +97,11 @@ pub struct Settings {
     /// payloads' timestamps; without it they count from the start
     /// ([`EdgeNode::set_wall_time`]). [`run_host`] sets it from the host.
     pub utc_at_zero: Option<u64>,
+    /// A Sparkplug 3.0 primary host: the births wait for its STATE online
+    /// message (`spBv1.0/STATE/ID`, JSON `{"online":true,...}`), and its
+    /// offline message ends the session (the broker publishes the NDEATH);
+    /// the next one waits again.
+    pub primary_host: Option<Id>,
 }
 
 impl Settings {
@@ -105,7 +112,66 @@ impl Settings {
             node,
             keep_alive: Duration::from_secs(30),
             utc_at_zero: None,
+            primary_host: None,
         }
+    }
+
+    /// The settings of `cfg` (the configuration's `mqtt.*`) with the broker
+    /// at `broker`; `own_id` is the edge node id when the configuration
+    /// names none.
+    pub fn from_config(
+        cfg: &MqttConfig,
+        broker: Ipv4Addr,
+        own_id: &str,
+    ) -> Result<Settings, IdError> {
+        let edge = if cfg.edge.as_str().is_empty() {
+            own_id
+        } else {
+            cfg.edge.as_str()
+        };
+        let mut node = NodeConfig::new(cfg.group.as_str(), edge)?;
+        node.period = Duration::from_millis(cfg.period_ms.into());
+        node.joint_deadband = f32::from(cfg.joint_deadband) / 100.0;
+        node.pose_deadband = f32::from(cfg.pose_deadband) / 100.0;
+        let mut s = Settings::new(SocketAddrV4::new(broker, cfg.port), node);
+        s.keep_alive = Duration::from_secs(cfg.keep_alive_s.into());
+        s.primary_host = match cfg.primary_host.as_str() {
+            "" => None,
+            id => Some(Id::new(id)?),
+        };
+        Ok(s)
+    }
+
+    /// The primary host's STATE topic.
+    fn state_topic(&self) -> Option<heapless::String<{ STATE_PREFIX.len() + ID_MAX }>> {
+        let id = self.primary_host.as_ref()?;
+        let mut t = heapless::String::new();
+        t.push_str(STATE_PREFIX).ok()?;
+        t.push_str(id.as_str()).ok()?;
+        Some(t)
+    }
+}
+
+/// The primary hosts' STATE topics begin with this.
+const STATE_PREFIX: &str = "spBv1.0/STATE/";
+
+/// What a primary host's STATE payload says: `Some(true)` online, `Some(false)` offline,
+/// `None` not a STATE message (Sparkplug 3.0: a JSON object with a boolean
+/// `online` and a `timestamp`; read here without a JSON parser: the
+/// member's name, a colon, the word).
+pub fn host_online_of(payload: &[u8]) -> Option<bool> {
+    let key = b"\"online\"";
+    let at = payload.windows(key.len()).position(|w| w == key)?;
+    let rest = payload.get(at + key.len()..)?;
+    let rest = rest.get(rest.iter().position(|b| !b.is_ascii_whitespace())?..)?;
+    let rest = rest.strip_prefix(b":")?;
+    let rest = rest.get(rest.iter().position(|b| !b.is_ascii_whitespace())?..)?;
+    if rest.starts_with(b"true") {
+        Some(true)
+    } else if rest.starts_with(b"false") {
+        Some(false)
+    } else {
+        None
     }
 }
 
@@ -125,6 +191,14 @@ pub enum Error {
     Protocol,
     /// A packet does not fit its buffer.
     TooLong,
+    /// The primary host went offline (its STATE message).
+    HostOffline,
+    /// The broker's name has no address here (boards take an address;
+    /// Linux resolves names).
+    Unresolved,
+    /// The group or edge node id is not a Sparkplug id (empty, longer
+    /// than 32 bytes).
+    BadId,
 }
 
 impl Error {
@@ -137,6 +211,9 @@ impl Error {
             Error::Refused(_) => "refused by the broker",
             Error::Protocol => "protocol error",
             Error::TooLong => "packet too long",
+            Error::HostOffline => "primary host offline",
+            Error::Unresolved => "broker name not resolved",
+            Error::BadId => "group or edge node id invalid (1-32 characters)",
         }
     }
 }
@@ -156,8 +233,12 @@ impl From<packet::TooLong> for Error {
 /// The client's counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Stats {
+    /// The client runs (`mqtt.enabled` with a broker).
+    pub on: bool,
     /// Connected (CONNACK accepted) now.
     pub connected: bool,
+    /// Connected, the births held until the primary host is online.
+    pub waiting_for_host: bool,
     /// Accepted connections since start.
     pub connects: u32,
     /// Connection attempts and connections that ended in an error.
@@ -183,7 +264,9 @@ impl Status {
     /// No connection yet.
     pub const fn new() -> Status {
         Status(Cell::new(Stats {
+            on: false,
             connected: false,
+            waiting_for_host: false,
             connects: 0,
             failures: 0,
             last_error: None,
@@ -312,6 +395,7 @@ pub async fn run<C: Clock, N: Net>(
     let mut rx = [0u8; SOCKET_BUF];
     let mut tx = [0u8; SOCKET_BUF];
     let mut sock = net.socket(&mut rx, &mut tx);
+    status.update(|s| s.on = true);
     let mut node = EdgeNode::new(settings.node.clone());
     if let Some(utc) = settings.utc_at_zero {
         node.set_wall_time(Instant::from_ticks(0), utc);
@@ -341,6 +425,7 @@ pub async fn run<C: Clock, N: Net>(
         node.disconnect();
         status.update(|s| {
             s.connected = false;
+            s.waiting_for_host = false;
             s.failures = s.failures.wrapping_add(1);
             s.last_error = Some(e);
             s.node = node.stats();
@@ -421,12 +506,25 @@ async fn session<C: Clock, S: Socket>(
     info!("mqtt: connected, bdSeq {}", node.bd_seq());
     let ncmd = node.topic(MessageType::NCmd);
     let dcmd = node.topic(MessageType::DCmd);
-    let n = packet::subscribe(&mut bufs.pkt, SUBSCRIBE_ID, &[ncmd.as_str(), dcmd.as_str()])?;
+    let state = settings.state_topic();
+    let n = match &state {
+        Some(st) => packet::subscribe(
+            &mut bufs.pkt,
+            SUBSCRIBE_ID,
+            &[ncmd.as_str(), dcmd.as_str(), st.as_str()],
+        )?,
+        None => packet::subscribe(&mut bufs.pkt, SUBSCRIBE_ID, &[ncmd.as_str(), dcmd.as_str()])?,
+    };
     send(clock, sock, bufs.pkt.get(..n).unwrap_or(&[])).await?;
+    // With a primary host, nothing is published until it is online.
+    let mut host_online = state.is_none();
+    status.update(|s| s.waiting_for_host = !host_online);
     let mut last_sent = clock.now();
     let mut ping_sent: Option<Instant> = None;
     loop {
-        publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
+        if host_online {
+            publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
+        }
         while let Some(len) = reader.ready(status)? {
             match reader.packet(len)? {
                 Packet::Publish {
@@ -439,7 +537,17 @@ async fn session<C: Clock, S: Socket>(
                         send(clock, sock, &packet::puback(id)).await?;
                         last_sent = clock.now();
                     }
-                    if let Some(ty) = node.inbound(topic) {
+                    if state.as_ref().is_some_and(|st| st.as_str() == topic) {
+                        match host_online_of(payload) {
+                            Some(true) if !host_online => {
+                                info!("mqtt: the primary host is online: births");
+                                host_online = true;
+                                status.update(|s| s.waiting_for_host = false);
+                            }
+                            Some(false) => return Err(Error::HostOffline),
+                            _ => {}
+                        }
+                    } else if let Some(ty) = node.inbound(topic) {
                         // Malformed and refused commands are counted by the node.
                         let _ = node.command(ty, payload);
                     }
@@ -456,7 +564,9 @@ async fn session<C: Clock, S: Socket>(
             reader.consume(len);
         }
         // Births or a rebirth may be due at once after a command.
-        publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
+        if host_online {
+            publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
+        }
         let now = clock.now();
         if let Some(t) = ping_sent {
             if now >= t + keep_alive {
@@ -514,6 +624,64 @@ async fn publish_due<C: Clock, S: Socket>(
     }
     status.update(|s| s.node = node.stats());
     Ok(())
+}
+
+/// The telemetry as the configuration in use says (`mqtt.*`, read once:
+/// the settings apply at the next start): nothing while `mqtt.enabled` is
+/// off or no broker is named; else the broker's address (an address, or a
+/// name the platform resolves: [`Net::resolve`], tried again with the
+/// backoff), then [`run`]. `own_id` is the edge node id when the
+/// configuration names none; `utc_at_zero` as in [`Settings`]. The
+/// hub's [`Hub::mqtt`] shows how it goes.
+pub async fn serve<C: Clock, N: Net>(
+    hub: &Hub,
+    clock: &C,
+    net: &N,
+    own_id: &str,
+    utc_at_zero: Option<u64>,
+) -> Infallible {
+    let cfg = hub.with(|m| m.config.active.mqtt);
+    let status = &hub.mqtt;
+    if !cfg.enabled || cfg.broker.as_str().is_empty() {
+        return core::future::pending().await;
+    }
+    status.update(|s| s.on = true);
+    let mut backoff = BACKOFF_MIN;
+    let broker = loop {
+        let name = cfg.broker.as_str();
+        let ip = match name.parse::<Ipv4Addr>() {
+            Ok(ip) => Some(ip),
+            Err(_) => net.resolve(name).await,
+        };
+        if let Some(ip) = ip {
+            break ip;
+        }
+        status.update(|s| {
+            s.failures = s.failures.wrapping_add(1);
+            s.last_error = Some(Error::Unresolved);
+        });
+        warn!(
+            "mqtt: the broker's name has no address here; again in {} ms",
+            backoff.as_millis()
+        );
+        clock.sleep(backoff).await;
+        backoff = (backoff * 2).min(BACKOFF_MAX);
+    };
+    let mut settings = match Settings::from_config(&cfg, broker, own_id) {
+        Ok(s) => s,
+        Err(_) => {
+            status.update(|s| s.last_error = Some(Error::BadId));
+            warn!("mqtt: {}", Error::BadId.as_str());
+            return core::future::pending().await;
+        }
+    };
+    settings.utc_at_zero = utc_at_zero;
+    info!(
+        "mqtt: Sparkplug edge node {} of group {} to the broker",
+        settings.node.edge.as_str(),
+        settings.node.group.as_str()
+    );
+    run(hub, clock, net, &settings, status).await
 }
 
 /// [`run`] on Linux, over tokio's sockets and the system clock (on a

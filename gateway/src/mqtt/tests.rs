@@ -157,18 +157,48 @@ fn model() -> Model {
     m
 }
 
+fn settings(keep_alive: Duration) -> Settings {
+    let mut settings = Settings::new(BROKER, NodeConfig::new("Plant A", "cell-7").unwrap());
+    settings.keep_alive = keep_alive;
+    settings
+}
+
 impl T {
     fn new(keep_alive: Duration) -> T {
+        T::with(settings(keep_alive))
+    }
+
+    /// The client with `settings`.
+    fn with(settings: Settings) -> T {
+        T::build(model(), move |h, c, n, s| {
+            Box::pin(async move { run(&h, &*c, &n, &settings, &s).await })
+        })
+    }
+
+    /// The gateway's telemetry task ([`serve`]) for a hub with `config`.
+    fn serve(config: Config, own_id: &'static str) -> T {
+        let mut m = model();
+        m.config.active = config;
+        T::build(m, move |h, c, n, _| {
+            Box::pin(async move { serve(&h, &*c, &n, own_id, None).await })
+        })
+    }
+
+    fn build(
+        model: Model,
+        fut: impl FnOnce(
+            Rc<Hub>,
+            Rc<VirtualClock>,
+            SimNet,
+            Rc<Status>,
+        ) -> Pin<Box<dyn Future<Output = Infallible>>>,
+    ) -> T {
         let clock = Rc::new(VirtualClock::new());
         let net = SimNet::new(GATEWAY_IP);
         net.listen(BROKER);
-        let hub = Rc::new(Hub::new(model()));
+        let hub = Rc::new(Hub::new(model));
         let status = Rc::new(Status::new());
-        let mut settings = Settings::new(BROKER, NodeConfig::new("Plant A", "cell-7").unwrap());
-        settings.keep_alive = keep_alive;
-        let (c, n, h, s) = (clock.clone(), net.clone(), hub.clone(), status.clone());
-        let fut: Pin<Box<dyn Future<Output = Infallible>>> =
-            Box::pin(async move { run(&h, &*c, &n, &settings, &s).await });
+        let fut = fut(hub.clone(), clock.clone(), net.clone(), status.clone());
         let flag = Arc::new(Flag(AtomicBool::new(true)));
         let waker = Waker::from(flag.clone());
         T {
@@ -558,4 +588,148 @@ fn the_clients_future_is_small_enough_for_a_board() {
     // The buffers (payload, packet, receive, the socket's two) and the
     // edge node's record of what it published.
     assert!(size < 16 * 1024, "{size} bytes");
+}
+
+#[test]
+fn a_state_payload_says_online_or_offline() {
+    assert_eq!(
+        host_online_of(br#"{"online" : true, "timestamp" : 1668114759262}"#),
+        Some(true)
+    );
+    assert_eq!(
+        host_online_of(br#"{"timestamp":1,"online":false}"#),
+        Some(false)
+    );
+    assert_eq!(host_online_of(br#"{"online":"yes"}"#), None);
+    assert_eq!(
+        host_online_of(b"ONLINE"),
+        None,
+        "Sparkplug 2.2's text is not 3.0's"
+    );
+    assert_eq!(host_online_of(br#"{"online""#), None);
+    assert_eq!(host_online_of(b""), None);
+}
+
+#[test]
+fn with_a_primary_host_the_births_wait_for_its_state_and_its_offline_ends_the_session() {
+    let mut s = settings(KA);
+    s.primary_host = Some(crate::sparkplug::Id::new("scada-1").unwrap());
+    let mut t = T::with(s);
+    assert!(t.run_until(Duration::from_secs(1), |t| t.broker.accept()));
+    let c = t.expect(1, Duration::from_secs(1));
+    assert_eq!(c[0].first, 0x10, "CONNECT");
+    t.broker.send(&[0x20, 2, 0, 0]);
+    let p = t.expect(1, Duration::from_secs(1));
+    assert_eq!(p[0].first, 0x82, "SUBSCRIBE");
+    let (t1, k) = mqtt_str(&p[0].body, 2);
+    let (t2, k) = mqtt_str(&p[0].body, k + 1);
+    let (t3, _) = mqtt_str(&p[0].body, k + 1);
+    assert_eq!(
+        [t1.as_str(), t2.as_str(), t3.as_str()],
+        [
+            "spBv1.0/Plant A/NCMD/cell-7",
+            "spBv1.0/Plant A/DCMD/cell-7/robot",
+            "spBv1.0/STATE/scada-1"
+        ]
+    );
+    // No births while the host is not known to be online.
+    t.run_until(Duration::from_secs(5), |_| false);
+    assert!(
+        t.broker.packets().is_empty(),
+        "nothing before the host's STATE"
+    );
+    assert!(t.status.get().waiting_for_host);
+    // Another host's STATE is not ours.
+    t.broker
+        .publish("spBv1.0/STATE/scada-2", br#"{"online":true,"timestamp":1}"#);
+    t.run_until(Duration::from_secs(1), |_| false);
+    assert!(t.broker.packets().is_empty());
+    t.broker
+        .publish("spBv1.0/STATE/scada-1", br#"{"online":true,"timestamp":2}"#);
+    let p = t.expect(2, Duration::from_millis(200));
+    assert_eq!(p[0].publish().0, "spBv1.0/Plant A/NBIRTH/cell-7");
+    assert_eq!(p[1].publish().0, "spBv1.0/Plant A/DBIRTH/cell-7/robot");
+    assert!(!t.status.get().waiting_for_host);
+    // The host goes offline: the session ends (the broker sends the Will).
+    t.broker.publish(
+        "spBv1.0/STATE/scada-1",
+        br#"{"online":false,"timestamp":3}"#,
+    );
+    assert!(t.run_until(Duration::from_millis(100), |t| !t.status.get().connected));
+    assert_eq!(t.status.get().last_error, Some(Error::HostOffline));
+    assert!(!t.broker.conn.as_ref().unwrap().is_open());
+    // And the next session waits again.
+    assert!(t.run_until(Duration::from_secs(2), |t| t.broker.accept()));
+    t.expect(1, Duration::from_secs(1));
+    t.broker.send(&[0x20, 2, 0, 0]);
+    let p = t.expect(1, Duration::from_secs(1));
+    assert_eq!(p[0].first, 0x82, "SUBSCRIBE");
+    t.run_until(Duration::from_secs(2), |_| false);
+    assert!(t.broker.packets().is_empty());
+}
+
+fn mqtt_config(enabled: bool, broker: &str) -> Config {
+    let mut c = Config::default();
+    c.mqtt.enabled = enabled;
+    c.mqtt.broker = crate::config::HostName::new(broker).unwrap();
+    c.mqtt.port = BROKER.port();
+    c.mqtt.group = crate::config::HostName::new("Line2").unwrap();
+    c
+}
+
+#[test]
+fn the_gateways_task_connects_as_the_configuration_says() {
+    // Off in the factory state, and off without a broker: no connection.
+    for c in [
+        Config::default(),
+        mqtt_config(false, "10.0.0.50"),
+        mqtt_config(true, ""),
+    ] {
+        let mut t = T::serve(c, "hans-0a0b0c");
+        t.run_until(Duration::from_secs(10), |_| false);
+        assert_eq!(t.broker.net.attempts(BROKER), 0, "{c:?}");
+        assert!(!t.hub.mqtt.get().on);
+    }
+    // On: the edge node id is the device's own name unless one is set.
+    let mut t = T::serve(mqtt_config(true, "10.0.0.50"), "hans-0a0b0c");
+    assert!(t.run_until(Duration::from_secs(1), |t| t.broker.accept()));
+    let c = t.expect(1, Duration::from_secs(1));
+    let (id, k) = mqtt_str(&c[0].body, 10);
+    assert_eq!(id, "hans-0a0b0c");
+    assert_eq!(
+        mqtt_str(&c[0].body, k).0,
+        "spBv1.0/Line2/NDEATH/hans-0a0b0c"
+    );
+    assert!(t.hub.mqtt.get().on);
+    let mut c = mqtt_config(true, "10.0.0.50");
+    c.mqtt.edge = crate::config::HostName::new("cell-9").unwrap();
+    c.mqtt.keep_alive_s = 7;
+    let mut t = T::serve(c, "hans-0a0b0c");
+    assert!(t.run_until(Duration::from_secs(1), |t| t.broker.accept()));
+    let p = t.expect(1, Duration::from_secs(1));
+    assert_eq!(
+        u16::from_be_bytes([p[0].body[8], p[0].body[9]]),
+        7,
+        "keep-alive"
+    );
+    assert_eq!(mqtt_str(&p[0].body, 10).0, "cell-9");
+}
+
+#[test]
+fn a_broker_name_the_platform_cannot_resolve_is_an_error_retried_with_backoff() {
+    // The test network resolves no names (as a board's).
+    let mut t = T::serve(mqtt_config(true, "broker.plant"), "gw");
+    t.run_until(Duration::from_secs(10), |_| false);
+    let s = t.hub.mqtt.get();
+    assert!(s.on && !s.connected);
+    assert_eq!(s.last_error, Some(Error::Unresolved));
+    assert_eq!(s.failures, 4, "tries at 0, 1, 3 and 7 s (then 15 s): {s:?}");
+    assert_eq!(t.broker.net.attempts(BROKER), 0);
+    // An id Sparkplug refuses is said, not run.
+    let mut c = mqtt_config(true, "10.0.0.50");
+    c.mqtt.group = crate::config::HostName::new(&"g".repeat(40)).unwrap();
+    let mut t = T::serve(c, "gw");
+    t.run_until(Duration::from_secs(5), |_| false);
+    assert_eq!(t.hub.mqtt.get().last_error, Some(Error::BadId));
+    assert_eq!(t.broker.net.attempts(BROKER), 0);
 }

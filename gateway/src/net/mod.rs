@@ -11,7 +11,7 @@
 //! The futures are not `Send`: the whole gateway runs as one task on a
 //! single-threaded executor (embassy's, or tokio's current-thread runtime).
 
-use core::net::SocketAddrV4;
+use core::net::{Ipv4Addr, SocketAddrV4};
 
 #[cfg(feature = "embassy-net")]
 pub(crate) mod embassy;
@@ -71,6 +71,7 @@ pub trait Socket {
 }
 
 /// A network stack that makes sockets.
+#[allow(async_fn_in_trait)]
 pub trait Net {
     /// The socket type, borrowing the stack and its buffers.
     type Socket<'a>: Socket
@@ -80,4 +81,12 @@ pub trait Net {
     /// A new, closed socket using `rx` and `tx` as its buffers (adapters with
     /// their own buffering, like tokio's, ignore them).
     fn socket<'a>(&'a self, rx: &'a mut [u8], tx: &'a mut [u8]) -> Self::Socket<'a>;
+
+    /// The IPv4 address of the host `name`, where the platform resolves
+    /// names (Linux: the system's resolver); `None` where it does not
+    /// (boards: their settings take addresses) or when the name has none.
+    async fn resolve(&self, name: &str) -> Option<Ipv4Addr> {
+        let _ = name;
+        None
+    }
 }

@@ -11,7 +11,7 @@
 extern crate std;
 
 use core::cell::RefCell;
-use core::net::{SocketAddr, SocketAddrV4};
+use core::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::io;
 use std::rc::Rc;
 use std::vec::Vec;
@@ -129,5 +129,17 @@ impl Net for TokioNet {
             net: self,
             stream: None,
         }
+    }
+
+    async fn resolve(&self, name: &str) -> Option<Ipv4Addr> {
+        // The system's resolver (getaddrinfo, on tokio's blocking pool);
+        // the first IPv4 address.
+        tokio::net::lookup_host((name, 0))
+            .await
+            .ok()?
+            .find_map(|a| match a.ip() {
+                std::net::IpAddr::V4(ip) => Some(ip),
+                std::net::IpAddr::V6(_) => None,
+            })
     }
 }

@@ -409,7 +409,7 @@ mod tests {
             .parse_into("broker.plant", &mut base)
             .unwrap();
         let c = decode(&encode(&Config::DEFAULT), &base).unwrap();
-        assert_eq!(c.mqtt_broker.as_str(), "broker.plant");
+        assert_eq!(c.mqtt.broker.as_str(), "broker.plant");
     }
 
     #[test]

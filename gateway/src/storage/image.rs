@@ -608,7 +608,7 @@ mod tests {
         c.modbus_allow.format(&mut text).unwrap();
         assert_eq!(text, "10.20.0.0/16 127.0.0.1/32");
         assert_eq!(c.web_allow.0[1].ip, ip(192, 168, 7, 0));
-        assert_eq!(c.mqtt_broker, HostName::EMPTY, "new settings take defaults");
+        assert_eq!(c.mqtt.broker, HostName::EMPTY, "new settings take defaults");
         // The password becomes the administrator "admin".
         assert_eq!(got.accounts.len(), 1);
         let admin = got.accounts.get(MIGRATED_ADMIN.as_bytes()).unwrap();

@@ -101,6 +101,10 @@ pub(crate) struct StatusSnapshot {
     config_result: u64,
     config_saves: u16,
     config_applied: u32,
+    /// The MQTT client's, set after `take` (it lives in the hub).
+    #[cfg(feature = "mqtt")]
+    mqtt: crate::mqtt::Stats,
+    mqtt_broker: (crate::config::HostName, u16),
     /// Each channel's handshake and Execute.
     channels: [(Handshake, bool); r::CHANNELS],
     /// RAW's.
@@ -124,6 +128,15 @@ pub(crate) struct LogSnapshot {
 }
 
 impl Snapshot {
+    /// Sets the MQTT client's counters of a status snapshot (they live in
+    /// the hub, beside the state).
+    #[cfg(feature = "mqtt")]
+    pub(crate) fn set_mqtt(&mut self, stats: crate::mqtt::Stats) {
+        if let Snapshot::Status(s) = self {
+            s.mqtt = stats;
+        }
+    }
+
     /// Copies what `doc` shows from `m` (the state at `now`) into this
     /// snapshot: the one moment, under the state's lock. Written in place,
     /// field by field, so that no copy of a snapshot passes through the
@@ -238,6 +251,9 @@ impl StatusSnapshot {
             config_result: 0,
             config_saves: 0,
             config_applied: 0,
+            #[cfg(feature = "mqtt")]
+            mqtt: crate::mqtt::Status::new().get(),
+            mqtt_broker: (crate::config::HostName::EMPTY, 0),
             channels: [(Handshake::default(), false); r::CHANNELS],
             raw: (Handshake::default(), false),
             triggers: Triggers::default(),
@@ -273,6 +289,7 @@ impl StatusSnapshot {
         self.config_result = m.config.result as u64;
         self.config_saves = m.config.saves;
         self.config_applied = m.config.generation;
+        self.mqtt_broker = (c.mqtt.broker, c.mqtt.port);
         for (dst, ch) in self.channels.iter_mut().zip(m.channels.iter()) {
             *dst = (ch.handshake, ch.inputs.execute());
         }
@@ -396,6 +413,7 @@ impl StatusSnapshot {
                 j.key("saves").uint(self.config_saves.into());
                 j.key("applied").uint(self.config_applied.into());
             });
+            j.key("mqtt").object(|j| self.mqtt(j));
             j.key("channels").array(|j| {
                 for (k, (h, execute)) in self.channels.iter().enumerate() {
                     j.item().object(|j| {
@@ -422,6 +440,40 @@ impl StatusSnapshot {
                 }
             });
         });
+    }
+
+    /// The broker connection (`on` false: telemetry off, or a build
+    /// without MQTT).
+    fn mqtt(&self, j: &mut Object<'_, '_>) {
+        let (broker, port) = &self.mqtt_broker;
+        j.key("broker").str(broker.as_str().as_bytes());
+        j.key("port").uint((*port).into());
+        #[cfg(feature = "mqtt")]
+        {
+            let s = &self.mqtt;
+            let state = match (s.on, s.connected, s.waiting_for_host) {
+                (false, _, _) => "off",
+                (true, false, _) => "connecting",
+                (true, true, true) => "waiting for the primary host",
+                (true, true, false) => "connected",
+            };
+            j.key("on").bool(s.on);
+            j.key("state").str(state.as_bytes());
+            j.key("connects").uint(s.connects.into());
+            j.key("failures").uint(s.failures.into());
+            j.key("last_error")
+                .opt(s.last_error, |v, e| v.str(e.as_str().as_bytes()));
+            j.key("sent").uint(s.sent.into());
+            j.key("dropped")
+                .uint(u64::from(s.dropped) + u64::from(s.node.dropped));
+            j.key("commands_refused").uint(s.node.refused.into());
+            j.key("rebirths").uint(s.node.rebirths.into());
+        }
+        #[cfg(not(feature = "mqtt"))]
+        {
+            j.key("on").bool(false);
+            j.key("state").str(b"off");
+        }
     }
 
     fn link(&self, j: &mut Object<'_, '_>) {
@@ -672,7 +724,7 @@ mod tests {
         c.modbus_allow = AllowList([widest; ALLOW_ENTRIES]);
         c.web_allow = AllowList([widest; ALLOW_ENTRIES]);
         c.robot_ip = Ipv4Addr::new(255, 255, 255, 255);
-        c.mqtt_broker =
+        c.mqtt.broker =
             crate::config::HostName::new(&"h".repeat(crate::config::HostName::MAX)).unwrap();
         let mut m = Model::new(c, c);
         for e in m.triggers.entries.iter_mut() {
@@ -856,7 +908,7 @@ mod tests {
         let fields = render(Doc::Fields, &m);
         assert!(fields.contains(r#"{"key":"link.poll_ms","kind":"number","unit":"ms","range":{"min":10,"max":100},"choices":null,"default":"100","restart":false,"register":{"name":"CFG_POLL_MS","address":105,"count":1},"#), "{fields}");
         assert!(fields.contains(r#"{"key":"motion.wait_in_position","kind":"flag","unit":"","range":null,"choices":["false","true"],"default":"false","restart":false,"register":{"name":"CFG_MOTION_POLICY","address":110,"count":1,"bit":1},"#), "{fields}");
-        assert!(fields.contains(r#"{"key":"mqtt.broker","kind":"host","unit":"","range":null,"choices":null,"default":"","restart":false,"register":null,"#), "{fields}");
+        assert!(fields.contains(r#"{"key":"mqtt.broker","kind":"host","unit":"","range":null,"choices":null,"default":"","restart":true,"register":null,"#), "{fields}");
         let log = render(Doc::Log, &Model::new(Config::default(), Config::default()));
         assert_eq!(
             log,

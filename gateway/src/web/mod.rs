@@ -1066,6 +1066,8 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 let now = self.clock.now();
                 let mut snap = Snapshot::Fields;
                 self.hub.with(|m| snap.take(doc, m, now));
+                #[cfg(feature = "mqtt")]
+                snap.set_mqtt(self.hub.mqtt.get());
                 match doc_body(&snap) {
                     Some(body) => {
                         Response::new(StatusCode::OK, Head { body, head })

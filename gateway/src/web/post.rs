@@ -870,7 +870,7 @@ mod tests {
         .unwrap();
         assert_eq!(c.poll_ms, 50);
         assert_eq!(c.link_mode, crate::config::LinkMode::Listen);
-        assert_eq!(c.mqtt_broker.as_str(), "broker.plant");
+        assert_eq!(c.mqtt.broker.as_str(), "broker.plant");
         assert!(c.modbus_allow.permits(core::net::Ipv4Addr::LOCALHOST));
         assert!(!c
             .modbus_allow

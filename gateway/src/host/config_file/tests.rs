@@ -63,7 +63,10 @@ fn full() -> Contents {
             net(ip(172, 16, 0, 0), 12),
             net(ip(0, 0, 0, 0), 1),
         ]),
-        mqtt_broker: crate::config::HostName::new("broker.plant.local").unwrap(),
+        mqtt: crate::config::MqttConfig {
+            broker: crate::config::HostName::new("broker.plant.local").unwrap(),
+            ..crate::config::MqttConfig::DEFAULT
+        },
         web_host: crate::config::HostName::new("gw-cell-7.plant.local").unwrap(),
         read_without_login: false,
         ntp_server: ip(10, 0, 0, 123),
@@ -218,9 +221,9 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
         lines,
         [
             "1:1: unknown key \"poll_ms\" outside the tables (it goes in [link])",
-            "2:1: unknown key \"port\" outside the tables (it goes in [robot])",
+            "2:1: unknown key \"port\" outside the tables (it goes in [robot] or [mqtt])",
             "4:1: unknown key \"adress\" in [robot]; its keys are address, port, id",
-            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [mqtt], [web], [triggers]",
+            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [web], [mqtt], [triggers]",
             "8:1: unknown key \"address\" in [link] (it goes in [robot] or [network])",
         ]
     );
