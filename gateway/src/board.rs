@@ -57,7 +57,7 @@ use embassy_futures::join::join3;
 use embassy_net::{ConfigV4, Ipv4Cidr, Stack, StaticConfigV4};
 
 use crate::clock::SystemClock;
-use crate::config::NetConfig;
+use crate::config::{HostName, NetConfig};
 use crate::gateway::{Gateway, Options, MAX_SESSIONS};
 use crate::net::embassy::EmbassyNet;
 use crate::storage::Storage;
@@ -81,14 +81,23 @@ const DHCP_SOCKETS: usize = if cfg!(feature = "dhcp") { 1 } else { 0 };
 /// The SNTP client's UDP socket (feature `sntp`).
 const SNTP_SOCKETS: usize = if cfg!(feature = "sntp") { 1 } else { 0 };
 
+/// The MQTT client's socket (feature `mqtt`).
+const MQTT_SOCKETS: usize = if cfg!(feature = "mqtt") { 1 } else { 0 };
+
 /// Sockets the gateway uses on the board's stack: the Modbus sessions
 /// ([`MAX_SESSIONS`]), two for the robot link, one for the DataSheet
 /// (feature `datasheet`), the web page's connections (feature `web`:
-/// `web::WEB_CONNECTIONS`), the DHCP client's (feature `dhcp`) and the
-/// SNTP client's (feature `sntp`). A board sizes its `StackResources` with
+/// `web::WEB_CONNECTIONS`), the DHCP client's (feature `dhcp`), the
+/// SNTP client's (feature `sntp`) and the MQTT client's (feature `mqtt`).
+/// A board sizes its `StackResources` with
 /// this plus its own.
-pub const SOCKETS: usize =
-    MAX_SESSIONS + 2 + DATASHEET_SOCKETS + WEB_SOCKETS + DHCP_SOCKETS + SNTP_SOCKETS;
+pub const SOCKETS: usize = MAX_SESSIONS
+    + 2
+    + DATASHEET_SOCKETS
+    + WEB_SOCKETS
+    + DHCP_SOCKETS
+    + SNTP_SOCKETS
+    + MQTT_SOCKETS;
 
 /// Runs the gateway on the board's network stack until the future is
 /// dropped (it never returns): loads the stored configuration, applies
@@ -97,9 +106,12 @@ pub const SOCKETS: usize =
 pub async fn run<S: Storage>(
     stack: embassy_net::Stack<'_>,
     mut storage: S,
-    options: Options,
+    mut options: Options,
 ) -> Infallible {
     let clock = SystemClock;
+    if let Some(name) = mac_name(stack.hardware_address().as_bytes()) {
+        options.node_name = name;
+    }
     let gateway = Gateway::new(options);
     gateway.load(&mut storage, &clock).await;
     if options.network_managed {
@@ -124,6 +136,24 @@ pub async fn run<S: Storage>(
     }
     #[cfg(not(any(feature = "dhcp", feature = "sntp")))]
     gateway.serve(&net, &clock, storage).await
+}
+
+/// The board's own name, `hans-` and its MAC address in hex (the
+/// Sparkplug edge node id when `mqtt.edge_id` is empty): unique on the
+/// plant's network, and what its label shows. `None` without a 6-byte MAC.
+fn mac_name(mac: &[u8]) -> Option<HostName> {
+    const HEX: &[u8; 16] = b"0123456789abcdef";
+    let mac: &[u8; 6] = mac.try_into().ok()?;
+    let mut out = [0u8; 17];
+    let (prefix, digits) = out.split_at_mut(5);
+    prefix.copy_from_slice(b"hans-");
+    for (pair, b) in digits.chunks_exact_mut(2).zip(mac) {
+        if let [hi, lo] = pair {
+            *hi = HEX.get(usize::from(b >> 4)).copied().unwrap_or(b'0');
+            *lo = HEX.get(usize::from(b & 15)).copied().unwrap_or(b'0');
+        }
+    }
+    HostName::from_bytes(&out)
 }
 
 /// Applies the loaded network settings to the stack (see the module docs).
