@@ -91,13 +91,8 @@ const MQTT_SOCKETS: usize = if cfg!(feature = "mqtt") { 1 } else { 0 };
 /// SNTP client's (feature `sntp`) and the MQTT client's (feature `mqtt`).
 /// A board sizes its `StackResources` with
 /// this plus its own.
-pub const SOCKETS: usize = MAX_SESSIONS
-    + 2
-    + DATASHEET_SOCKETS
-    + WEB_SOCKETS
-    + DHCP_SOCKETS
-    + SNTP_SOCKETS
-    + MQTT_SOCKETS;
+pub const SOCKETS: usize =
+    MAX_SESSIONS + 2 + DATASHEET_SOCKETS + WEB_SOCKETS + DHCP_SOCKETS + SNTP_SOCKETS + MQTT_SOCKETS;
 
 /// Runs the gateway on the board's network stack until the future is
 /// dropped (it never returns): loads the stored configuration, applies

@@ -184,3 +184,127 @@ async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independe
     assert_eq!(bd.and_then(|m| m.long), Some(0));
     assert_eq!(p.seq, None, "an NDEATH has no seq");
 }
+
+/// Runs `hans-gateway --mqtt` as a plant does (keep-alive 5 s), then
+/// ends it `how` (a signal, as `kill -SIG`): the time until the broker
+/// publishes its NDEATH (at most 15 s), checked to carry the bdSeq of the
+/// NBIRTH seen.
+async fn declared_dead(how: &str) -> Duration {
+    let broker = mosquitto();
+    let mut opts = MqttOptions::new("scada-kill", "127.0.0.1", broker.port);
+    opts.set_keep_alive(Duration::from_secs(5));
+    let (client, mut events) = AsyncClient::new(opts, 10);
+    client
+        .subscribe("spBv1.0/#", QoS::AtLeastOnce)
+        .await
+        .unwrap();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        let ev = tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("SUBACK within 5 s")
+            .unwrap();
+        if let Event::Incoming(Packet::SubAck(_)) = ev {
+            break;
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("hans-mqtt-kill-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = dir.join("gateway.toml");
+    // keep-alive 5 s; the robot is absent (its port refuses): the node
+    // lives without its device.
+    std::fs::write(
+        &config,
+        "[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nkeep_alive_s = 5\ngroup_id = \"kill\"\nedge_id = \"gw-kill\"\n",
+    )
+    .unwrap();
+    struct Killed(Child);
+    impl Drop for Killed {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let gw = Killed(
+        Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
+            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
+            .arg(&config)
+            .arg("--setup-code-file")
+            .arg(dir.join("setup-code"))
+            .args(["--mqtt", &format!("127.0.0.1:{}", broker.port)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    let nbirth = loop {
+        match tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("the NBIRTH within 10 s")
+            .unwrap()
+        {
+            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NBIRTH/") => break p,
+            _ => continue,
+        }
+    };
+    assert_eq!(nbirth.topic, "spBv1.0/kill/NBIRTH/gw-kill");
+    let bd_of = |payload: &[u8]| {
+        PPayload::decode(payload)
+            .unwrap()
+            .metrics
+            .iter()
+            .find(|m| m.name.as_deref() == Some("bdSeq"))
+            .and_then(|m| m.long)
+    };
+    let bd = bd_of(&nbirth.payload);
+    assert!(bd.is_some());
+    let status = Command::new("kill")
+        .arg(format!("-{how}"))
+        .arg(gw.0.id().to_string())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let killed = Instant::now();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(15);
+    let ndeath = loop {
+        match tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("the NDEATH within 15 s")
+            .unwrap()
+        {
+            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NDEATH/") => break p,
+            _ => continue,
+        }
+    };
+    let took = killed.elapsed();
+    println!("SIG{how} -> NDEATH at the consumer: {took:?}");
+    assert_eq!(ndeath.topic, "spBv1.0/kill/NDEATH/gw-kill");
+    assert_eq!(bd_of(&ndeath.payload), bd, "the NDEATH of the session born");
+    let _ = std::fs::remove_dir_all(&dir);
+    took
+}
+
+/// Killed (SIGKILL: no DISCONNECT; the kernel closes the socket, which the
+/// broker takes as the end): the NDEATH within 1.5 times the keep-alive
+/// (in practice at once).
+#[tokio::test(flavor = "current_thread")]
+async fn a_killed_hans_gateway_is_declared_dead_by_the_broker() {
+    let took = declared_dead("KILL").await;
+    assert!(took <= Duration::from_millis(7_500), "{took:?}");
+}
+
+/// Frozen (SIGSTOP: the socket stays open and silent, as when the cable is
+/// pulled or the power goes): only the keep-alive we registered tells the
+/// broker. The MQTT rule is 1.5 times it (7.5 s) after the last packet;
+/// Debian 12's Mosquitto 2.0.11 checks keep-alives on a coarse timer and
+/// was measured at 11 s here, so the bound is 3 times (the broker's, not
+/// the gateway's figure; the README gives it).
+#[tokio::test(flavor = "current_thread")]
+async fn a_silent_hans_gateway_is_declared_dead_by_the_keep_alive() {
+    let took = declared_dead("STOP").await;
+    assert!(
+        took >= Duration::from_secs(4),
+        "by the keep-alive, not a close: {took:?}"
+    );
+}
