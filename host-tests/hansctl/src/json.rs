@@ -26,6 +26,14 @@ pub enum Json {
     Int(i32),
     /// An exact decimal, written with its own digits (`-0.000` stays so).
     Num(Decimal),
+    /// A 64-bit integer (Sparkplug's Int64).
+    Long(i64),
+    /// An unsigned 64-bit integer (Sparkplug's UInt64, DateTime).
+    ULong(u64),
+    /// A binary float (Sparkplug's Float and Double), written with the
+    /// shortest digits that read back as the same `f64`; `null` if not
+    /// finite (JSON has no NaN).
+    Float(f64),
     /// A string.
     Str(String),
     /// An array.
@@ -133,6 +141,10 @@ impl fmt::Display for Json {
             Json::Bool(b) => write!(f, "{b}"),
             Json::Int(i) => write!(f, "{i}"),
             Json::Num(d) => write!(f, "{d}"),
+            Json::Long(i) => write!(f, "{i}"),
+            Json::ULong(u) => write!(f, "{u}"),
+            Json::Float(x) if x.is_finite() => write!(f, "{x}"),
+            Json::Float(_) => f.write_str("null"),
             Json::Str(s) => write_str(f, s),
             Json::Arr(items) => {
                 f.write_str("[")?;
@@ -197,5 +209,24 @@ mod tests {
         assert_eq!(Json::Obj(o.clone()).to_string(), r#"{"a":3,"b":2}"#);
         assert_eq!(o.get("a"), Some(&Json::Int(3)));
         assert_eq!(o.get("c"), None);
+    }
+
+    #[test]
+    fn wide_and_binary_numbers_are_valid_json() {
+        let v = Json::Arr(vec![
+            Json::Long(i64::MIN),
+            Json::ULong(u64::MAX),
+            Json::Float(0.1),
+            Json::Float(1e21),
+            Json::Float(-0.0),
+            Json::Float(f64::NAN),
+        ]);
+        let text = v.to_string();
+        assert_eq!(
+            text,
+            "[-9223372036854775808,18446744073709551615,0.1,1000000000000000000000,-0,null]"
+        );
+        let parsed: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(parsed[1].as_u64(), Some(u64::MAX));
     }
 }
