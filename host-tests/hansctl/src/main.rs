@@ -6,8 +6,10 @@
 
 mod client;
 mod decode;
+mod fleet;
 mod jog;
 mod json;
+mod sparkplug;
 
 use std::io::{BufRead, Read, Write};
 use std::net::TcpStream;
@@ -203,6 +205,36 @@ enum Cmd {
         #[arg(long, default_value_t = 0)]
         count: u64,
     },
+    /// Live table of the Sparkplug B edge nodes (gateways) on an MQTT
+    /// broker: alive or DEAD, robot link, FSM state, robot error, last
+    /// command and its result, time since each node's last message.
+    ///
+    /// Subscribes to spBv1.0/GROUP/# (every group without --group). A
+    /// node is ALIVE from its NBIRTH and DEAD from the NDEATH of the same
+    /// bdSeq (an NDEATH of another bdSeq is a late Will of an earlier
+    /// session: ignored). On a terminal the table is redrawn in place (at
+    /// most 4 times a second); otherwise it is printed as a block at most
+    /// once a second when something changed, and once at the end. With
+    /// --json: one object per message (type, group, node, device, seq,
+    /// timestamp, metrics by name, commands, stale, error).
+    ///
+    /// Runs until Ctrl-C or --for; exit status 3 if the broker cannot be
+    /// reached and subscribed to within --timeout.
+    #[command(verbatim_doc_comment)]
+    Fleet {
+        /// The MQTT broker: HOST:PORT (HOST alone: port 1883).
+        #[arg(long)]
+        broker: String,
+        /// Only this Sparkplug group (default: every group).
+        #[arg(long)]
+        group: Option<String>,
+        /// End after this long (e.g. 10, 2.5s, 800ms); default: until Ctrl-C.
+        #[arg(long = "for", value_name = "SECONDS", value_parser = parse_duration)]
+        duration: Option<Duration>,
+        /// MQTT client id (default: hansctl-fleet-PID).
+        #[arg(long)]
+        client_id: Option<String>,
+    },
 }
 
 #[derive(Subcommand, Debug)]
@@ -356,6 +388,19 @@ fn run(cli: &Cli) -> Result<(), Exit> {
         }
         Cmd::Error { code } => error_text(cli, *code, connect),
         Cmd::Watch { port, count } => watch(cli, *port, *count, timeout),
+        Cmd::Fleet {
+            broker,
+            group,
+            duration,
+            client_id,
+        } => fleet::run(&fleet::Options {
+            broker: broker.clone(),
+            group: group.clone(),
+            json: cli.json,
+            duration: *duration,
+            client_id: client_id.clone(),
+            timeout,
+        }),
     }
 }
 
