@@ -26,6 +26,7 @@
     clippy::indexing_slicing
 )]
 
+pub mod broker;
 pub mod clock;
 pub mod net;
 pub mod plc;

@@ -24,6 +24,7 @@ use std::vec::Vec;
 
 use embassy_time::{Duration, Instant};
 
+use super::broker::{BrokerMode, SimBroker, BROKER};
 use super::clock::VirtualClock;
 use super::net::SimNet;
 use super::plc::{pdu, Answer, Plc};
@@ -112,6 +113,10 @@ pub struct WorldConfig {
     pub recovery: bool,
     /// The setup code the platform hands in (default [`SETUP_CODE`]).
     pub setup_code: Option<crate::SetupCode>,
+    /// An MQTT broker at [`BROKER`] doing this, and the gateway's
+    /// telemetry on to it (needs the feature `mqtt`); `None`: telemetry
+    /// off (the factory state).
+    pub broker: Option<BrokerMode>,
 }
 
 /// The world's setup code (as the platform would print it).
@@ -131,6 +136,7 @@ impl Default for WorldConfig {
             web: false,
             recovery: false,
             setup_code: crate::SetupCode::parse(SETUP_CODE.as_bytes()),
+            broker: None,
         }
     }
 }
@@ -189,6 +195,12 @@ pub struct World {
     pub config: WorldConfig,
     /// Gateway polls so far (a measure of work).
     pub polls: u64,
+    /// The MQTT broker ([`WorldConfig::broker`]).
+    pub broker: Option<SimBroker>,
+    /// A fingerprint of everything the PLCs were answered, and when
+    /// ([`World::request`]): two runs that gave the PLCs the same answers
+    /// at the same instants have the same one.
+    pub plc_trace: u64,
 }
 
 /// The longest a PLC waits for an answer before the test fails.
@@ -210,6 +222,16 @@ impl World {
             defaults.robot_ip = ROBOT_IP;
             defaults.robot_port = ROBOT_PORT;
         }
+        let broker = config.broker.map(|mode| {
+            if !cfg!(feature = "mqtt") {
+                panic!("a broker needs the feature `mqtt`");
+            }
+            defaults.mqtt.enabled = true;
+            defaults.mqtt.broker = crate::config::HostName::new("10.0.0.50").unwrap();
+            assert_eq!(BROKER.ip().octets(), [10, 0, 0, 50]);
+            defaults.mqtt.port = BROKER.port();
+            SimBroker::new(&net, mode)
+        });
         let opts = Options {
             modbus_port: MODBUS_PORT,
             defaults,
@@ -235,6 +257,8 @@ impl World {
             plcs: Vec::new(),
             config,
             polls: 0,
+            broker,
+            plc_trace: 0xcbf2_9ce4_8422_2325,
         };
         w.settle();
         for i in 0..w.config.plcs {
@@ -339,7 +363,8 @@ impl World {
         loop {
             self.settle();
             let now = self.now();
-            if !self.robot.step(now) {
+            let broker = self.broker.as_mut().is_some_and(|b| b.step(now));
+            if !self.robot.step(now) && !broker {
                 return;
             }
         }
@@ -352,11 +377,15 @@ impl World {
     pub fn turn(&mut self, limit: Instant) -> bool {
         self.catch_up();
         let now = self.now();
-        let next = [self.clock.next_deadline(), self.robot.next_wakeup()]
-            .into_iter()
-            .flatten()
-            .filter(|t| *t > now)
-            .min();
+        let next = [
+            self.clock.next_deadline(),
+            self.robot.next_wakeup(),
+            self.broker.as_ref().and_then(SimBroker::next_wakeup),
+        ]
+        .into_iter()
+        .flatten()
+        .filter(|t| *t > now)
+        .min();
         match next {
             Some(t) if t <= limit => {
                 self.clock.advance_to(t);
@@ -466,6 +495,11 @@ impl World {
         loop {
             self.catch_up();
             if let Some(a) = self.plcs[i].answer(tid) {
+                let at = self.now().as_ticks().to_le_bytes();
+                let answer = std::format!("{i} {pdu:?} {a:?}");
+                for b in at.iter().chain(answer.as_bytes()) {
+                    self.plc_trace = (self.plc_trace ^ u64::from(*b)).wrapping_mul(0x100_0000_01b3);
+                }
                 return a;
             }
             assert!(

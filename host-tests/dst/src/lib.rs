@@ -45,6 +45,7 @@ use hans_gateway::error::{ErrorSource, GatewayError, Outcome};
 use hans_gateway::job::{Source, QUEUE_DEPTH, URGENT_DEPTH};
 use hans_gateway::registers::{self as r, view};
 use hans_gateway::state::{LinkState, Model, Phase};
+use hans_gateway::testkit::broker::BrokerMode;
 use hans_gateway::testkit::plc::{pdu, Answer};
 use hans_gateway::testkit::rng::Rng;
 use hans_gateway::testkit::robot::{Model as RobotModel, RandomFaults};
@@ -690,6 +691,14 @@ fn ms(v: u64) -> Duration {
 impl Scenario {
     /// The scenario of `seed`, started (the gateway connected).
     pub fn new(seed: u64) -> Self {
+        Scenario::with_broker(seed, None)
+    }
+
+    /// The scenario of `seed` with the gateway's MQTT telemetry on, to a
+    /// broker doing `broker` (`None`: telemetry off). The broker draws
+    /// nothing from the scenario's random numbers: the same seed makes the
+    /// same PLC actions and robot faults whatever it does.
+    pub fn with_broker(seed: u64, broker: Option<BrokerMode>) -> Self {
         let mut rng = Rng::new(seed);
         let watchdog_ms = if rng.chance(300) {
             50 + rng.below(950) as u16
@@ -725,6 +734,7 @@ impl Scenario {
             web: false,
             recovery: false,
             setup_code: None,
+            broker,
         });
         let mut p = || rng.below(12) as u32;
         world.robot.faults = RandomFaults {
@@ -1240,6 +1250,24 @@ pub fn run(seed: u64, steps: usize) -> Result<Stats, Failure> {
     }
     s.drain(steps)?;
     Ok(s.finish())
+}
+
+/// Runs the scenario of `seed` for `steps` actions and the drain with the
+/// broker doing `broker`; also returns the fingerprint of what the PLCs
+/// were answered, and when (`World::plc_trace`).
+pub fn run_with_broker(
+    seed: u64,
+    steps: usize,
+    broker: Option<BrokerMode>,
+) -> Result<(Stats, u64), Failure> {
+    let mut s = Scenario::with_broker(seed, broker);
+    s.checker.check(&s.world).map_err(|e| s.fail(0, e))?;
+    for n in 0..steps {
+        s.step(n)?;
+    }
+    s.drain(steps)?;
+    let trace = s.world.plc_trace;
+    Ok((s.finish(), trace))
 }
 
 /// A short report line.
