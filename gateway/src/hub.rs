@@ -64,6 +64,12 @@ pub struct Hub {
     /// them).
     #[cfg(feature = "mqtt")]
     pub mqtt: crate::mqtt::Status,
+    /// Raised by every [`Hub::with`] (the state may have changed): wakes
+    /// the MQTT client, which publishes by exception, so that a change goes
+    /// out at once instead of at its next look (it reads with
+    /// [`Hub::peek`], which raises nothing).
+    #[cfg(feature = "mqtt")]
+    pub(crate) changed: Signal<NoopRawMutex, ()>,
 }
 
 impl Hub {
@@ -81,6 +87,8 @@ impl Hub {
             audit: Log::new(),
             #[cfg(feature = "mqtt")]
             mqtt: crate::mqtt::Status::new(),
+            #[cfg(feature = "mqtt")]
+            changed: Signal::new(),
         }
     }
 
@@ -102,7 +110,16 @@ impl Hub {
 
     /// Runs `f` on the state. Never call it from inside `f`.
     pub fn with<R>(&self, f: impl FnOnce(&mut Model) -> R) -> R {
-        self.model.lock(|m| f(&mut m.borrow_mut()))
+        let r = self.model.lock(|m| f(&mut m.borrow_mut()));
+        #[cfg(feature = "mqtt")]
+        self.changed.signal(());
+        r
+    }
+
+    /// Reads the state without telling anyone it may have changed (the
+    /// MQTT client's own reads). Never call it from inside `f`.
+    pub fn peek<R>(&self, f: impl FnOnce(&Model) -> R) -> R {
+        self.model.lock(|m| f(&m.borrow()))
     }
 
     /// Reads registers for a PLC (exception 02 if any is unmapped).

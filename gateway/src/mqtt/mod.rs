@@ -54,6 +54,7 @@ use core::cell::Cell;
 use core::convert::Infallible;
 use core::net::{Ipv4Addr, SocketAddrV4};
 
+use embassy_futures::select::{select, Either};
 use embassy_time::{Duration, Instant};
 
 use crate::clock::{with_deadline, with_timeout, Clock};
@@ -80,6 +81,8 @@ pub const WRITE_TIMEOUT: Duration = Duration::from_secs(5);
 pub const BACKOFF_MIN: Duration = Duration::from_secs(1);
 /// The longest wait before connecting again.
 pub const BACKOFF_MAX: Duration = Duration::from_secs(30);
+/// The longest the client waits without looking at the state.
+pub const IDLE_LOOK: Duration = Duration::from_secs(1);
 /// The SUBSCRIBE's packet id.
 const SUBSCRIBE_ID: u16 = 1;
 
@@ -581,9 +584,19 @@ async fn session<C: Clock, S: Socket>(
             Some(t) => t + keep_alive,
             None => last_sent + keep_alive / 2,
         };
-        let poll_at = (now + settings.node.period).max(node.next_round());
-        if let Ok(r) = with_deadline(clock, ping_at.min(poll_at), reader.fill(sock)).await {
-            r?;
+        // Woken by the broker, by a change of the state (then no earlier
+        // than the node's next round: at most one round per period), or
+        // at the latest after IDLE_LOOK (the uptime, a change without a
+        // `Hub::with`) or for the keep-alive.
+        let round_at = node.next_round();
+        let change = async {
+            hub.changed.wait().await;
+            clock.sleep_until(round_at).await;
+        };
+        let look_at = ping_at.min(now + IDLE_LOOK);
+        match with_deadline(clock, look_at, select(reader.fill(sock), change)).await {
+            Ok(Either::First(r)) => r?,
+            Ok(Either::Second(())) | Err(_) => {}
         }
     }
 }
@@ -601,7 +614,7 @@ async fn publish_due<C: Clock, S: Socket>(
     loop {
         let now = clock.now();
         let (n, pay) = (&mut *node, &mut bufs.pay);
-        let msg = match hub.with(move |m| n.poll(now, m, pay)) {
+        let msg = match hub.peek(move |m| n.poll(now, m, pay)) {
             Ok(Some(msg)) => msg,
             Ok(None) => break,
             Err(_) => {

@@ -733,3 +733,25 @@ fn a_broker_name_the_platform_cannot_resolve_is_an_error_retried_with_backoff() 
     assert_eq!(t.hub.mqtt.get().last_error, Some(Error::BadId));
     assert_eq!(t.broker.net.attempts(BROKER), 0);
 }
+
+#[test]
+fn a_change_after_a_quiet_period_goes_out_at_once_and_a_burst_at_most_once_per_period() {
+    let mut t = T::new(KA);
+    t.session(Duration::from_secs(1));
+    t.run_until(Duration::from_millis(537), |_| false);
+    assert!(t.broker.packets().is_empty());
+    // Quiet for longer than the period: the change goes at the instant it
+    // is made, not at the client's next look.
+    let changed = t.now();
+    t.hub
+        .with(|m| m.robot.joints = Some([9.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+    let p = t.expect(1, Duration::from_millis(200));
+    assert_eq!(p[0].publish().0, "spBv1.0/Plant A/DDATA/cell-7/robot");
+    assert_eq!(t.now(), changed, "published at the change");
+    // A second change right after: held to the period (100 ms).
+    t.hub
+        .with(|m| m.robot.joints = Some([19.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+    let p = t.expect(1, Duration::from_millis(200));
+    assert_eq!(p[0].publish().0, "spBv1.0/Plant A/DDATA/cell-7/robot");
+    assert_eq!((t.now() - changed).as_millis(), 100, "one round per period");
+}
