@@ -85,6 +85,8 @@ pub struct MqttOverride {
     pub broker: HostName,
     /// Its port.
     pub port: u16,
+    /// TLS to it (`mqtts://`).
+    pub tls: bool,
 }
 
 impl MqttOverride {
@@ -93,6 +95,7 @@ impl MqttOverride {
         config.mqtt.enabled = true;
         config.mqtt.broker = self.broker;
         config.mqtt.port = self.port;
+        config.mqtt.tls = self.tls;
         config
     }
 }

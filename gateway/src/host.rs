@@ -186,6 +186,9 @@ pub struct HostOptions {
     pub mqtt: Option<MqttOverride>,
     /// The machine's name ([`Options::node_name`]).
     pub node_name: HostName,
+    /// The CAs (PEM file) a TLS broker must be signed by; `None`: the
+    /// system's bundle.
+    pub mqtt_ca: Option<PathBuf>,
 }
 
 impl HostOptions {
@@ -201,6 +204,7 @@ impl HostOptions {
             setup_code: None,
             mqtt: None,
             node_name: Options::default().node_name,
+            mqtt_ca: None,
         }
     }
 }
@@ -334,6 +338,11 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         .map(|a| *a.ip())
         .unwrap_or(Ipv4Addr::LOCALHOST);
     let net = TokioNet::new(bind_ip);
+    #[cfg(feature = "mqtt-tls")]
+    let net = match &opts.mqtt_ca {
+        Some(ca) => net.with_tls_ca(ca.clone()),
+        None => net,
+    };
     let bound = async {
         let mport = net.listen(opts.modbus_listen).await?;
         let robot = match opts.robot_listen {

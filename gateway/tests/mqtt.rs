@@ -308,3 +308,231 @@ async fn a_silent_hans_gateway_is_declared_dead_by_the_keep_alive() {
         "by the keep-alive, not a close: {took:?}"
     );
 }
+
+/// Runs `openssl` with `args` in `dir`; panics with its output on failure.
+fn openssl(dir: &std::path::Path, args: &[&str]) {
+    let out = Command::new("openssl")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("openssl (Debian's package) is installed");
+    assert!(
+        out.status.success(),
+        "openssl {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A CA (`NAME.crt`, `NAME.key`) in `dir`.
+fn make_ca(dir: &std::path::Path, name: &str) {
+    let (key, crt) = (format!("{name}.key"), format!("{name}.crt"));
+    openssl(
+        dir,
+        &[
+            "req",
+            "-x509",
+            "-newkey",
+            "ec",
+            "-pkeyopt",
+            "ec_paramgen_curve:P-256",
+            "-nodes",
+            "-keyout",
+            &key,
+            "-out",
+            &crt,
+            "-days",
+            "2",
+            "-subj",
+            &format!("/CN={name}"),
+            "-addext",
+            "basicConstraints=critical,CA:TRUE",
+            "-addext",
+            "keyUsage=critical,keyCertSign",
+        ],
+    );
+}
+
+/// `hans-gateway --mqtt mqtts://127.0.0.1:PORT --mqtt-ca CA` against a
+/// Mosquitto TLS listener whose certificate (for 127.0.0.1) a test CA
+/// signed: the NBIRTH arrives (seen on the broker's second, plain
+/// listener); with another CA the handshake fails, nothing is published,
+/// and the log says why.
+#[tokio::test(flavor = "current_thread")]
+async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
+    let dir = std::env::temp_dir().join(format!("hans-mqtt-tls-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    make_ca(&dir, "plant-ca");
+    make_ca(&dir, "other-ca");
+    openssl(
+        &dir,
+        &[
+            "req",
+            "-newkey",
+            "ec",
+            "-pkeyopt",
+            "ec_paramgen_curve:P-256",
+            "-nodes",
+            "-keyout",
+            "broker.key",
+            "-out",
+            "broker.csr",
+            "-subj",
+            "/CN=broker",
+        ],
+    );
+    std::fs::write(
+        dir.join("ext.cnf"),
+        "subjectAltName=IP:127.0.0.1\nextendedKeyUsage=serverAuth\n",
+    )
+    .unwrap();
+    openssl(
+        &dir,
+        &[
+            "x509",
+            "-req",
+            "-in",
+            "broker.csr",
+            "-CA",
+            "plant-ca.crt",
+            "-CAkey",
+            "plant-ca.key",
+            "-CAcreateserial",
+            "-out",
+            "broker.crt",
+            "-days",
+            "2",
+            "-extfile",
+            "ext.cnf",
+        ],
+    );
+    // Mosquitto started as root reads its files as the user `mosquitto`:
+    // the throwaway test key is made readable to it.
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(
+            dir.join("broker.key"),
+            std::fs::Permissions::from_mode(0o644),
+        )
+        .unwrap();
+    }
+    let free = || {
+        TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port()
+    };
+    let (tls_port, plain_port) = (free(), free());
+    let conf = dir.join("mosquitto.conf");
+    std::fs::write(
+        &conf,
+        format!(
+            "per_listener_settings false\nallow_anonymous true\npersistence false\n\
+             listener {plain_port} 127.0.0.1\n\
+             listener {tls_port} 127.0.0.1\ncafile {0}/plant-ca.crt\ncertfile {0}/broker.crt\nkeyfile {0}/broker.key\n",
+            dir.display()
+        ),
+    )
+    .unwrap();
+    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
+        .into_iter()
+        .find(|p| std::path::Path::new(p).exists())
+        .expect("mosquitto");
+    let _broker = Mosquitto {
+        child: Command::new(bin)
+            .arg("-c")
+            .arg(&conf)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+        port: plain_port,
+        _dir: dir.join("broker-run"),
+    };
+    let end = Instant::now() + Duration::from_secs(5);
+    while TcpStream::connect(("127.0.0.1", tls_port)).is_err()
+        || TcpStream::connect(("127.0.0.1", plain_port)).is_err()
+    {
+        assert!(Instant::now() < end, "mosquitto did not listen");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut opts = MqttOptions::new("scada-tls", "127.0.0.1", plain_port);
+    opts.set_keep_alive(Duration::from_secs(5));
+    let (client, mut events) = AsyncClient::new(opts, 10);
+    client
+        .subscribe("spBv1.0/#", QoS::AtLeastOnce)
+        .await
+        .unwrap();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+    loop {
+        let ev = tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("SUBACK")
+            .unwrap();
+        if let Event::Incoming(Packet::SubAck(_)) = ev {
+            break;
+        }
+    }
+    struct Gw(Child);
+    impl Drop for Gw {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let start = |ca: &str, edge: &str| {
+        let cfg = dir.join(format!("{edge}.toml"));
+        std::fs::write(
+            &cfg,
+            format!("[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nedge_id = \"{edge}\"\n"),
+        )
+        .unwrap();
+        Gw(Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
+            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
+            .arg(&cfg)
+            .arg("--setup-code-file")
+            .arg(dir.join(format!("{edge}.code")))
+            .args([
+                "--mqtt",
+                &format!("mqtts://127.0.0.1:{tls_port}"),
+                "--mqtt-ca",
+            ])
+            .arg(dir.join(ca))
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join(format!("{edge}.log"))).unwrap())
+            .spawn()
+            .unwrap())
+    };
+    // Signed by the CA it trusts: born over TLS.
+    let _good = start("plant-ca.crt", "gw-tls");
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    let nbirth = loop {
+        match tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect("an NBIRTH over TLS within 10 s")
+            .unwrap()
+        {
+            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NBIRTH/") => break p,
+            _ => continue,
+        }
+    };
+    assert_eq!(nbirth.topic, "spBv1.0/cells/NBIRTH/gw-tls");
+    // Trusting another CA: refused at the handshake, nothing published.
+    let _bad = start("other-ca.crt", "gw-wrong-ca");
+    let until = tokio::time::Instant::now() + Duration::from_secs(4);
+    while let Ok(ev) = tokio::time::timeout_at(until, events.poll()).await {
+        if let Ok(Event::Incoming(Packet::Publish(p))) = ev {
+            assert!(
+                !p.topic.contains("gw-wrong-ca"),
+                "published without a trusted certificate: {}",
+                p.topic
+            );
+        }
+    }
+    let log = std::fs::read_to_string(dir.join("gw-wrong-ca.log")).unwrap();
+    assert!(
+        log.contains("TLS handshake failed"),
+        "the log says why: {log}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -117,11 +117,17 @@ struct Cli {
     web_listen: Option<Endpoint>,
     /// Publish the cell's state as a Sparkplug B edge node to the MQTT
     /// broker at HOST:PORT (gateway/SPARKPLUG.md), for this run: turns
-    /// mqtt.enabled on and overrides mqtt.broker and mqtt.port. A name
-    /// is resolved at each connect. MQTT sees the robot, never moves it.
-    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    /// mqtt.enabled on and overrides mqtt.broker, mqtt.port and mqtt.tls.
+    /// mqtts://HOST:PORT: over TLS (the broker's certificate must name
+    /// HOST and be signed by a CA of --mqtt-ca). A name is resolved at
+    /// each connect. MQTT sees the robot, never moves it.
+    #[arg(long, value_name = "[mqtts://]HOST:PORT", value_parser = mqtt_endpoint)]
     #[arg(verbatim_doc_comment)]
-    mqtt: Option<Endpoint>,
+    mqtt: Option<(bool, Endpoint)>,
+    /// The CAs (PEM) a TLS broker's certificate must be signed by
+    /// (mqtt.tls); default: the system's, /etc/ssl/certs/ca-certificates.crt.
+    #[arg(long, value_name = "FILE", verbatim_doc_comment)]
+    mqtt_ca: Option<PathBuf>,
     /// Keep the configuration and the trigger table in FILE (TOML):
     /// checked and read at start, written when the PLC writes 1 to
     /// CONFIG_COMMAND.
@@ -218,6 +224,16 @@ fn robot_endpoint(s: &str) -> Result<Endpoint, String> {
 
 fn listen_endpoint(s: &str) -> Result<Endpoint, String> {
     Endpoint::parse(s, None)
+}
+
+/// `[mqtt://|mqtts://]HOST:PORT`: whether TLS, and where.
+fn mqtt_endpoint(s: &str) -> Result<(bool, Endpoint), String> {
+    match s.split_once("://") {
+        Some(("mqtts", rest)) => Ok((true, Endpoint::parse(rest, Some(8883))?)),
+        Some(("mqtt", rest)) => Ok((false, Endpoint::parse(rest, Some(1883))?)),
+        Some((scheme, _)) => Err(format!("{scheme}:// is not mqtt:// or mqtts://")),
+        None => Ok((false, Endpoint::parse(s, Some(1883))?)),
+    }
 }
 
 /// `0.1.0 (register map 1.2)`: the gateway's version, and the register
@@ -342,13 +358,15 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
         defaults: hans_gateway::Config::default(),
         setup_code: None,
         mqtt: match &cli.mqtt {
-            Some(e) => Some(MqttOverride {
+            Some((tls, e)) => Some(MqttOverride {
                 broker: HostName::new(&e.host)
                     .ok_or_else(|| format!("--mqtt {e}: not a host name or an IPv4 address"))?,
                 port: e.port,
+                tls: *tls,
             }),
             None => None,
         },
+        mqtt_ca: cli.mqtt_ca.clone(),
         node_name: host_name(),
     })
 }

@@ -328,6 +328,9 @@ pub struct MqttConfig {
     pub broker: HostName,
     /// The broker's port, default 1883.
     pub port: u16,
+    /// TLS to the broker (Linux: the CAs of `--mqtt-ca`, else the
+    /// system's; boards have no TLS client and report it).
+    pub tls: bool,
     /// The Sparkplug group id, default `cells`.
     pub group: HostName,
     /// The edge node id (also the MQTT client id); empty = the platform's
@@ -354,6 +357,7 @@ impl MqttConfig {
         enabled: false,
         broker: HostName::EMPTY,
         port: 1883,
+        tls: false,
         group: HostName::from_static("cells"),
         edge: HostName::EMPTY,
         primary_host: HostName::EMPTY,

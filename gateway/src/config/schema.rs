@@ -708,6 +708,9 @@ setting!(
     |c| Value::Number(c.mqtt.port),
     |c, v| c.mqtt.port = number(v)
 );
+setting!(MQTT_TLS, "mqtt.tls", 40, Kind::Flag, "",
+    "TLS to the broker (port 8883 usually): Linux checks its certificate against the CAs of --mqtt-ca or the system's; boards have no TLS client; at the next start", true,
+    |c| Value::Flag(c.mqtt.tls), |c, v| c.mqtt.tls = flag(v));
 setting!(
     MQTT_GROUP,
     "mqtt.group_id",
@@ -776,7 +779,7 @@ setting!(
 
 /// Every setting, in the order the views list them (a group's settings
 /// together).
-pub const SETTINGS: [&Setting; 39] = [
+pub const SETTINGS: [&Setting; 40] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -809,6 +812,7 @@ pub const SETTINGS: [&Setting; 39] = [
     &MQTT_ENABLED,
     &MQTT_BROKER,
     &MQTT_PORT,
+    &MQTT_TLS,
     &MQTT_GROUP,
     &MQTT_EDGE,
     &MQTT_PRIMARY_HOST,

@@ -90,6 +90,7 @@
 //! | `mqtt.enabled` | (none) | `true` / `false` |
 //! | `mqtt.broker` | (none) | `"host"`, `""` = none |
 //! | `mqtt.port` | (none) | integer |
+//! | `mqtt.tls` | (none) | `true` / `false` |
 //! | `mqtt.group_id` | (none) | `"id"` |
 //! | `mqtt.edge_id` | (none) | `"id"`, `""` = the platform's name |
 //! | `mqtt.primary_host` | (none) | `"id"`, `""` = none |

@@ -105,6 +105,9 @@ pub struct Settings {
     /// offline message ends the session (the broker publishes the NDEATH);
     /// the next one waits again.
     pub primary_host: Option<Id>,
+    /// TLS to the broker, whose certificate must name this (its host name
+    /// or address as configured); `None`: plain TCP.
+    pub tls: Option<crate::config::HostName>,
 }
 
 impl Settings {
@@ -116,6 +119,7 @@ impl Settings {
             keep_alive: Duration::from_secs(30),
             utc_at_zero: None,
             primary_host: None,
+            tls: None,
         }
     }
 
@@ -138,6 +142,7 @@ impl Settings {
         node.pose_deadband = f32::from(cfg.pose_deadband) / 100.0;
         let mut s = Settings::new(SocketAddrV4::new(broker, cfg.port), node);
         s.keep_alive = Duration::from_secs(cfg.keep_alive_s.into());
+        s.tls = cfg.tls.then_some(cfg.broker);
         s.primary_host = match cfg.primary_host.as_str() {
             "" => None,
             id => Some(Id::new(id)?),
@@ -457,13 +462,25 @@ async fn session<C: Clock, S: Socket>(
     backoff: &mut Duration,
 ) -> Result<Infallible, Error> {
     let start = clock.now();
-    match with_deadline(
-        clock,
-        start + CONNECT_TIMEOUT,
-        sock.connect(settings.broker),
-    )
-    .await
-    {
+    let connected = match &settings.tls {
+        Some(name) => {
+            with_deadline(
+                clock,
+                start + CONNECT_TIMEOUT,
+                sock.connect_tls(settings.broker, name.as_str()),
+            )
+            .await
+        }
+        None => {
+            with_deadline(
+                clock,
+                start + CONNECT_TIMEOUT,
+                sock.connect(settings.broker),
+            )
+            .await
+        }
+    };
+    match connected {
         Ok(r) => r?,
         Err(_) => return Err(Error::Timeout),
     }

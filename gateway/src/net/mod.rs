@@ -30,6 +30,12 @@ pub enum NetError {
     Reset,
     /// The operation needs a connected socket.
     NotConnected,
+    /// This platform has no TLS client (boards).
+    TlsUnavailable,
+    /// The TLS handshake failed (the server's certificate is not signed by
+    /// a trusted CA or names another host, no common protocol version,
+    /// the trusted CAs could not be read).
+    TlsFailed,
 }
 
 impl NetError {
@@ -40,6 +46,8 @@ impl NetError {
             NetError::ListenFailed => "listen failed",
             NetError::Reset => "connection reset",
             NetError::NotConnected => "not connected",
+            NetError::TlsUnavailable => "TLS not available on this device",
+            NetError::TlsFailed => "TLS handshake failed",
         }
     }
 }
@@ -50,6 +58,19 @@ impl NetError {
 pub trait Socket {
     /// Connects to `remote`. The socket must be closed.
     async fn connect(&mut self, remote: SocketAddrV4) -> Result<(), NetError>;
+
+    /// Connects to `remote` and starts TLS, checking that the server's
+    /// certificate names `server_name` (a host name or an address) and is
+    /// signed by a trusted CA. The socket must be closed. Platforms
+    /// without a TLS client answer [`NetError::TlsUnavailable`].
+    async fn connect_tls(
+        &mut self,
+        remote: SocketAddrV4,
+        server_name: &str,
+    ) -> Result<(), NetError> {
+        let _ = (remote, server_name);
+        Err(NetError::TlsUnavailable)
+    }
 
     /// Waits for a peer to connect to local `port`. Cancel-safe: if the
     /// future is dropped and `accept` is called again, a connection that

@@ -206,6 +206,7 @@ async fn main() {
         o.mqtt = Some(MqttOverride {
             broker: HostName::new("127.0.0.1").unwrap(),
             port,
+            tls: false,
         });
         o.node_name = HostName::new(&format!("cell-{i:03}")).unwrap();
         let gw = RunningGateway::start(o).expect("start a gateway");

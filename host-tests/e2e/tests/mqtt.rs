@@ -263,6 +263,7 @@ async fn cell(broker_port: u16) -> Cell {
     opts.mqtt = Some(MqttOverride {
         broker: HostName::new("127.0.0.1").unwrap(),
         port: broker_port,
+        tls: false,
     });
     opts.node_name = HostName::new(EDGE).unwrap();
     let gw = RunningGateway::start(opts).expect("start the gateway");
