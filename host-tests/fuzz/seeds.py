@@ -172,6 +172,7 @@ def gateway_seeds():
         + http("GET", "/api/accounts") + http("GET", "/api/audit?format=csv")
         + http("POST", "/api/password", b'{"current":"x","password":"\\u0041\\u0042cdefghijk"}'))
     http_rule_seeds()
+    mqtt_seeds()
 
 
 def http_rule_seeds():
@@ -247,6 +248,115 @@ def http_rule_seeds():
     small = req("GET", "/api/session", [host])
     put("gateway_http", bytes([64]) + small * 101)
     put("gateway_http", bytes([5]) + small + req("GET", "/api/session", [host, "Connection: close"]) + small)
+
+
+def mqtt_seeds():
+    """Seeds of gateway_mqtt (its input format: fuzz_targets/gateway_mqtt.rs):
+    a setup byte, then operations, each a byte (low nibble the operation,
+    high nibble a delay after it) and its arguments. The broker's session:
+    CONNACK 0, SUBACK, an NCMD rebirth (the one write the node obeys),
+    PINGRESP; the same as raw bytes; commands of every QoS and topic;
+    refusals, timeouts and reconnects; packets too long for the client; a
+    primary host's STATE."""
+    def mqtt_str(b):
+        return struct.pack(">H", len(b)) + b
+
+    def packet(first, body):
+        rem, n = b"", len(body)
+        while True:
+            d, n = n % 128, n // 128
+            rem += bytes([d | (0x80 if n else 0)])
+            if not n:
+                break
+        return bytes([first]) + rem + body
+
+    def field(num, wire, value):
+        def varint(v):
+            out = b""
+            while True:
+                d, v = v & 0x7F, v >> 7
+                out += bytes([d | (0x80 if v else 0)])
+                if not v:
+                    return out
+        key = varint(num << 3 | wire)
+        return key + (varint(value) if wire == 0 else varint(len(value)) + value)
+
+    def metric(name, datatype, value_field, value):
+        return field(1, 2, name) + field(4, 0, datatype) + field(value_field, 0, value)
+
+    # Sparkplug B payloads: metrics (field 2), each a name, a datatype, a value.
+    rebirth = field(2, 2, metric(b"Node Control/Rebirth", 11, 14, 1))
+    reboot = field(2, 2, metric(b"Node Control/Reboot", 11, 14, 1))
+    move = field(1, 0, 1700000000000) + field(2, 2, metric(b"robot/J1", 9, 10, 5))
+    ncmd = b"spBv1.0/G/NCMD/E"
+    connack, suback, pingresp = bytes([0x20, 2, 0, 0]), bytes([0x90, 3, 0, 1, 0]), bytes([0xD0, 0])
+    pub_rebirth = packet(0x30, mqtt_str(ncmd) + rebirth)
+
+    # Operations.
+    def raw(b):
+        return bytes([0x00, len(b)]) + b
+    def conn_ack(code=0):
+        return bytes([0x01, code])
+    sub_ack = bytes([0x02, 0x05, 0x00])           # id 1, one code: 0
+    def publish(flags, payload=b"", pid=None, built=None):
+        out = bytes([0x03, flags])
+        if flags & 3:
+            out += struct.pack(">H", pid or 1)
+        if flags & 0x80:
+            return out + built
+        return out + bytes([len(payload)]) + payload
+    ping_resp = bytes([0x04])
+    def wait(code):                               # ((code & 63) + 1) x 10 ms / 100 ms / 1 s / 10 s
+        return bytes([0x06, code])
+    close, reset, listen, blackhole = b"\x07", b"\x08", b"\x09", b"\x0a"
+    def robot(kind, arg):
+        return bytes([0x0B, kind, arg])
+    def oversized(kind, arg=b""):
+        return bytes([0x05, kind]) + arg
+
+    ka30_up, ka1_up, ka4_bytewise = 0x13, 0x10, 0x31
+    # The valid session: CONNACK, SUBACK, an NCMD rebirth, a ping, time.
+    put("gateway_mqtt", bytes([ka30_up]) + conn_ack() + sub_ack + publish(0x00, rebirth)
+        + wait(0x81) + ping_resp + wait(0x8E))
+    # The same as raw bytes, once whole and once one byte at a time.
+    session = connack + suback + pub_rebirth + pingresp
+    put("gateway_mqtt", bytes([ka30_up]) + raw(session) + wait(0x85))
+    put("gateway_mqtt", bytes([ka4_bytewise]) + raw(session) + wait(0x85))
+    # Commands: QoS 1 and 2 NCMD (PUBACK for QoS 1 only), a DCMD write, a
+    # refused NCMD write, another node's NCMD, a built payload, QoS 3.
+    put("gateway_mqtt", bytes([ka30_up]) + conn_ack() + sub_ack
+        + publish(0x01, rebirth, pid=7) + publish(0x02, rebirth, pid=8)
+        + publish(0x11, move, pid=9) + publish(0x00, reboot) + publish(0x20, rebirth)
+        + publish(0x80, built=bytes([0x19, 0x40, 0x00]))   # ts, a metric, seq
+        + publish(0x83, pid=10, built=bytes([0x02, 0xC0, 0x68, 0x02]) + b"ok")
+        + wait(0x05) + publish(0x50, rebirth))
+    # Keep-alive 1 s: a silent broker, a refusal (code 5), a CONNACK in
+    # session, a close and a reset, the broker gone and back, a blackhole.
+    put("gateway_mqtt", bytes([ka1_up]) + conn_ack() + sub_ack + wait(0x84)
+        + conn_ack(5) + wait(0x81) + conn_ack() + conn_ack()
+        + conn_ack() + close + wait(0x81) + conn_ack() + reset
+        + listen + wait(0xC1) + listen + blackhole + wait(0x82) + blackhole + wait(0xC2)
+        + conn_ack() + publish(0x00, rebirth))
+    # Too long: skipped (a long PUBLISH, then a rebirth behind it); a
+    # remaining length of 5 bytes ends the connection.
+    put("gateway_mqtt", bytes([ka30_up]) + conn_ack() + sub_ack
+        + oversized(0x00, b"\x08\x00") + publish(0x00, rebirth)
+        + oversized(0x01, b"\xff\xff\xff\x7f") + reset + wait(0x82) + conn_ack() + oversized(0x03)
+        + oversized(0x02) + wait(0x82) + conn_ack() + publish(0x00, rebirth))
+    # The robot moves, its link drops and comes back, commands end: the
+    # client publishes data, DDEATH and DBIRTH, command events.
+    put("gateway_mqtt", bytes([ka30_up]) + conn_ack() + sub_ack + robot(1, 40) + wait(0x01)
+        + robot(0, 0) + wait(0x01) + robot(0, 0) + robot(2, 0) + robot(3, 1) + wait(0x03)
+        + publish(0x00, rebirth) + wait(0x40))
+    # A primary host (setup bit 7): nothing published until its STATE says
+    # online; another host's STATE is not its; offline ends the session.
+    host_ka30_up = 0x93
+    state_on, state_off = b'{"online":true,"timestamp":1700000000000}', b'{"timestamp":2,"online" : false}'
+    put("gateway_mqtt", bytes([host_ka30_up]) + conn_ack() + bytes([0x02, 0x07, 0x00, 0x00, 0x80])
+        + publish(0x70, state_on) + wait(0x01) + publish(0x00, rebirth)
+        + publish(0x21, state_on, pid=3) + wait(0x02) + publish(0x00, rebirth)
+        + publish(0xA0, built=b"\x04") + publish(0xA1, pid=4, built=b"\x09") + wait(0x81)
+        + conn_ack() + publish(0x20, state_off) + wait(0x81) + conn_ack() + publish(0xA0, built=b"\x00"))
 
 
 if __name__ == "__main__":
