@@ -91,17 +91,13 @@ fn mosquitto() -> Mosquitto {
     m
 }
 
-#[tokio::test(flavor = "current_thread")]
-async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independent_subscriber() {
-    let broker = mosquitto();
-    let mut opts = MqttOptions::new("checker", "127.0.0.1", broker.port);
+/// A subscriber (`id`) to `topic` on the broker at `port`, its SUBACK
+/// received (within 5 s).
+async fn subscriber(id: &str, port: u16, topic: &str) -> (AsyncClient, rumqttc::EventLoop) {
+    let mut opts = MqttOptions::new(id, "127.0.0.1", port);
     opts.set_keep_alive(Duration::from_secs(5));
     let (client, mut events) = AsyncClient::new(opts, 10);
-    client
-        .subscribe("spBv1.0/Plant A/#", QoS::AtMostOnce)
-        .await
-        .unwrap();
-    // Subscribed before the gateway connects.
+    client.subscribe(topic, QoS::AtLeastOnce).await.unwrap();
     let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
     loop {
         let ev = tokio::time::timeout_at(deadline, events.poll())
@@ -109,9 +105,47 @@ async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independe
             .expect("SUBACK within 5 s")
             .unwrap();
         if let Event::Incoming(Packet::SubAck(_)) = ev {
-            break;
+            return (client, events);
         }
     }
+}
+
+/// The next PUBLISH whose topic contains `what`, within `limit` (else a
+/// failure saying `expect`).
+async fn published(
+    events: &mut rumqttc::EventLoop,
+    limit: Duration,
+    what: &str,
+    expect: &str,
+) -> rumqttc::Publish {
+    let deadline = tokio::time::Instant::now() + limit;
+    loop {
+        match tokio::time::timeout_at(deadline, events.poll())
+            .await
+            .expect(expect)
+            .unwrap()
+        {
+            Event::Incoming(Packet::Publish(p)) if p.topic.contains(what) => return p,
+            _ => continue,
+        }
+    }
+}
+
+/// A child process killed (and reaped) when dropped.
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[tokio::test(flavor = "current_thread")]
+async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independent_subscriber() {
+    let broker = mosquitto();
+    // Subscribed before the gateway connects.
+    let (_client, mut events) = subscriber("checker", broker.port, "spBv1.0/Plant A/#").await;
 
     let gateway = Gateway::new(Options::default());
     let settings = Settings::new(
@@ -164,17 +198,13 @@ async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independe
     // The gateway gone without a DISCONNECT (its socket closed): the broker
     // publishes the Will, the NDEATH of the same bdSeq.
     drop(run);
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
-    let ndeath = loop {
-        match tokio::time::timeout_at(deadline, events.poll())
-            .await
-            .expect("the NDEATH within 5 s")
-            .unwrap()
-        {
-            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NDEATH/") => break p,
-            _ => continue,
-        }
-    };
+    let ndeath = published(
+        &mut events,
+        Duration::from_secs(5),
+        "/NDEATH/",
+        "the NDEATH within 5 s",
+    )
+    .await;
     assert_eq!(ndeath.topic, "spBv1.0/Plant A/NDEATH/cell-7");
     let p = PPayload::decode(&ndeath.payload[..]).unwrap();
     let bd = p
@@ -191,23 +221,7 @@ async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independe
 /// NBIRTH seen.
 async fn declared_dead(how: &str) -> Duration {
     let broker = mosquitto();
-    let mut opts = MqttOptions::new("scada-kill", "127.0.0.1", broker.port);
-    opts.set_keep_alive(Duration::from_secs(5));
-    let (client, mut events) = AsyncClient::new(opts, 10);
-    client
-        .subscribe("spBv1.0/#", QoS::AtLeastOnce)
-        .await
-        .unwrap();
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
-    loop {
-        let ev = tokio::time::timeout_at(deadline, events.poll())
-            .await
-            .expect("SUBACK within 5 s")
-            .unwrap();
-        if let Event::Incoming(Packet::SubAck(_)) = ev {
-            break;
-        }
-    }
+    let (_client, mut events) = subscriber("scada-kill", broker.port, "spBv1.0/#").await;
     let dir = std::env::temp_dir().join(format!("hans-mqtt-kill-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let config = dir.join("gateway.toml");
@@ -218,13 +232,6 @@ async fn declared_dead(how: &str) -> Duration {
         "[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nkeep_alive_s = 5\ngroup_id = \"kill\"\nedge_id = \"gw-kill\"\n",
     )
     .unwrap();
-    struct Killed(Child);
-    impl Drop for Killed {
-        fn drop(&mut self) {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
     let gw = Killed(
         Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
             .args(["--modbus-listen", "127.0.0.1:0", "--config"])
@@ -237,17 +244,13 @@ async fn declared_dead(how: &str) -> Duration {
             .spawn()
             .unwrap(),
     );
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-    let nbirth = loop {
-        match tokio::time::timeout_at(deadline, events.poll())
-            .await
-            .expect("the NBIRTH within 10 s")
-            .unwrap()
-        {
-            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NBIRTH/") => break p,
-            _ => continue,
-        }
-    };
+    let nbirth = published(
+        &mut events,
+        Duration::from_secs(10),
+        "/NBIRTH/",
+        "the NBIRTH within 10 s",
+    )
+    .await;
     assert_eq!(nbirth.topic, "spBv1.0/kill/NBIRTH/gw-kill");
     let bd_of = |payload: &[u8]| {
         PPayload::decode(payload)
@@ -266,17 +269,13 @@ async fn declared_dead(how: &str) -> Duration {
         .unwrap();
     assert!(status.success());
     let killed = Instant::now();
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(15);
-    let ndeath = loop {
-        match tokio::time::timeout_at(deadline, events.poll())
-            .await
-            .expect("the NDEATH within 15 s")
-            .unwrap()
-        {
-            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NDEATH/") => break p,
-            _ => continue,
-        }
-    };
+    let ndeath = published(
+        &mut events,
+        Duration::from_secs(15),
+        "/NDEATH/",
+        "the NDEATH within 15 s",
+    )
+    .await;
     let took = killed.elapsed();
     println!("SIG{how} -> NDEATH at the consumer: {took:?}");
     assert_eq!(ndeath.topic, "spBv1.0/kill/NDEATH/gw-kill");
@@ -456,30 +455,7 @@ async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
         assert!(Instant::now() < end, "mosquitto did not listen");
         std::thread::sleep(Duration::from_millis(20));
     }
-    let mut opts = MqttOptions::new("scada-tls", "127.0.0.1", plain_port);
-    opts.set_keep_alive(Duration::from_secs(5));
-    let (client, mut events) = AsyncClient::new(opts, 10);
-    client
-        .subscribe("spBv1.0/#", QoS::AtLeastOnce)
-        .await
-        .unwrap();
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
-    loop {
-        let ev = tokio::time::timeout_at(deadline, events.poll())
-            .await
-            .expect("SUBACK")
-            .unwrap();
-        if let Event::Incoming(Packet::SubAck(_)) = ev {
-            break;
-        }
-    }
-    struct Gw(Child);
-    impl Drop for Gw {
-        fn drop(&mut self) {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
+    let (_client, mut events) = subscriber("scada-tls", plain_port, "spBv1.0/#").await;
     let start = |ca: &str, edge: &str| {
         let cfg = dir.join(format!("{edge}.toml"));
         std::fs::write(
@@ -487,35 +463,33 @@ async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
             format!("[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nedge_id = \"{edge}\"\n"),
         )
         .unwrap();
-        Gw(Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
-            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
-            .arg(&cfg)
-            .arg("--setup-code-file")
-            .arg(dir.join(format!("{edge}.code")))
-            .args([
-                "--mqtt",
-                &format!("mqtts://127.0.0.1:{tls_port}"),
-                "--mqtt-ca",
-            ])
-            .arg(dir.join(ca))
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(dir.join(format!("{edge}.log"))).unwrap())
-            .spawn()
-            .unwrap())
+        Killed(
+            Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
+                .args(["--modbus-listen", "127.0.0.1:0", "--config"])
+                .arg(&cfg)
+                .arg("--setup-code-file")
+                .arg(dir.join(format!("{edge}.code")))
+                .args([
+                    "--mqtt",
+                    &format!("mqtts://127.0.0.1:{tls_port}"),
+                    "--mqtt-ca",
+                ])
+                .arg(dir.join(ca))
+                .stdout(Stdio::null())
+                .stderr(std::fs::File::create(dir.join(format!("{edge}.log"))).unwrap())
+                .spawn()
+                .unwrap(),
+        )
     };
     // Signed by the CA it trusts: born over TLS.
     let _good = start("plant-ca.crt", "gw-tls");
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-    let nbirth = loop {
-        match tokio::time::timeout_at(deadline, events.poll())
-            .await
-            .expect("an NBIRTH over TLS within 10 s")
-            .unwrap()
-        {
-            Event::Incoming(Packet::Publish(p)) if p.topic.contains("/NBIRTH/") => break p,
-            _ => continue,
-        }
-    };
+    let nbirth = published(
+        &mut events,
+        Duration::from_secs(10),
+        "/NBIRTH/",
+        "an NBIRTH over TLS within 10 s",
+    )
+    .await;
     assert_eq!(nbirth.topic, "spBv1.0/cells/NBIRTH/gw-tls");
     // Trusting another CA: refused at the handshake, nothing published.
     let _bad = start("other-ca.crt", "gw-wrong-ca");

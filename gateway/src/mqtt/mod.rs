@@ -545,6 +545,7 @@ async fn session<C: Clock, S: Socket>(
         if host_online {
             publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
         }
+        let mut commanded = false;
         while let Some(len) = reader.ready(status)? {
             match reader.packet(len)? {
                 Packet::Publish {
@@ -562,6 +563,7 @@ async fn session<C: Clock, S: Socket>(
                             Some(true) if !host_online => {
                                 info!("mqtt: the primary host is online: births");
                                 host_online = true;
+                                commanded = true;
                                 status.update(|s| s.waiting_for_host = false);
                             }
                             Some(false) => return Err(Error::HostOffline),
@@ -570,6 +572,7 @@ async fn session<C: Clock, S: Socket>(
                     } else if let Some(ty) = node.inbound(topic) {
                         // Malformed and refused commands are counted by the node.
                         let _ = node.command(ty, payload);
+                        commanded = true;
                     }
                 }
                 Packet::PingResp => ping_sent = None,
@@ -583,8 +586,9 @@ async fn session<C: Clock, S: Socket>(
             }
             reader.consume(len);
         }
-        // Births or a rebirth may be due at once after a command.
-        if host_online {
+        // Births or a rebirth may be due at once after a command (or the
+        // host's STATE); other packets change nothing to publish.
+        if host_online && commanded {
             publish_due(hub, clock, sock, node, status, bufs, &mut last_sent).await?;
         }
         let now = clock.now();
