@@ -21,6 +21,12 @@
 #                (field-device firmware): handed in as the word `setup=CODE`
 #                of the command line; without it the firmware makes one and
 #                prints it in its log
+#   MQTT_PORT    host port of an MQTT broker on 127.0.0.1, if set
+#                (field-device firmware): the firmware reaches it as
+#                10.0.2.100:1883, through socat, and is handed the word
+#                `mqtt=10.0.2.100:1883` of the command line, which turns its
+#                Sparkplug B edge node on with that broker (without it, MQTT
+#                stays off)
 #   DEFMT_OUT    file to write the raw defmt log stream to; when unset the
 #                stream is decoded with defmt-print if it is installed, else
 #                written raw to stdout
@@ -50,12 +56,23 @@ fi
 # reconnects after the simulator restarts.)
 command -v socat >/dev/null || { echo "qemu-run.sh: socat is needed (apt-get install socat)" >&2; exit 2; }
 nic+=",guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:${sim_port}"
+# The broker the same way: one relay per connection, so the firmware's
+# reconnects reach a broker started (or restarted) after QEMU.
+if [ -n "${MQTT_PORT:-}" ]; then
+  case $MQTT_PORT in
+    *[!0-9]*) echo "qemu-run.sh: MQTT_PORT must be a port number, not '$MQTT_PORT'" >&2; exit 2 ;;
+  esac
+  nic+=",guestfwd=tcp:10.0.2.100:1883-cmd:socat - TCP:127.0.0.1:${MQTT_PORT}"
+fi
 
 qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
   -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$elf")
 args=${FIRMWARE_ARGS:-}
 if [ -n "${SETUP_CODE:-}" ]; then
   args="${args:+$args }setup=$SETUP_CODE"
+fi
+if [ -n "${MQTT_PORT:-}" ]; then
+  args="${args:+$args }mqtt=10.0.2.100:1883"
 fi
 if [ -n "$args" ]; then
   qemu+=(-append "$args")

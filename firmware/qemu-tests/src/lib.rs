@@ -198,6 +198,19 @@ impl Qemu {
         max: Duration,
         args: &str,
     ) -> io::Result<Qemu> {
+        Qemu::start_with_env(name, elf, ports, max, args, &[])
+    }
+
+    /// As [`Qemu::start_with_args`], with more variables for
+    /// `scripts/qemu-run.sh` (e.g. `MQTT_PORT`: a broker on the host).
+    pub fn start_with_env(
+        name: &str,
+        elf: &Path,
+        ports: Ports,
+        max: Duration,
+        args: &str,
+        env: &[(&str, String)],
+    ) -> io::Result<Qemu> {
         assert!(
             elf.exists(),
             "firmware {} not built (run scripts/firmware-tests.sh)",
@@ -208,19 +221,21 @@ impl Qemu {
         let stderr = dir.join(format!("{name}.qemu.log"));
         let script = repo_root().join("scripts/qemu-run.sh");
         let elf_arg = elf.display().to_string();
+        let mut vars = vec![
+            ("MODBUS_PORT", ports.modbus.to_string()),
+            ("SIM_PORT", ports.sim.to_string()),
+            ("ADMIN_PORT", ports.admin.to_string()),
+            ("WEB_PORT", ports.web.to_string()),
+            ("DEFMT_OUT", log.display().to_string()),
+            ("FIRMWARE_ARGS", args.to_string()),
+        ];
+        vars.extend(env.iter().cloned());
         let process = Process::start(
             name,
             max,
             Path::new("bash"),
             &[script.to_str().expect("utf-8 path"), &elf_arg],
-            &[
-                ("MODBUS_PORT", ports.modbus.to_string()),
-                ("SIM_PORT", ports.sim.to_string()),
-                ("ADMIN_PORT", ports.admin.to_string()),
-                ("WEB_PORT", ports.web.to_string()),
-                ("DEFMT_OUT", log.display().to_string()),
-                ("FIRMWARE_ARGS", args.to_string()),
-            ],
+            &vars,
             &stderr,
         )?;
         Ok(Qemu {

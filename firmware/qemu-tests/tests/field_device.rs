@@ -130,6 +130,9 @@ fn the_field_device_serves_its_page_and_the_live_status_of_the_robot() {
         let up = s["link"]["state"] == "connected" && s["robot"]["fsm"]["name"].is_string();
         up.then_some(s)
     });
+    // No broker handed in (`mqtt=`): the Sparkplug edge node stays off
+    // (tests/mqtt.rs runs it).
+    assert_eq!(status["mqtt"]["on"], false, "MQTT off: {}", status["mqtt"]);
     let fsm = &status["robot"]["fsm"];
     println!(
         "field-device-web: /api/status: link {}, FSM {} ({}), status age {} ms",

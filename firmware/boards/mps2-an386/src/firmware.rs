@@ -1,7 +1,9 @@
 //! The gateway firmware of this board, shared by its two binaries: `gateway`
 //! (the core gateway: Modbus and the robot link) and `field-device` (feature
-//! `field-device`: also the web page with its access control, DHCP and the
-//! DataSheet reader). Only the gateway library's features differ.
+//! `field-device`: also the web page with its access control, DHCP, the
+//! DataSheet reader and the Sparkplug B edge node, on when the host names a
+//! broker, see [`factory_mqtt`](crate::factory_mqtt)). Only the gateway
+//! library's features differ.
 //!
 //! Modbus TCP on port 502 and (field device) the web page on 80, at
 //! 10.0.2.15 ([`FACTORY_NET`](crate::FACTORY_NET)); the robot is the
@@ -48,12 +50,20 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
     let storage = NoStorage;
     // Only what differs from the library's defaults, so new options need no
     // change here.
+    let base = Config::default();
     let options = Options {
         defaults: Config {
             robot_ip: board::SIM_IP,
             robot_port: board::SIM_PORT,
             net: board::factory_net(),
-            ..Config::default()
+            // The Sparkplug edge node (the core has none): on when the
+            // host names a broker (`mqtt=` on the command line).
+            mqtt: if cfg!(feature = "field-device") {
+                board::factory_mqtt(base.mqtt)
+            } else {
+                base.mqtt
+            },
+            ..base
         },
         network_managed: true,
         // The host's /dev/urandom through semihosting (see `seed`).

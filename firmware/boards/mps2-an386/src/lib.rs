@@ -35,7 +35,7 @@ use cortex_m::peripheral::NVIC;
 use defmt_semihosting as _;
 use embassy_executor::Spawner;
 use embassy_net::{Ipv4Address, Ipv4Cidr, Stack, StackResources, StaticConfigV4};
-use hans_gateway::config::NetConfig;
+use hans_gateway::config::{HostName, MqttConfig, NetConfig};
 use lan9118::Lan9118;
 use static_cell::ConstStaticCell;
 
@@ -72,13 +72,70 @@ pub const FACTORY_NET: NetConfig = NetConfig {
 /// which hands out 10.0.2.15 first: the forwarded ports still reach the
 /// firmware. The firmware reads its command line through semihosting.
 pub fn factory_net() -> NetConfig {
-    let dhcp = semihosting::experimental::env::args::<128>()
-        .map(|args| (&args).any(|a| a == Ok("dhcp")))
-        .unwrap_or(false);
+    let dhcp = find_arg(|a| (a == "dhcp").then_some(())).is_some();
     NetConfig {
         dhcp,
         ..FACTORY_NET
     }
+}
+
+/// The longest command line read: QEMU's semihosting gives the kernel's
+/// path (as `scripts/qemu-run.sh` was given it) followed by the words of
+/// `-append`, and refuses the whole line to a buffer too short for it.
+const CMDLINE_MAX: usize = 256;
+
+/// The first word of QEMU's command line (`-append`, read through
+/// semihosting) for which `f` gives a value. A line that cannot be read
+/// (longer than [`CMDLINE_MAX`]) is logged and counts as empty.
+fn find_arg<T>(mut f: impl FnMut(&str) -> Option<T>) -> Option<T> {
+    match semihosting::experimental::env::args::<CMDLINE_MAX>() {
+        Ok(args) => (&args).find_map(|a| a.ok().and_then(&mut f)),
+        Err(_) => {
+            defmt::warn!(
+                "command line: not readable (longer than {=usize} bytes?): ignored",
+                CMDLINE_MAX
+            );
+            None
+        }
+    }
+}
+
+/// The factory MQTT settings this start: `defaults` (off), or, when
+/// QEMU's command line holds the word `mqtt=A.B.C.D:PORT` (set by
+/// `MQTT_PORT=... scripts/qemu-run.sh`, which forwards 10.0.2.100:1883 to
+/// a broker on the host's loopback), the Sparkplug edge node on and
+/// publishing to that broker. The host hands it in as it hands in the
+/// setup code; a malformed word is logged and leaves MQTT off.
+pub fn factory_mqtt(defaults: MqttConfig) -> MqttConfig {
+    match find_arg(|a| a.strip_prefix("mqtt=").map(broker_of)) {
+        None => defaults,
+        Some(None) => {
+            defmt::warn!("mqtt: the command line's mqtt= is not A.B.C.D:PORT: MQTT stays off");
+            defaults
+        }
+        Some(Some((broker, port))) => {
+            defmt::info!(
+                "mqtt: broker {=str}:{=u16}, handed in by the host",
+                broker.as_str(),
+                port
+            );
+            MqttConfig {
+                enabled: true,
+                broker,
+                port,
+                ..defaults
+            }
+        }
+    }
+}
+
+/// `A.B.C.D:PORT` (an IPv4 address, a port 1-65535) as the `mqtt.broker`
+/// and `mqtt.port` settings.
+fn broker_of(word: &str) -> Option<(HostName, u16)> {
+    let (ip, port) = word.rsplit_once(':')?;
+    ip.parse::<core::net::Ipv4Addr>().ok()?;
+    let port = port.parse::<u16>().ok().filter(|&p| p != 0)?;
+    Some((HostName::new(ip)?, port))
 }
 
 /// The one-time setup code of the first administrator (the web page's;
@@ -89,15 +146,10 @@ pub fn factory_net() -> NetConfig {
 /// reads (as the NUCLEO prints its own in the probe's log). It is never
 /// served on any port.
 pub fn setup_code() -> Option<hans_gateway::SetupCode> {
-    let given = semihosting::experimental::env::args::<128>()
-        .ok()
-        .and_then(|args| {
-            (&args).find_map(|a| {
-                a.ok()
-                    .and_then(|a| a.strip_prefix("setup="))
-                    .and_then(|c| hans_gateway::SetupCode::parse(c.as_bytes()))
-            })
-        });
+    let given = find_arg(|a| {
+        a.strip_prefix("setup=")
+            .and_then(|c| hans_gateway::SetupCode::parse(c.as_bytes()))
+    });
     if given.is_some() {
         defmt::info!("setup code: handed in by the host");
         return given;

@@ -1,4 +1,4 @@
-//! The rig both firmware test files use: a firmware under QEMU, the robot
+//! The rig the firmware test files use: a firmware under QEMU, the robot
 //! simulator on 127.0.0.1 (in this process, on a tokio runtime of its own),
 //! and what ending them leaves to check.
 //!
@@ -32,6 +32,17 @@ impl Rig {
     /// board) with `args` as its command line (`dhcp`: DHCP as the factory
     /// network setting).
     pub fn start(firmware: &str, name: &'static str, args: &str) -> Rig {
+        Rig::start_with_env(firmware, name, args, &[])
+    }
+
+    /// As [`Rig::start`], with more variables for `scripts/qemu-run.sh`
+    /// (`MQTT_PORT`: the broker the firmware publishes to).
+    pub fn start_with_env(
+        firmware: &str,
+        name: &'static str,
+        args: &str,
+        env: &[(&str, String)],
+    ) -> Rig {
         let ports = Ports::pick();
         let rt = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
@@ -39,12 +50,13 @@ impl Rig {
             .build()
             .expect("tokio runtime");
         let sim = rt.block_on(start_sim(ports.sim));
-        let qemu = Qemu::start_with_args(
+        let qemu = Qemu::start_with_env(
             name,
             &firmware_elf(firmware),
             ports,
             Duration::from_secs(300),
             args,
+            env,
         )
         .expect("start QEMU");
         Rig {
