@@ -57,7 +57,9 @@ use embassy_futures::join::join3;
 use embassy_net::{ConfigV4, Ipv4Cidr, Stack, StaticConfigV4};
 
 use crate::clock::SystemClock;
-use crate::config::{HostName, NetConfig};
+#[cfg(feature = "mqtt")]
+use crate::config::HostName;
+use crate::config::NetConfig;
 use crate::gateway::{Gateway, Options, MAX_SESSIONS};
 use crate::net::embassy::EmbassyNet;
 use crate::storage::Storage;
@@ -101,9 +103,10 @@ pub const SOCKETS: usize =
 pub async fn run<S: Storage>(
     stack: embassy_net::Stack<'_>,
     mut storage: S,
-    mut options: Options,
+    #[cfg_attr(not(feature = "mqtt"), allow(unused_mut))] mut options: Options,
 ) -> Infallible {
     let clock = SystemClock;
+    #[cfg(feature = "mqtt")]
     if let Some(name) = mac_name(stack.hardware_address().as_bytes()) {
         options.node_name = name;
     }
@@ -136,6 +139,7 @@ pub async fn run<S: Storage>(
 /// The board's own name, `hans-` and its MAC address in hex (the
 /// Sparkplug edge node id when `mqtt.edge_id` is empty): unique on the
 /// plant's network, and what its label shows. `None` without a 6-byte MAC.
+#[cfg(feature = "mqtt")]
 fn mac_name(mac: &[u8]) -> Option<HostName> {
     const HEX: &[u8; 16] = b"0123456789abcdef";
     let mac: &[u8; 6] = mac.try_into().ok()?;

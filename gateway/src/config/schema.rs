@@ -777,9 +777,9 @@ setting!(
     |c, v| c.ntp_server = address(v)
 );
 
-/// Every setting, in the order the views list them (a group's settings
-/// together).
-pub const SETTINGS: [&Setting; 40] = [
+/// The settings every build has, in the order the views list them (a
+/// group's settings together).
+const BASE: [&Setting; 29] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -809,6 +809,14 @@ pub const SETTINGS: [&Setting; 40] = [
     &ACCESS_WEB_ALLOW,
     &ACCESS_READ_WITHOUT_LOGIN,
     &WEB_HOST_NAME,
+];
+
+/// The telemetry's settings (builds with the feature `mqtt`). A build
+/// without them skips their ids in a stored image and keeps their
+/// defaults in [`Config`]: an image written by a field device loads on a
+/// core firmware and back.
+#[cfg(feature = "mqtt")]
+const MQTT: [&Setting; 11] = [
     &MQTT_ENABLED,
     &MQTT_BROKER,
     &MQTT_PORT,
@@ -821,6 +829,29 @@ pub const SETTINGS: [&Setting; 40] = [
     &MQTT_JOINT_DEADBAND,
     &MQTT_POSE_DEADBAND,
 ];
+
+/// Every setting of this build, in the order the views list them.
+// Indexing in a constant: evaluated by the compiler, which refuses an
+// index out of range; nothing runs on the device.
+#[cfg(feature = "mqtt")]
+#[allow(clippy::indexing_slicing)]
+pub const SETTINGS: [&Setting; 40] = {
+    let mut out = [BASE[0]; 40];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = if i < BASE.len() {
+            BASE[i]
+        } else {
+            MQTT[i - BASE.len()]
+        };
+        i += 1;
+    }
+    out
+};
+
+/// Every setting of this build, in the order the views list them.
+#[cfg(not(feature = "mqtt"))]
+pub const SETTINGS: [&Setting; 29] = BASE;
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a
 /// host name).

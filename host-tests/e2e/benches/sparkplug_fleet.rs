@@ -20,12 +20,11 @@
 //! broker is killed on every exit path.
 
 use std::collections::HashMap;
-use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use hans_e2e::mqtt::{Mosquitto, Payload};
 use hans_gateway::config::HostName;
 use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::MqttOverride;
@@ -38,69 +37,6 @@ const GROUP: &str = "cells";
 const CHANGE_EVERY: Duration = Duration::from_millis(500);
 const WINDOW: Duration = Duration::from_secs(10);
 const ROUNDS: usize = 4;
-
-#[derive(Clone, PartialEq, prost::Message)]
-struct Payload {
-    #[prost(message, repeated, tag = "2")]
-    metrics: Vec<Metric>,
-    #[prost(uint64, optional, tag = "3")]
-    seq: Option<u64>,
-}
-
-#[derive(Clone, PartialEq, prost::Message)]
-struct Metric {
-    #[prost(string, optional, tag = "1")]
-    name: Option<String>,
-    #[prost(uint32, optional, tag = "10")]
-    int: Option<u32>,
-}
-
-struct Broker(Child, PathBuf);
-
-impl Drop for Broker {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-        let _ = std::fs::remove_dir_all(&self.1);
-    }
-}
-
-fn broker() -> (Broker, u16) {
-    let port = TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let dir = std::env::temp_dir().join(format!("hans-fleet-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let conf = dir.join("mosquitto.conf");
-    std::fs::write(
-        &conf,
-        format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\nmax_queued_messages 100000\n"),
-    )
-    .unwrap();
-    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
-        .into_iter()
-        .find(|p| std::path::Path::new(p).exists())
-        .expect("mosquitto: bash scripts/setup.sh installs it");
-    let child = Command::new(bin)
-        .arg("-c")
-        .arg(&conf)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let b = Broker(child, dir);
-    let start = Instant::now();
-    while TcpStream::connect(("127.0.0.1", port)).is_err() {
-        assert!(
-            start.elapsed() < Duration::from_secs(10),
-            "mosquitto did not start"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    (b, port)
-}
 
 /// What the consumer saw: per (message type, node) the arrival times, and
 /// the box-input value of each DDATA with its arrival.
@@ -144,7 +80,8 @@ async fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(50);
-    let (_broker, port) = broker();
+    let broker = Mosquitto::start(None, "max_queued_messages 100000\n");
+    let port = broker.port;
     let seen = Arc::new(Mutex::new(Seen::default()));
     let mut opts = MqttOptions::new("fleet-bench", "127.0.0.1", port);
     opts.set_keep_alive(Duration::from_secs(30));

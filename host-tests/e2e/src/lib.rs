@@ -12,6 +12,8 @@ use hans_gateway::registers as r;
 use hans_sim::Sim;
 use tokio_modbus::client::{Context, Reader, Writer};
 
+pub mod mqtt;
+
 pub use hans_gateway::error::{ErrorSource, GatewayError};
 pub use hans_gateway::job::code;
 

@@ -8,11 +8,10 @@
 //! writes from MQTT refused.
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
-use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
+use hans_e2e::mqtt::{Metric, Mosquitto, Payload};
 use hans_e2e::{code, Plc};
 use hans_gateway::config::HostName;
 use hans_gateway::host::{HostOptions, RunningGateway};
@@ -21,38 +20,6 @@ use hans_sim::{Config, Sim};
 use prost::Message as _;
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
 use tokio::sync::mpsc;
-
-#[derive(Clone, PartialEq, prost::Message)]
-struct Payload {
-    #[prost(uint64, optional, tag = "1")]
-    timestamp: Option<u64>,
-    #[prost(message, repeated, tag = "2")]
-    metrics: Vec<Metric>,
-    #[prost(uint64, optional, tag = "3")]
-    seq: Option<u64>,
-}
-
-#[derive(Clone, PartialEq, prost::Message)]
-struct Metric {
-    #[prost(string, optional, tag = "1")]
-    name: Option<String>,
-    #[prost(uint64, optional, tag = "3")]
-    timestamp: Option<u64>,
-    #[prost(uint32, optional, tag = "4")]
-    datatype: Option<u32>,
-    #[prost(bool, optional, tag = "7")]
-    is_null: Option<bool>,
-    #[prost(uint32, optional, tag = "10")]
-    int: Option<u32>,
-    #[prost(uint64, optional, tag = "11")]
-    long: Option<u64>,
-    #[prost(float, optional, tag = "12")]
-    float: Option<f32>,
-    #[prost(bool, optional, tag = "14")]
-    boolean: Option<bool>,
-    #[prost(string, optional, tag = "15")]
-    string: Option<String>,
-}
 
 /// One message the consumer received.
 #[derive(Debug)]
@@ -74,62 +41,6 @@ impl Msg {
 
     fn bd_seq(&self) -> Option<u64> {
         self.metric("bdSeq").and_then(|m| m.long)
-    }
-}
-
-/// The broker, killed when dropped.
-struct Mosquitto {
-    child: Child,
-    port: u16,
-    dir: PathBuf,
-}
-
-impl Mosquitto {
-    fn start(port: Option<u16>) -> Mosquitto {
-        let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
-            .into_iter()
-            .map(PathBuf::from)
-            .find(|p| p.exists())
-            .expect("mosquitto is not installed: `bash scripts/setup.sh` installs it");
-        let port = port.unwrap_or_else(|| {
-            TcpListener::bind("127.0.0.1:0")
-                .unwrap()
-                .local_addr()
-                .unwrap()
-                .port()
-        });
-        let dir = std::env::temp_dir().join(format!("hans-e2e-mqtt-{}-{port}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let conf = dir.join("mosquitto.conf");
-        std::fs::write(
-            &conf,
-            format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"),
-        )
-        .unwrap();
-        let child = Command::new(bin)
-            .arg("-c")
-            .arg(&conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let start = Instant::now();
-        while TcpStream::connect(("127.0.0.1", port)).is_err() {
-            assert!(
-                start.elapsed() < Duration::from_secs(10),
-                "mosquitto did not start"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        Mosquitto { child, port, dir }
-    }
-}
-
-impl Drop for Mosquitto {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
 
@@ -288,7 +199,7 @@ fn rebirth_request() -> Vec<u8> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn scada_sees_births_changes_commands_and_link_loss_and_mqtt_cannot_write() {
-    let broker = Mosquitto::start(None);
+    let broker = Mosquitto::start(None, "");
     let mut scada = Consumer::start(broker.port, "scada-e2e").await;
     // Subscribed before the gateway exists: its first births are seen.
     tokio::time::sleep(Duration::from_millis(300)).await;
@@ -339,7 +250,10 @@ async fn scada_sees_births_changes_commands_and_link_loss_and_mqtt_cannot_write(
         .map(|(name, _)| name.to_string())
         .filter(|n| !n.starts_with("SOURCE/"))
         .collect();
-    assert!(documented.len() > 50, "the metric table read: {documented:?}");
+    assert!(
+        documented.len() > 50,
+        "the metric table read: {documented:?}"
+    );
     for name in &documented {
         assert!(
             birth_names.contains(name.as_str()),
@@ -496,7 +410,7 @@ async fn scada_sees_births_changes_commands_and_link_loss_and_mqtt_cannot_write(
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn after_a_broker_restart_the_gateway_is_born_again_with_the_next_bd_seq() {
-    let broker = Mosquitto::start(None);
+    let broker = Mosquitto::start(None, "");
     let port = broker.port;
     let mut scada = Consumer::start(port, "scada-restart").await;
     tokio::time::sleep(Duration::from_millis(300)).await;
@@ -509,7 +423,7 @@ async fn after_a_broker_restart_the_gateway_is_born_again_with_the_next_bd_seq()
     let bd = scada.seen[i].bd_seq().unwrap();
     drop(broker);
     tokio::time::sleep(Duration::from_millis(500)).await;
-    let _broker = Mosquitto::start(Some(port));
+    let _broker = Mosquitto::start(Some(port), "");
     // rumqttc reconnects and subscribes again (clean session).
     scada
         .client
