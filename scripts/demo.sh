@@ -13,9 +13,13 @@
 # (a port already taken, say), the other is stopped too and the script exits
 # with its status.
 #
+# With Debian's mosquitto installed (setup installs it), an MQTT broker runs
+# too and the firmware publishes the cell as a Sparkplug B edge node to it:
+# the script prints the mosquitto_sub and hansctl fleet lines to watch it.
+#
 # Environment: WEB_PORT (default 8080), MODBUS_PORT (default 5020), SIM_PORT
-# (default 10003), ADMIN_PORT (default 5021). Everything listens on 127.0.0.1
-# only.
+# (default 10003), ADMIN_PORT (default 5021), BROKER_PORT (default 18830;
+# NO_BROKER=1: none). Everything listens on 127.0.0.1 only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
@@ -24,6 +28,7 @@ WEB_PORT=${WEB_PORT:-8080}
 MODBUS_PORT=${MODBUS_PORT:-5020}
 SIM_PORT=${SIM_PORT:-10003}
 ADMIN_PORT=${ADMIN_PORT:-5021}
+BROKER_PORT=${BROKER_PORT:-18830}
 export WEB_PORT MODBUS_PORT SIM_PORT ADMIN_PORT
 
 SETUP_FUZZ=0 bash scripts/setup.sh
@@ -65,6 +70,21 @@ export SETUP_CODE="${code:0:4}-${code:4:4}-${code:8:4}"
 
 "$HOST_TARGET/release/hans-sim" --host 127.0.0.1 --command-port "$SIM_PORT" --datasheet-ports "" &
 pids+=($!)
+broker=""
+mosquitto_bin=$(command -v mosquitto || echo /usr/sbin/mosquitto)
+if [ "${NO_BROKER:-0}" != 1 ] && [ -x "$mosquitto_bin" ]; then
+  broker_conf=$(mktemp --suffix=.conf)
+  printf 'listener %s 127.0.0.1\nallow_anonymous true\npersistence false\n' "$BROKER_PORT" >"$broker_conf"
+  "$mosquitto_bin" -c "$broker_conf" >/dev/null 2>&1 &
+  pids+=($!)
+  # qemu-run.sh forwards the firmware's 10.0.2.100:1883 to it and turns the
+  # firmware's telemetry on (mqtt=10.0.2.100:1883).
+  export MQTT_PORT=$BROKER_PORT
+  broker="
+  MQTT broker:        127.0.0.1:$BROKER_PORT (Sparkplug B, group cells; MQTT sees the robot, never moves it)
+  Watch it:           mosquitto_sub -h 127.0.0.1 -p $BROKER_PORT -t 'spBv1.0/cells/#' -v
+  Fleet view:         cargo run -p hansctl -- fleet --broker 127.0.0.1:$BROKER_PORT --group cells"
+fi
 if command -v defmt-print >/dev/null; then
   # qemu-run.sh pipes the log through defmt-print: text in the terminal.
   bash scripts/qemu-run.sh "$ELF" &
@@ -86,7 +106,7 @@ cat <<MSG
                       exists: create it there with the setup code $SETUP_CODE)
   Modbus TCP server:  127.0.0.1:$MODBUS_PORT   (unit id: any)
   Try:                mbpoll -m tcp -p $MODBUS_PORT -0 -r 0 -c 8 -1 127.0.0.1
-  Diagnostics:        echo report | socat - TCP:127.0.0.1:$ADMIN_PORT
+  Diagnostics:        echo report | socat - TCP:127.0.0.1:$ADMIN_PORT$broker
 
   Ctrl-C stops everything.
 

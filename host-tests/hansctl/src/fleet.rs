@@ -180,6 +180,13 @@ impl Fleet {
         Fleet::default()
     }
 
+    /// The status of node `node` of `group`, if seen.
+    pub(crate) fn status(&self, group: &str, node: &str) -> Option<Status> {
+        self.nodes
+            .get(&(group.to_string(), node.to_string()))
+            .map(|n| n.status)
+    }
+
     /// Payloads or topics that could not be read, in all.
     pub(crate) fn malformed(&self) -> u64 {
         self.malformed

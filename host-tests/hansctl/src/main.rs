@@ -234,6 +234,11 @@ enum Cmd {
         /// MQTT client id (default: hansctl-fleet-PID).
         #[arg(long)]
         client_id: Option<String>,
+        /// Never publish: by default a node seen without its birth (born
+        /// before the view started) is asked once for a rebirth (an NCMD
+        /// Node Control/Rebirth, the one command a gateway obeys).
+        #[arg(long)]
+        no_rebirth: bool,
     },
 }
 
@@ -393,6 +398,7 @@ fn run(cli: &Cli) -> Result<(), Exit> {
             group,
             duration,
             client_id,
+            no_rebirth,
         } => fleet::run(&fleet::Options {
             broker: broker.clone(),
             group: group.clone(),
@@ -400,6 +406,7 @@ fn run(cli: &Cli) -> Result<(), Exit> {
             duration: *duration,
             client_id: client_id.clone(),
             timeout,
+            rebirth: !*no_rebirth,
         }),
     }
 }

@@ -51,6 +51,8 @@ struct SpMetric {
     long_value: Option<u64>,
     #[prost(float, optional, tag = "12")]
     float_value: Option<f32>,
+    #[prost(bool, optional, tag = "14")]
+    boolean_value: Option<bool>,
     #[prost(string, optional, tag = "15")]
     string_value: Option<String>,
 }
@@ -330,8 +332,14 @@ async fn publish(port: u16, messages: Vec<(String, Vec<u8>)>) {
             acks_due -= 1;
         }
     }
+    // Everything queued goes out before the DISCONNECT: poll until it has.
     let _ = client.disconnect().await;
-    let _ = tokio::time::timeout(Duration::from_secs(1), events.poll()).await;
+    let until = tokio::time::Instant::now() + WAIT;
+    while let Ok(Ok(ev)) = tokio::time::timeout_at(until, events.poll()).await {
+        if let Event::Outgoing(rumqttc::Outgoing::Disconnect) = ev {
+            break;
+        }
+    }
 }
 
 fn topic(group: &str, kind: &str, node: &str) -> String {
@@ -542,4 +550,100 @@ fn an_unreachable_broker_is_an_error_after_the_timeout() {
         "gave up too soon: {took:?}"
     );
     assert!(took < Duration::from_secs(15), "took {took:?}");
+}
+
+/// NCMD messages on `group` that reach a subscriber during `wait`, as
+/// (topic, rebirth requested) pairs, after `act` ran.
+async fn commands_during(
+    port: u16,
+    group: &str,
+    act: impl std::future::Future<Output = ()>,
+) -> Vec<(String, bool)> {
+    let mut opts = MqttOptions::new(format!("ncmd-watch-{port}"), "127.0.0.1", port);
+    opts.set_keep_alive(Duration::from_secs(5));
+    let (client, mut events) = AsyncClient::new(opts, 32);
+    client
+        .subscribe(format!("spBv1.0/{group}/NCMD/#"), QoS::AtMostOnce)
+        .await
+        .expect("subscribe");
+    let until = tokio::time::Instant::now() + WAIT;
+    loop {
+        let ev = tokio::time::timeout_at(until, events.poll())
+            .await
+            .expect("SUBACK")
+            .expect("connected");
+        if let Event::Incoming(Packet::SubAck(_)) = ev {
+            break;
+        }
+    }
+    act.await;
+    let mut got = Vec::new();
+    let until = tokio::time::Instant::now() + Duration::from_secs(3);
+    while let Ok(ev) = tokio::time::timeout_at(until, events.poll()).await {
+        if let Ok(Event::Incoming(Packet::Publish(p))) = ev {
+            let rebirth = SpPayload::decode(&p.payload[..])
+                .map(|pl| {
+                    pl.metrics.iter().any(|m| {
+                        m.name.as_deref() == Some("Node Control/Rebirth")
+                            && m.boolean_value == Some(true)
+                    })
+                })
+                .unwrap_or(false);
+            got.push((p.topic.clone(), rebirth));
+        }
+    }
+    got
+}
+
+/// A gateway born before the view started (births are not retained) is
+/// asked once for its birth when its data arrives; `--no-rebirth` keeps
+/// the view silent.
+#[tokio::test(flavor = "current_thread")]
+async fn a_node_seen_without_its_birth_is_asked_once_for_one_unless_told_not_to() {
+    let broker = start_broker();
+    let addr = format!("127.0.0.1:{}", broker.port);
+    let g = "Plant R";
+    let data = || {
+        vec![
+            (topic(g, "NDATA", "late-1"), command_event(5, "done", 0)),
+            (topic(g, "NDATA", "late-1"), command_event(6, "done", 0)),
+        ]
+    };
+    let fleet = spawn_fleet(&[
+        "--broker",
+        &addr,
+        "--group",
+        g,
+        "--for",
+        RUN,
+        "--timeout",
+        "20000",
+    ]);
+    fleet.wait_subscribed();
+    let got = commands_during(broker.port, g, publish(broker.port, data())).await;
+    let (status, _, err) = fleet.finish();
+    assert_eq!(
+        got,
+        [(topic(g, "NCMD", "late-1"), true)],
+        "one rebirth request: {err}"
+    );
+    assert!(status.success(), "{status}: {err}");
+    assert!(err.contains("asked Plant R/late-1 for its birth"), "{err}");
+
+    let fleet = spawn_fleet(&[
+        "--broker",
+        &addr,
+        "--group",
+        g,
+        "--for",
+        RUN,
+        "--timeout",
+        "20000",
+        "--no-rebirth",
+    ]);
+    fleet.wait_subscribed();
+    let got = commands_during(broker.port, g, publish(broker.port, data())).await;
+    assert!(got.is_empty(), "--no-rebirth publishes nothing: {got:?}");
+    let (status, _, err) = fleet.finish();
+    assert!(status.success(), "{status}: {err}");
 }

@@ -23,8 +23,8 @@ use std::time::{Duration, Instant};
 use rumqttc::{AsyncClient, ConnectionError, Event, MqttOptions, Packet, QoS, SubscribeReasonCode};
 use tokio::sync::mpsc;
 
-use super::Fleet;
-use crate::sparkplug::NAMESPACE;
+use super::{Fleet, Status};
+use crate::sparkplug::{Topic, WireMetric, WirePayload, WireValue, NAMESPACE};
 use crate::Exit;
 
 /// The largest message read: a gateway's NBIRTH is a few KiB, other nodes'
@@ -45,6 +45,9 @@ pub(crate) struct Options {
     pub(crate) client_id: Option<String>,
     /// Bound on the first connection and subscription.
     pub(crate) timeout: Duration,
+    /// Ask a node seen without its birth for one (an NCMD
+    /// `Node Control/Rebirth`), as a Sparkplug host application does.
+    pub(crate) rebirth: bool,
 }
 
 /// `HOST:PORT`, `HOST` (port 1883), `[V6]:PORT`.
@@ -261,6 +264,8 @@ async fn watch(o: &Options, host: String, port: u16) -> Result<(), Exit> {
         broker: broker.clone(),
         json: mode == Mode::Json,
         last_error: "no answer".into(),
+        rebirth: o.rebirth,
+        asked: std::collections::HashSet::new(),
     };
 
     loop {
@@ -300,6 +305,10 @@ struct Session {
     json: bool,
     /// Why the last connection attempt failed, for the final error.
     last_error: String,
+    /// See [`Options::rebirth`].
+    rebirth: bool,
+    /// Nodes asked for a birth already (once each).
+    asked: std::collections::HashSet<(String, String)>,
 }
 
 impl Session {
@@ -335,6 +344,7 @@ impl Session {
             }
             Ok(Event::Incoming(Packet::Publish(p))) => {
                 let ev = fleet.apply(&p.topic, &p.payload, Instant::now());
+                self.ask_birth(&p.topic, fleet);
                 if self.json {
                     if let Some(j) = ev.to_json(fleet) {
                         out(format!("{j}\n").as_bytes())?;
@@ -361,6 +371,59 @@ impl Session {
         }
         Ok(())
     }
+}
+
+impl Session {
+    /// A node whose data arrives before its birth (it was born before this
+    /// view subscribed: births are not retained) is asked once for a
+    /// rebirth, so that the table has all its metrics; `--no-rebirth`
+    /// keeps the view silent. The gateway obeys this one command only.
+    fn ask_birth(&mut self, topic: &str, fleet: &Fleet) {
+        if !self.rebirth {
+            return;
+        }
+        let Ok(t) = Topic::parse(topic) else {
+            return;
+        };
+        let (group, node) = (t.group, t.node);
+        if fleet.status(group, node) != Some(Status::NoBirth) {
+            return;
+        }
+        if !self.asked.insert((group.to_string(), node.to_string())) {
+            return;
+        }
+        let payload = rebirth_request();
+        let topic = format!("{NAMESPACE}/{group}/NCMD/{node}");
+        if self
+            .client
+            .try_publish(topic.as_str(), QoS::AtMostOnce, false, payload)
+            .is_ok()
+            && !self.json
+        {
+            eprintln!("hansctl: fleet: asked {group}/{node} for its birth (seen without one)");
+        }
+    }
+}
+
+/// An NCMD payload that asks for a rebirth.
+pub(crate) fn rebirth_request() -> Vec<u8> {
+    use prost::Message as _;
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64);
+    WirePayload {
+        timestamp: Some(now),
+        metrics: vec![WireMetric {
+            name: Some("Node Control/Rebirth".to_string()),
+            alias: None,
+            timestamp: Some(now),
+            datatype: Some(11),
+            is_null: None,
+            value: Some(WireValue::Boolean(true)),
+        }],
+        seq: None,
+    }
+    .encode_to_vec()
 }
 
 /// Sleeps until `t`, or for ever.
