@@ -20,6 +20,7 @@ command -v mbpoll >/dev/null || need_apt+=(mbpoll)
 # socat relays QEMU's guest forward to the simulator, one relay per connection.
 command -v socat >/dev/null || need_apt+=(socat)
 [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || need_apt+=(mosquitto) # the MQTT broker of gateway/tests/mqtt.rs
+command -v mosquitto_sub >/dev/null || need_apt+=(mosquitto-clients) # mosquitto_sub, the README's and the demo's raw view of the telemetry
 command -v openssl >/dev/null || need_apt+=(openssl) # the test CAs and certificates of the TLS tests (gateway/tests/mqtt.rs)
 # llvm-size and llvm-objdump read the Cortex-M binaries for the size reports.
 command -v llvm-size >/dev/null || need_apt+=(llvm)
