@@ -83,7 +83,9 @@ if [ "${NO_BROKER:-0}" != 1 ] && [ -x "$mosquitto_bin" ]; then
   broker="
   MQTT broker:        127.0.0.1:$BROKER_PORT (Sparkplug B, group cells; MQTT sees the robot, never moves it)
   Watch it:           mosquitto_sub -h 127.0.0.1 -p $BROKER_PORT -t 'spBv1.0/cells/#' -v
-  Fleet view:         cargo run -p hansctl -- fleet --broker 127.0.0.1:$BROKER_PORT --group cells"
+  Fleet view:         cargo run -p hansctl -- fleet --broker 127.0.0.1:$BROKER_PORT --group cells
+                      (started after the gateway: it shows within 10 s, at the gateway's
+                      next message, and asks it for its birth)"
 fi
 if command -v defmt-print >/dev/null; then
   # qemu-run.sh pipes the log through defmt-print: text in the terminal.

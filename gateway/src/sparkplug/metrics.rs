@@ -279,7 +279,9 @@ pub const TABLE: &[Def] = &[
     def("Node Control/Rebirth", T::Boolean, "", N, R::Birth, Field::Rebirth, "always false; an NCMD writing true asks for new births"),
     def("Gateway/Version", T::String, "", N, R::Birth, Field::Version, "the gateway's version"),
     def("Gateway/Map Version", T::String, "", N, R::Birth, Field::MapVersion, "the Modbus register map's version (major.minor)"),
-    def("Gateway/Uptime", T::UInt32, "s", N, R::Band(60.0), Field::Uptime, "time since start"),
+    // Every 10 s: also what tells a host that subscribed after the births
+    // that the node is there (it then asks for a rebirth).
+    def("Gateway/Uptime", T::UInt32, "s", N, R::Band(10.0), Field::Uptime, "time since start"),
     def("Link/State", T::String, "", N, R::Change, Field::LinkState, "robot link: down, connecting, listening, connected"),
     def("Link/Connects", T::UInt16, "", N, R::Change, Field::LinkConnects, "connections established since start (wraps)"),
     def("Link/Losses", T::UInt16, "", N, R::Change, Field::LinkLosses, "connected links lost since start (wraps)"),
