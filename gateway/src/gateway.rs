@@ -76,6 +76,10 @@ pub struct Options {
     /// telemetry is on, to this broker, whatever the stored `mqtt.*` say
     /// (the configuration views show it; a save stores it).
     pub mqtt_override: Option<MqttOverride>,
+    /// The broker's user name and password, where the platform has them
+    /// (Linux: `--mqtt-user`, `--mqtt-password-file`); `None`: anonymous.
+    #[cfg(feature = "mqtt")]
+    pub mqtt_login: Option<crate::mqtt::Login>,
 }
 
 /// A broker given at start (see [`Options::mqtt_override`]).
@@ -146,6 +150,8 @@ impl Default for Options {
             wall_clock: None,
             node_name: HostName::from_static("hans-gateway"),
             mqtt_override: None,
+            #[cfg(feature = "mqtt")]
+            mqtt_login: None,
         }
     }
 }
@@ -275,7 +281,14 @@ impl Gateway {
                 secs.saturating_mul(1000)
                     .saturating_sub(clock.now().as_millis())
             });
-            crate::mqtt::serve(hub, clock, net, self.opts.node_name.as_str(), utc)
+            crate::mqtt::serve(
+                hub,
+                clock,
+                net,
+                self.opts.node_name.as_str(),
+                utc,
+                self.opts.mqtt_login,
+            )
         };
         #[cfg(not(feature = "mqtt"))]
         let telemetry = core::future::pending::<Infallible>();

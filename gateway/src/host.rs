@@ -189,6 +189,9 @@ pub struct HostOptions {
     /// The CAs (PEM file) a TLS broker must be signed by; `None`: the
     /// system's bundle.
     pub mqtt_ca: Option<PathBuf>,
+    /// The broker's user name and password ([`Options::mqtt_login`]).
+    #[cfg(feature = "mqtt")]
+    pub mqtt_login: Option<crate::mqtt::Login>,
 }
 
 impl HostOptions {
@@ -205,6 +208,8 @@ impl HostOptions {
             mqtt: None,
             node_name: Options::default().node_name,
             mqtt_ca: None,
+            #[cfg(feature = "mqtt")]
+            mqtt_login: None,
         }
     }
 }
@@ -387,6 +392,8 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         wall_clock: None,
         node_name: opts.node_name,
         mqtt_override: opts.mqtt,
+        #[cfg(feature = "mqtt")]
+        mqtt_login: opts.mqtt_login,
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;

@@ -510,3 +510,141 @@ async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A broker that wants a user name and password: `hans-gateway
+/// --mqtt-user U --mqtt-password-file F` logs in and is born; with a wrong
+/// password the broker refuses it, nothing is published and the log says
+/// so; a password file others may read is refused at start (status 1).
+#[tokio::test(flavor = "current_thread")]
+async fn a_broker_with_accounts_admits_the_gateway_with_its_password_only() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = std::env::temp_dir().join(format!("hans-mqtt-login-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let passwd = dir.join("passwd");
+    let ok = Command::new("mosquitto_passwd")
+        .args(["-b", "-c"])
+        .arg(&passwd)
+        .args(["cell-login", "a long broker secret"])
+        .status()
+        .expect("mosquitto_passwd (Debian's mosquitto package)");
+    assert!(ok.success());
+    // Read by the broker as the user `mosquitto`.
+    std::fs::set_permissions(&passwd, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let free = || {
+        TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port()
+    };
+    let (auth_port, plain_port) = (free(), free());
+    let conf = dir.join("mosquitto.conf");
+    std::fs::write(
+        &conf,
+        format!(
+            "per_listener_settings true\npersistence false\n\
+             listener {plain_port} 127.0.0.1\nallow_anonymous true\n\
+             listener {auth_port} 127.0.0.1\nallow_anonymous false\npassword_file {}\n",
+            passwd.display()
+        ),
+    )
+    .unwrap();
+    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
+        .into_iter()
+        .find(|p| std::path::Path::new(p).exists())
+        .expect("mosquitto");
+    let _broker = Mosquitto {
+        child: Command::new(bin)
+            .arg("-c")
+            .arg(&conf)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+        port: plain_port,
+        _dir: dir.join("broker-run"),
+    };
+    let end = Instant::now() + Duration::from_secs(5);
+    while TcpStream::connect(("127.0.0.1", auth_port)).is_err()
+        || TcpStream::connect(("127.0.0.1", plain_port)).is_err()
+    {
+        assert!(Instant::now() < end, "mosquitto did not listen");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let (_client, mut events) = subscriber("scada-login", plain_port, "spBv1.0/#").await;
+    let start = |edge: &str, password: &str, mode: u32| {
+        let cfg = dir.join(format!("{edge}.toml"));
+        std::fs::write(
+            &cfg,
+            format!("[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nedge_id = \"{edge}\"\n"),
+        )
+        .unwrap();
+        let pw = dir.join(format!("{edge}.password"));
+        std::fs::write(&pw, format!("{password}\n")).unwrap();
+        std::fs::set_permissions(&pw, std::fs::Permissions::from_mode(mode)).unwrap();
+        let log = dir.join(format!("{edge}.log"));
+        let child = Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
+            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
+            .arg(&cfg)
+            .arg("--setup-code-file")
+            .arg(dir.join(format!("{edge}.code")))
+            .args([
+                "--mqtt",
+                &format!("127.0.0.1:{auth_port}"),
+                "--mqtt-user",
+                "cell-login",
+                "--mqtt-password-file",
+            ])
+            .arg(&pw)
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .unwrap();
+        (Killed(child), log)
+    };
+    let (_good, _) = start("gw-login", "a long broker secret", 0o600);
+    let nbirth = published(
+        &mut events,
+        Duration::from_secs(10),
+        "/NBIRTH/",
+        "an NBIRTH after login",
+    )
+    .await;
+    assert_eq!(nbirth.topic, "spBv1.0/cells/NBIRTH/gw-login");
+
+    let (_bad, log) = start("gw-bad-login", "not the secret", 0o600);
+    let until = tokio::time::Instant::now() + Duration::from_secs(4);
+    while let Ok(ev) = tokio::time::timeout_at(until, events.poll()).await {
+        if let Ok(Event::Incoming(Packet::Publish(p))) = ev {
+            assert!(
+                !p.topic.contains("gw-bad-login"),
+                "published without the password: {}",
+                p.topic
+            );
+        }
+    }
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains("refused by the broker"),
+        "the log says why: {text}"
+    );
+
+    let (mut open, log) = start("gw-open-file", "a long broker secret", 0o644);
+    let status = {
+        let end = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Some(s) = open.0.try_wait().unwrap() {
+                break s;
+            }
+            assert!(
+                Instant::now() < end,
+                "a readable password file stops the start"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    };
+    assert_eq!(status.code(), Some(1));
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.contains("readable by others"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

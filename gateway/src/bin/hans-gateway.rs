@@ -124,6 +124,25 @@ struct Cli {
     #[arg(long, value_name = "[mqtts://]HOST:PORT", value_parser = mqtt_endpoint)]
     #[arg(verbatim_doc_comment)]
     mqtt: Option<(bool, Endpoint)>,
+    /// The user name for the MQTT broker (with --mqtt-password-file);
+    /// without it the gateway connects anonymously.
+    #[arg(
+        long,
+        value_name = "NAME",
+        requires = "mqtt_password_file",
+        verbatim_doc_comment
+    )]
+    mqtt_user: Option<String>,
+    /// A file whose first line is the broker's password (readable by
+    /// its owner only, as the setup code: never on the command line,
+    /// where every user of the machine reads it).
+    #[arg(
+        long,
+        value_name = "FILE",
+        requires = "mqtt_user",
+        verbatim_doc_comment
+    )]
+    mqtt_password_file: Option<PathBuf>,
     /// The CAs (PEM) a TLS broker's certificate must be signed by
     /// (mqtt.tls); default: the system's, /etc/ssl/certs/ca-certificates.crt.
     #[arg(long, value_name = "FILE", verbatim_doc_comment)]
@@ -367,7 +386,40 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
             None => None,
         },
         mqtt_ca: cli.mqtt_ca.clone(),
+        mqtt_login: match (&cli.mqtt_user, &cli.mqtt_password_file) {
+            (Some(user), Some(file)) => Some(mqtt_login(user, file)?),
+            _ => None,
+        },
         node_name: host_name(),
+    })
+}
+
+/// The broker's login: `user`, and the first line of `file` as the
+/// password. A file others may read is refused (the password would be
+/// theirs too).
+fn mqtt_login(user: &str, file: &Path) -> Result<hans_gateway::mqtt::Login, String> {
+    use std::os::unix::fs::MetadataExt;
+    let name = HostName::new(user).ok_or_else(|| {
+        format!("--mqtt-user {user:?}: letters, digits, '.', '-', '_', ':' only, up to 63")
+    })?;
+    let meta = std::fs::metadata(file)
+        .map_err(|e| format!("--mqtt-password-file {}: {e}", file.display()))?;
+    if meta.mode() & 0o077 != 0 {
+        return Err(format!(
+            "--mqtt-password-file {}: readable by others (mode {:o}): chmod 600 it",
+            file.display(),
+            meta.mode() & 0o777
+        ));
+    }
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| format!("--mqtt-password-file {}: {e}", file.display()))?;
+    let password = text.lines().next().unwrap_or("");
+    hans_gateway::mqtt::Login::new(name, password.as_bytes()).ok_or_else(|| {
+        format!(
+            "--mqtt-password-file {}: the first line must be 1 to {} printable ASCII characters",
+            file.display(),
+            hans_gateway::mqtt::Login::PASSWORD_MAX
+        )
     })
 }
 

@@ -108,6 +108,59 @@ pub struct Settings {
     /// TLS to the broker, whose certificate must name this (its host name
     /// or address as configured); `None`: plain TCP.
     pub tls: Option<crate::config::HostName>,
+    /// The user name and password the broker asks for; `None`: anonymous.
+    pub login: Option<Login>,
+}
+
+/// A user name and password for the broker (CONNECT). Fixed size, so that
+/// the gateway's start options stay `Copy`; the password is never shown
+/// (`Debug` hides it), never stored in the configuration and never
+/// served: Linux reads it from a file at start.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub struct Login {
+    /// The user name.
+    pub user: crate::config::HostName,
+    password: [u8; Login::PASSWORD_MAX],
+    password_len: u8,
+}
+
+impl Login {
+    /// The longest password.
+    pub const PASSWORD_MAX: usize = 64;
+
+    /// `user` with `password` (printable ASCII, 1 to
+    /// [`Login::PASSWORD_MAX`] bytes); `None` if the password is not.
+    pub fn new(user: crate::config::HostName, password: &[u8]) -> Option<Login> {
+        if password.is_empty() || !password.iter().all(|b| (0x20..0x7f).contains(b)) {
+            return None;
+        }
+        let mut l = Login {
+            user,
+            password: [0; Login::PASSWORD_MAX],
+            password_len: u8::try_from(password.len()).ok()?,
+        };
+        l.password
+            .get_mut(..password.len())?
+            .copy_from_slice(password);
+        Some(l)
+    }
+
+    /// The password's bytes.
+    fn password(&self) -> &[u8] {
+        self.password
+            .get(..usize::from(self.password_len))
+            .unwrap_or(&[])
+    }
+}
+
+impl core::fmt::Debug for Login {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "Login {{ user: {:?}, password: <{} bytes> }}",
+            self.user, self.password_len
+        )
+    }
 }
 
 impl Settings {
@@ -120,6 +173,7 @@ impl Settings {
             utc_at_zero: None,
             primary_host: None,
             tls: None,
+            login: None,
         }
     }
 
@@ -498,7 +552,10 @@ async fn session<C: Clock, S: Socket>(
             payload: will.payload,
             qos: MessageType::NDeath.qos(),
         }),
-        None,
+        settings
+            .login
+            .as_ref()
+            .map(|l| (l.user.as_str(), l.password())),
     )?;
     send(clock, sock, bufs.pkt.get(..n).unwrap_or(&[])).await?;
     // CONNACK first.
@@ -665,7 +722,8 @@ async fn publish_due<C: Clock, S: Socket>(
 /// off or no broker is named; else the broker's address (an address, or a
 /// name the platform resolves: [`Net::resolve`], tried again with the
 /// backoff), then [`run`]. `own_id` is the edge node id when the
-/// configuration names none; `utc_at_zero` as in [`Settings`]. The
+/// configuration names none; `utc_at_zero` and `login` as in
+/// [`Settings`]. The
 /// hub's [`Hub::mqtt`] shows how it goes.
 pub async fn serve<C: Clock, N: Net>(
     hub: &Hub,
@@ -673,6 +731,7 @@ pub async fn serve<C: Clock, N: Net>(
     net: &N,
     own_id: &str,
     utc_at_zero: Option<u64>,
+    login: Option<Login>,
 ) -> Infallible {
     let cfg = hub.with(|m| m.config.active.mqtt);
     let status = &hub.mqtt;
@@ -710,6 +769,7 @@ pub async fn serve<C: Clock, N: Net>(
         }
     };
     settings.utc_at_zero = utc_at_zero;
+    settings.login = login;
     info!(
         "mqtt: Sparkplug edge node {} of group {} to the broker",
         settings.node.edge.as_str(),

@@ -180,7 +180,7 @@ impl T {
         let mut m = model();
         m.config.active = config;
         T::build(m, move |h, c, n, _| {
-            Box::pin(async move { serve(&h, &*c, &n, own_id, None).await })
+            Box::pin(async move { serve(&h, &*c, &n, own_id, None, None).await })
         })
     }
 
