@@ -63,7 +63,7 @@ pub struct Hub {
     /// The MQTT client's connection and counters (the status page shows
     /// them).
     #[cfg(feature = "mqtt")]
-    pub mqtt: crate::mqtt::Status,
+    pub mqtt: crate::telemetry::Status,
     /// Raised by every [`Hub::with`] (the state may have changed): wakes
     /// the MQTT client, which publishes by exception, so that a change goes
     /// out at once instead of at its next look (it reads with
@@ -86,7 +86,7 @@ impl Hub {
             #[cfg(feature = "audit")]
             audit: Log::new(),
             #[cfg(feature = "mqtt")]
-            mqtt: crate::mqtt::Status::new(),
+            mqtt: crate::telemetry::Status::new(),
             #[cfg(feature = "mqtt")]
             changed: Signal::new(),
         }

@@ -136,6 +136,8 @@ pub(crate) mod sntp;
 pub mod sparkplug;
 pub mod state;
 pub mod storage;
+#[cfg(feature = "mqtt")]
+pub mod telemetry;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
 #[cfg(feature = "web")]

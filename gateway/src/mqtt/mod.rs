@@ -50,7 +50,6 @@ pub mod packet;
 #[cfg(test)]
 mod tests;
 
-use core::cell::Cell;
 use core::convert::Infallible;
 use core::net::{Ipv4Addr, SocketAddrV4};
 
@@ -60,9 +59,10 @@ use embassy_time::{Duration, Instant};
 use crate::clock::{with_deadline, with_timeout, Clock};
 use crate::config::MqttConfig;
 use crate::hub::Hub;
-use crate::net::{Net, NetError, Socket};
+use crate::net::{Net, Socket};
 use crate::sparkplug::topic::ID_MAX;
 use crate::sparkplug::{EdgeNode, Id, IdError, MessageType, NodeConfig};
+pub use crate::telemetry::{Error, Stats, Status};
 
 pub use crate::sparkplug::PAYLOAD_BUF;
 use packet::{Frame, Packet, Will};
@@ -237,124 +237,9 @@ pub fn host_online_of(payload: &[u8]) -> Option<bool> {
     }
 }
 
-/// Why a connection ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Error {
-    /// The socket failed.
-    Net(NetError),
-    /// The broker closed the connection.
-    Closed,
-    /// The broker did not answer or take data in time.
-    Timeout,
-    /// The broker refused the CONNECT with this return code (4: bad user
-    /// name or password, 5: not authorised).
-    Refused(u8),
-    /// The broker sent something that is not MQTT 3.1.1 here.
-    Protocol,
-    /// A packet does not fit its buffer.
-    TooLong,
-    /// The primary host went offline (its STATE message).
-    HostOffline,
-    /// The broker's name has no address here (boards take an address;
-    /// Linux resolves names).
-    Unresolved,
-    /// The group or edge node id is not a Sparkplug id (empty, longer
-    /// than 32 bytes).
-    BadId,
-}
-
-impl Error {
-    /// A short text for logs and the status page.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Error::Net(e) => e.as_str(),
-            Error::Closed => "closed by the broker",
-            Error::Timeout => "broker timeout",
-            Error::Refused(_) => "refused by the broker",
-            Error::Protocol => "protocol error",
-            Error::TooLong => "packet too long",
-            Error::HostOffline => "primary host offline",
-            Error::Unresolved => "broker name not resolved",
-            Error::BadId => "group or edge node id invalid (1-32 characters)",
-        }
-    }
-}
-
-impl From<NetError> for Error {
-    fn from(e: NetError) -> Error {
-        Error::Net(e)
-    }
-}
-
 impl From<packet::TooLong> for Error {
     fn from(_: packet::TooLong) -> Error {
         Error::TooLong
-    }
-}
-
-/// The client's counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Stats {
-    /// The client runs (`mqtt.enabled` with a broker).
-    pub on: bool,
-    /// Connected (CONNACK accepted) now.
-    pub connected: bool,
-    /// Connected, the births held until the primary host is online.
-    pub waiting_for_host: bool,
-    /// Accepted connections since start.
-    pub connects: u32,
-    /// Connection attempts and connections that ended in an error.
-    pub failures: u32,
-    /// The last error.
-    pub last_error: Option<Error>,
-    /// PUBLISH packets sent.
-    pub sent: u32,
-    /// Messages made but not sent (the connection failed while writing,
-    /// or a birth did not fit).
-    pub dropped: u32,
-    /// Received packets too long for [`RX_BUF`], skipped.
-    pub skipped: u32,
-    /// The edge node's counters.
-    pub node: crate::sparkplug::Stats,
-}
-
-/// The client's state for others to read (the status page, tests).
-#[derive(Debug, Default)]
-pub struct Status(Cell<Stats>);
-
-impl Status {
-    /// No connection yet.
-    pub const fn new() -> Status {
-        Status(Cell::new(Stats {
-            on: false,
-            connected: false,
-            waiting_for_host: false,
-            connects: 0,
-            failures: 0,
-            last_error: None,
-            sent: 0,
-            dropped: 0,
-            skipped: 0,
-            node: crate::sparkplug::Stats {
-                messages: 0,
-                dropped: 0,
-                events_lost: 0,
-                refused: 0,
-                malformed: 0,
-                rebirths: 0,
-            },
-        }))
-    }
-
-    /// The counters now.
-    pub fn get(&self) -> Stats {
-        self.0.get()
-    }
-
-    fn update(&self, f: impl FnOnce(&mut Stats)) {
-        let mut s = self.0.get();
-        f(&mut s);
-        self.0.set(s);
     }
 }
 
@@ -720,11 +605,11 @@ async fn publish_due<C: Clock, S: Socket>(
 /// The telemetry as the configuration in use says (`mqtt.*`, read once:
 /// the settings apply at the next start): nothing while `mqtt.enabled` is
 /// off or no broker is named; else the broker's address (an address, or a
-/// name the platform resolves: [`Net::resolve`], tried again with the
+/// name the platform resolves: `Net::resolve`, tried again with the
 /// backoff), then [`run`]. `own_id` is the edge node id when the
 /// configuration names none; `utc_at_zero` and `login` as in
 /// [`Settings`]. The
-/// hub's [`Hub::mqtt`] shows how it goes.
+/// hub's `mqtt` status shows how it goes.
 pub async fn serve<C: Clock, N: Net>(
     hub: &Hub,
     clock: &C,

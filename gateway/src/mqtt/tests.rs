@@ -17,6 +17,7 @@ use prost::Message as _;
 
 use super::*;
 use crate::config::Config;
+use crate::net::NetError;
 use crate::state::{LinkState, Model};
 use crate::testkit::clock::VirtualClock;
 use crate::testkit::net::{SimNet, SimStream};

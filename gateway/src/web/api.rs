@@ -103,7 +103,7 @@ pub(crate) struct StatusSnapshot {
     config_applied: u32,
     /// The MQTT client's, set after `take` (it lives in the hub).
     #[cfg(feature = "mqtt")]
-    mqtt: crate::mqtt::Stats,
+    mqtt: crate::telemetry::Stats,
     mqtt_broker: (crate::config::HostName, u16),
     /// Each channel's handshake and Execute.
     channels: [(Handshake, bool); r::CHANNELS],
@@ -131,7 +131,7 @@ impl Snapshot {
     /// Sets the MQTT client's counters of a status snapshot (they live in
     /// the hub, beside the state).
     #[cfg(feature = "mqtt")]
-    pub(crate) fn set_mqtt(&mut self, stats: crate::mqtt::Stats) {
+    pub(crate) fn set_mqtt(&mut self, stats: crate::telemetry::Stats) {
         if let Snapshot::Status(s) = self {
             s.mqtt = stats;
         }
@@ -252,7 +252,7 @@ impl StatusSnapshot {
             config_saves: 0,
             config_applied: 0,
             #[cfg(feature = "mqtt")]
-            mqtt: crate::mqtt::Status::new().get(),
+            mqtt: crate::telemetry::Status::new().get(),
             mqtt_broker: (crate::config::HostName::EMPTY, 0),
             channels: [(Handshake::default(), false); r::CHANNELS],
             raw: (Handshake::default(), false),
