@@ -276,20 +276,19 @@ impl Gateway {
             core::future::pending::<Infallible>()
         };
         #[cfg(feature = "mqtt")]
-        let telemetry = {
-            let utc = self.opts.wall_clock.and_then(|f| f()).map(|secs| {
-                secs.saturating_mul(1000)
-                    .saturating_sub(clock.now().as_millis())
-            });
-            crate::mqtt::serve(
-                hub,
-                clock,
-                net,
-                self.opts.node_name.as_str(),
-                utc,
-                self.opts.mqtt_login,
-            )
-        };
+        let utc = self.opts.wall_clock.and_then(|f| f()).map(|secs| {
+            secs.saturating_mul(1000)
+                .saturating_sub(clock.now().as_millis())
+        });
+        #[cfg(feature = "mqtt")]
+        let telemetry = crate::mqtt::serve(
+            hub,
+            clock,
+            net,
+            self.opts.node_name.as_str(),
+            utc,
+            self.opts.mqtt_login,
+        );
         #[cfg(not(feature = "mqtt"))]
         let telemetry = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
