@@ -35,6 +35,8 @@ fn the_page_shows_the_live_status_and_follows_a_move() {
     });
     assert_eq!(rig.data("flags-enabled", "on"), "1", "flag 'enabled'");
     assert!(rig.text("mb-clients").starts_with("127.0.0.1:"));
+    // The telemetry is off in the factory state, and the page says so.
+    assert_eq!(rig.text("mqtt-state"), "off");
     // The joints on the page are those the PLC reads.
     let start = rig.modbus(async |p| p.joints().await);
     let shown = rig.wait_for("joints on the page", page_joints);
