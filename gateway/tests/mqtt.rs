@@ -308,6 +308,47 @@ async fn a_silent_hans_gateway_is_declared_dead_by_the_keep_alive() {
     );
 }
 
+/// Mosquitto configured as `global`, then a plain listener on `plain`
+/// (for the test's subscriber), then `after` (its settings and a second
+/// listener on `second`); waits until both listen.
+fn two_listeners(
+    dir: &std::path::Path,
+    global: &str,
+    plain: u16,
+    after: &str,
+    second: u16,
+) -> Mosquitto {
+    let conf = dir.join("mosquitto.conf");
+    std::fs::write(
+        &conf,
+        format!("{global}persistence false\nlistener {plain} 127.0.0.1\n{after}"),
+    )
+    .unwrap();
+    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
+        .into_iter()
+        .find(|p| std::path::Path::new(p).exists())
+        .expect("mosquitto");
+    let broker = Mosquitto {
+        child: Command::new(bin)
+            .arg("-c")
+            .arg(&conf)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap(),
+        port: plain,
+        _dir: dir.join("broker-run"),
+    };
+    let end = Instant::now() + Duration::from_secs(5);
+    while TcpStream::connect(("127.0.0.1", second)).is_err()
+        || TcpStream::connect(("127.0.0.1", plain)).is_err()
+    {
+        assert!(Instant::now() < end, "mosquitto did not listen");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    broker
+}
+
 /// Runs `openssl` with `args` in `dir`; panics with its output on failure.
 fn openssl(dir: &std::path::Path, args: &[&str]) {
     let out = Command::new("openssl")
@@ -422,39 +463,22 @@ async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
             .port()
     };
     let (tls_port, plain_port) = (free(), free());
-    let conf = dir.join("mosquitto.conf");
-    std::fs::write(
-        &conf,
-        format!(
-            "per_listener_settings false\nallow_anonymous true\npersistence false\n\
-             listener {plain_port} 127.0.0.1\n\
-             listener {tls_port} 127.0.0.1\ncafile {0}/plant-ca.crt\ncertfile {0}/broker.crt\nkeyfile {0}/broker.key\n",
+    let _broker = two_listeners(
+        &dir,
+        "per_listener_settings false
+allow_anonymous true
+",
+        plain_port,
+        &format!(
+            "listener {tls_port} 127.0.0.1
+cafile {0}/plant-ca.crt
+certfile {0}/broker.crt
+keyfile {0}/broker.key
+",
             dir.display()
         ),
-    )
-    .unwrap();
-    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
-        .into_iter()
-        .find(|p| std::path::Path::new(p).exists())
-        .expect("mosquitto");
-    let _broker = Mosquitto {
-        child: Command::new(bin)
-            .arg("-c")
-            .arg(&conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-        port: plain_port,
-        _dir: dir.join("broker-run"),
-    };
-    let end = Instant::now() + Duration::from_secs(5);
-    while TcpStream::connect(("127.0.0.1", tls_port)).is_err()
-        || TcpStream::connect(("127.0.0.1", plain_port)).is_err()
-    {
-        assert!(Instant::now() < end, "mosquitto did not listen");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+        tls_port,
+    );
     let (_client, mut events) = subscriber("scada-tls", plain_port, "spBv1.0/#").await;
     let start = |ca: &str, edge: &str| {
         let cfg = dir.join(format!("{edge}.toml"));
@@ -538,39 +562,21 @@ async fn a_broker_with_accounts_admits_the_gateway_with_its_password_only() {
             .port()
     };
     let (auth_port, plain_port) = (free(), free());
-    let conf = dir.join("mosquitto.conf");
-    std::fs::write(
-        &conf,
-        format!(
-            "per_listener_settings true\npersistence false\n\
-             listener {plain_port} 127.0.0.1\nallow_anonymous true\n\
-             listener {auth_port} 127.0.0.1\nallow_anonymous false\npassword_file {}\n",
+    let _broker = two_listeners(
+        &dir,
+        "per_listener_settings true
+",
+        plain_port,
+        &format!(
+            "allow_anonymous true
+listener {auth_port} 127.0.0.1
+allow_anonymous false
+password_file {}
+",
             passwd.display()
         ),
-    )
-    .unwrap();
-    let bin = ["/usr/sbin/mosquitto", "/usr/bin/mosquitto"]
-        .into_iter()
-        .find(|p| std::path::Path::new(p).exists())
-        .expect("mosquitto");
-    let _broker = Mosquitto {
-        child: Command::new(bin)
-            .arg("-c")
-            .arg(&conf)
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
-        port: plain_port,
-        _dir: dir.join("broker-run"),
-    };
-    let end = Instant::now() + Duration::from_secs(5);
-    while TcpStream::connect(("127.0.0.1", auth_port)).is_err()
-        || TcpStream::connect(("127.0.0.1", plain_port)).is_err()
-    {
-        assert!(Instant::now() < end, "mosquitto did not listen");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+        auth_port,
+    );
     let (_client, mut events) = subscriber("scada-login", plain_port, "spBv1.0/#").await;
     let start = |edge: &str, password: &str, mode: u32| {
         let cfg = dir.join(format!("{edge}.toml"));
