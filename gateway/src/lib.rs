@@ -140,6 +140,8 @@ pub mod storage;
 pub mod telemetry;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
+#[cfg(feature = "update")]
+pub mod update;
 #[cfg(feature = "web")]
 pub(crate) mod web;
 

@@ -22,7 +22,7 @@ set -euo pipefail
 cd "$(dirname "$0")"
 
 secs=${1:-20}
-targets=(${FUZZ_TARGETS:-framer request reply datasheet gateway_modbus gateway_robot gateway_image gateway_http gateway_mqtt})
+targets=(${FUZZ_TARGETS:-framer request reply datasheet gateway_modbus gateway_robot gateway_image gateway_http gateway_mqtt update_image})
 
 if ! rustup toolchain list | grep -q '^nightly'; then
   echo "fuzz: the nightly toolchain is missing (bash scripts/setup.sh installs it)" >&2
@@ -34,6 +34,16 @@ if ! cargo +nightly fuzz --version >/dev/null 2>&1; then
 fi
 
 python3 seeds.py
+# The image target's seed: an image signed with the development key
+# (firmware/keys/dev.key) by hans-fw, so that the fuzzer starts past the
+# signature and mutates a body the header signed (seeds.py cannot sign).
+mkdir -p corpus/update_image
+seed_dir=$(mktemp -d)
+head -c 3000 /dev/zero | tr '\0' '\125' >"$seed_dir/fw.bin"
+(cd ../.. && cargo run -q -p hans-fw --locked -- sign --key firmware/keys/dev.key --board mps2-an386 \
+  --version 1.2.0 "$seed_dir/fw.bin" -o "$seed_dir/fw.img" >/dev/null)
+{ printf '\007\000'; cat "$seed_dir/fw.img"; } >corpus/update_image/signed-dev-key
+rm -rf "$seed_dir"
 cargo +nightly fuzz build
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT
