@@ -58,11 +58,7 @@ fn mosquitto() -> Mosquitto {
         .unwrap_or_else(|| {
             panic!("mosquitto is not installed: `bash scripts/setup.sh` installs it (Debian's package)")
         });
-    let port = TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = free_port();
     let dir = std::env::temp_dir().join(format!("hans-mqtt-{}-{port}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let conf = dir.join("mosquitto.conf");
@@ -89,6 +85,46 @@ fn mosquitto() -> Mosquitto {
         std::thread::sleep(Duration::from_millis(20));
     }
     m
+}
+
+/// A free port on 127.0.0.1 (free when asked).
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// `hans-gateway` with a configuration file in `dir` (robot absent, edge
+/// id `edge`, then `mqtt_toml` in its `[mqtt]` table) and `args`, its
+/// stderr in `dir/EDGE.log`; killed when dropped.
+fn gateway_process(
+    dir: &std::path::Path,
+    edge: &str,
+    mqtt_toml: &str,
+    args: &[&std::ffi::OsStr],
+) -> Killed {
+    let cfg = dir.join(format!("{edge}.toml"));
+    std::fs::write(
+        &cfg,
+        format!(
+            "[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nedge_id = \"{edge}\"\n{mqtt_toml}"
+        ),
+    )
+    .unwrap();
+    Killed(
+        Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
+            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
+            .arg(&cfg)
+            .arg("--setup-code-file")
+            .arg(dir.join(format!("{edge}.code")))
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(dir.join(format!("{edge}.log"))).unwrap())
+            .spawn()
+            .unwrap(),
+    )
 }
 
 /// A subscriber (`id`) to `topic` on the broker at `port`, its SUBACK
@@ -224,25 +260,14 @@ async fn declared_dead(how: &str) -> Duration {
     let (_client, mut events) = subscriber("scada-kill", broker.port, "spBv1.0/#").await;
     let dir = std::env::temp_dir().join(format!("hans-mqtt-kill-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let config = dir.join("gateway.toml");
     // keep-alive 5 s; the robot is absent (its port refuses): the node
     // lives without its device.
-    std::fs::write(
-        &config,
-        "[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nkeep_alive_s = 5\ngroup_id = \"kill\"\nedge_id = \"gw-kill\"\n",
-    )
-    .unwrap();
-    let gw = Killed(
-        Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
-            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
-            .arg(&config)
-            .arg("--setup-code-file")
-            .arg(dir.join("setup-code"))
-            .args(["--mqtt", &format!("127.0.0.1:{}", broker.port)])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap(),
+    let mqtt = format!("127.0.0.1:{}", broker.port);
+    let gw = gateway_process(
+        &dir,
+        "gw-kill",
+        "keep_alive_s = 5\ngroup_id = \"kill\"\n",
+        &["--mqtt".as_ref(), mqtt.as_ref()],
     );
     let nbirth = published(
         &mut events,
@@ -455,54 +480,31 @@ async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
         )
         .unwrap();
     }
-    let free = || {
-        TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    };
-    let (tls_port, plain_port) = (free(), free());
+    let (tls_port, plain_port) = (free_port(), free_port());
     let _broker = two_listeners(
         &dir,
-        "per_listener_settings false
-allow_anonymous true
-",
+        "per_listener_settings false\nallow_anonymous true\n",
         plain_port,
         &format!(
-            "listener {tls_port} 127.0.0.1
-cafile {0}/plant-ca.crt
-certfile {0}/broker.crt
-keyfile {0}/broker.key
-",
+            "listener {tls_port} 127.0.0.1\ncafile {0}/plant-ca.crt\ncertfile {0}/broker.crt\nkeyfile {0}/broker.key\n",
             dir.display()
         ),
         tls_port,
     );
     let (_client, mut events) = subscriber("scada-tls", plain_port, "spBv1.0/#").await;
+    let mqtt = format!("mqtts://127.0.0.1:{tls_port}");
     let start = |ca: &str, edge: &str| {
-        let cfg = dir.join(format!("{edge}.toml"));
-        std::fs::write(
-            &cfg,
-            format!("[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nedge_id = \"{edge}\"\n"),
-        )
-        .unwrap();
-        Killed(
-            Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
-                .args(["--modbus-listen", "127.0.0.1:0", "--config"])
-                .arg(&cfg)
-                .arg("--setup-code-file")
-                .arg(dir.join(format!("{edge}.code")))
-                .args([
-                    "--mqtt",
-                    &format!("mqtts://127.0.0.1:{tls_port}"),
-                    "--mqtt-ca",
-                ])
-                .arg(dir.join(ca))
-                .stdout(Stdio::null())
-                .stderr(std::fs::File::create(dir.join(format!("{edge}.log"))).unwrap())
-                .spawn()
-                .unwrap(),
+        let ca = dir.join(ca);
+        gateway_process(
+            &dir,
+            edge,
+            "",
+            &[
+                "--mqtt".as_ref(),
+                mqtt.as_ref(),
+                "--mqtt-ca".as_ref(),
+                ca.as_os_str(),
+            ],
         )
     };
     // Signed by the CA it trusts: born over TLS.
@@ -554,59 +556,35 @@ async fn a_broker_with_accounts_admits_the_gateway_with_its_password_only() {
     assert!(ok.success());
     // Read by the broker as the user `mosquitto`.
     std::fs::set_permissions(&passwd, std::fs::Permissions::from_mode(0o644)).unwrap();
-    let free = || {
-        TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    };
-    let (auth_port, plain_port) = (free(), free());
+    let (auth_port, plain_port) = (free_port(), free_port());
     let _broker = two_listeners(
         &dir,
-        "per_listener_settings true
-",
+        "per_listener_settings true\n",
         plain_port,
         &format!(
-            "allow_anonymous true
-listener {auth_port} 127.0.0.1
-allow_anonymous false
-password_file {}
-",
+            "allow_anonymous true\nlistener {auth_port} 127.0.0.1\nallow_anonymous false\npassword_file {}\n",
             passwd.display()
         ),
         auth_port,
     );
     let (_client, mut events) = subscriber("scada-login", plain_port, "spBv1.0/#").await;
+    let mqtt = format!("127.0.0.1:{auth_port}");
     let start = |edge: &str, password: &str, mode: u32| {
-        let cfg = dir.join(format!("{edge}.toml"));
-        std::fs::write(
-            &cfg,
-            format!("[robot]\naddress = \"127.0.0.1\"\nport = 1\n[mqtt]\nedge_id = \"{edge}\"\n"),
-        )
-        .unwrap();
         let pw = dir.join(format!("{edge}.password"));
         std::fs::write(&pw, format!("{password}\n")).unwrap();
         std::fs::set_permissions(&pw, std::fs::Permissions::from_mode(mode)).unwrap();
-        let log = dir.join(format!("{edge}.log"));
-        let child = Command::new(env!("CARGO_BIN_EXE_hans-gateway"))
-            .args(["--modbus-listen", "127.0.0.1:0", "--config"])
-            .arg(&cfg)
-            .arg("--setup-code-file")
-            .arg(dir.join(format!("{edge}.code")))
-            .args([
-                "--mqtt",
-                &format!("127.0.0.1:{auth_port}"),
-                "--mqtt-user",
-                "cell-login",
-                "--mqtt-password-file",
-            ])
-            .arg(&pw)
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap())
-            .spawn()
-            .unwrap();
-        (Killed(child), log)
+        let args = [
+            "--mqtt".as_ref(),
+            mqtt.as_ref(),
+            "--mqtt-user".as_ref(),
+            "cell-login".as_ref(),
+            "--mqtt-password-file".as_ref(),
+            pw.as_os_str(),
+        ];
+        (
+            gateway_process(&dir, edge, "", &args),
+            dir.join(format!("{edge}.log")),
+        )
     };
     let (_good, _) = start("gw-login", "a long broker secret", 0o600);
     let nbirth = published(
