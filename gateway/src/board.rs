@@ -103,13 +103,17 @@ pub const SOCKETS: usize =
 pub async fn run<S: Storage>(
     stack: embassy_net::Stack<'_>,
     mut storage: S,
-    #[cfg_attr(not(feature = "mqtt"), allow(unused_mut))] mut options: Options,
+    options: Options,
 ) -> Infallible {
     let clock = SystemClock;
     #[cfg(feature = "mqtt")]
-    if let Some(name) = mac_name(stack.hardware_address().as_bytes()) {
-        options.node_name = name;
-    }
+    let options = match mac_name(stack.hardware_address().as_bytes()) {
+        Some(node_name) => Options {
+            node_name,
+            ..options
+        },
+        None => options,
+    };
     let gateway = Gateway::new(options);
     gateway.load(&mut storage, &clock).await;
     if options.network_managed {
