@@ -80,6 +80,19 @@ pub struct Options {
     /// (Linux: `--mqtt-user`, `--mqtt-password-file`); `None`: anonymous.
     #[cfg(feature = "mqtt")]
     pub mqtt_login: Option<crate::mqtt::Login>,
+    /// The public key (ed25519) whose signature an uploaded firmware image
+    /// must carry: the one compiled into the bootloader (boards); `None`:
+    /// this platform installs no image.
+    #[cfg(feature = "update")]
+    pub update_key: Option<[u8; 32]>,
+    /// The board id an image must name (`update::layout`).
+    #[cfg(feature = "update")]
+    pub board: &'static str,
+    /// A test's failure of the trial image's self-check (the QEMU board's
+    /// `selfcheck=fail` word): an image on trial does not confirm itself,
+    /// and restarts so that the bootloader rolls it back.
+    #[cfg(feature = "update")]
+    pub self_check_fails: bool,
 }
 
 /// A broker given at start (see [`Options::mqtt_override`]).
@@ -152,6 +165,12 @@ impl Default for Options {
             mqtt_override: None,
             #[cfg(feature = "mqtt")]
             mqtt_login: None,
+            #[cfg(feature = "update")]
+            update_key: None,
+            #[cfg(feature = "update")]
+            board: "",
+            #[cfg(feature = "update")]
+            self_check_fails: false,
         }
     }
 }
@@ -291,12 +310,16 @@ impl Gateway {
         );
         #[cfg(not(feature = "mqtt"))]
         let telemetry = core::future::pending::<Infallible>();
+        #[cfg(feature = "update")]
+        let trial = trial(hub, clock, &self.opts, web_port);
+        #[cfg(not(feature = "update"))]
+        let trial = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
         // built, instead of being moved into the join (through the stack).
         let (engine, sessions) = (pin!(engine), pin!(join_array(sessions)));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
-        let telemetry = pin!(telemetry);
-        let _ = join(join5(engine, sessions, datasheet, saver, page), telemetry).await;
+        let (telemetry, trial) = (pin!(telemetry), pin!(trial));
+        let _ = join(join5(engine, sessions, datasheet, saver, page), join(telemetry, trial)).await;
         // The engine, the sessions, the reader and the saver loop forever.
         core::future::pending().await
     }
@@ -439,42 +462,172 @@ impl Image for Current<'_> {
 /// image of the configuration and trigger table as they are now, and
 /// reports the result. One save at a time (the hub serializes requests).
 /// With the audit log (feature `audit`) it also keeps the log's records on
-/// the medium, between saves, and stamps new records with their time.
-#[cfg(not(feature = "audit"))]
-async fn storage_task<S: Storage, C: Clock>(hub: &Hub, _clock: &C, storage: &mut S) -> Infallible {
-    loop {
-        hub.save_request.wait().await;
-        save(hub, storage).await;
-    }
-}
-
-/// The storage task (see the version without the feature `audit`).
-#[cfg(feature = "audit")]
+/// the medium, between saves, and stamps new records with their time; with
+/// updates (feature `update`) it surveys the firmware slots at start and
+/// does what an upload or the trial check asks of them.
 async fn storage_task<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut S) -> Infallible {
-    use embassy_futures::select::{select, Either};
-    // The stamper apart: a slow flash operation of the work does not
-    // delay a record's time.
-    let stamper = crate::audit::keep::stamper(&hub.audit, clock);
-    match select(stamper, storage_work(hub, clock, storage)).await {
-        Either::First(never) | Either::Second(never) => never,
+    #[cfg(feature = "update")]
+    survey(hub, storage).await;
+    #[cfg(feature = "audit")]
+    {
+        use embassy_futures::select::{select, Either};
+        // The stamper apart: a slow flash operation of the work does not
+        // delay a record's time.
+        let stamper = crate::audit::keep::stamper(&hub.audit, clock);
+        match select(stamper, storage_work(hub, clock, storage)).await {
+            Either::First(never) | Either::Second(never) => never,
+        }
+    }
+    #[cfg(not(feature = "audit"))]
+    storage_work(hub, clock, storage).await
+}
+
+/// What the storage task is woken for.
+enum Work {
+    Save,
+    #[cfg(feature = "audit")]
+    Keep,
+    #[cfg(feature = "update")]
+    Firmware(crate::update::Op),
+}
+
+/// The storage task's work: a save when asked, the log's records kept
+/// between saves, the firmware slots' operations.
+async fn storage_work<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut S) -> Infallible {
+    use embassy_futures::select::{select3, Either3};
+    let _ = clock;
+    loop {
+        let asked = async {
+            hub.save_request.wait().await;
+            Work::Save
+        };
+        #[cfg(feature = "audit")]
+        let keep = async {
+            crate::audit::keep::wait_work(&hub.audit, clock).await;
+            Work::Keep
+        };
+        #[cfg(not(feature = "audit"))]
+        let keep = core::future::pending::<Work>();
+        #[cfg(feature = "update")]
+        let slots = async { Work::Firmware(hub.updates.next().await) };
+        #[cfg(not(feature = "update"))]
+        let slots = core::future::pending::<Work>();
+        let work = match select3(asked, keep, slots).await {
+            Either3::First(w) | Either3::Second(w) | Either3::Third(w) => w,
+        };
+        match work {
+            Work::Save => save(hub, storage).await,
+            #[cfg(feature = "audit")]
+            Work::Keep => {}
+            #[cfg(feature = "update")]
+            Work::Firmware(op) => {
+                let result = firmware(hub, storage, op).await;
+                hub.updates.answer(result);
+            }
+        }
+        #[cfg(feature = "audit")]
+        crate::audit::keep::keep(&hub.audit, clock, storage).await;
     }
 }
 
-/// The storage task's work with the audit log: a save when asked, and the
-/// log's records kept between saves.
-#[cfg(feature = "audit")]
-async fn storage_work<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut S) -> Infallible {
-    use embassy_futures::select::{select, Either};
-    let log = &hub.audit;
-    loop {
-        let job = select(
-            hub.save_request.wait(),
-            crate::audit::keep::wait_work(log, clock),
-        );
-        if let Either::First(()) = job.await {
-            save(hub, storage).await;
+/// How long an image on trial runs before its self-check decides: long
+/// enough for the network, the engine, the Modbus sessions and the web
+/// server to have started (a firmware that fails on start resets before
+/// this and is rolled back by the bootloader).
+#[cfg(feature = "update")]
+pub const TRIAL_CHECK: embassy_time::Duration = embassy_time::Duration::from_secs(8);
+
+/// The trial of a firmware just swapped in: after [`TRIAL_CHECK`], with
+/// every part of the gateway running (this future is joined with them: a
+/// part that panicked would have reset the board) and the web server
+/// listening where it has a port, the image confirms itself; if its check
+/// fails ([`Options::self_check_fails`]) it restarts, and the bootloader
+/// rolls it back. An image not on trial does nothing here.
+#[cfg(feature = "update")]
+async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) -> Infallible {
+    use crate::update::{BootState, Op};
+    clock.sleep(TRIAL_CHECK).await;
+    if hub.updates.status().boot != Some(BootState::Trial) {
+        return core::future::pending().await;
+    }
+    let web_up = web_port == 0 || hub.with(|m| m.access.web_on);
+    if opts.self_check_fails || !web_up {
+        warn!("update: the new firmware's self-check failed: restarting into the previous one");
+        clock.sleep(embassy_time::Duration::from_secs(1)).await;
+        match opts.restart {
+            Some(restart) => restart(),
+            None => warn!("update: this platform cannot restart itself: the next power cycle rolls back"),
         }
-        crate::audit::keep::keep(log, clock, storage).await;
+        return core::future::pending().await;
+    }
+    let _mailbox = hub.updates.take().await;
+    match hub.updates.ask(Op::Confirm).await {
+        Ok(()) => {
+            hub.updates.set(|s| s.boot = Some(BootState::Confirmed));
+            info!("update: the new firmware passed its self-check and is confirmed");
+        }
+        Err(e) => warn!("update: the confirmation failed: {}", e.as_str()),
+    }
+    core::future::pending().await
+}
+
+/// Reads the boot state and the two slots' headers into the firmware's
+/// status (at start, and after an update is marked).
+#[cfg(feature = "update")]
+async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
+    use crate::update::{image, BootState, Slot, SlotOp};
+    let mut boot = BootState::Confirmed;
+    if let Err(e) = storage.firmware(SlotOp::State(&mut boot)).await {
+        if e != crate::update::SlotError::Unsupported {
+            warn!("update: the boot state cannot be read: {}", e.as_str());
+        }
+        return;
+    }
+    let mut versions = [None, None];
+    for (slot, v) in [Slot::Active, Slot::Dfu].into_iter().zip(versions.iter_mut()) {
+        let mut head = [0u8; image::HEADER_LEN];
+        let read = storage
+            .firmware(SlotOp::Read { slot, offset: 0, buf: &mut head })
+            .await;
+        *v = read.ok().and_then(|()| image::Header::parse(&head).ok()).map(|h| h.version);
+    }
+    hub.updates.set(|s| {
+        s.supported = true;
+        s.boot = Some(boot);
+        s.running = versions[0];
+        s.previous = versions[1];
+    });
+    if let Some(v) = versions[0] {
+        info!(
+            "update: running firmware {}.{}.{} ({})",
+            v.major,
+            v.minor,
+            v.patch,
+            boot.as_str()
+        );
+    }
+}
+
+/// Does `op` on the slots.
+#[cfg(feature = "update")]
+async fn firmware<S: Storage>(
+    hub: &Hub,
+    storage: &mut S,
+    op: crate::update::Op,
+) -> Result<(), crate::update::SlotError> {
+    use crate::update::{Op, SlotOp};
+    match op {
+        Op::Survey => {
+            survey(hub, storage).await;
+            Ok(())
+        }
+        Op::Write { offset, len } => {
+            let piece = hub.updates.piece.borrow();
+            let data = piece.get(..len).unwrap_or(&[]);
+            storage.firmware(SlotOp::Write { offset, data }).await
+        }
+        Op::MarkUpdated => storage.firmware(SlotOp::MarkUpdated).await,
+        Op::Confirm => storage.firmware(SlotOp::Confirm).await,
     }
 }
 

@@ -394,6 +394,13 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         mqtt_override: opts.mqtt,
         #[cfg(feature = "mqtt")]
         mqtt_login: opts.mqtt_login,
+        // Linux installs no firmware image: its package does.
+        #[cfg(feature = "update")]
+        update_key: None,
+        #[cfg(feature = "update")]
+        board: "linux",
+        #[cfg(feature = "update")]
+        self_check_fails: false,
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;

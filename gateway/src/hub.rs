@@ -70,6 +70,10 @@ pub struct Hub {
     /// [`Hub::peek`], which raises nothing).
     #[cfg(feature = "mqtt")]
     pub(crate) changed: Signal<NoopRawMutex, ()>,
+    /// The firmware's status, and the mailbox through which an upload
+    /// reaches the storage task (feature `update`).
+    #[cfg(feature = "update")]
+    pub updates: crate::update::Updates,
 }
 
 impl Hub {
@@ -89,6 +93,8 @@ impl Hub {
             mqtt: crate::telemetry::Status::new(),
             #[cfg(feature = "mqtt")]
             changed: Signal::new(),
+            #[cfg(feature = "update")]
+            updates: crate::update::Updates::new(),
         }
     }
 

@@ -89,6 +89,15 @@ pub trait Storage {
     fn audit_persistent(&self) -> bool {
         false
     }
+
+    /// Does `op` on the firmware slots of the medium (feature `update`,
+    /// see [`WithSlots`]). Default: there are none
+    /// ([`SlotError::Unsupported`](crate::update::SlotError)).
+    #[cfg(feature = "update")]
+    async fn firmware(&mut self, op: crate::update::SlotOp<'_>) -> Result<(), crate::update::SlotError> {
+        let _ = op;
+        Err(crate::update::SlotError::Unsupported)
+    }
 }
 
 impl<S: Storage> Storage for &mut S {
@@ -109,6 +118,10 @@ impl<S: Storage> Storage for &mut S {
     }
     fn audit_persistent(&self) -> bool {
         (**self).audit_persistent()
+    }
+    #[cfg(feature = "update")]
+    async fn firmware(&mut self, op: crate::update::SlotOp<'_>) -> Result<(), crate::update::SlotError> {
+        (**self).firmware(op).await
     }
 }
 
@@ -151,6 +164,43 @@ impl<S: Storage, A: AuditStore> Storage for WithAudit<S, A> {
     }
     fn audit_persistent(&self) -> bool {
         true
+    }
+}
+
+/// A medium (`storage`) and the firmware slots of the board
+/// (`slots`, feature `update`): the configuration and audit calls go to
+/// the first, [`Storage::firmware`] to the second.
+#[cfg(feature = "update")]
+#[derive(Debug)]
+pub struct WithSlots<S, U> {
+    /// The configuration's (and audit log's) medium.
+    pub storage: S,
+    /// The firmware slots.
+    pub slots: U,
+}
+
+#[cfg(feature = "update")]
+impl<S: Storage, U: crate::update::Slots> Storage for WithSlots<S, U> {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        self.storage.load().await
+    }
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        self.storage.save(image).await
+    }
+    fn is_persistent(&self) -> bool {
+        self.storage.is_persistent()
+    }
+    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        self.storage.audit_read(each).await
+    }
+    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        self.storage.audit_append(record).await
+    }
+    fn audit_persistent(&self) -> bool {
+        self.storage.audit_persistent()
+    }
+    async fn firmware(&mut self, op: crate::update::SlotOp<'_>) -> Result<(), crate::update::SlotError> {
+        op.apply(&mut self.slots).await
     }
 }
 

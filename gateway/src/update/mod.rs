@@ -1,10 +1,167 @@
-//! Firmware updates (feature `update`): the signed image format and its
-//! checks ([`image`]). Built so far: the format, the checks an upload
-//! passes before anything is installed, and the host tool that signs
-//! (`host-tests/hans-fw`). The bootloader, the A/B slots and the page's
-//! upload come next (issue: signed A/B updates).
+//! Firmware updates (feature `update`): signed images ([`image`]) written
+//! into the download slot of an A/B layout ([`layout`], [`slots`]) while
+//! the gateway keeps serving, swapped in by the bootloader (embassy-boot)
+//! at the restart an administrator asks for, run on trial, and confirmed
+//! by the new image's own check or rolled back.
+//!
+//! The flash belongs to the storage task (it also saves the configuration
+//! and keeps the audit log: one owner for one flash controller). The web
+//! server's upload hands it the image piece by piece through the hub's
+//! [`Updates`] mailbox: one piece of [`PIECE`] bytes in flight, so an
+//! upload holds one buffer and never more than one flash operation waits.
+//! A slow flash slows the upload (TCP's window closes), never the engine
+//! or the Modbus sessions.
 
 pub mod image;
+pub mod layout;
+pub mod slots;
+
+use core::cell::{Cell, RefCell};
+
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::mutex::{Mutex, MutexGuard};
+use embassy_sync::signal::Signal;
+
+pub use image::{Header, ImageError, Version};
+pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
+
+/// Bytes handed to the storage task at once (a multiple of every flash
+/// write size the boards have).
+pub const PIECE: usize = 1024;
+
+/// What the storage task is asked to do with the slots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Op {
+    /// Read the boot state and the two slots' headers into the status.
+    Survey,
+    /// Write `len` bytes of the piece buffer into the download slot at
+    /// `offset`.
+    Write { offset: u32, len: usize },
+    /// Mark the download slot for the swap at the next restart.
+    MarkUpdated,
+    /// Confirm the running image (end its trial).
+    Confirm,
+}
+
+/// Where an upload is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Upload {
+    /// None since the start.
+    Idle,
+    /// An image of `version` is arriving: `received` of `total` bytes.
+    Receiving {
+        /// Its version.
+        version: Version,
+        /// Bytes received.
+        received: u32,
+        /// Bytes in all.
+        total: u32,
+    },
+    /// `version` is written and marked: the next restart swaps it in.
+    Installed {
+        /// Its version.
+        version: Version,
+    },
+    /// The last image was refused (nothing was installed): why.
+    Refused {
+        /// Why, for the page and the log.
+        reason: &'static str,
+    },
+}
+
+/// What the page shows of the firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Status {
+    /// This platform installs images (a board with the bootloader).
+    pub supported: bool,
+    /// The running image's version (its header in the active slot).
+    pub running: Option<Version>,
+    /// The image in the download slot: after an update, the previous one.
+    pub previous: Option<Version>,
+    /// The boot state.
+    pub boot: Option<BootState>,
+    /// The last upload.
+    pub upload: Upload,
+}
+
+/// The mailbox between the web server's upload and the storage task, and
+/// the firmware's status (in the hub).
+pub struct Updates {
+    request: Signal<NoopRawMutex, Op>,
+    done: Signal<NoopRawMutex, Result<(), SlotError>>,
+    /// One operation (one upload) at a time.
+    lock: Mutex<NoopRawMutex, ()>,
+    /// The piece being handed over.
+    pub(crate) piece: RefCell<[u8; PIECE]>,
+    status: Cell<Status>,
+}
+
+impl Default for Updates {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Updates {
+    /// An idle mailbox; the status is "not supported" until the storage
+    /// task has surveyed the slots.
+    pub const fn new() -> Self {
+        Updates {
+            request: Signal::new(),
+            done: Signal::new(),
+            lock: Mutex::new(()),
+            piece: RefCell::new([0; PIECE]),
+            status: Cell::new(Status {
+                supported: false,
+                running: None,
+                previous: None,
+                boot: None,
+                upload: Upload::Idle,
+            }),
+        }
+    }
+
+    /// The firmware's status.
+    pub fn status(&self) -> Status {
+        self.status.get()
+    }
+
+    /// Changes the status.
+    pub(crate) fn set(&self, f: impl FnOnce(&mut Status)) {
+        let mut s = self.status.get();
+        f(&mut s);
+        self.status.set(s);
+    }
+
+    /// Takes the mailbox for one operation or a whole upload; `None` if
+    /// it is taken (another upload runs).
+    pub(crate) fn try_take(&self) -> Option<MutexGuard<'_, NoopRawMutex, ()>> {
+        self.lock.try_lock().ok()
+    }
+
+    /// Waits for the mailbox (the trial check's confirmation).
+    pub(crate) async fn take(&self) -> MutexGuard<'_, NoopRawMutex, ()> {
+        self.lock.lock().await
+    }
+
+    /// Has the storage task do `op` and returns its result. The caller
+    /// holds the mailbox ([`Self::try_take`]).
+    pub(crate) async fn ask(&self, op: Op) -> Result<(), SlotError> {
+        self.done.reset();
+        self.request.signal(op);
+        self.done.wait().await
+    }
+
+    /// The storage task's side: the next operation asked.
+    pub(crate) async fn next(&self) -> Op {
+        self.request.wait().await
+    }
+
+    /// The storage task's side: the result of the operation.
+    pub(crate) fn answer(&self, result: Result<(), SlotError>) {
+        self.done.signal(result);
+    }
+}
 
 #[cfg(test)]
 mod tests;

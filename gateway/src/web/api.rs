@@ -105,6 +105,9 @@ pub(crate) struct StatusSnapshot {
     #[cfg(feature = "mqtt")]
     mqtt: crate::telemetry::Stats,
     mqtt_broker: (crate::config::HostName, u16),
+    /// The firmware's status, set after `take` (it lives in the hub).
+    #[cfg(feature = "update")]
+    firmware: crate::update::Status,
     /// Each channel's handshake and Execute.
     channels: [(Handshake, bool); r::CHANNELS],
     /// RAW's.
@@ -134,6 +137,15 @@ impl Snapshot {
     pub(crate) fn set_mqtt(&mut self, stats: crate::telemetry::Stats) {
         if let Snapshot::Status(s) = self {
             s.mqtt = stats;
+        }
+    }
+
+    /// Sets the firmware's status of a status snapshot (it lives in the
+    /// hub, beside the state).
+    #[cfg(feature = "update")]
+    pub(crate) fn set_firmware(&mut self, status: crate::update::Status) {
+        if let Snapshot::Status(s) = self {
+            s.firmware = status;
         }
     }
 
@@ -254,6 +266,8 @@ impl StatusSnapshot {
             #[cfg(feature = "mqtt")]
             mqtt: crate::telemetry::Status::new().get(),
             mqtt_broker: (crate::config::HostName::EMPTY, 0),
+            #[cfg(feature = "update")]
+            firmware: crate::update::Updates::new().status(),
             channels: [(Handshake::default(), false); r::CHANNELS],
             raw: (Handshake::default(), false),
             triggers: Triggers::default(),
@@ -414,6 +428,8 @@ impl StatusSnapshot {
                 j.key("applied").uint(self.config_applied.into());
             });
             j.key("mqtt").object(|j| self.mqtt(j));
+            #[cfg(feature = "update")]
+            j.key("firmware").object(|j| firmware(j, &self.firmware));
             j.key("channels").array(|j| {
                 for (k, (h, execute)) in self.channels.iter().enumerate() {
                     j.item().object(|j| {
@@ -918,4 +934,45 @@ mod tests {
         assert!(log.contains(r#""sent":"\\\\\\"#), "{log}");
         assert!(log.contains(r#""took_ms":7}"#), "{log}");
     }
+}
+
+/// The firmware: running and previous versions, trial state, the last
+/// upload (`supported` false: this platform installs no image).
+#[cfg(feature = "update")]
+fn firmware(j: &mut Object<'_, '_>, s: &crate::update::Status) {
+    use crate::update::{Upload, Version};
+    fn version(val: Value<'_, '_>, v: Option<Version>) {
+        val.opt(v, |val, v| {
+            val.text(|t| {
+                t.uint(v.major.into()).str(b".").uint(v.minor.into());
+                t.str(b".").uint(v.patch.into());
+            })
+        })
+    }
+    j.key("supported").bool(s.supported);
+    version(j.key("running"), s.running);
+    version(j.key("previous"), s.previous);
+    j.key("state")
+        .opt(s.boot, |v, b| v.str(b.as_str().as_bytes()));
+    j.key("upload").object(|j| match s.upload {
+        Upload::Idle => j.key("state").str(b"idle"),
+        Upload::Receiving {
+            version: v,
+            received,
+            total,
+        } => {
+            j.key("state").str(b"receiving");
+            version(j.key("version"), Some(v));
+            j.key("received").uint(received.into());
+            j.key("total").uint(total.into());
+        }
+        Upload::Installed { version: v } => {
+            j.key("state").str(b"installed");
+            version(j.key("version"), Some(v));
+        }
+        Upload::Refused { reason } => {
+            j.key("state").str(b"refused");
+            j.key("reason").str(reason.as_bytes());
+        }
+    });
 }
