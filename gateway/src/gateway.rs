@@ -259,6 +259,10 @@ impl Gateway {
         // buffers of kilobytes are never moved through the stack.
         let (port, web_port) = self.ports();
         let hub = &self.hub;
+        #[cfg(feature = "update")]
+        if let Some(key) = self.opts.update_key {
+            hub.updates.trust_images(key, self.opts.board);
+        }
         let mut link_bufs = [[0u8; LINK_BUF]; 4];
         let [l0, l1, l2, l3] = link_bufs.each_mut();
         let engine = crate::engine::run(hub, clock, net.socket(l0, l1), net.socket(l2, l3));
@@ -319,7 +323,11 @@ impl Gateway {
         let (engine, sessions) = (pin!(engine), pin!(join_array(sessions)));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
         let (telemetry, trial) = (pin!(telemetry), pin!(trial));
-        let _ = join(join5(engine, sessions, datasheet, saver, page), join(telemetry, trial)).await;
+        let _ = join(
+            join5(engine, sessions, datasheet, saver, page),
+            join(telemetry, trial),
+        )
+        .await;
         // The engine, the sessions, the reader and the saver loop forever.
         core::future::pending().await
     }
@@ -556,7 +564,9 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
         clock.sleep(embassy_time::Duration::from_secs(1)).await;
         match opts.restart {
             Some(restart) => restart(),
-            None => warn!("update: this platform cannot restart itself: the next power cycle rolls back"),
+            None => warn!(
+                "update: this platform cannot restart itself: the next power cycle rolls back"
+            ),
         }
         return core::future::pending().await;
     }
@@ -584,12 +594,22 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
         return;
     }
     let mut versions = [None, None];
-    for (slot, v) in [Slot::Active, Slot::Dfu].into_iter().zip(versions.iter_mut()) {
+    for (slot, v) in [Slot::Active, Slot::Previous]
+        .into_iter()
+        .zip(versions.iter_mut())
+    {
         let mut head = [0u8; image::HEADER_LEN];
         let read = storage
-            .firmware(SlotOp::Read { slot, offset: 0, buf: &mut head })
+            .firmware(SlotOp::Read {
+                slot,
+                offset: 0,
+                buf: &mut head,
+            })
             .await;
-        *v = read.ok().and_then(|()| image::Header::parse(&head).ok()).map(|h| h.version);
+        *v = read
+            .ok()
+            .and_then(|()| image::Header::parse(&head).ok())
+            .map(|h| h.version);
     }
     hub.updates.set(|s| {
         s.supported = true;
@@ -617,10 +637,6 @@ async fn firmware<S: Storage>(
 ) -> Result<(), crate::update::SlotError> {
     use crate::update::{Op, SlotOp};
     match op {
-        Op::Survey => {
-            survey(hub, storage).await;
-            Ok(())
-        }
         Op::Write { offset, len } => {
             let piece = hub.updates.piece.borrow();
             let data = piece.get(..len).unwrap_or(&[]);

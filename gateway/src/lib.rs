@@ -157,3 +157,7 @@ pub use gateway::{
     run, Gateway, MqttOverride, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF,
 };
 pub use storage::{NoStorage, Storage, StorageError};
+#[cfg(feature = "update")]
+pub use gateway::TRIAL_CHECK;
+#[cfg(feature = "update")]
+pub use storage::WithSlots;

@@ -1135,3 +1135,266 @@ fn guesses_from_other_addresses_do_not_lock_the_administrator_out() {
     // ...but not for the administrator's own desk.
     assert_eq!(login(&mut w, "admin", "correct horse").status, 200);
 }
+
+// --- Firmware updates (feature `update`): the world's storage has the QEMU
+// board's flash with its slots; `World::restart` runs the bootloader's step.
+
+mod update {
+    use super::*;
+    use hans_gateway::testkit::flash::{sign, version, SimFlash, TEST_KEY_SEED};
+    use hans_gateway::testkit::world::MemStorage;
+    use hans_gateway::update::image::Version;
+
+    const BOARD: &str = "mps2-an386";
+
+    fn body(tag: u8, len: usize) -> Vec<u8> {
+        (0..len).map(|i| (i as u8).wrapping_mul(31) ^ tag).collect()
+    }
+
+    /// A board running firmware 1.0.0 (body `A`), its administrator's
+    /// session.
+    fn board(self_check_fails: bool) -> (World, SimFlash, String) {
+        let flash = SimFlash::new();
+        flash.install(&sign(
+            &TEST_KEY_SEED,
+            BOARD,
+            version(1, 0, 0),
+            &body(0xA, 30_000),
+        ));
+        let mut storage = MemStorage::default();
+        storage.flash = Some(flash.clone());
+        let mut w = World::new(WorldConfig {
+            web: true,
+            storage,
+            self_check_fails,
+            ..WorldConfig::default()
+        });
+        w.run_for(ms(300));
+        let token = set_password(&mut w);
+        (w, flash, token)
+    }
+
+    fn upload(w: &mut World, token: &str, query: &str, image: &[u8]) -> Answer {
+        let cookie = format!("hgw_session={token}");
+        let headers = [
+            ("Cookie", cookie.as_str()),
+            ("Origin", ORIGIN),
+            ("Content-Type", "application/octet-stream"),
+        ];
+        let path = format!("/api/firmware{query}");
+        send(w, PC, &request("POST", &path, &headers, image)).expect("an answer")
+    }
+
+    fn firmware(w: &mut World) -> Value {
+        get(w, "/api/status").json()["firmware"].clone()
+    }
+
+    fn v(text: &str) -> Value {
+        Value::from(text)
+    }
+
+    #[test]
+    fn an_uploaded_image_runs_after_the_restart_on_trial_and_confirms_itself() {
+        let (mut w, flash, token) = board(false);
+        let f = firmware(&mut w);
+        assert_eq!(f["supported"], true);
+        assert_eq!(f["running"], v("1.0.0"));
+        assert_eq!(f["state"], v("confirmed"));
+        assert_eq!(f["upload"]["state"], v("idle"));
+        let new_body = body(0xB, 70_000);
+        let image = sign(&TEST_KEY_SEED, BOARD, version(1, 1, 0), &new_body);
+        let beat = w.reg(r::STATUS_HEARTBEAT);
+        let a = upload(&mut w, &token, "", &image);
+        assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+        assert_eq!(a.json()["version"], v("1.1.0"));
+        assert_eq!(a.json()["restart_needed"], true);
+        let f = firmware(&mut w);
+        assert_eq!(f["upload"]["state"], v("installed"));
+        assert_eq!(f["upload"]["version"], v("1.1.0"));
+        assert_eq!(f["state"], v("pending"));
+        assert_eq!(
+            f["running"],
+            v("1.0.0"),
+            "still the old one until the restart"
+        );
+        w.run_for(ms(500));
+        assert_ne!(w.reg(r::STATUS_HEARTBEAT), beat, "the gateway kept serving");
+        // The restart: the bootloader swaps the slots.
+        w.restart();
+        w.run_for(ms(300));
+        let f = firmware(&mut w);
+        assert_eq!(f["running"], v("1.1.0"));
+        assert_eq!(f["previous"], v("1.0.0"));
+        assert_eq!(f["state"], v("trial"));
+        assert_eq!(flash.active_body(new_body.len()), new_body);
+        w.run_for(hans_gateway::TRIAL_CHECK + Duration::from_secs(1));
+        assert_eq!(firmware(&mut w)["state"], v("confirmed"));
+        assert!(!w.restart_asked());
+        // Confirmed: another restart keeps it.
+        w.restart();
+        w.run_for(ms(300));
+        let f = firmware(&mut w);
+        assert_eq!(
+            (f["running"].clone(), f["state"].clone()),
+            (v("1.1.0"), v("confirmed"))
+        );
+    }
+
+    #[test]
+    fn an_image_that_fails_its_self_check_is_rolled_back_at_its_restart() {
+        let (mut w, flash, token) = board(true);
+        let image = sign(&TEST_KEY_SEED, BOARD, version(2, 0, 0), &body(0xC, 50_000));
+        assert_eq!(upload(&mut w, &token, "", &image).status, 200);
+        w.restart();
+        w.run_for(ms(300));
+        assert_eq!(firmware(&mut w)["state"], v("trial"));
+        w.run_for(hans_gateway::TRIAL_CHECK + Duration::from_secs(2));
+        assert!(w.restart_asked(), "the failed check restarts the device");
+        assert_eq!(firmware(&mut w)["state"], v("trial"), "never confirmed");
+        w.restart();
+        w.run_for(ms(300));
+        let f = firmware(&mut w);
+        assert_eq!(f["running"], v("1.0.0"));
+        assert_eq!(f["state"], v("rolled back"));
+        assert_eq!(flash.active_body(30_000), body(0xA, 30_000));
+        // A rolled-back device takes the next update.
+        // A restart ended the session.
+        let token = login(&mut w, "admin", "correct horse").token();
+        let image = sign(&TEST_KEY_SEED, BOARD, version(2, 0, 1), &body(0xD, 1000));
+        assert_eq!(upload(&mut w, &token, "", &image).status, 200);
+    }
+
+    #[test]
+    fn bad_images_are_refused_with_their_reason_and_nothing_is_installed() {
+        let (mut w, flash, token) = board(false);
+        let good = body(0xE, 20_000);
+        let at = |maj, min| version(maj, min, 0);
+        let mut corrupted = sign(&TEST_KEY_SEED, BOARD, at(1, 2), &good);
+        let n = corrupted.len();
+        corrupted[n - 100] ^= 1;
+        let full = sign(&TEST_KEY_SEED, BOARD, at(1, 2), &good);
+        let cases: Vec<(&str, Vec<u8>, &str, u16, &str)> = vec![
+            (
+                "another key",
+                sign(&[9; 32], BOARD, at(1, 2), &good),
+                "",
+                422,
+                "not signed by the trusted key",
+            ),
+            (
+                "another board",
+                sign(&TEST_KEY_SEED, "nucleo-f767zi", at(1, 2), &good),
+                "",
+                422,
+                "image for another board",
+            ),
+            (
+                "truncated",
+                full[..full.len() - 5000].to_vec(),
+                "",
+                422,
+                "image truncated or too long",
+            ),
+            (
+                "corrupted",
+                corrupted,
+                "",
+                422,
+                "image corrupted (hash mismatch)",
+            ),
+            (
+                "older",
+                sign(
+                    &TEST_KEY_SEED,
+                    BOARD,
+                    Version {
+                        major: 0,
+                        minor: 9,
+                        patch: 0,
+                    },
+                    &good,
+                ),
+                "",
+                422,
+                "older than the running firmware (downgrade not allowed)",
+            ),
+            (
+                "not an image",
+                b"hello".repeat(100),
+                "",
+                422,
+                "not a firmware image of this gateway",
+            ),
+            (
+                "too large",
+                sign(&TEST_KEY_SEED, BOARD, at(1, 2), &vec![0; 600 * 1024]),
+                "",
+                413,
+                "image larger than the update slot",
+            ),
+        ];
+        for (what, image, query, status, reason) in cases {
+            let a = upload(&mut w, &token, query, &image);
+            assert_eq!(
+                a.status,
+                status,
+                "{what}: {}",
+                String::from_utf8_lossy(&a.body)
+            );
+            assert_eq!(a.json()["error"], v(reason), "{what}");
+            let f = firmware(&mut w);
+            assert_eq!(f["upload"]["state"], v("refused"), "{what}");
+            assert_eq!(f["upload"]["reason"], v(reason), "{what}");
+            assert_eq!(f["state"], v("confirmed"), "{what}: nothing marked");
+        }
+        // Not an administrator, or not declared as bytes: refused before a
+        // byte is read.
+        let image = sign(&TEST_KEY_SEED, BOARD, at(1, 2), &good);
+        let headers = [
+            ("Origin", ORIGIN),
+            ("Content-Type", "application/octet-stream"),
+        ];
+        let a = send(
+            &mut w,
+            PC,
+            &request("POST", "/api/firmware", &headers, &image),
+        )
+        .unwrap();
+        assert_eq!(a.status, 401);
+        let cookie = format!("hgw_session={token}");
+        let headers = [
+            ("Cookie", cookie.as_str()),
+            ("Origin", ORIGIN),
+            ("Content-Type", "application/json"),
+        ];
+        let a = send(
+            &mut w,
+            PC,
+            &request("POST", "/api/firmware", &headers, &image),
+        )
+        .unwrap();
+        assert_eq!(a.status, 415);
+        // Nothing was installed: a restart runs 1.0.0, confirmed.
+        w.restart();
+        w.run_for(ms(300));
+        let f = firmware(&mut w);
+        assert_eq!(
+            (f["running"].clone(), f["state"].clone()),
+            (v("1.0.0"), v("confirmed"))
+        );
+        assert_eq!(flash.active_body(30_000), body(0xA, 30_000));
+        // An administrator may allow an older version.
+        let token = login(&mut w, "admin", "correct horse").token();
+        let old = sign(
+            &TEST_KEY_SEED,
+            BOARD,
+            Version {
+                major: 0,
+                minor: 9,
+                patch: 0,
+            },
+            &good,
+        );
+        assert_eq!(upload(&mut w, &token, "?downgrade=allow", &old).status, 200);
+    }
+}

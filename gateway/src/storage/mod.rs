@@ -94,7 +94,10 @@ pub trait Storage {
     /// see [`WithSlots`]). Default: there are none
     /// ([`SlotError::Unsupported`](crate::update::SlotError)).
     #[cfg(feature = "update")]
-    async fn firmware(&mut self, op: crate::update::SlotOp<'_>) -> Result<(), crate::update::SlotError> {
+    async fn firmware(
+        &mut self,
+        op: crate::update::SlotOp<'_>,
+    ) -> Result<(), crate::update::SlotError> {
         let _ = op;
         Err(crate::update::SlotError::Unsupported)
     }
@@ -120,7 +123,10 @@ impl<S: Storage> Storage for &mut S {
         (**self).audit_persistent()
     }
     #[cfg(feature = "update")]
-    async fn firmware(&mut self, op: crate::update::SlotOp<'_>) -> Result<(), crate::update::SlotError> {
+    async fn firmware(
+        &mut self,
+        op: crate::update::SlotOp<'_>,
+    ) -> Result<(), crate::update::SlotError> {
         (**self).firmware(op).await
     }
 }
@@ -199,7 +205,10 @@ impl<S: Storage, U: crate::update::Slots> Storage for WithSlots<S, U> {
     fn audit_persistent(&self) -> bool {
         self.storage.audit_persistent()
     }
-    async fn firmware(&mut self, op: crate::update::SlotOp<'_>) -> Result<(), crate::update::SlotError> {
+    async fn firmware(
+        &mut self,
+        op: crate::update::SlotOp<'_>,
+    ) -> Result<(), crate::update::SlotError> {
         op.apply(&mut self.slots).await
     }
 }

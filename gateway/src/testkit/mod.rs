@@ -28,6 +28,8 @@
 
 pub mod broker;
 pub mod clock;
+#[cfg(feature = "update")]
+pub mod flash;
 pub mod net;
 pub mod plc;
 pub mod rng;

@@ -45,7 +45,7 @@ pub const MODBUS_PORT: u16 = 502;
 
 /// Storage in memory that outlives a gateway (a restart keeps it), and can
 /// be made to fail.
-#[derive(Clone, Default)]
+#[derive(Default)]
 pub struct MemStorage {
     /// The stored image.
     pub data: Rc<RefCell<Vec<u8>>>,
@@ -53,7 +53,33 @@ pub struct MemStorage {
     pub fail: Rc<Cell<bool>>,
     /// The audit records kept, oldest first (no limit).
     pub audit: Rc<RefCell<Vec<Vec<u8>>>>,
+    /// A board's flash with the firmware slots (feature `update`): the
+    /// gateway installs uploads into it, and [`World::restart`] runs the
+    /// bootloader's step on it first. `None`: no slots (as Linux).
+    #[cfg(feature = "update")]
+    pub flash: Option<super::flash::SimFlash>,
+    /// The application's view of the slots (RAM: a restart makes it anew).
+    #[cfg(feature = "update")]
+    slots: Option<
+        crate::update::BootSlots<super::flash::Part, super::flash::Part, super::flash::Part>,
+    >,
     copy: Vec<u8>,
+}
+
+impl Clone for MemStorage {
+    /// Another view of the same media (what a restarted gateway gets).
+    fn clone(&self) -> Self {
+        MemStorage {
+            data: self.data.clone(),
+            fail: self.fail.clone(),
+            audit: self.audit.clone(),
+            #[cfg(feature = "update")]
+            flash: self.flash.clone(),
+            #[cfg(feature = "update")]
+            slots: None,
+            copy: Vec::new(),
+        }
+    }
 }
 
 impl Storage for MemStorage {
@@ -91,6 +117,28 @@ impl Storage for MemStorage {
     fn audit_persistent(&self) -> bool {
         true
     }
+
+    #[cfg(feature = "update")]
+    async fn firmware(
+        &mut self,
+        op: crate::update::SlotOp<'_>,
+    ) -> Result<(), crate::update::SlotError> {
+        let Some(flash) = &self.flash else {
+            return Err(crate::update::SlotError::Unsupported);
+        };
+        let slots = self.slots.get_or_insert_with(|| flash.slots());
+        op.apply(slots).await
+    }
+}
+
+std::thread_local! {
+    /// Set when the gateway asked the platform to restart (its
+    /// `Options::restart`), read by [`World::restart_asked`].
+    static RESTART_ASKED: Cell<bool> = const { Cell::new(false) };
+}
+
+fn ask_restart() {
+    RESTART_ASKED.with(|r| r.set(true));
 }
 
 /// How to build a world.
@@ -117,6 +165,9 @@ pub struct WorldConfig {
     /// telemetry on to it (needs the feature `mqtt`); `None`: telemetry
     /// off (the factory state).
     pub broker: Option<BrokerMode>,
+    /// The firmware's self-check fails (an image that never confirms
+    /// itself; with slots in the storage).
+    pub self_check_fails: bool,
 }
 
 /// The world's setup code (as the platform would print it).
@@ -137,6 +188,7 @@ impl Default for WorldConfig {
             recovery: false,
             setup_code: crate::SetupCode::parse(SETUP_CODE.as_bytes()),
             broker: None,
+            self_check_fails: false,
         }
     }
 }
@@ -242,6 +294,7 @@ impl World {
             setup_code: config.setup_code,
             ..Default::default()
         };
+        let opts = Self::with_updates(opts, &config);
         let flag = Arc::new(Flag(AtomicBool::new(true)));
         let waker = Waker::from(flag.clone());
         let gateway = Rc::new(Gateway::new(opts));
@@ -269,6 +322,30 @@ impl World {
         }
         w.settle();
         w
+    }
+
+    /// `opts` of a board with firmware slots, if the storage has them:
+    /// the test key trusted, the QEMU board's id, a restart the world
+    /// notes ([`Self::restart_asked`]).
+    fn with_updates(opts: Options, config: &WorldConfig) -> Options {
+        #[cfg(feature = "update")]
+        if config.storage.flash.is_some() {
+            return Options {
+                update_key: Some(super::flash::test_key()),
+                board: crate::update::layout::MPS2_AN386.board,
+                self_check_fails: config.self_check_fails,
+                restart: Some(ask_restart),
+                ..opts
+            };
+        }
+        let _ = config;
+        opts
+    }
+
+    /// The gateway asked the platform to restart (the web page's restart,
+    /// a trial image's failed self-check) since the last [`Self::restart`].
+    pub fn restart_asked(&self) -> bool {
+        RESTART_ASKED.with(|r| r.get())
     }
 
     fn spawn(
@@ -316,6 +393,13 @@ impl World {
             setup_code: self.config.setup_code,
             ..Default::default()
         };
+        let opts = Self::with_updates(opts, &self.config);
+        // The bootloader's step at power-up (a board with slots).
+        #[cfg(feature = "update")]
+        if let Some(flash) = &self.config.storage.flash {
+            flash.boot();
+        }
+        RESTART_ASKED.with(|r| r.set(false));
         self.robot.drop_connections();
         for p in self.plcs.iter_mut() {
             p.close();

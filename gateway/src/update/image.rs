@@ -300,3 +300,27 @@ pub fn check(image: &[u8], expect: &Expect<'_>) -> Result<Header, ImageError> {
     v.update(image.get(HEADER_LEN..).unwrap_or(&[]))?;
     v.finish()
 }
+
+/// A public key from its hex text (64 hex digits, surrounding whitespace
+/// allowed), as `hans-fw keygen` writes it (a board compiles its key file
+/// in with `include_bytes!`).
+pub fn key_from_hex(text: &[u8]) -> Option<[u8; 32]> {
+    fn digit(c: u8) -> Option<u8> {
+        match c {
+            b'0'..=b'9' => Some(c - b'0'),
+            b'a'..=b'f' => Some(c - b'a' + 10),
+            b'A'..=b'F' => Some(c - b'A' + 10),
+            _ => None,
+        }
+    }
+    let text = text.trim_ascii();
+    if text.len() != 64 {
+        return None;
+    }
+    let mut key = [0u8; 32];
+    for (k, pair) in key.iter_mut().zip(text.chunks_exact(2)) {
+        let [hi, lo] = pair else { return None };
+        *k = digit(*hi)? << 4 | digit(*lo)?;
+    }
+    Some(key)
+}

@@ -78,20 +78,41 @@ pub const NUCLEO_F767ZI: Layout = Layout {
     size: 0x20_0000,
 };
 
+/// The layout of the board named `board` (an image header's board id).
+pub fn of(board: &str) -> Option<&'static Layout> {
+    [&MPS2_AN386, &NUCLEO_F767ZI]
+        .into_iter()
+        .find(|l| l.board == board)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn check(l: &Layout) {
         let (a, d) = (l.active.end - l.active.start, l.dfu.end - l.dfu.start);
-        assert_eq!(d, a + l.page, "{}: the download slot is one page larger", l.board);
+        assert_eq!(
+            d,
+            a + l.page,
+            "{}: the download slot is one page larger",
+            l.board
+        );
         for r in [&l.state, &l.active, &l.dfu] {
-            assert_eq!(r.start % l.page.min(0x4000), 0, "{}: {r:?} page-aligned", l.board);
+            assert_eq!(
+                r.start % l.page.min(0x4000),
+                0,
+                "{}: {r:?} page-aligned",
+                l.board
+            );
             assert!(r.end <= l.size);
         }
         assert!(l.state.end <= l.active.start && l.active.end <= l.dfu.start);
         assert_eq!(l.entry % HEADER_PAGE, 0);
-        assert!(l.max_body() >= 384 * 1024, "{}: a slot holds the field-device budget", l.board);
+        assert!(
+            l.max_body() >= 384 * 1024,
+            "{}: a slot holds the field-device budget",
+            l.board
+        );
     }
 
     #[test]
@@ -101,7 +122,11 @@ mod tests {
         // The NUCLEO's configuration (bank 2, sectors 12-15) stays outside
         // every slot: a board updated from the layout before keeps it.
         let config = 0x10_0000..0x11_0000;
-        for r in [&NUCLEO_F767ZI.state, &NUCLEO_F767ZI.active, &NUCLEO_F767ZI.dfu] {
+        for r in [
+            &NUCLEO_F767ZI.state,
+            &NUCLEO_F767ZI.active,
+            &NUCLEO_F767ZI.dfu,
+        ] {
             assert!(r.end <= config.start || r.start >= config.end);
         }
     }

@@ -32,8 +32,6 @@ pub const PIECE: usize = 1024;
 /// What the storage task is asked to do with the slots.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Op {
-    /// Read the boot state and the two slots' headers into the status.
-    Survey,
     /// Write `len` bytes of the piece buffer into the download slot at
     /// `offset`.
     Write { offset: u32, len: usize },
@@ -94,6 +92,9 @@ pub struct Updates {
     /// The piece being handed over.
     pub(crate) piece: RefCell<[u8; PIECE]>,
     status: Cell<Status>,
+    /// The key, board id and largest body an upload must match
+    /// ([`Updates::trust_images`]); `None`: nothing is installed.
+    trust: Cell<Option<([u8; 32], &'static str, u32)>>,
 }
 
 impl Default for Updates {
@@ -118,7 +119,21 @@ impl Updates {
                 boot: None,
                 upload: Upload::Idle,
             }),
+            trust: Cell::new(None),
         }
+    }
+
+    /// Uploads are checked against `key` and `board` (whose layout gives
+    /// the largest body, see [`layout::of`]); a board without a layout
+    /// installs nothing.
+    pub fn trust_images(&self, key: [u8; 32], board: &'static str) {
+        self.trust
+            .set(layout::of(board).map(|l| (key, board, l.max_body())));
+    }
+
+    /// What an upload must match: the key, the board id, the largest body.
+    pub(crate) fn trust(&self) -> Option<([u8; 32], &'static str, u32)> {
+        self.trust.get()
     }
 
     /// The firmware's status.

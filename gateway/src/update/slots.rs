@@ -21,9 +21,11 @@ use embassy_boot::{AlignedBuffer, FirmwareState, FirmwareUpdaterError, State};
 pub enum Slot {
     /// The running image.
     Active,
-    /// The download slot: an update being written, or after a swap the
-    /// previous image.
+    /// The download slot: an update being written.
     Dfu,
+    /// The previous image, after a swap: in the download slot one page
+    /// in (where embassy-boot's swap leaves the old image's pages).
+    Previous,
 }
 
 /// The boot state, as the application finds it.
@@ -73,7 +75,9 @@ impl SlotError {
     /// A short text for the page and the log.
     pub fn as_str(self) -> &'static str {
         match self {
-            SlotError::Unsupported => "this gateway installs no firmware (updates come with its package)",
+            SlotError::Unsupported => {
+                "this gateway installs no firmware (updates come with its package)"
+            }
             SlotError::Flash => "flash error while writing the update",
             SlotError::OutOfRange => "write outside the update slot",
             SlotError::OnTrial => "the running firmware is on trial: it must confirm itself first",
@@ -180,6 +184,11 @@ impl<A: NorFlash, D: NorFlash, S: NorFlash> Slots for BootSlots<A, D, S> {
         match slot {
             Slot::Active => self.active.read(offset, buf).await.map_err(flash),
             Slot::Dfu => self.dfu.read(offset, buf).await.map_err(flash),
+            Slot::Previous => {
+                let page = A::ERASE_SIZE.max(D::ERASE_SIZE) as u32;
+                let at = offset.checked_add(page).ok_or(SlotError::OutOfRange)?;
+                self.dfu.read(at, buf).await.map_err(flash)
+            }
         }
     }
 
@@ -250,7 +259,10 @@ impl<A: NorFlash, D: NorFlash, S: NorFlash> BootSlots<A, D, S> {
             word.get_mut(..tail.len())
                 .ok_or(SlotError::OutOfRange)?
                 .copy_from_slice(tail);
-            self.dfu.write(at + whole as u32, word).await.map_err(flash)?;
+            self.dfu
+                .write(at + whole as u32, word)
+                .await
+                .map_err(flash)?;
         }
         Ok(())
     }

@@ -159,3 +159,14 @@ fn the_signing_side_refuses_what_the_reader_would() {
     assert!(Header::signed_part("seventeen-chars-x", V, b"x").is_none());
     assert!(Header::signed_part("sixteen-chars-xx", V, b"x").is_some());
 }
+
+#[test]
+fn a_key_file_reads_as_its_key() {
+    let k = key_from_hex(include_bytes!("../../../firmware/keys/dev.pub")).expect("the dev key");
+    assert_eq!(k[0], 0xf3);
+    assert_eq!(k[31], 0x2e);
+    assert_eq!(key_from_hex(b"f3d6"), None);
+    let mut bad = *include_bytes!("../../../firmware/keys/dev.pub");
+    bad[3] = b'g';
+    assert_eq!(key_from_hex(&bad), None);
+}

@@ -69,6 +69,8 @@
 pub(crate) mod api;
 pub(crate) mod assets;
 pub(crate) mod audit;
+#[cfg(feature = "update")]
+pub(crate) mod firmware;
 pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
@@ -707,10 +709,19 @@ fn same_origin(parts: &RequestParts<'_>, host: &[u8]) -> bool {
 /// that type without the browser asking first (CORS), which the device
 /// never allows.
 fn json_type(parts: &RequestParts<'_>) -> bool {
+    media_type(parts, b"application/json")
+}
+
+/// `true` if the body is declared `application/octet-stream` (an upload).
+fn octet_type(parts: &RequestParts<'_>) -> bool {
+    media_type(parts, b"application/octet-stream")
+}
+
+fn media_type(parts: &RequestParts<'_>, want: &[u8]) -> bool {
     parts.headers().get("Content-Type").is_some_and(|t| {
         let t = t.as_raw();
         let media = t.split(|&b| b == b';').next().unwrap_or(&[]).trim_ascii();
-        media.eq_ignore_ascii_case(b"application/json")
+        media.eq_ignore_ascii_case(want)
     })
 }
 
@@ -771,6 +782,33 @@ impl<C: Clock> App<'_, C> {
 
     fn admin_exists(&self) -> bool {
         self.hub.with(|m| m.access.accounts.admin_exists())
+    }
+}
+
+impl<C: Clock> App<'_, C> {
+    /// May the device restart now: no motion runs, or the body says
+    /// `{"during_motion":true}` (the person was told and confirmed).
+    async fn restart_confirmed<R: Read>(&self, request: &mut Request<'_, R>) -> bool {
+        #[derive(serde::Deserialize)]
+        struct Doc {
+            #[serde(default)]
+            during_motion: bool,
+        }
+        if self.hub.with(|m| m.active_motion.is_none()) {
+            return true;
+        }
+        let confirmed = match request.body_connection.body().read_all().await {
+            Ok(body) => {
+                serde_json_core::from_slice::<Doc>(body).is_ok_and(|(d, _)| d.during_motion)
+            }
+            Err(_) => false,
+        };
+        if confirmed {
+            warn!(
+                "web: restart confirmed during a motion: the robot link closes in the middle of it"
+            );
+        }
+        confirmed
     }
 }
 
@@ -885,7 +923,19 @@ impl<C: Clock> App<'_, C> {
         if post && !same_origin(&request.parts, host) {
             return error(StatusCode::FORBIDDEN, "cross-site request refused");
         }
-        if post && !json_type(&request.parts) {
+        // An upload is bytes, declared so: like JSON, a type no form of
+        // another site may send without the browser asking first.
+        #[cfg(feature = "update")]
+        let upload = post && path == "/api/firmware";
+        #[cfg(not(feature = "update"))]
+        let upload = false;
+        if upload && !octet_type(&request.parts) {
+            return error(
+                StatusCode::UNSUPPORTED_MEDIA_TYPE,
+                "an upload needs Content-Type: application/octet-stream",
+            );
+        }
+        if post && !upload && !json_type(&request.parts) {
             return error(
                 StatusCode::UNSUPPORTED_MEDIA_TYPE,
                 "a change needs Content-Type: application/json",
@@ -939,6 +989,18 @@ impl<C: Clock> App<'_, C> {
                 Err(r) => r,
             },
             // role: admin.
+            #[cfg(feature = "update")]
+            "/api/firmware" if post => match self.require(&request.parts, Role::Admin) {
+                Ok(who) => {
+                    let downgrade = request
+                        .parts
+                        .query()
+                        .is_some_and(|q| q.0.split('&').any(|kv| kv == "downgrade=allow"));
+                    self.post_firmware(who, downgrade, request).await
+                }
+                Err(r) => r,
+            },
+            // role: admin.
             p if post
                 && (p == "/api/config"
                     || p == "/api/restart"
@@ -951,6 +1013,11 @@ impl<C: Clock> App<'_, C> {
                 match p {
                     "/api/config" => self.post_config(who, request).await,
                     "/api/restart" => match self.web.restart {
+                        Some(_) if !self.restart_confirmed(request).await => error(
+                            StatusCode::CONFLICT,
+                            "a motion is running: the restart cuts the robot link in the middle of it. \
+                             Wait for it to end, or confirm with {\"during_motion\":true}",
+                        ),
                         Some(_) => {
                             let name = self.name_of(who);
                             let actor = name.as_ref().map_or(&[][..], |n| n.as_bytes());
@@ -975,7 +1042,7 @@ impl<C: Clock> App<'_, C> {
             }
             "/" | "/index.html" | "/api/status" | "/api/config" | "/api/fields" | "/api/log"
             | "/api/session" | "/api/login" | "/api/logout" | "/api/password" | "/api/restart"
-            | "/api/setup" | "/api/accounts" => {
+            | "/api/setup" | "/api/accounts" | "/api/firmware" => {
                 error(StatusCode::METHOD_NOT_ALLOWED, "method not allowed")
             }
             _ => error(StatusCode::NOT_FOUND, "not found"),

@@ -1,0 +1,234 @@
+//! A board's flash for the update tests (features `testkit` and
+//! `update`): the QEMU board's layout ([`layout::MPS2_AN386`]) in RAM, the
+//! application's slots over it ([`BootSlots`], what the board gives the
+//! gateway), and the bootloader's step at power-up ([`SimFlash::boot`]:
+//! embassy-boot's `prepare_boot`, as the boards' bootloaders run it). A
+//! [`World`](super::world::World) whose storage has one updates as a board
+//! does: upload, restart, trial, confirmation or rollback.
+
+use core::ops::Range;
+use std::cell::RefCell;
+use std::rc::Rc;
+use std::vec;
+use std::vec::Vec;
+
+use ed25519_dalek::{Signer, SigningKey};
+use embassy_boot::{BootLoader, BootLoaderConfig, State};
+use embedded_storage_async::nor_flash as a;
+
+use crate::update::image::{Header, Version, HEADER_LEN};
+use crate::update::layout::{Layout, HEADER_PAGE, MPS2_AN386};
+use crate::update::BootSlots;
+
+/// The signing key of the test images (its seed).
+pub const TEST_KEY_SEED: [u8; 32] = [7; 32];
+
+/// The public key of [`TEST_KEY_SEED`] (what the world's gateway trusts).
+pub fn test_key() -> [u8; 32] {
+    SigningKey::from_bytes(&TEST_KEY_SEED)
+        .verifying_key()
+        .to_bytes()
+}
+
+/// An image of `body` for `board` at `version`, signed with the seed
+/// `key` (as `hans-fw sign` makes it).
+pub fn sign(key: &[u8; 32], board: &str, version: Version, body: &[u8]) -> Vec<u8> {
+    let signed = Header::signed_part(board, version, body).expect("a body that fits a header");
+    let sig = SigningKey::from_bytes(key).sign(&signed).to_bytes();
+    let mut out = Header::write(&signed, &sig).to_vec();
+    out.extend_from_slice(body);
+    out
+}
+
+/// `major.minor.patch`.
+pub const fn version(major: u16, minor: u16, patch: u16) -> Version {
+    Version {
+        major,
+        minor,
+        patch,
+    }
+}
+
+/// The flash: shared by every view of it (it survives a restart).
+#[derive(Clone, Debug)]
+pub struct SimFlash {
+    mem: Rc<RefCell<Vec<u8>>>,
+    layout: &'static Layout,
+}
+
+impl Default for SimFlash {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SimFlash {
+    /// An erased flash of the QEMU board's layout.
+    pub fn new() -> Self {
+        SimFlash {
+            mem: Rc::new(RefCell::new(vec![0xFF; MPS2_AN386.size as usize])),
+            layout: &MPS2_AN386,
+        }
+    }
+
+    /// The first flashing (a probe's, or `hans-fw install`'s): `image` in
+    /// the active slot, the boot state erased.
+    pub fn install(&self, image: &[u8]) {
+        let mut m = self.mem.borrow_mut();
+        let at = self.layout.active.start as usize;
+        m[at..at + HEADER_LEN].copy_from_slice(&image[..HEADER_LEN]);
+        let body = &image[HEADER_LEN..];
+        let b = at + HEADER_PAGE as usize;
+        m[b..b + body.len()].copy_from_slice(body);
+    }
+
+    fn part(&self, r: &Range<u32>) -> Part {
+        Part {
+            mem: self.mem.clone(),
+            at: r.start as usize,
+            len: (r.end - r.start) as usize,
+        }
+    }
+
+    /// The application's view: its slots.
+    pub fn slots(&self) -> BootSlots<Part, Part, Part> {
+        let l = self.layout;
+        BootSlots::new(self.part(&l.active), self.part(&l.dfu), self.part(&l.state))
+    }
+
+    /// The bootloader at power-up: swaps an update in, or rolls a trial
+    /// image that never confirmed back. Its state.
+    pub fn boot(&self) -> State {
+        let l = self.layout;
+        let mut boot = BootLoader::new(BootLoaderConfig {
+            active: self.part(&l.active),
+            dfu: self.part(&l.dfu),
+            state: self.part(&l.state),
+        });
+        let mut buf = [0u8; 4096];
+        boot.prepare_boot(&mut buf).expect("the bootloader's swap")
+    }
+
+    /// The header in a slot (`dfu`: the download slot).
+    pub fn header(&self, dfu: bool) -> Option<Header> {
+        let r = if dfu {
+            &self.layout.dfu
+        } else {
+            &self.layout.active
+        };
+        let m = self.mem.borrow();
+        Header::parse(&m[r.start as usize..r.start as usize + HEADER_LEN]).ok()
+    }
+
+    /// The body of the image in the active slot, `len` bytes.
+    pub fn active_body(&self, len: usize) -> Vec<u8> {
+        let at = (self.layout.active.start + HEADER_PAGE) as usize;
+        self.mem.borrow()[at..at + len].to_vec()
+    }
+}
+
+/// One partition of the flash (NOR: a write only clears bits).
+#[derive(Debug)]
+pub struct Part {
+    mem: Rc<RefCell<Vec<u8>>>,
+    at: usize,
+    len: usize,
+}
+
+/// A flash error: out of the partition or misaligned.
+#[derive(Debug)]
+pub struct Bad(a::NorFlashErrorKind);
+
+impl a::NorFlashError for Bad {
+    fn kind(&self) -> a::NorFlashErrorKind {
+        self.0
+    }
+}
+
+impl Part {
+    fn check(&self, offset: u32, len: usize, align: usize) -> Result<usize, Bad> {
+        let o = offset as usize;
+        if o + len > self.len {
+            return Err(Bad(a::NorFlashErrorKind::OutOfBounds));
+        }
+        if o % align != 0 || len % align != 0 {
+            return Err(Bad(a::NorFlashErrorKind::NotAligned));
+        }
+        Ok(self.at + o)
+    }
+    fn do_read(&self, offset: u32, bytes: &mut [u8]) -> Result<(), Bad> {
+        let at = self.check(offset, bytes.len(), 1)?;
+        bytes.copy_from_slice(&self.mem.borrow()[at..at + bytes.len()]);
+        Ok(())
+    }
+    fn do_write(&self, offset: u32, bytes: &[u8]) -> Result<(), Bad> {
+        let at = self.check(offset, bytes.len(), 4)?;
+        let mut m = self.mem.borrow_mut();
+        for (d, s) in m[at..at + bytes.len()].iter_mut().zip(bytes) {
+            *d &= *s;
+        }
+        Ok(())
+    }
+    fn do_erase(&self, from: u32, to: u32) -> Result<(), Bad> {
+        let len = to
+            .checked_sub(from)
+            .ok_or(Bad(a::NorFlashErrorKind::OutOfBounds))?;
+        let at = self.check(from, len as usize, 4096)?;
+        self.mem.borrow_mut()[at..at + len as usize].fill(0xFF);
+        Ok(())
+    }
+}
+
+impl a::ErrorType for Part {
+    type Error = Bad;
+}
+
+impl a::ReadNorFlash for Part {
+    const READ_SIZE: usize = 1;
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Bad> {
+        self.do_read(offset, bytes)
+    }
+    fn capacity(&self) -> usize {
+        self.len
+    }
+}
+
+impl a::NorFlash for Part {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = 4096;
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), Bad> {
+        self.do_erase(from, to)
+    }
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Bad> {
+        self.do_write(offset, bytes)
+    }
+}
+
+mod blocking {
+    use super::{Bad, Part};
+    use embedded_storage::nor_flash as b;
+
+    // The error traits are embedded-storage's in both (the async crate
+    // re-exports them): implemented once, above.
+
+    impl b::ReadNorFlash for Part {
+        const READ_SIZE: usize = 1;
+        fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), Bad> {
+            self.do_read(offset, bytes)
+        }
+        fn capacity(&self) -> usize {
+            self.len
+        }
+    }
+
+    impl b::NorFlash for Part {
+        const WRITE_SIZE: usize = 4;
+        const ERASE_SIZE: usize = 4096;
+        fn erase(&mut self, from: u32, to: u32) -> Result<(), Bad> {
+            self.do_erase(from, to)
+        }
+        fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), Bad> {
+            self.do_write(offset, bytes)
+        }
+    }
+}
