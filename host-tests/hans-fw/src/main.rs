@@ -7,6 +7,7 @@
 //! hans-fw sign --key K --board B --version X.Y.Z FIRMWARE.bin -o IMAGE
 //! hans-fw verify --pub P --board B [--running X.Y.Z] [--allow-downgrade] IMAGE
 //! hans-fw inspect IMAGE
+//! hans-fw install --layout BOARD --out FLASH.bin IMAGE [--dfu IMAGE2]
 //! ```
 //!
 //! Keys are 32 bytes in hex on one line. Exit status: 0 done (verify: the
@@ -20,6 +21,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use ed25519_dalek::{Signer, SigningKey};
 use hans_gateway::update::image::{check, Expect, Header, Version, HEADER_LEN};
+use hans_gateway::update::layout::{Layout, HEADER_PAGE, MPS2_AN386, NUCLEO_F767ZI};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -84,6 +86,77 @@ enum Cmd {
         /// The image.
         image: PathBuf,
     },
+    /// Writes a whole flash as a device's bootloader finds it: erased
+    /// (0xFF), the image in the active slot (its header at the slot's
+    /// start, the body a header page further), nothing to swap. The QEMU
+    /// board's flash file is made so; checks the image's form, board and
+    /// size (not its signature: the bootloader does that).
+    Install {
+        /// The board whose layout to use (mps2-an386, nucleo-f767zi).
+        #[arg(long)]
+        layout: String,
+        /// The flash file to write (replaced if it exists).
+        #[arg(long)]
+        out: PathBuf,
+        /// The image for the active slot.
+        image: PathBuf,
+        /// An image for the download slot as well (not marked for a swap).
+        #[arg(long)]
+        dfu: Option<PathBuf>,
+    },
+}
+
+/// The layout of `board`.
+fn layout(board: &str) -> Result<&'static Layout, String> {
+    [&MPS2_AN386, &NUCLEO_F767ZI]
+        .into_iter()
+        .find(|l| l.board == board)
+        .ok_or_else(|| format!("no layout for board {board:?} (mps2-an386, nucleo-f767zi)"))
+}
+
+/// Puts the image at `path` into `flash` at `slot` (its header at the
+/// start, its body `HEADER_PAGE` further), after checking its form, its
+/// board and that it fits; returns its header.
+fn put_image(
+    flash: &mut [u8],
+    slot: &std::ops::Range<u32>,
+    layout: &Layout,
+    path: &Path,
+) -> Result<Header, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let h = Header::parse(&bytes).map_err(|e| format!("{}: {}", path.display(), e.as_str()))?;
+    let body = &bytes[HEADER_LEN..];
+    if h.board() != layout.board {
+        return Err(format!(
+            "{}: an image for {}, not {}",
+            path.display(),
+            h.board(),
+            layout.board
+        ));
+    }
+    if body.len() as u64 != u64::from(h.body_len) {
+        return Err(format!(
+            "{}: the header says {} bytes of firmware, the file has {}",
+            path.display(),
+            h.body_len,
+            body.len()
+        ));
+    }
+    // A slot as long as the active one: the download slot's last page is
+    // the swap's.
+    let room = u64::from(layout.max_body());
+    if body.len() as u64 > room {
+        return Err(format!(
+            "{}: {} bytes of firmware, a slot holds {room}",
+            path.display(),
+            body.len()
+        ));
+    }
+    let at = slot.start as usize;
+    let body_at = at + HEADER_PAGE as usize;
+    flash[at..at + HEADER_LEN].copy_from_slice(&bytes[..HEADER_LEN]);
+    flash[body_at..body_at + body.len()].copy_from_slice(body);
+    Ok(h)
 }
 
 /// `X.Y.Z`, each 0-65535.
@@ -239,6 +312,35 @@ fn run(cli: Cli) -> Result<(), String> {
                 }
             );
             println!("sha256   {}", hex(&h.sha256));
+            Ok(())
+        }
+        Cmd::Install {
+            layout: board,
+            out,
+            image,
+            dfu,
+        } => {
+            let l = layout(&board)?;
+            let mut flash = vec![0xFF; l.size as usize];
+            let h = put_image(&mut flash, &l.active, l, &image)?;
+            let mut said = format!(
+                "{}: {} bytes, {} {}.{}.{} in the active slot",
+                out.display(),
+                l.size,
+                h.board(),
+                h.version.major,
+                h.version.minor,
+                h.version.patch
+            );
+            if let Some(dfu) = dfu {
+                let h = put_image(&mut flash, &l.dfu, l, &dfu)?;
+                said += &format!(
+                    ", {}.{}.{} in the download slot",
+                    h.version.major, h.version.minor, h.version.patch
+                );
+            }
+            write_file(&out, &flash, 0o644)?;
+            println!("{said}");
             Ok(())
         }
     }

@@ -137,3 +137,121 @@ fn keygen_sign_verify_and_inspect() {
     // A bad command line is status 2.
     assert_eq!(run(&["sign", "--version", "1.x"]).status.code(), Some(2));
 }
+
+/// `install` writes the flash a bootloader finds: erased, the image's
+/// header at the active slot's start, its body a header page further; the
+/// download slot likewise with `--dfu`; another board's or a truncated
+/// image is refused.
+#[test]
+fn install_writes_a_flash_file() {
+    let dir = Dir(std::env::temp_dir().join(format!("hans-fw-install-{}", std::process::id())));
+    std::fs::create_dir_all(&dir.0).unwrap();
+    let d = &dir.0;
+    assert!(run(&["keygen", "--out", s(d), "--name", "k"])
+        .status
+        .success());
+    let sign = |body: &[u8], board: &str, version: &str, name: &str| {
+        let fw = d.join(format!("{name}.bin"));
+        std::fs::write(&fw, body).unwrap();
+        let img = d.join(format!("{name}.img"));
+        let k = d.join("k.key");
+        let out = run(&[
+            "sign",
+            "--key",
+            s(&k),
+            "--board",
+            board,
+            "--version",
+            version,
+            s(&fw),
+            "-o",
+            s(&img),
+        ]);
+        assert!(out.status.success(), "{out:?}");
+        img
+    };
+    let a_body: Vec<u8> = (0..9_000u32).map(|i| (i % 251) as u8).collect();
+    let b_body: Vec<u8> = (0..5_000u32).map(|i| (i % 13) as u8).collect();
+    let a = sign(&a_body, "mps2-an386", "0.1.0", "a");
+    let b = sign(&b_body, "mps2-an386", "0.2.0", "b");
+    let flash = d.join("flash.bin");
+    let out = run(&[
+        "install",
+        "--layout",
+        "mps2-an386",
+        "--out",
+        s(&flash),
+        s(&a),
+        "--dfu",
+        s(&b),
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("0.1.0 in the active slot"));
+
+    // MPS2_AN386: state 0..0x1000, active 0x1000.., download 0x8_1000..,
+    // 0x10_2000 bytes; the body a 1 KiB header page after the header.
+    let f = std::fs::read(&flash).unwrap();
+    assert_eq!(f.len(), 0x10_2000);
+    let (a_img, b_img) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    let slot = |at: usize, img: &[u8], body: &[u8]| {
+        assert_eq!(&f[at..at + 136], &img[..136], "header at {at:#x}");
+        assert!(
+            f[at + 136..at + 1024].iter().all(|b| *b == 0xFF),
+            "padding erased"
+        );
+        assert_eq!(
+            &f[at + 1024..at + 1024 + body.len()],
+            body,
+            "body at {at:#x}"
+        );
+        at + 1024 + body.len()
+    };
+    let a_end = slot(0x1000, &a_img, &a_body);
+    let b_end = slot(0x8_1000, &b_img, &b_body);
+    assert!(f[..0x1000].iter().all(|b| *b == 0xFF), "no swap marked");
+    assert!(f[a_end..0x8_1000].iter().all(|b| *b == 0xFF));
+    assert!(f[b_end..].iter().all(|b| *b == 0xFF));
+
+    let refused = |args: &[&str], why: &str| {
+        let out = run(args);
+        assert_eq!(out.status.code(), Some(1), "{out:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(why), "{why:?} in {err}");
+    };
+    let other = sign(&a_body, "nucleo-f767zi", "0.1.0", "n");
+    refused(
+        &[
+            "install",
+            "--layout",
+            "mps2-an386",
+            "--out",
+            s(&flash),
+            s(&other),
+        ],
+        "an image for nucleo-f767zi, not mps2-an386",
+    );
+    let cut = d.join("cut.img");
+    std::fs::write(&cut, &a_img[..a_img.len() - 10]).unwrap();
+    refused(
+        &[
+            "install",
+            "--layout",
+            "mps2-an386",
+            "--out",
+            s(&flash),
+            s(&cut),
+        ],
+        "the header says 9000 bytes of firmware, the file has 8990",
+    );
+    refused(
+        &[
+            "install",
+            "--layout",
+            "mps2-an999",
+            "--out",
+            s(&flash),
+            s(&a),
+        ],
+        "no layout for board",
+    );
+}
