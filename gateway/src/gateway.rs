@@ -630,6 +630,7 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
 
 /// Does `op` on the slots.
 #[cfg(feature = "update")]
+#[allow(clippy::await_holding_refcell_ref)] // the piece's borrow: see `Op::Write`
 async fn firmware<S: Storage>(
     hub: &Hub,
     storage: &mut S,
@@ -637,8 +638,13 @@ async fn firmware<S: Storage>(
 ) -> Result<(), crate::update::SlotError> {
     use crate::update::{Op, SlotOp};
     match op {
+        // The uploader waits for the answer while this holds the piece
+        // (the mailbox's protocol), so the borrow is never contended; a
+        // contended one would fail the write, not panic.
         Op::Write { offset, len } => {
-            let piece = hub.updates.piece.borrow();
+            let Ok(piece) = hub.updates.piece.try_borrow() else {
+                return Err(crate::update::SlotError::Flash);
+            };
             let data = piece.get(..len).unwrap_or(&[]);
             storage.firmware(SlotOp::Write { offset, data }).await
         }

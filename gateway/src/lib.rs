@@ -153,11 +153,11 @@ pub use config::Config;
 /// The jog timing a PLC follows: the keep-alive period and the PLC
 /// heartbeat a jog needs (REGISTERS.md, jogging).
 pub use engine::jog::{HEARTBEAT as JOG_HEARTBEAT, KEEP_ALIVE as JOG_KEEP_ALIVE};
+#[cfg(feature = "update")]
+pub use gateway::TRIAL_CHECK;
 pub use gateway::{
     run, Gateway, MqttOverride, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF,
 };
-pub use storage::{NoStorage, Storage, StorageError};
-#[cfg(feature = "update")]
-pub use gateway::TRIAL_CHECK;
 #[cfg(feature = "update")]
 pub use storage::WithSlots;
+pub use storage::{NoStorage, Storage, StorageError};

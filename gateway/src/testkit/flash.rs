@@ -151,7 +151,7 @@ impl Part {
         if o + len > self.len {
             return Err(Bad(a::NorFlashErrorKind::OutOfBounds));
         }
-        if o % align != 0 || len % align != 0 {
+        if !o.is_multiple_of(align) || !len.is_multiple_of(align) {
             return Err(Bad(a::NorFlashErrorKind::NotAligned));
         }
         Ok(self.at + o)

@@ -245,7 +245,7 @@ impl<A: NorFlash, D: NorFlash, S: NorFlash> BootSlots<A, D, S> {
     /// with the erased value (0xFF).
     async fn write_padded(&mut self, at: u32, data: &[u8]) -> Result<(), SlotError> {
         let w = D::WRITE_SIZE.max(1);
-        if at as usize % w != 0 {
+        if !(at as usize).is_multiple_of(w) {
             return Err(SlotError::OutOfRange);
         }
         let whole = data.len() - data.len() % w;

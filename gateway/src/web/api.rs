@@ -689,6 +689,47 @@ fn entry(j: &mut Object<'_, '_>, e: &LogEntry) {
     }
 }
 
+/// The firmware: running and previous versions, trial state, the last
+/// upload (`supported` false: this platform installs no image).
+#[cfg(feature = "update")]
+fn firmware(j: &mut Object<'_, '_>, s: &crate::update::Status) {
+    use crate::update::{Upload, Version};
+    fn version(val: Value<'_, '_>, v: Option<Version>) {
+        val.opt(v, |val, v| {
+            val.text(|t| {
+                t.uint(v.major.into()).str(b".").uint(v.minor.into());
+                t.str(b".").uint(v.patch.into());
+            })
+        })
+    }
+    j.key("supported").bool(s.supported);
+    version(j.key("running"), s.running);
+    version(j.key("previous"), s.previous);
+    j.key("state")
+        .opt(s.boot, |v, b| v.str(b.as_str().as_bytes()));
+    j.key("upload").object(|j| match s.upload {
+        Upload::Idle => j.key("state").str(b"idle"),
+        Upload::Receiving {
+            version: v,
+            received,
+            total,
+        } => {
+            j.key("state").str(b"receiving");
+            version(j.key("version"), Some(v));
+            j.key("received").uint(received.into());
+            j.key("total").uint(total.into());
+        }
+        Upload::Installed { version: v } => {
+            j.key("state").str(b"installed");
+            version(j.key("version"), Some(v));
+        }
+        Upload::Refused { reason } => {
+            j.key("state").str(b"refused");
+            j.key("reason").str(reason.as_bytes());
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -936,43 +977,3 @@ mod tests {
     }
 }
 
-/// The firmware: running and previous versions, trial state, the last
-/// upload (`supported` false: this platform installs no image).
-#[cfg(feature = "update")]
-fn firmware(j: &mut Object<'_, '_>, s: &crate::update::Status) {
-    use crate::update::{Upload, Version};
-    fn version(val: Value<'_, '_>, v: Option<Version>) {
-        val.opt(v, |val, v| {
-            val.text(|t| {
-                t.uint(v.major.into()).str(b".").uint(v.minor.into());
-                t.str(b".").uint(v.patch.into());
-            })
-        })
-    }
-    j.key("supported").bool(s.supported);
-    version(j.key("running"), s.running);
-    version(j.key("previous"), s.previous);
-    j.key("state")
-        .opt(s.boot, |v, b| v.str(b.as_str().as_bytes()));
-    j.key("upload").object(|j| match s.upload {
-        Upload::Idle => j.key("state").str(b"idle"),
-        Upload::Receiving {
-            version: v,
-            received,
-            total,
-        } => {
-            j.key("state").str(b"receiving");
-            version(j.key("version"), Some(v));
-            j.key("received").uint(received.into());
-            j.key("total").uint(total.into());
-        }
-        Upload::Installed { version: v } => {
-            j.key("state").str(b"installed");
-            version(j.key("version"), Some(v));
-        }
-        Upload::Refused { reason } => {
-            j.key("state").str(b"refused");
-            j.key("reason").str(reason.as_bytes());
-        }
-    });
-}

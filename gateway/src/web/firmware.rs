@@ -160,6 +160,7 @@ impl<C: Clock> App<'_, C> {
     }
 
     /// Reads, checks and writes the image; its version once it is marked.
+    #[allow(clippy::await_holding_refcell_ref)] // the piece's borrow: see below
     async fn receive<R: Read>(
         &self,
         expect: &Expect<'_>,
@@ -214,6 +215,9 @@ impl<C: Clock> App<'_, C> {
         let mut left = header.body_len as usize;
         while left > 0 {
             let n = left.min(PIECE);
+            // The piece is filled from the socket while held: the storage
+            // task reads it only when asked (below), after this borrow
+            // ends; a contended borrow would fail the upload, not panic.
             {
                 let Ok(mut piece) = updates.piece.try_borrow_mut() else {
                     return Err(Failed::Slot(SlotError::Flash));
