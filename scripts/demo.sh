@@ -40,8 +40,10 @@ ELF="$FW_TARGET/thumbv7em-none-eabihf/release/field-device"
 
 echo "demo: building the firmware and the simulator"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 \
-  --features field-device --bin field-device)
-CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release -p hans-sim
+  --features field-device --bin field-device &&
+  CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2)
+# hans-fw makes the flash file the bootloader starts the field device from.
+CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release -p hans-sim -p hans-fw
 
 pids=()
 cleanup() {

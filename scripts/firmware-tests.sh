@@ -2,7 +2,9 @@
 # Firmware checks: rustfmt and clippy of the firmware workspace and its host
 # tests, then builds every firmware in release: for each board the core
 # gateway and the field-device firmware (feature `field-device`: web page,
-# DHCP, DataSheet reader), plus the QEMU board's smoke firmware. Prints the
+# DHCP, DataSheet reader), plus the QEMU board's smoke firmware and its
+# bootloader (the field device runs through it, from a flash file that
+# hans-fw makes; scripts/qemu-run.sh). Prints the
 # size report with its two budgets (fails if a core firmware exceeds 128 KiB
 # flash / 64 KiB static RAM, or a field-device firmware 384 KiB / 160 KiB),
 # then runs the QEMU tests (firmware/qemu-tests: smoke firmware; gateway
@@ -37,6 +39,8 @@ BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"
 echo "==> firmware: rustfmt and clippy"
 (cd firmware && cargo fmt --all -- --check)
 (cd firmware/qemu-tests && cargo fmt -- --check)
+# The QEMU board's bootloader and the crates only it and the field device use.
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p bootloader-mps2 -p semihosting-flash -p fw-keys --all-targets -- -D warnings)
 for board in board-mps2-an386 board-nucleo-f767zi; do
   for features in "" "--features field-device"; do
     # shellcheck disable=SC2086 # $features is zero or two words
@@ -54,6 +58,9 @@ echo "==> build firmware (release): mps2-an386 (QEMU): core gateway and smoke"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --bins)
 echo "==> build firmware (release): mps2-an386 (QEMU): field device"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
+echo "==> build firmware (release): mps2-an386 (QEMU): bootloader; hans-fw (makes the flash file)"
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2)
+CARGO_TARGET_DIR="$HOST_TARGET" cargo build -p hans-fw --locked
 echo "==> build firmware (release): nucleo-f767zi: core gateway"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-nucleo-f767zi --bin nucleo-f767zi)
 echo "==> build firmware (release): nucleo-f767zi: field device"
@@ -68,7 +75,9 @@ bash scripts/firmware-size.sh --budget core \
 bash scripts/firmware-size.sh --budget field-device \
   field-device-mps2-an386="$BIN_DIR/field-device" \
   field-device-nucleo-f767zi="$BIN_DIR/nucleo-f767zi-field-device" || size_status=1
-# Both tables are printed before a budget fails the run.
+bash scripts/firmware-size.sh --budget bootloader \
+  bootloader-mps2-an386="$BIN_DIR/bootloader-mps2" || size_status=1
+# All tables are printed before a budget fails the run.
 [ $size_status = 0 ] || { echo "firmware size: over budget (see above)" >&2; exit 1; }
 
 # The field-device firmware's web page in headless Chromium (host-tests/web-e2e,

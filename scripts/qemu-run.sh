@@ -31,6 +31,23 @@
 #                stream is decoded with defmt-print if it is installed, else
 #                written raw to stdout
 #
+# A firmware linked for the update slots (the field device: its vector table
+# at 0x0001_0400, hans_gateway::update::layout::MPS2_AN386.entry) runs as on
+# a device with updates: QEMU starts the bootloader (firmware/bootloader-mps2,
+# beside the ELF), which checks the image in the flash file's active slot,
+# copies it to RAM and starts it. The flash file is a host file the guest
+# reads and writes through semihosting (the word `flash=PATH`), made from the
+# ELF: llvm-objcopy -O binary, `hans-fw sign` with the development key,
+# `hans-fw install`. The bootloader's log is text on stderr (`hans-boot:`).
+#   FLASH_FILE   the flash file: kept and used as it is when it exists (a
+#                restart of QEMU keeps the flash: the configuration, an update
+#                and its boot state), else made there; default a new
+#                temporary file each run (removed when QEMU ends)
+#   FW_VERSION   the version the image is signed with (default 0.1.0)
+#   BOOTLOADER   the bootloader ELF (default: bootloader-mps2 beside the ELF)
+#   HANS_FW      the hans-fw program (default: target/{debug,release}/hans-fw
+#                of the host workspace, else on PATH)
+#
 # QEMU's exit status is the firmware's semihosting exit code (0 pass, 1 fail).
 # `restrict=on` isolates the guest: its only ways out are the forwards below,
 # and every host-side socket QEMU opens is on 127.0.0.1.
@@ -65,9 +82,53 @@ if [ -n "${MQTT_PORT:-}" ]; then
   nic+=",guestfwd=tcp:10.0.2.100:1883-cmd:socat - TCP:127.0.0.1:${MQTT_PORT}"
 fi
 
-qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
-  -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$elf")
 args=${FIRMWARE_ARGS:-}
+kernel=$elf
+# The vector table's address: 0x0001_0400 for a firmware of the update slots.
+vectors=$(llvm-readelf -S --wide "$elf" 2>/dev/null |
+  awk '{ for (i = 1; i < NF; i++) if ($i == ".vector_table") print $(i + 2) }')
+if [ "$vectors" = 00010400 ]; then
+  root=$(cd "$(dirname "$0")/.." && pwd)
+  kernel=${BOOTLOADER:-$(dirname "$elf")/bootloader-mps2}
+  [ -f "$kernel" ] || {
+    echo "qemu-run.sh: $elf starts through the bootloader, $kernel is not built:" >&2
+    echo "  (cd firmware && cargo build --release -p bootloader-mps2), or set BOOTLOADER" >&2
+    exit 2
+  }
+  flash=${FLASH_FILE:-}
+  if [ -z "$flash" ]; then
+    tmp=$(mktemp -d)
+    flash=$tmp/flash.bin
+    # Removed once QEMU (this process, after the exec below) has ended.
+    (while kill -0 $$ 2>/dev/null; do sleep 1; done; rm -rf "$tmp") </dev/null >/dev/null 2>&1 &
+    disown
+  fi
+  if [ ! -f "$flash" ]; then
+    hans_fw=${HANS_FW:-}
+    if [ -z "$hans_fw" ]; then
+      for t in "${CARGO_TARGET_DIR:-$root/target}" "$root/target"; do
+        for p in debug release; do
+          if [ -z "$hans_fw" ] && [ -x "$t/$p/hans-fw" ]; then hans_fw=$t/$p/hans-fw; fi
+        done
+      done
+      [ -n "$hans_fw" ] || hans_fw=$(command -v hans-fw || true)
+    fi
+    [ -n "$hans_fw" ] || {
+      echo "qemu-run.sh: hans-fw is needed to make the flash file: cargo build -p hans-fw, or set HANS_FW" >&2
+      exit 2
+    }
+    work=$(mktemp -d)
+    llvm-objcopy -O binary "$elf" "$work/firmware.bin"
+    "$hans_fw" sign --key "$root/firmware/keys/dev.key" --board mps2-an386 \
+      --version "${FW_VERSION:-0.1.0}" "$work/firmware.bin" -o "$work/firmware.img" >/dev/null
+    "$hans_fw" install --layout mps2-an386 --out "$flash" "$work/firmware.img" >/dev/null
+    rm -rf "$work"
+  fi
+  args="${args:+$args }flash=$(realpath "$flash")"
+fi
+
+qemu=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
+  -serial none -semihosting-config enable=on,target=native -nic "$nic" -kernel "$kernel")
 if [ -n "${SETUP_CODE:-}" ]; then
   args="${args:+$args }setup=$SETUP_CODE"
 fi

@@ -22,8 +22,9 @@ command -v socat >/dev/null || need_apt+=(socat)
 [ -x /usr/sbin/mosquitto ] || command -v mosquitto >/dev/null || need_apt+=(mosquitto) # the MQTT broker of gateway/tests/mqtt.rs
 command -v mosquitto_sub >/dev/null || need_apt+=(mosquitto-clients) # mosquitto_sub, the README's and the demo's raw view of the telemetry
 command -v openssl >/dev/null || need_apt+=(openssl) # the test CAs and certificates of the TLS tests (gateway/tests/mqtt.rs)
-# llvm-size and llvm-objdump read the Cortex-M binaries for the size reports.
-command -v llvm-size >/dev/null || need_apt+=(llvm)
+# llvm-size and llvm-objdump read the Cortex-M binaries for the size reports;
+# llvm-readelf and llvm-objcopy make the QEMU field device's flash file (qemu-run.sh).
+command -v llvm-size >/dev/null && command -v llvm-objcopy >/dev/null && command -v llvm-readelf >/dev/null || need_apt+=(llvm)
 # Headless Chromium drives the web page in the browser tests (host-tests/web-e2e).
 command -v chromium >/dev/null || need_apt+=(chromium)
 command -v systemd-analyze >/dev/null || need_apt+=(systemd) # checks gateway/dist/hans-gateway.service

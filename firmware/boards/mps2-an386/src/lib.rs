@@ -80,9 +80,10 @@ pub fn factory_net() -> NetConfig {
 }
 
 /// The longest command line read: QEMU's semihosting gives the kernel's
-/// path (as `scripts/qemu-run.sh` was given it) followed by the words of
-/// `-append`, and refuses the whole line to a buffer too short for it.
-const CMDLINE_MAX: usize = 256;
+/// path (as `scripts/qemu-run.sh` was given it; the bootloader's for the
+/// field device) followed by the words of `-append` (`flash=PATH` among
+/// them), and refuses the whole line to a buffer too short for it.
+const CMDLINE_MAX: usize = 512;
 
 /// The first word of QEMU's command line (`-append`, read through
 /// semihosting) for which `f` gives a value. A line that cannot be read
