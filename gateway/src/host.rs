@@ -192,6 +192,38 @@ pub struct HostOptions {
     /// The broker's user name and password ([`Options::mqtt_login`]).
     #[cfg(feature = "mqtt")]
     pub mqtt_login: Option<crate::mqtt::Login>,
+    /// Serve the web page over HTTPS with this certificate and key
+    /// (`--web-tls`); `None`: plain HTTP.
+    #[cfg(feature = "tls-server")]
+    pub web_tls: Option<TlsIdentity>,
+    /// Serve Modbus/TCP Security too (`--modbus-tls-listen`); `None`:
+    /// plain Modbus TCP only.
+    #[cfg(feature = "tls-server")]
+    pub modbus_tls: Option<ModbusTls>,
+}
+
+/// A TLS server's certificate (chain) and private key, PEM files.
+#[cfg(feature = "tls-server")]
+#[derive(Clone, Debug)]
+pub struct TlsIdentity {
+    /// The certificate, then the CAs up to the root's child (PEM).
+    pub cert: PathBuf,
+    /// Its private key (PEM: PKCS#8, SEC1 or PKCS#1).
+    pub key: PathBuf,
+}
+
+/// Modbus/TCP Security (TLS with client certificates, the client's role
+/// from its certificate's role extension; see the README): served beside
+/// the plain Modbus server, sharing its sessions and allow-list.
+#[cfg(feature = "tls-server")]
+#[derive(Clone, Debug)]
+pub struct ModbusTls {
+    /// Where to listen (port 0 = any free port; the standard is 802).
+    pub listen: SocketAddrV4,
+    /// The server's certificate and key.
+    pub identity: TlsIdentity,
+    /// The CAs (PEM) a client's certificate must be signed by.
+    pub client_ca: PathBuf,
 }
 
 impl HostOptions {
@@ -210,6 +242,10 @@ impl HostOptions {
             mqtt_ca: None,
             #[cfg(feature = "mqtt")]
             mqtt_login: None,
+            #[cfg(feature = "tls-server")]
+            web_tls: None,
+            #[cfg(feature = "tls-server")]
+            modbus_tls: None,
         }
     }
 }
@@ -220,6 +256,8 @@ struct Bound {
     modbus: SocketAddrV4,
     robot_listen: Option<SocketAddrV4>,
     web: Option<SocketAddrV4>,
+    /// Modbus/TCP Security's listener.
+    modbus_tls: Option<SocketAddrV4>,
 }
 
 /// A gateway running on its own thread. Dropping it stops it (sockets
@@ -290,6 +328,11 @@ impl RunningGateway {
         self.bound.web
     }
 
+    /// Where Modbus/TCP Security is served.
+    pub fn modbus_tls_addr(&self) -> Option<SocketAddrV4> {
+        self.bound.modbus_tls
+    }
+
     /// Blocks until the gateway ends, which it does only when it fails:
     /// its thread panicked (a bug, or the system refused it something it
     /// cannot do without, such as a thread for the file work of a save).
@@ -355,13 +398,32 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             None => None,
         };
         let web = match opts.web_listen {
-            Some(a) => Some(SocketAddrV4::new(*a.ip(), net.listen(a).await?)),
+            Some(a) => Some(SocketAddrV4::new(
+                *a.ip(),
+                listen_web(&net, a, &opts).await?,
+            )),
             None => None,
         };
+        #[cfg(feature = "tls-server")]
+        let modbus_tls = match &opts.modbus_tls {
+            Some(m) => {
+                let server = crate::net::tls::TlsServer::modbus(
+                    &m.identity.cert,
+                    &m.identity.key,
+                    &m.client_ca,
+                )?;
+                let port = net.listen_tls_beside(mport, m.listen, server).await?;
+                Some(SocketAddrV4::new(*m.listen.ip(), port))
+            }
+            None => None,
+        };
+        #[cfg(not(feature = "tls-server"))]
+        let modbus_tls = None;
         io::Result::Ok(Bound {
             modbus: SocketAddrV4::new(*opts.modbus_listen.ip(), mport),
             robot_listen: robot,
             web,
+            modbus_tls,
         })
     }
     .await;
@@ -426,6 +488,17 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             }
         }
     }
+}
+
+/// Binds the web page's `addr`: for HTTPS with `--web-tls`.
+async fn listen_web(net: &TokioNet, addr: SocketAddrV4, opts: &HostOptions) -> io::Result<u16> {
+    #[cfg(feature = "tls-server")]
+    if let Some(id) = &opts.web_tls {
+        let server = crate::net::tls::TlsServer::web(&id.cert, &id.key)?;
+        return net.listen_tls(addr, server).await;
+    }
+    let _ = opts;
+    net.listen(addr).await
 }
 
 /// Fills `buf` from the operating system's random source (`/dev/urandom`).

@@ -392,4 +392,10 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
     fn slots(&self) -> &Slots {
         &self.hub.modbus_slots
     }
+
+    fn write_refused(&self, _peer: Option<SocketAddrV4>) {
+        self.hub.with(|m| {
+            m.access.writes_refused = m.access.writes_refused.wrapping_add(1);
+        });
+    }
 }

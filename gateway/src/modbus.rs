@@ -43,6 +43,14 @@
 //! The allow-list is checked at accept and before each request; applying a
 //! configuration closes at once the sessions it no longer permits
 //! ([`Slots::close_unless`]).
+//!
+//! Authorization by role ([`Grant`]): a client whose socket knows its role
+//! (Modbus/TCP Security on Linux: the role extension of its certificate,
+//! see `net::tls`) may write only as an operator or administrator; a
+//! viewer's write (FC 5, 6, 15, 16, 23) gets exception 01 (Illegal
+//! Function, as the MB/TCP Security specification asks), nothing of it is
+//! written, and `WRITES_REFUSED` counts it. A plain connection has no role:
+//! it may write what the write protection lets it.
 
 use core::cell::RefCell;
 use core::convert::Infallible;
@@ -60,6 +68,7 @@ use modbus_core::{
     Data, Exception, ExceptionResponse, FunctionCode, Request, Response, ResponsePdu,
 };
 
+use crate::access::accounts::Role;
 use crate::clock::{with_deadline, Clock};
 use crate::net::Socket;
 use crate::registers::{self as r, AccessError, WriteError};
@@ -93,6 +102,54 @@ pub(crate) trait Registers {
     fn permits(&self, peer: Option<SocketAddrV4>) -> bool;
     /// The session table the sessions share (and whoever closes them).
     fn slots(&self) -> &Slots;
+    /// A write of the client at `peer` was refused by its role
+    /// ([`Grant::ReadOnly`]): counted (`WRITES_REFUSED`).
+    fn write_refused(&self, peer: Option<SocketAddrV4>) {
+        let _ = peer;
+    }
+}
+
+/// What a session may do with the registers, by its client's role.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Grant {
+    /// Read, and write what the write protection lets it.
+    ReadWrite,
+    /// Read only: a write gets exception 01.
+    ReadOnly,
+}
+
+impl Grant {
+    /// The grant of a client with `role` (`None`: a plain connection,
+    /// which the allow-list alone admits).
+    pub(crate) fn of(role: Option<Role>) -> Grant {
+        match role {
+            None | Some(Role::Operator | Role::Admin) => Grant::ReadWrite,
+            Some(Role::Viewer) => Grant::ReadOnly,
+        }
+    }
+}
+
+/// `true` for the function codes that write (FC 23 reads too: refused
+/// whole).
+fn writes(fc: u8) -> bool {
+    matches!(fc, 5 | 6 | 15 | 16 | 23)
+}
+
+/// The answer to the request `adu` when `grant` does not let it through:
+/// exception 01 for a write of a read-only client, written into `out`
+/// (its length); `None` when the request may be served.
+fn refuse(grant: Grant, adu: &[u8], out: &mut [u8]) -> Option<usize> {
+    let (&[t0, t1, _, _, _, _, unit], Some(&fc)) = (adu.first_chunk::<7>()?, adu.get(7)) else {
+        return None;
+    };
+    if grant == Grant::ReadWrite || !writes(fc) {
+        return None;
+    }
+    let hdr = Header {
+        transaction_id: u16::from_be_bytes([t0, t1]),
+        unit_id: unit,
+    };
+    exception_reply(hdr, fc, Exception::IllegalFunction, out)
 }
 
 /// What a write started that its answer waits for (for the gateway: a
@@ -646,10 +703,25 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
             closed(Close::NotAllowed, peer);
             return;
         }
-        let answer = match handle(regs, adu, &mut out) {
-            Some(Answer::Now(n)) => Some(n),
-            Some(Answer::After(p, d)) => finish(regs, p, d, &mut out).await,
-            None => None,
+        // The role as it is now: known once the TLS handshake ended.
+        let answer = if let Some(n) = refuse(Grant::of(sock.role()), adu, &mut out) {
+            regs.write_refused(peer);
+            let [a, b, c, d] = octets(peer);
+            warn!(
+                "modbus: write (fc {}) of client {}.{}.{}.{} refused: its certificate's role may only read",
+                adu.get(7).copied().unwrap_or(0),
+                a,
+                b,
+                c,
+                d
+            );
+            Some(n)
+        } else {
+            match handle(regs, adu, &mut out) {
+                Some(Answer::Now(n)) => Some(n),
+                Some(Answer::After(p, d)) => finish(regs, p, d, &mut out).await,
+                None => None,
+            }
         };
         if let Some(n) = answer {
             if !reply(slots, i, sock, out.get(..n)).await {
@@ -1158,6 +1230,34 @@ mod tests {
             answer(&ctx, &[0, 1, 0, 0, 0, 3, 1, 0x0F, 0]),
             [0, 1, 0, 0, 0, 3, 1, 0x8F, 3]
         );
+    }
+
+    /// A viewer's certificate reads; its writes (every writing function
+    /// code, FC 23 too) get exception 01 with the request's transaction
+    /// and unit; an operator, an administrator and a plain connection are
+    /// not refused here.
+    #[test]
+    fn a_read_only_grant_refuses_every_write_with_exception_01() {
+        let mut out = [0u8; MAX_ADU];
+        let viewer = Grant::of(Some(Role::Viewer));
+        assert_eq!(viewer, Grant::ReadOnly);
+        for g in [None, Some(Role::Operator), Some(Role::Admin)] {
+            assert_eq!(Grant::of(g), Grant::ReadWrite, "{g:?}");
+        }
+        let write = [0x12, 0x34, 0, 0, 0, 6, 7, 6, 0, 140, 0, 1];
+        let n = refuse(viewer, &write, &mut out).expect("refused");
+        assert_eq!(out[..n], [0x12, 0x34, 0, 0, 0, 3, 7, 0x86, 1]);
+        for fc in [5, 6, 15, 16, 23] {
+            let adu = [0, 1, 0, 0, 0, 2, 1, fc];
+            let n = refuse(viewer, &adu, &mut out).expect("refused");
+            assert_eq!(out[..n], [0, 1, 0, 0, 0, 3, 1, 0x80 | fc, 1], "fc {fc}");
+            assert_eq!(refuse(Grant::ReadWrite, &adu, &mut out), None);
+        }
+        for fc in [1, 2, 3, 4, 0x2B, 0x86] {
+            assert_eq!(refuse(viewer, &[0, 1, 0, 0, 0, 2, 1, fc], &mut out), None);
+        }
+        // Too short to be a request: left to the decoder.
+        assert_eq!(refuse(viewer, &[0, 1, 0, 0, 0, 2, 1], &mut out), None);
     }
 
     #[test]

@@ -4,6 +4,8 @@
 //! hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
 //! hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
 //! hans-gateway --config FILE --modbus-listen HOST:PORT
+//!     [--web-listen HOST:PORT --web-tls CERT KEY]
+//!     [--modbus-tls-listen HOST:PORT --modbus-tls CERT KEY --modbus-tls-ca CA]
 //! hans-gateway --help | --version
 //! ```
 //!
@@ -43,6 +45,8 @@ const USAGE: &str = "\
 hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
        hans-gateway --robot-listen HOST:PORT --modbus-listen HOST:PORT [--config FILE] [--web-listen HOST:PORT]
        hans-gateway --config FILE --modbus-listen HOST:PORT
+           [--web-listen HOST:PORT --web-tls CERT KEY]
+           [--modbus-tls-listen HOST:PORT --modbus-tls CERT KEY --modbus-tls-ca CA]
        hans-gateway --help | --version";
 
 /// What `--help` says after the options.
@@ -70,6 +74,14 @@ system's random source, prints it on stderr
 and writes it to the --setup-code-file FILE (readable by its owner only, replaced at each
 start). Creating the first administrator account asks for it: it proves that whoever
 creates it can read the machine's log or files. It is never served on the network.
+
+TLS (PEM files): --web-tls serves the page over HTTPS only (TLS 1.2 and 1.3). Modbus/TCP
+Security (--modbus-tls-listen, the standard port is 802) serves beside the plain Modbus server
+and shares its sessions and MODBUS_ALLOW: TLS 1.2 or 1.3, a client certificate signed by a CA
+of --modbus-tls-ca is required, and its role extension (OID 1.3.6.1.4.1.50316.802.1, a
+UTF8String) decides: admin or operator read and write; viewer, any other role or none
+read only (a write gets exception 01 and counts in WRITES_REFUSED). A handshake must end
+within 2 s of the connection's first read, else the connection is closed.
 
 HOST is an IPv4 address or a host name. A name is resolved once, at start, to its first
 IPv4 address (the gateway speaks IPv4 only); the log shows the address used.
@@ -115,6 +127,27 @@ struct Cli {
     #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
     #[arg(verbatim_doc_comment)]
     web_listen: Option<Endpoint>,
+    /// Serve the web page over HTTPS with the certificate (chain)
+    /// CERT and its private key KEY (PEM files).
+    #[arg(long, num_args = 2, value_names = ["CERT", "KEY"])]
+    #[arg(requires = "web_listen", verbatim_doc_comment)]
+    web_tls: Option<Vec<PathBuf>>,
+    /// Serve Modbus/TCP Security here too (TLS with client
+    /// certificates; the standard port is 802): needs --modbus-tls
+    /// and --modbus-tls-ca.
+    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    #[arg(requires_all = ["modbus_tls", "modbus_tls_ca"], verbatim_doc_comment)]
+    modbus_tls_listen: Option<Endpoint>,
+    /// The Modbus/TCP Security server's certificate (chain) and
+    /// private key (PEM files).
+    #[arg(long, num_args = 2, value_names = ["CERT", "KEY"])]
+    #[arg(requires = "modbus_tls_listen", verbatim_doc_comment)]
+    modbus_tls: Option<Vec<PathBuf>>,
+    /// The CAs (PEM) a Modbus/TCP Security client's certificate must
+    /// be signed by.
+    #[arg(long, value_name = "CA", requires = "modbus_tls_listen")]
+    #[arg(verbatim_doc_comment)]
+    modbus_tls_ca: Option<PathBuf>,
     /// Publish the cell's state as a Sparkplug B edge node to the MQTT
     /// broker at HOST:PORT (gateway/SPARKPLUG.md), for this run: turns
     /// mqtt.enabled on and overrides mqtt.broker, mqtt.port and mqtt.tls.
@@ -391,7 +424,34 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
             _ => None,
         },
         node_name: host_name(),
+        #[cfg(feature = "tls-server")]
+        web_tls: cli.web_tls.as_deref().and_then(identity),
+        #[cfg(feature = "tls-server")]
+        modbus_tls: match (
+            &cli.modbus_tls_listen,
+            cli.modbus_tls.as_deref(),
+            &cli.modbus_tls_ca,
+        ) {
+            (Some(e), Some(files), Some(ca)) => Some(hans_gateway::host::ModbusTls {
+                listen: resolve("modbus-tls-listen", e)?,
+                identity: identity(files).ok_or("--modbus-tls: CERT and KEY are needed")?,
+                client_ca: ca.clone(),
+            }),
+            _ => None,
+        },
     })
+}
+
+/// `--web-tls` / `--modbus-tls` CERT KEY (clap takes exactly two).
+#[cfg(feature = "tls-server")]
+fn identity(files: &[PathBuf]) -> Option<hans_gateway::host::TlsIdentity> {
+    match files {
+        [cert, key] => Some(hans_gateway::host::TlsIdentity {
+            cert: cert.clone(),
+            key: key.clone(),
+        }),
+        _ => None,
+    }
 }
 
 /// The broker's login: `user`, and the first line of `file` as the
@@ -471,6 +531,7 @@ fn main() -> ExitCode {
         return code;
     }
     let code_file = setup_code_path(&cli);
+    let web_tls = cli.web_tls.is_some();
     // A name that does not resolve is an environment the gateway cannot
     // start in (DNS not up yet, a missing hosts entry), like a port that
     // cannot be bound: status 1, which a supervisor may retry; the command
@@ -499,7 +560,11 @@ fn main() -> ExitCode {
         log::info!("waiting for the robot controller on {a}");
     }
     if let Some(a) = gw.web_addr() {
-        log::info!("web page on http://{a}/");
+        let scheme = if web_tls { "https" } else { "http" };
+        log::info!("web page on {scheme}://{a}/");
+    }
+    if let Some(a) = gw.modbus_tls_addr() {
+        log::info!("modbus/tcp security (TLS, client certificates) on {a}");
     }
     // Shown once the gateway runs: a start that fails shows no code.
     if let Some(code) = &setup_code {

@@ -8,13 +8,22 @@
 //! * [`embassy`] (feature `embassy-net`): boards, and the
 //!   two-stacks host test.
 //!
+//! On Linux the tokio adapter also serves TLS ([`tls`], feature
+//! `tls-server`: HTTPS, Modbus/TCP Security) behind the same interface:
+//! the servers above do not change; a Modbus session asks its socket for
+//! the client's certificate role ([`Socket::role`]).
+//!
 //! The futures are not `Send`: the whole gateway runs as one task on a
 //! single-threaded executor (embassy's, or tokio's current-thread runtime).
 
 use core::net::{Ipv4Addr, SocketAddrV4};
 
+use crate::access::accounts::Role;
+
 #[cfg(feature = "embassy-net")]
 pub(crate) mod embassy;
+#[cfg(feature = "tls-server")]
+pub(crate) mod tls;
 #[cfg(feature = "std")]
 pub(crate) mod tokio;
 
@@ -89,6 +98,16 @@ pub trait Socket {
 
     /// The peer's address while connected.
     fn remote(&self) -> Option<SocketAddrV4>;
+
+    /// The role a TLS client's certificate gives it, where the connection
+    /// was accepted by a TLS server that requires client certificates
+    /// (Modbus/TCP Security on Linux, see `tls`): the role its certificate
+    /// names, or the least ([`Role::Viewer`]) when it names none the
+    /// gateway knows or the handshake has not ended. `None`: no client
+    /// authentication (plain TCP, HTTPS), the allow-list alone decides.
+    fn role(&self) -> Option<Role> {
+        None
+    }
 }
 
 /// A network stack that makes sockets.

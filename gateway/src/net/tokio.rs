@@ -6,26 +6,51 @@
 //! [`TokioNet::new`]'s address). Connections beyond the ones being accepted
 //! wait in the kernel's backlog.
 //!
+//! A listener made with a TLS server ([`TokioNet::listen_tls`], feature
+//! `tls-server`) hands its sockets connections whose handshake starts at
+//! their first read or write and must end within
+//! [`super::tls::HANDSHAKE_DEADLINE`] (see [`super::tls`]); the address is
+//! known at accept, so the servers' allow-lists and slots apply before
+//! the handshake costs anything. A TLS listener may also serve beside
+//! another port ([`TokioNet::listen_tls_beside`]): the sockets accepting
+//! on that port take its connections too (Modbus/TCP Security's clients
+//! share the Modbus sessions with the plain ones).
+//!
 //! Needs a tokio runtime with I/O enabled (current-thread is enough).
 
 extern crate std;
 
 use core::cell::RefCell;
+use core::future::Future;
 use core::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
+#[cfg(any(feature = "mqtt-tls", feature = "tls-server"))]
 use std::borrow::ToOwned;
 use std::io;
 use std::rc::Rc;
+#[cfg(feature = "tls-server")]
+use std::string::ToString;
 use std::vec::Vec;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 
 use super::{Net, NetError, Socket};
+use crate::access::accounts::Role;
+
+/// A bound listener: sockets accepting on `port` take its connections.
+struct Listener {
+    /// The port sockets accept on (its own, or the one it serves beside).
+    port: u16,
+    tcp: Rc<TcpListener>,
+    /// Its connections start TLS as this server.
+    #[cfg(feature = "tls-server")]
+    tls: Option<Rc<super::tls::TlsServer>>,
+}
 
 /// Tokio networking for the gateway.
 pub(crate) struct TokioNet {
     bind_ip: core::net::Ipv4Addr,
-    listeners: RefCell<Vec<(u16, Rc<TcpListener>)>>,
+    listeners: RefCell<Vec<Listener>>,
     /// The PEM file of the CAs a TLS server must be signed by
     /// ([`Socket::connect_tls`]); read at each TLS connect.
     #[cfg(feature = "mqtt-tls")]
@@ -56,24 +81,115 @@ impl TokioNet {
     pub(crate) async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
         let l = TcpListener::bind(addr).await?;
         let port = l.local_addr()?.port();
-        self.listeners.borrow_mut().push((port, Rc::new(l)));
+        self.listeners.borrow_mut().push(Listener {
+            port,
+            tcp: Rc::new(l),
+            #[cfg(feature = "tls-server")]
+            tls: None,
+        });
         Ok(port)
     }
 
-    async fn listener(&self, port: u16) -> Result<Rc<TcpListener>, NetError> {
-        if let Some((_, l)) = self.listeners.borrow().iter().find(|(p, _)| *p == port) {
-            return Ok(l.clone());
+    /// Binds `addr` now for TLS as `server`; returns the port bound.
+    /// Sockets accepting on that port start TLS with their clients.
+    #[cfg(feature = "tls-server")]
+    pub(crate) async fn listen_tls(
+        &self,
+        addr: SocketAddrV4,
+        server: super::tls::TlsServer,
+    ) -> io::Result<u16> {
+        let l = TcpListener::bind(addr).await?;
+        let port = l.local_addr()?.port();
+        self.listeners.borrow_mut().push(Listener {
+            port,
+            tcp: Rc::new(l),
+            tls: Some(Rc::new(server)),
+        });
+        Ok(port)
+    }
+
+    /// Binds `addr` now for TLS as `server`, its connections accepted by
+    /// the sockets accepting on `beside` (bound before); returns the port
+    /// bound.
+    #[cfg(feature = "tls-server")]
+    pub(crate) async fn listen_tls_beside(
+        &self,
+        beside: u16,
+        addr: SocketAddrV4,
+        server: super::tls::TlsServer,
+    ) -> io::Result<u16> {
+        let l = TcpListener::bind(addr).await?;
+        let port = l.local_addr()?.port();
+        self.listeners.borrow_mut().push(Listener {
+            port: beside,
+            tcp: Rc::new(l),
+            tls: Some(Rc::new(server)),
+        });
+        Ok(port)
+    }
+
+    /// The listeners whose connections sockets accepting on `port` take
+    /// (`port` bound now on [`Self::new`]'s address if none is).
+    async fn listeners(&self, port: u16) -> Result<Vec<Accepting>, NetError> {
+        let found = |ls: &Vec<Listener>| -> Vec<Accepting> {
+            ls.iter()
+                .filter(|l| l.port == port)
+                .map(|l| Accepting {
+                    tcp: l.tcp.clone(),
+                    #[cfg(feature = "tls-server")]
+                    tls: l.tls.clone(),
+                })
+                .collect()
+        };
+        let ls = found(&self.listeners.borrow());
+        if !ls.is_empty() {
+            return Ok(ls);
         }
         self.listen(SocketAddrV4::new(self.bind_ip, port))
             .await
             .map_err(|_| NetError::ListenFailed)?;
-        self.listeners
-            .borrow()
-            .iter()
-            .find(|(p, _)| *p == port)
-            .map(|(_, l)| l.clone())
-            .ok_or(NetError::ListenFailed)
+        let ls = found(&self.listeners.borrow());
+        if ls.is_empty() {
+            return Err(NetError::ListenFailed);
+        }
+        Ok(ls)
     }
+}
+
+/// A listener a socket accepts from.
+struct Accepting {
+    tcp: Rc<TcpListener>,
+    #[cfg(feature = "tls-server")]
+    tls: Option<Rc<super::tls::TlsServer>>,
+}
+
+impl Accepting {
+    /// The next connection, as this listener hands it out. Cancel-safe
+    /// (tokio's `accept` is).
+    async fn accept(&self) -> io::Result<Stream> {
+        let (s, _) = self.tcp.accept().await?;
+        // Small request/reply messages: send each at once.
+        let _ = s.set_nodelay(true);
+        #[cfg(feature = "tls-server")]
+        if let Some(server) = &self.tls {
+            return Ok(Stream::Handshake(std::boxed::Box::new(Handshake {
+                accept: server.acceptor.accept(s),
+                server: server.clone(),
+                until: None,
+            })));
+        }
+        Ok(Stream::Plain(s))
+    }
+}
+
+/// A TLS server's connection whose handshake has not ended: it runs at
+/// the first read or write ([`Stream::ready`]).
+#[cfg(feature = "tls-server")]
+struct Handshake {
+    accept: tokio_rustls::Accept<TcpStream>,
+    server: Rc<super::tls::TlsServer>,
+    /// When it must have ended (set when it starts).
+    until: Option<tokio::time::Instant>,
 }
 
 /// A tokio TCP stream slot.
@@ -82,19 +198,90 @@ pub(crate) struct TokioSocket<'a> {
     stream: Option<Stream>,
 }
 
-/// A connection: plain TCP, or TLS over it (a client's).
+/// A connection: plain TCP, or TLS over it (a client's, or a server's
+/// before and after its handshake).
 enum Stream {
     Plain(TcpStream),
     #[cfg(feature = "mqtt-tls")]
     Tls(std::boxed::Box<tokio_rustls::client::TlsStream<TcpStream>>),
+    #[cfg(feature = "tls-server")]
+    Handshake(std::boxed::Box<Handshake>),
+    /// A TLS server's connection, and its client's role when the server
+    /// asked for a certificate.
+    #[cfg(feature = "tls-server")]
+    Served(
+        std::boxed::Box<tokio_rustls::server::TlsStream<TcpStream>>,
+        Option<Role>,
+    ),
 }
 
 impl Stream {
+    /// Ends a TLS server's handshake if it has not ended (within its
+    /// deadline from the first call); else nothing. Cancel-safe: the
+    /// handshake goes on at the next call, with the same deadline.
+    #[cfg(feature = "tls-server")]
+    async fn ready(&mut self) -> io::Result<()> {
+        let Stream::Handshake(h) = self else {
+            return Ok(());
+        };
+        let peer = h
+            .accept
+            .get_ref()
+            .and_then(|s| s.peer_addr().ok())
+            .map_or_else(|| "(unknown)".to_owned(), |a| a.to_string());
+        let deadline = super::tls::HANDSHAKE_DEADLINE;
+        let until = *h.until.get_or_insert_with(|| {
+            tokio::time::Instant::now() + std::time::Duration::from_millis(deadline.as_millis())
+        });
+        let what = h.server.what;
+        let tls = match tokio::time::timeout_at(until, &mut h.accept).await {
+            Ok(Ok(tls)) => tls,
+            Ok(Err(e)) => {
+                log::warn!("{what}: TLS handshake with {peer} refused: {e}");
+                return Err(e);
+            }
+            Err(_) => {
+                log::warn!(
+                    "{what}: TLS handshake with {peer} not done within {} ms, closing",
+                    deadline.as_millis()
+                );
+                return Err(io::ErrorKind::TimedOut.into());
+            }
+        };
+        let role = if h.server.clients {
+            let cert = tls
+                .get_ref()
+                .1
+                .peer_certificates()
+                .and_then(|c| c.first())
+                .map(|c| super::tls::client_cert(c));
+            let role = cert.as_ref().map_or(Role::Viewer, |c| c.role.role());
+            match &cert {
+                Some(c) => log::info!(
+                    "{what}: TLS client {peer} authenticated as {:?}, role extension {:?}: {}",
+                    c.subject,
+                    c.role,
+                    role.as_str()
+                ),
+                None => log::warn!("{what}: TLS client {peer} without a certificate: viewer"),
+            }
+            Some(role)
+        } else {
+            None
+        };
+        *self = Stream::Served(std::boxed::Box::new(tls), role);
+        Ok(())
+    }
+
     async fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match self {
             Stream::Plain(s) => s.read(buf).await,
             #[cfg(feature = "mqtt-tls")]
             Stream::Tls(s) => s.read(buf).await,
+            #[cfg(feature = "tls-server")]
+            Stream::Served(s, _) => s.read(buf).await,
+            #[cfg(feature = "tls-server")]
+            Stream::Handshake(_) => Err(io::ErrorKind::NotConnected.into()),
         }
     }
 
@@ -107,6 +294,13 @@ impl Stream {
                 // rustls buffers: what was written goes out now.
                 s.flush().await
             }
+            #[cfg(feature = "tls-server")]
+            Stream::Served(s, _) => {
+                s.write_all(buf).await?;
+                s.flush().await
+            }
+            #[cfg(feature = "tls-server")]
+            Stream::Handshake(_) => Err(io::ErrorKind::NotConnected.into()),
         }
     }
 
@@ -115,15 +309,41 @@ impl Stream {
             Stream::Plain(s) => s.shutdown().await,
             #[cfg(feature = "mqtt-tls")]
             Stream::Tls(s) => s.shutdown().await,
+            #[cfg(feature = "tls-server")]
+            Stream::Served(s, _) => s.shutdown().await,
+            // No TLS yet: dropping the stream closes the connection.
+            #[cfg(feature = "tls-server")]
+            Stream::Handshake(_) => Ok(()),
         }
     }
 
-    fn tcp(&self) -> &TcpStream {
+    fn tcp(&self) -> Option<&TcpStream> {
         match self {
-            Stream::Plain(s) => s,
+            Stream::Plain(s) => Some(s),
             #[cfg(feature = "mqtt-tls")]
-            Stream::Tls(s) => s.get_ref().0,
+            Stream::Tls(s) => Some(s.get_ref().0),
+            #[cfg(feature = "tls-server")]
+            Stream::Served(s, _) => Some(s.get_ref().0),
+            #[cfg(feature = "tls-server")]
+            Stream::Handshake(h) => h.accept.get_ref(),
         }
+    }
+
+    /// The role of a TLS client's certificate (see [`Socket::role`]).
+    #[cfg(feature = "tls-server")]
+    fn role(&self) -> Option<Role> {
+        match self {
+            Stream::Served(_, role) => *role,
+            // Not authenticated yet: the least.
+            Stream::Handshake(h) if h.server.clients => Some(Role::Viewer),
+            _ => None,
+        }
+    }
+
+    /// The role of a TLS client's certificate: none without TLS servers.
+    #[cfg(not(feature = "tls-server"))]
+    fn role(&self) -> Option<Role> {
+        None
     }
 }
 
@@ -169,6 +389,21 @@ fn v4(addr: SocketAddr) -> Option<SocketAddrV4> {
     }
 }
 
+impl TokioSocket<'_> {
+    /// Ends a TLS server's handshake first (see [`Stream::ready`]); one
+    /// that failed or timed out ends the connection (it cannot go on).
+    async fn ready(&mut self) -> Result<(), NetError> {
+        #[cfg(feature = "tls-server")]
+        if let Some(s) = self.stream.as_mut() {
+            if s.ready().await.is_err() {
+                self.stream = None;
+                return Err(NetError::Reset);
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Socket for TokioSocket<'_> {
     async fn connect(&mut self, remote: SocketAddrV4) -> Result<(), NetError> {
         let s = TcpStream::connect(remote)
@@ -205,21 +440,46 @@ impl Socket for TokioSocket<'_> {
     }
 
     async fn accept(&mut self, port: u16) -> Result<(), NetError> {
-        let l = self.net.listener(port).await?;
-        let (s, _) = l.accept().await.map_err(|_| NetError::ListenFailed)?;
-        let _ = s.set_nodelay(true);
-        self.stream = Some(Stream::Plain(s));
+        let ls = self.net.listeners(port).await?;
+        let stream = match ls.as_slice() {
+            [one] => one.accept().await,
+            // Several listeners (one beside the other): the first
+            // connection of any.
+            _ => {
+                let mut accepts: Vec<_> = ls
+                    .iter()
+                    .map(|l| std::boxed::Box::pin(l.accept()))
+                    .collect();
+                core::future::poll_fn(|cx| {
+                    accepts
+                        .iter_mut()
+                        .find_map(|a| match a.as_mut().poll(cx) {
+                            core::task::Poll::Ready(r) => Some(r),
+                            core::task::Poll::Pending => None,
+                        })
+                        .map_or(core::task::Poll::Pending, core::task::Poll::Ready)
+                })
+                .await
+            }
+        };
+        self.stream = Some(stream.map_err(|_| NetError::ListenFailed)?);
         Ok(())
     }
 
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, NetError> {
+        self.ready().await?;
         let s = self.stream.as_mut().ok_or(NetError::NotConnected)?;
         s.read(buf).await.map_err(|_| NetError::Reset)
     }
 
     async fn write_all(&mut self, buf: &[u8]) -> Result<(), NetError> {
+        self.ready().await?;
         let s = self.stream.as_mut().ok_or(NetError::NotConnected)?;
         s.write_all(buf).await.map_err(|_| NetError::Reset)
+    }
+
+    fn role(&self) -> Option<Role> {
+        self.stream.as_ref().and_then(Stream::role)
     }
 
     async fn close(&mut self) {
@@ -231,7 +491,8 @@ impl Socket for TokioSocket<'_> {
     fn remote(&self) -> Option<SocketAddrV4> {
         self.stream
             .as_ref()
-            .and_then(|s| s.tcp().peer_addr().ok())
+            .and_then(Stream::tcp)
+            .and_then(|s| s.peer_addr().ok())
             .and_then(v4)
     }
 }

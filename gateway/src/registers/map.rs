@@ -146,7 +146,8 @@ pub const STATUS_ACCESS: u16 = 50;
 pub const STATUS_MODBUS_REFUSED: u16 = 51;
 /// Web connections refused by [`WEB_ALLOW`] since start (wraps).
 pub const STATUS_WEB_REFUSED: u16 = 52;
-/// Modbus writes refused by the write protection since start (wraps).
+/// Modbus writes refused by the write protection, or by the role of a
+/// Modbus/TCP Security client's certificate, since start (wraps).
 pub const STATUS_WRITES_REFUSED: u16 = 53;
 /// The controller's protocol level in use: major × 100 + minor (606 for
 /// HR6.6.x, 500 for V5), 0 = not known yet.

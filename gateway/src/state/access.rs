@@ -26,7 +26,8 @@ pub struct AccessState {
     pub modbus_refused: u16,
     /// Web connections refused by the allow-list (wraps).
     pub web_refused: u16,
-    /// Modbus writes refused by the write protection (wraps).
+    /// Modbus writes refused by the write protection or by a TLS
+    /// client's role (wraps).
     pub writes_refused: u16,
 }
 
