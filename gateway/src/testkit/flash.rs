@@ -120,6 +120,12 @@ impl SimFlash {
         Header::parse(&m[r.start as usize..r.start as usize + HEADER_LEN]).ok()
     }
 
+    /// An update is marked for the swap (the boot state's magic).
+    pub fn marked(&self) -> bool {
+        let at = self.layout.state.start as usize;
+        self.mem.borrow()[at..at + 4] == [0xF0; 4]
+    }
+
     /// The body of the image in the active slot, `len` bytes.
     pub fn active_body(&self, len: usize) -> Vec<u8> {
         let at = (self.layout.active.start + HEADER_PAGE) as usize;
