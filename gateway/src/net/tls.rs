@@ -52,12 +52,6 @@ use crate::access::accounts::Role;
 /// handshake on a plant network takes milliseconds.
 pub(crate) const HANDSHAKE_DEADLINE: embassy_time::Duration = embassy_time::Duration::from_secs(2);
 
-#[cfg(feature = "web")]
-const _: () = assert!(
-    HANDSHAKE_DEADLINE.as_millis() <= crate::web::REQUEST_DEADLINE.as_millis(),
-    "a handshake holds a web slot no longer than a request"
-);
-
 /// The role extension of Modbus/TCP Security (its "Role" OID under the
 /// Modbus Organization's enterprise number 50316).
 pub(crate) const ROLE_OID: ObjectIdentifier =

@@ -976,4 +976,3 @@ mod tests {
         assert!(log.contains(r#""took_ms":7}"#), "{log}");
     }
 }
-

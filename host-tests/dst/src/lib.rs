@@ -735,6 +735,7 @@ impl Scenario {
             recovery: false,
             setup_code: None,
             broker,
+            self_check_fails: false,
         });
         let mut p = || rng.below(12) as u32;
         world.robot.faults = RandomFaults {
