@@ -29,7 +29,7 @@
 //! | `audit` | the audit log: who changed what, from where, when (feature `audit`) |
 //! | [`storage`] | the stored image, the storage task, RAM and flash storage |
 //! | `clock` | time: embassy-time on boards and Linux, a virtual clock in tests |
-//! | `net` | the socket interface and its adapters |
+//! | `net` | the socket interface and its adapters; TLS servers on Linux (`net::tls`) |
 //! | `web` | the web page and its JSON API (feature `web`) |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
 //! | `sparkplug` | Sparkplug B edge node: topics, metrics, payloads, publishing rules (feature `sparkplug`) |
@@ -74,6 +74,9 @@
 //! * `audit` (with `web`): the audit log, `audit`, kept by the storage.
 //! * `sntp`: the audit log's wall time on boards from an SNTP server
 //!   (`sntp`, run by [`board::run`]).
+//! * `tls-server` (default, Linux): the page over HTTPS and Modbus/TCP
+//!   Security (TLS with client certificates, roles from them), behind the
+//!   tokio adapter (`net::tls`).
 //! * `sparkplug`: `sparkplug`, the Sparkplug B edge node's messages and
 //!   publishing rules (no networking).
 //! * `testkit`: [`testkit`], the virtual world of the tests, simulations

@@ -10,6 +10,8 @@
 //! * Who may change it over Modbus: everyone allowed to connect, unless the
 //!   write protection (`CFG_WRITE_PROTECT`) is on; then only an authorized
 //!   web session changes the configuration (and lifts the protection).
+//!   A Modbus/TCP Security client (Linux) writes only if its certificate's
+//!   role is operator or admin (`crate::modbus::Grant`, `crate::net::tls`).
 //!
 //! The threat model (what this protects against on a plant network, and
 //! what it does not) is in the top-level README.
