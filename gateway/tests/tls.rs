@@ -366,6 +366,52 @@ fn one_register(value: u16) -> Vec<u8> {
     vec![3, 2, v0, v1]
 }
 
+/// One request over `openssl s_client` (the gateway's certificate verified
+/// against the plant CA for 127.0.0.1): its stdout (the answer) and
+/// stderr.
+fn s_client(dir: &Path, host: &str, request: &[u8]) -> (String, String) {
+    let mut child = Killed(
+        Command::new("openssl")
+            .args(["s_client", "-connect", host, "-CAfile", "plant-ca.crt"])
+            .args([
+                "-verify_return_error",
+                "-verify_ip",
+                "127.0.0.1",
+                "-quiet",
+                "-ign_eof",
+            ])
+            .current_dir(dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    child.0.stdin.take().unwrap().write_all(request).unwrap();
+    let end = Instant::now() + Duration::from_secs(10);
+    while child.0.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < end, "s_client did not end within 10 s");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut out = Vec::new();
+    child
+        .0
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_end(&mut out)
+        .unwrap();
+    let mut err = String::new();
+    child
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    (String::from_utf8_lossy(&out).into_owned(), err)
+}
+
 /// The page over HTTPS with `openssl s_client` (the gateway's certificate
 /// verified against the plant CA for 127.0.0.1): 200 and the page. A
 /// plain HTTP request on that port gets no HTTP answer.
@@ -375,54 +421,8 @@ fn the_page_is_served_over_https_and_not_over_plain_http_on_that_port() {
     pki(&dir.0);
     let gw = Gateway::start(&dir.0);
     let host = format!("127.0.0.1:{}", gw.web);
-    let mut child = Killed(
-        Command::new("openssl")
-            .args(["s_client", "-connect", &host, "-CAfile", "plant-ca.crt"])
-            .args([
-                "-verify_return_error",
-                "-verify_ip",
-                "127.0.0.1",
-                "-quiet",
-                "-ign_eof",
-            ])
-            .current_dir(&dir.0)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    );
     let request = format!("GET / HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n");
-    child
-        .0
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(request.as_bytes())
-        .unwrap();
-    let end = Instant::now() + Duration::from_secs(10);
-    while child.0.try_wait().unwrap().is_none() {
-        assert!(Instant::now() < end, "s_client did not end within 10 s");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    // The page is gzip-compressed: bytes.
-    let mut out = Vec::new();
-    child
-        .0
-        .stdout
-        .take()
-        .unwrap()
-        .read_to_end(&mut out)
-        .unwrap();
-    let out = String::from_utf8_lossy(&out);
-    let mut err = String::new();
-    child
-        .0
-        .stderr
-        .take()
-        .unwrap()
-        .read_to_string(&mut err)
-        .unwrap();
+    let (out, err) = s_client(&dir.0, &host, request.as_bytes());
     assert!(
         out.starts_with("HTTP/1.1 200"),
         "stdout: {out}\nstderr: {err}"
@@ -442,6 +442,38 @@ fn the_page_is_served_over_https_and_not_over_plain_http_on_that_port() {
         String::from_utf8_lossy(&answer)
     );
     gw.log_says("web: TLS handshake with 127.0.0.1:");
+}
+
+/// A session opened over HTTPS has its cookie marked `Secure`: a browser
+/// never sends it over plain HTTP (where it could be read on the wire).
+#[test]
+fn a_session_opened_over_https_has_a_secure_cookie() {
+    let dir = TempDir::new("https-cookie");
+    pki(&dir.0);
+    let gw = Gateway::start(&dir.0);
+    let host = format!("127.0.0.1:{}", gw.web);
+    let code = std::fs::read_to_string(dir.0.join("code")).unwrap();
+    let body = format!(
+        r#"{{"code":"{}","name":"admin","password":"correct horse"}}"#,
+        code.trim()
+    );
+    let request = format!(
+        "POST /api/setup HTTP/1.1\r\nHost: {host}\r\nOrigin: https://{host}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    );
+    let (out, err) = s_client(&dir.0, &host, request.as_bytes());
+    assert!(
+        out.starts_with("HTTP/1.1 200"),
+        "stdout: {out}\nstderr: {err}"
+    );
+    let cookie = out
+        .lines()
+        .find(|l| l.to_ascii_lowercase().starts_with("set-cookie:"))
+        .unwrap_or_else(|| panic!("no cookie: {out}"));
+    assert!(
+        cookie.contains("HttpOnly") && cookie.ends_with("; Secure"),
+        "{cookie}"
+    );
 }
 
 /// How long the gateway keeps a connection to `port` that sends `hello`

@@ -99,6 +99,12 @@ pub trait Socket {
     /// The peer's address while connected.
     fn remote(&self) -> Option<SocketAddrV4>;
 
+    /// The connection is encrypted (a TLS server's, Linux `--web-tls`):
+    /// the web page's session cookie is then marked `Secure`.
+    fn encrypted(&self) -> bool {
+        false
+    }
+
     /// The role a TLS client's certificate gives it, where the connection
     /// was accepted by a TLS server that requires client certificates
     /// (Modbus/TCP Security on Linux, see `tls`): the role its certificate

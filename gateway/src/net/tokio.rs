@@ -488,6 +488,14 @@ impl Socket for TokioSocket<'_> {
         }
     }
 
+    fn encrypted(&self) -> bool {
+        #[cfg(feature = "tls-server")]
+        if let Some(Stream::Handshake(_) | Stream::Served(..)) = &self.stream {
+            return true;
+        }
+        false
+    }
+
     fn remote(&self) -> Option<SocketAddrV4> {
         self.stream
             .as_ref()

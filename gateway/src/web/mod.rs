@@ -405,6 +405,7 @@ async fn serve_one<S: Socket, C: Clock>(
             clock,
             web,
             peer,
+            secure: sock.encrypted(),
             closing: &ex.closing,
         },
         ex: &ex,
@@ -508,6 +509,8 @@ struct App<'a, C: Clock> {
     clock: &'a C,
     web: &'a Web,
     peer: Option<SocketAddrV4>,
+    /// The connection is TLS: the session cookie is `Secure`.
+    secure: bool,
     /// Set once an answer closed the connection: nothing more on it is
     /// served (see [`io`]).
     closing: &'a Cell<bool>,
@@ -1058,15 +1061,18 @@ impl<C: Clock> App<'_, C> {
     }
 }
 
-fn session_cookie(t: &Token) -> impl core::fmt::Display {
-    struct Cookie([u8; crate::access::session::TOKEN_CHARS]);
+/// The session cookie; `Secure` (sent over HTTPS only) when the page is
+/// served over TLS.
+fn session_cookie(t: &Token, secure: bool) -> impl core::fmt::Display {
+    struct Cookie([u8; crate::access::session::TOKEN_CHARS], bool);
     impl core::fmt::Display for Cookie {
         fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
             let hex = core::str::from_utf8(&self.0).unwrap_or("");
-            write!(f, "{COOKIE}={hex}; Path=/; HttpOnly; SameSite=Strict")
+            let secure = if self.1 { "; Secure" } else { "" };
+            write!(f, "{COOKIE}={hex}; Path=/; HttpOnly; SameSite=Strict{secure}")
         }
     }
-    Cookie(t.to_hex())
+    Cookie(t.to_hex(), secure)
 }
 
 /// Headers of every answer: no other site may frame the page or the API
@@ -1199,7 +1205,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 // The token goes in the cookie only (HttpOnly): no page
                 // script, and so no injected one, ever holds it.
                 Response::new(status, json_body(&j))
-                    .with_header("Set-Cookie", session_cookie(&t))
+                    .with_header("Set-Cookie", session_cookie(&t, self.secure))
                     .with_header("Cache-Control", "no-store")
                     .with_headers(SECURITY_HEADERS)
                     .write_to(c, w)
