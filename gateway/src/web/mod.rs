@@ -1069,7 +1069,10 @@ fn session_cookie(t: &Token, secure: bool) -> impl core::fmt::Display {
         fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
             let hex = core::str::from_utf8(&self.0).unwrap_or("");
             let secure = if self.1 { "; Secure" } else { "" };
-            write!(f, "{COOKIE}={hex}; Path=/; HttpOnly; SameSite=Strict{secure}")
+            write!(
+                f,
+                "{COOKIE}={hex}; Path=/; HttpOnly; SameSite=Strict{secure}"
+            )
         }
     }
     Cookie(t.to_hex(), secure)
