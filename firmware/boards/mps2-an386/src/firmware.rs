@@ -9,8 +9,10 @@
 //! 10.0.2.15 ([`FACTORY_NET`](crate::FACTORY_NET)); the robot is the
 //! simulator at 10.0.2.100:10003 (forwarded by `scripts/qemu-run.sh` to the
 //! host) unless the configuration names another. The configuration is kept
-//! in RAM: this board has no persistent storage. Port 5021 serves
-//! diagnostics (see [`diag`](crate::diag)).
+//! in RAM: this board has no persistent storage for it. The field device
+//! with updates (feature `field-device-update`) has the flash file the
+//! bootloader started it from for its firmware slots (`slots`): it takes
+//! signed updates. Port 5021 serves diagnostics (see [`diag`](crate::diag)).
 
 use embassy_executor::Spawner;
 use hans_gateway::{Config, NoStorage, Options};
@@ -47,7 +49,18 @@ pub async fn start(spawner: Spawner) {
 
 #[embassy_executor::task]
 async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
+    #[cfg(not(feature = "field-device-update"))]
     let storage = NoStorage;
+    // The field device updates itself: the firmware slots of the flash file
+    // it was started from, beside the configuration kept in RAM.
+    #[cfg(feature = "field-device-update")]
+    let storage = match board::slots::open() {
+        Ok(slots) => hans_gateway::WithSlots {
+            storage: NoStorage,
+            slots,
+        },
+        Err(e) => board::fail(e),
+    };
     // Only what differs from the library's defaults, so new options need no
     // change here.
     let base = Config::default();
@@ -78,6 +91,14 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
         // No button to hold: never a recovery start (and nothing stored to
         // recover from).
         recovery: false,
+        // Images signed with the key the bootloader trusts, for this board.
+        #[cfg(feature = "field-device-update")]
+        update_key: Some(fw_keys::TRUSTED),
+        #[cfg(feature = "field-device-update")]
+        board: hans_gateway::update::layout::MPS2_AN386.board,
+        // A test's failing self-check (`selfcheck=fail`).
+        #[cfg(feature = "field-device-update")]
+        self_check_fails: board::self_check_fails(),
         ..Options::default()
     };
     match hans_gateway::board::run(stack, storage, options).await {}

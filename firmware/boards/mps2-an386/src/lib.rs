@@ -30,6 +30,8 @@ pub mod diag;
 pub mod executor;
 pub mod firmware;
 pub mod irq;
+#[cfg(feature = "field-device-update")]
+pub mod slots;
 
 use cortex_m::peripheral::NVIC;
 use defmt_semihosting as _;
@@ -99,6 +101,13 @@ fn find_arg<T>(mut f: impl FnMut(&str) -> Option<T>) -> Option<T> {
             None
         }
     }
+}
+
+/// Whether QEMU's command line holds the word `selfcheck=fail`: a test's
+/// way to make an image on trial fail its self-check (it then does not
+/// confirm itself and restarts, and the bootloader rolls it back).
+pub fn self_check_fails() -> bool {
+    find_arg(|a| (a == "selfcheck=fail").then_some(())).is_some()
 }
 
 /// The factory MQTT settings this start: `defaults` (off), or, when
@@ -192,6 +201,9 @@ pub enum BoardError {
     Ethernet(lan9118::InitError),
     /// A task could not be spawned (its pool is exhausted).
     Spawn,
+    /// The flash file (field device: the firmware slots) cannot be used:
+    /// why.
+    Flash(&'static str),
 }
 
 /// Ends the program: QEMU exits with `code` (0 pass, anything else fail).
