@@ -243,8 +243,8 @@ pub fn free_port() -> u16 {
 /// test process dies without stopping it.
 pub const QEMU_LIFE: Duration = Duration::from_secs(300);
 
-/// A QEMU running a firmware ELF on the `mps2-an386` board, as
-/// `scripts/qemu-run.sh` runs it (user networking, `restrict=on`: the only
+/// A QEMU running a firmware ELF on the `mps2-an386` board, run by
+/// `scripts/qemu-run.sh` (user networking, `restrict=on`: the only
 /// ways in and out are the forwards), with the web page forwarded too:
 /// host `127.0.0.1:modbus` → guest port 502, `127.0.0.1:web` → guest port
 /// 80, and the guest's robot address 10.0.2.100:10003 → the simulator on
@@ -255,7 +255,8 @@ pub struct Qemu {
     pub modbus: SocketAddrV4,
     /// Where the firmware's web page is reached.
     pub web: SocketAddrV4,
-    /// The firmware's raw defmt log.
+    /// The firmware's raw defmt log (QEMU's stderr beside it, with the
+    /// extension `qemu.log`).
     pub log: PathBuf,
 }
 
@@ -276,37 +277,32 @@ impl Qemu {
         let lo = Ipv4Addr::LOCALHOST;
         let modbus = SocketAddrV4::new(lo, free_port());
         let web = SocketAddrV4::new(lo, free_port());
-        let nic = format!(
-            "user,model=lan9118,restrict=on,hostfwd=tcp:{modbus}-10.0.2.15:502,\
-             hostfwd=tcp:{web}-10.0.2.15:80,\
-             guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:{sim_port}"
-        );
         if let Some(dir) = log.parent() {
             std::fs::create_dir_all(dir).expect("the log directory");
         }
-        let out = std::fs::File::create(&log).expect("the QEMU log file");
-        let err = out.try_clone().expect("the QEMU log file");
+        // QEMU's stderr: its own messages and, for a firmware started by
+        // the bootloader (the field device), the bootloader's lines.
+        let err = std::fs::File::create(log.with_extension("qemu.log")).expect("the QEMU log file");
+        // The script starts the field device through the bootloader from a
+        // flash file it makes (and execs QEMU: stopping `timeout` stops it).
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/qemu-run.sh");
         let child = Command::new("timeout")
             .arg("--kill-after=5")
             .arg(QEMU_LIFE.as_secs().to_string())
-            .args([
-                "qemu-system-arm",
-                "-machine",
-                "mps2-an386",
-                "-cpu",
-                "cortex-m4",
-            ])
-            .args(["-nographic", "-monitor", "none", "-serial", "none"])
-            .args(["-semihosting-config", "enable=on,target=native"])
-            .arg("-nic")
-            .arg(nic)
-            .arg("-kernel")
+            .arg("bash")
+            .arg(script)
             .arg(elf)
+            .env("MODBUS_PORT", modbus.port().to_string())
+            .env("WEB_PORT", web.port().to_string())
+            .env("SIM_PORT", sim_port.to_string())
             // The host hands in the setup code, as it does the seed.
-            .arg("-append")
-            .arg(format!("setup={SETUP_CODE}"))
+            .env("SETUP_CODE", SETUP_CODE)
+            .env("DEFMT_OUT", &log)
+            .env_remove("FIRMWARE_ARGS")
+            .env_remove("ADMIN_PORT")
+            .env_remove("MQTT_PORT")
             .stdin(Stdio::null())
-            .stdout(out)
+            .stdout(Stdio::null())
             .stderr(err)
             .spawn()
             .expect("start QEMU");
