@@ -112,8 +112,10 @@ impl<C: Clock> App<'_, C> {
                     s.boot = Some(crate::update::BootState::Pending);
                 });
                 info!(
-                    "update: firmware {} written and marked: the next restart installs it",
-                    version_text(v)
+                    "update: firmware {}.{}.{} written and marked: the next restart installs it",
+                    v.major,
+                    v.minor,
+                    v.patch
                 );
                 let mut detail = heapless::String::<32>::new();
                 let _ =
@@ -195,9 +197,12 @@ impl<C: Clock> App<'_, C> {
                 total: total as u32,
             }
         });
+        let v = header.version;
         info!(
-            "update: receiving firmware {} ({} bytes)",
-            version_text(header.version),
+            "update: receiving firmware {}.{}.{} ({} bytes)",
+            v.major,
+            v.minor,
+            v.patch,
             total
         );
         // The header at the slot's start, the body one header page on.

@@ -1,18 +1,17 @@
 //! The gateway firmware of this board, shared by its two binaries: `gateway`
 //! (the core gateway: Modbus and the robot link) and `field-device` (feature
 //! `field-device`: also the web page with its access control, DHCP, the
-//! DataSheet reader and the Sparkplug B edge node, on when the host names a
-//! broker, see [`factory_mqtt`](crate::factory_mqtt)). Only the gateway
-//! library's features differ.
+//! DataSheet reader, the Sparkplug B edge node, on when the host names a
+//! broker, see [`factory_mqtt`](crate::factory_mqtt), and signed updates).
+//! Only the gateway library's features differ.
 //!
 //! Modbus TCP on port 502 and (field device) the web page on 80, at
 //! 10.0.2.15 ([`FACTORY_NET`](crate::FACTORY_NET)); the robot is the
 //! simulator at 10.0.2.100:10003 (forwarded by `scripts/qemu-run.sh` to the
 //! host) unless the configuration names another. The configuration is kept
 //! in RAM: this board has no persistent storage for it. The field device
-//! with updates (feature `field-device-update`) has the flash file the
-//! bootloader started it from for its firmware slots (`slots`): it takes
-//! signed updates. Port 5021 serves diagnostics (see [`diag`](crate::diag)).
+//! has the flash file the bootloader started it from for its firmware
+//! slots (`slots`): it takes signed updates. Port 5021 serves diagnostics (see [`diag`](crate::diag)).
 
 use embassy_executor::Spawner;
 use hans_gateway::{Config, NoStorage, Options};
@@ -49,11 +48,11 @@ pub async fn start(spawner: Spawner) {
 
 #[embassy_executor::task]
 async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
-    #[cfg(not(feature = "field-device-update"))]
+    #[cfg(not(feature = "field-device"))]
     let storage = NoStorage;
     // The field device updates itself: the firmware slots of the flash file
     // it was started from, beside the configuration kept in RAM.
-    #[cfg(feature = "field-device-update")]
+    #[cfg(feature = "field-device")]
     let storage = match board::slots::open() {
         Ok(slots) => hans_gateway::WithSlots {
             storage: NoStorage,
@@ -92,12 +91,12 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
         // recover from).
         recovery: false,
         // Images signed with the key the bootloader trusts, for this board.
-        #[cfg(feature = "field-device-update")]
+        #[cfg(feature = "field-device")]
         update_key: Some(fw_keys::TRUSTED),
-        #[cfg(feature = "field-device-update")]
+        #[cfg(feature = "field-device")]
         board: hans_gateway::update::layout::MPS2_AN386.board,
         // A test's failing self-check (`selfcheck=fail`).
-        #[cfg(feature = "field-device-update")]
+        #[cfg(feature = "field-device")]
         self_check_fails: board::self_check_fails(),
         ..Options::default()
     };

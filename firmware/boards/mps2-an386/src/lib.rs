@@ -30,7 +30,7 @@ pub mod diag;
 pub mod executor;
 pub mod firmware;
 pub mod irq;
-#[cfg(feature = "field-device-update")]
+#[cfg(feature = "field-device")]
 pub mod slots;
 
 use cortex_m::peripheral::NVIC;
