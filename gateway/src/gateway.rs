@@ -555,7 +555,7 @@ pub const TRIAL_CHECK: embassy_time::Duration = embassy_time::Duration::from_sec
 async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) -> Infallible {
     use crate::update::{BootState, Op};
     clock.sleep(TRIAL_CHECK).await;
-    if hub.updates.status().boot != Some(BootState::Trial) {
+    if hub.with(|m| m.firmware.boot) != Some(BootState::Trial) {
         return core::future::pending().await;
     }
     let web_up = web_port == 0 || hub.with(|m| m.access.web_on);
@@ -573,7 +573,7 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
     let _mailbox = hub.updates.take().await;
     match hub.updates.ask(Op::Confirm).await {
         Ok(()) => {
-            hub.updates.set(|s| s.boot = Some(BootState::Confirmed));
+            hub.firmware(|s| s.boot = Some(BootState::Confirmed));
             info!("update: the new firmware passed its self-check and is confirmed");
         }
         Err(e) => warn!("update: the confirmation failed: {}", e.as_str()),
@@ -611,7 +611,7 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
             .and_then(|()| image::Header::parse(&head).ok())
             .map(|h| h.version);
     }
-    hub.updates.set(|s| {
+    hub.firmware(|s| {
         s.supported = true;
         s.boot = Some(boot);
         s.running = versions[0];

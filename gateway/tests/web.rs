@@ -184,7 +184,7 @@ fn the_page_is_served_compressed_and_the_status_is_the_state() {
         .starts_with("text/html"));
     assert_eq!(&page.body[..2], &[0x1f, 0x8b], "gzip magic");
     let s = get(&mut w, "/api/status").json();
-    assert_eq!(s["map"], "1.2");
+    assert_eq!(s["map"], "1.3");
     assert_eq!(s["link"]["state"], "connected");
     assert_eq!(s["robot"]["fsm"]["code"], w.reg(r::STATUS_FSM));
     assert_eq!(s["channels"].as_array().unwrap().len(), 2);
@@ -1226,9 +1226,12 @@ mod update {
         assert_eq!(f["running"], v("1.1.0"));
         assert_eq!(f["previous"], v("1.0.0"));
         assert_eq!(f["state"], v("trial"));
+        // The PLC sees it too: FW_VERSION 1.1.0, FW_STATE 2 (trial).
+        assert_eq!([55, 56, 57, 58].map(|a| w.reg(a)), [1, 1, 0, 2]);
         assert_eq!(flash.active_body(new_body.len()), new_body);
         w.run_for(hans_gateway::TRIAL_CHECK + Duration::from_secs(1));
         assert_eq!(firmware(&mut w)["state"], v("confirmed"));
+        assert_eq!(w.reg(r::STATUS_FW_STATE), 1);
         assert!(!w.restart_asked());
         // Confirmed: another restart keeps it.
         w.restart();
@@ -1256,6 +1259,7 @@ mod update {
         let f = firmware(&mut w);
         assert_eq!(f["running"], v("1.0.0"));
         assert_eq!(f["state"], v("rolled back"));
+        assert_eq!([55, 56, 57, 58].map(|a| w.reg(a)), [1, 0, 0, 4]);
         assert_eq!(flash.active_body(30_000), body(0xA, 30_000));
         // A rolled-back device takes the next update.
         // A restart ended the session.

@@ -288,7 +288,7 @@ fn mqtt_endpoint(s: &str) -> Result<(bool, Endpoint), String> {
     }
 }
 
-/// `0.1.0 (register map 1.2)`: the gateway's version, and the register
+/// `0.1.0 (register map 1.3)`: the gateway's version, and the register
 /// map's that the VERSION register holds (major × 256 + minor).
 fn version() -> String {
     format!(

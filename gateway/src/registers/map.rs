@@ -79,9 +79,10 @@ pub struct Area {
 /// minor number grows when the map gains registers or a documented detail
 /// changes (1.1: RESULTS read NaN until a command gives them; urgent RAW and
 /// trigger texts go out in their canonical form; 1.2: the network and
-/// access settings at 160-193, the access status at 50-53); the major
-/// number when a PLC program written for the old map would break.
-pub const MAP_VERSION: u16 = 0x0102;
+/// access settings at 160-193, the access status at 50-53; 1.3: the
+/// firmware's version and update state at 55-58); the major number when a
+/// PLC program written for the old map would break.
+pub const MAP_VERSION: u16 = 0x0103;
 
 // ----------------------------------------------------------------- status
 /// The register map's version ([`MAP_VERSION`]).
@@ -152,6 +153,15 @@ pub const STATUS_WRITES_REFUSED: u16 = 53;
 /// The controller's protocol level in use: major × 100 + minor (606 for
 /// HR6.6.x, 500 for V5), 0 = not known yet.
 pub const STATUS_PROTOCOL: u16 = 54;
+/// The running firmware's version: major, minor, patch (from its signed
+/// image header); 0, 0, 0 where the platform installs no images (Linux,
+/// the core firmwares).
+pub const STATUS_FW_VERSION: u16 = 55;
+/// The firmware update's state: 0 = no updates here, 1 = confirmed, 2 = on
+/// trial (swapped in, not yet confirmed by its self-check), 3 = an update
+/// waits for the restart, 4 = rolled back (the last update never confirmed
+/// itself).
+pub const STATUS_FW_STATE: u16 = 58;
 
 /// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
 /// write-protected ([`CONFIG_WRITE_PROTECT`]).
@@ -586,6 +596,8 @@ pub const TABLE: &[Area] = &[
     area!("WEB_REFUSED", STATUS_WEB_REFUSED, 1, Ro, U16),
     area!("WRITES_REFUSED", STATUS_WRITES_REFUSED, 1, Ro, U16),
     area!("PROTOCOL_LEVEL", STATUS_PROTOCOL, 1, Ro, U16),
+    area!("FW_VERSION", STATUS_FW_VERSION, 3, Ro, U16),
+    area!("FW_STATE", STATUS_FW_STATE, 1, Ro, U16),
     area!("CFG_ROBOT_IP", CONFIG_ROBOT_IP, 2, Rw, U16),
     area!("CFG_ROBOT_PORT", CONFIG_ROBOT_PORT, 1, Rw, U16),
     area!("CFG_LINK_MODE", CONFIG_LINK_MODE, 1, Rw, U16),
@@ -734,9 +746,10 @@ mod tests {
     #[test]
     fn area_lookup_and_access_checks() {
         assert_eq!(area_of(STATUS_JOINTS + 11).unwrap().name, "ACT_JOINTS");
-        assert!(area_of(55).is_none());
-        assert!(check(0, 55, false).is_ok());
-        assert_eq!(check(0, 56, false), Err(AccessError::IllegalAddress));
+        assert_eq!(area_of(57).unwrap().name, "FW_VERSION");
+        assert!(area_of(59).is_none());
+        assert!(check(0, 59, false).is_ok());
+        assert_eq!(check(0, 60, false), Err(AccessError::IllegalAddress));
         assert!(check(NET_IP, NET_LEN, true).is_ok());
         assert!(check(NET_IP, NET_LEN + 1, true).is_err());
         assert_eq!(check(0, 1, true), Err(AccessError::IllegalAddress));

@@ -284,6 +284,15 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         r::STATUS_MODBUS_REFUSED => m.access.modbus_refused,
         r::STATUS_WEB_REFUSED => m.access.web_refused,
         r::STATUS_WRITES_REFUSED => m.access.writes_refused,
+        r::STATUS_FW_VERSION..=58 if addr < r::STATUS_FW_STATE => {
+            let v = m.firmware.running;
+            v.map_or(0, |v| match addr - r::STATUS_FW_VERSION {
+                0 => v.major,
+                1 => v.minor,
+                _ => v.patch,
+            })
+        }
+        r::STATUS_FW_STATE => m.firmware.boot.map_or(0, |b| b.code()),
         r::STATUS_PROTOCOL => m.link.level.map_or(0, |l| {
             let (major, minor, _) = l.parts();
             u16::from(major) * 100 + u16::from(minor)
@@ -575,6 +584,29 @@ mod tests {
         let ev = write(&mut m, r::CONTROL_HEARTBEAT, &[9, 1]).unwrap();
         assert_eq!(ev.config_command, Some(1));
         assert_eq!(read(&m, r::CONTROL_CONFIG_COMMAND, now()), 0);
+    }
+
+    #[test]
+    fn the_firmware_reads_as_its_version_and_update_state() {
+        use crate::state::firmware::{BootState, Version};
+        let mut m = model();
+        assert_eq!(
+            [55, 56, 57, 58].map(|a| read(&m, a, now())),
+            [0; 4],
+            "no updates here"
+        );
+        m.firmware.running = Some(Version {
+            major: 2,
+            minor: 10,
+            patch: 7,
+        });
+        m.firmware.boot = Some(BootState::Trial);
+        assert_eq!(
+            [r::STATUS_FW_VERSION, 56, 57, r::STATUS_FW_STATE].map(|a| read(&m, a, now())),
+            [2, 10, 7, 2]
+        );
+        m.firmware.boot = Some(BootState::RolledBack);
+        assert_eq!(read(&m, r::STATUS_FW_STATE, now()), 4);
     }
 
     #[test]

@@ -12,6 +12,7 @@
 //! (Busy, then exactly one outcome).
 
 pub mod access;
+pub mod firmware;
 pub mod handshake;
 pub mod history;
 pub mod inputs;
@@ -215,6 +216,8 @@ pub struct Model {
     pub log: history::CommandLog,
     /// The text of the last robot error.
     pub error_text: ErrorText,
+    /// The firmware: versions, update state.
+    pub firmware: firmware::Firmware,
 }
 
 impl Model {
@@ -250,6 +253,7 @@ impl Model {
             access: AccessState::new(config.net),
             log: history::CommandLog::default(),
             error_text: ErrorText::default(),
+            firmware: firmware::Firmware::NONE,
         }
     }
 

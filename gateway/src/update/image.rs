@@ -35,16 +35,7 @@ pub const SIGNED_LEN: usize = 72;
 /// Bytes of a board id, at most.
 pub const BOARD_MAX: usize = 16;
 
-/// A firmware version (semantic: major.minor.patch).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub struct Version {
-    /// Major.
-    pub major: u16,
-    /// Minor.
-    pub minor: u16,
-    /// Patch.
-    pub patch: u16,
-}
+pub use crate::state::firmware::Version;
 
 /// What the header says.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

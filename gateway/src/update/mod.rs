@@ -41,49 +41,10 @@ pub(crate) enum Op {
     Confirm,
 }
 
-/// Where an upload is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Upload {
-    /// None since the start.
-    Idle,
-    /// An image of `version` is arriving: `received` of `total` bytes.
-    Receiving {
-        /// Its version.
-        version: Version,
-        /// Bytes received.
-        received: u32,
-        /// Bytes in all.
-        total: u32,
-    },
-    /// `version` is written and marked: the next restart swaps it in.
-    Installed {
-        /// Its version.
-        version: Version,
-    },
-    /// The last image was refused (nothing was installed): why.
-    Refused {
-        /// Why, for the page and the log.
-        reason: &'static str,
-    },
-}
+pub use crate::state::firmware::{Firmware as Status, Upload};
 
-/// What the page shows of the firmware.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Status {
-    /// This platform installs images (a board with the bootloader).
-    pub supported: bool,
-    /// The running image's version (its header in the active slot).
-    pub running: Option<Version>,
-    /// The image in the download slot: after an update, the previous one.
-    pub previous: Option<Version>,
-    /// The boot state.
-    pub boot: Option<BootState>,
-    /// The last upload.
-    pub upload: Upload,
-}
-
-/// The mailbox between the web server's upload and the storage task, and
-/// the firmware's status (in the hub).
+/// The mailbox between the web server's upload and the storage task (in
+/// the hub); the firmware's status is in the state (`Model::firmware`).
 pub struct Updates {
     request: Signal<NoopRawMutex, Op>,
     done: Signal<NoopRawMutex, Result<(), SlotError>>,
@@ -91,7 +52,6 @@ pub struct Updates {
     lock: Mutex<NoopRawMutex, ()>,
     /// The piece being handed over.
     pub(crate) piece: RefCell<[u8; PIECE]>,
-    status: Cell<Status>,
     /// The key, board id and largest body an upload must match
     /// ([`Updates::trust_images`]); `None`: nothing is installed.
     trust: Cell<Option<([u8; 32], &'static str, u32)>>,
@@ -104,21 +64,13 @@ impl Default for Updates {
 }
 
 impl Updates {
-    /// An idle mailbox; the status is "not supported" until the storage
-    /// task has surveyed the slots.
+    /// An idle mailbox, trusting no image.
     pub const fn new() -> Self {
         Updates {
             request: Signal::new(),
             done: Signal::new(),
             lock: Mutex::new(()),
             piece: RefCell::new([0; PIECE]),
-            status: Cell::new(Status {
-                supported: false,
-                running: None,
-                previous: None,
-                boot: None,
-                upload: Upload::Idle,
-            }),
             trust: Cell::new(None),
         }
     }
@@ -134,18 +86,6 @@ impl Updates {
     /// What an upload must match: the key, the board id, the largest body.
     pub(crate) fn trust(&self) -> Option<([u8; 32], &'static str, u32)> {
         self.trust.get()
-    }
-
-    /// The firmware's status.
-    pub fn status(&self) -> Status {
-        self.status.get()
-    }
-
-    /// Changes the status.
-    pub(crate) fn set(&self, f: impl FnOnce(&mut Status)) {
-        let mut s = self.status.get();
-        f(&mut s);
-        self.status.set(s);
     }
 
     /// Takes the mailbox for one operation or a whole upload; `None` if

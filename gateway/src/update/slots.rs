@@ -28,33 +28,7 @@ pub enum Slot {
     Previous,
 }
 
-/// The boot state, as the application finds it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum BootState {
-    /// The running image is confirmed (or was never updated).
-    Confirmed,
-    /// The running image was just swapped in and is on trial: unless it
-    /// confirms itself, the next restart brings the previous one back.
-    Trial,
-    /// An update is marked and waits for the restart that swaps it in.
-    Pending,
-    /// The bootloader rolled a trial image back: the running image is the
-    /// one from before the update.
-    RolledBack,
-}
-
-impl BootState {
-    /// The state's name in the API (`/api/status`, `firmware.state`).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            BootState::Confirmed => "confirmed",
-            BootState::Trial => "trial",
-            BootState::Pending => "pending",
-            BootState::RolledBack => "rolled back",
-        }
-    }
-}
+pub use crate::state::firmware::BootState;
 
 /// Why a slot operation failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

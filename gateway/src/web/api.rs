@@ -105,9 +105,8 @@ pub(crate) struct StatusSnapshot {
     #[cfg(feature = "mqtt")]
     mqtt: crate::telemetry::Stats,
     mqtt_broker: (crate::config::HostName, u16),
-    /// The firmware's status, set after `take` (it lives in the hub).
-    #[cfg(feature = "update")]
-    firmware: crate::update::Status,
+    /// The firmware.
+    firmware: crate::state::firmware::Firmware,
     /// Each channel's handshake and Execute.
     channels: [(Handshake, bool); r::CHANNELS],
     /// RAW's.
@@ -137,15 +136,6 @@ impl Snapshot {
     pub(crate) fn set_mqtt(&mut self, stats: crate::telemetry::Stats) {
         if let Snapshot::Status(s) = self {
             s.mqtt = stats;
-        }
-    }
-
-    /// Sets the firmware's status of a status snapshot (it lives in the
-    /// hub, beside the state).
-    #[cfg(feature = "update")]
-    pub(crate) fn set_firmware(&mut self, status: crate::update::Status) {
-        if let Snapshot::Status(s) = self {
-            s.firmware = status;
         }
     }
 
@@ -266,8 +256,7 @@ impl StatusSnapshot {
             #[cfg(feature = "mqtt")]
             mqtt: crate::telemetry::Status::new().get(),
             mqtt_broker: (crate::config::HostName::EMPTY, 0),
-            #[cfg(feature = "update")]
-            firmware: crate::update::Updates::new().status(),
+            firmware: crate::state::firmware::Firmware::NONE,
             channels: [(Handshake::default(), false); r::CHANNELS],
             raw: (Handshake::default(), false),
             triggers: Triggers::default(),
@@ -304,6 +293,7 @@ impl StatusSnapshot {
         self.config_saves = m.config.saves;
         self.config_applied = m.config.generation;
         self.mqtt_broker = (c.mqtt.broker, c.mqtt.port);
+        self.firmware = m.firmware;
         for (dst, ch) in self.channels.iter_mut().zip(m.channels.iter()) {
             *dst = (ch.handshake, ch.inputs.execute());
         }
@@ -428,7 +418,6 @@ impl StatusSnapshot {
                 j.key("applied").uint(self.config_applied.into());
             });
             j.key("mqtt").object(|j| self.mqtt(j));
-            #[cfg(feature = "update")]
             j.key("firmware").object(|j| firmware(j, &self.firmware));
             j.key("channels").array(|j| {
                 for (k, (h, execute)) in self.channels.iter().enumerate() {
@@ -691,9 +680,8 @@ fn entry(j: &mut Object<'_, '_>, e: &LogEntry) {
 
 /// The firmware: running and previous versions, trial state, the last
 /// upload (`supported` false: this platform installs no image).
-#[cfg(feature = "update")]
-fn firmware(j: &mut Object<'_, '_>, s: &crate::update::Status) {
-    use crate::update::{Upload, Version};
+fn firmware(j: &mut Object<'_, '_>, s: &crate::state::firmware::Firmware) {
+    use crate::state::firmware::{Upload, Version};
     fn version(val: Value<'_, '_>, v: Option<Version>) {
         val.opt(v, |val, v| {
             val.text(|t| {

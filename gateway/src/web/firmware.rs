@@ -82,7 +82,7 @@ impl<C: Clock> App<'_, C> {
         request: &mut Request<'_, R>,
     ) -> Reply {
         let updates = &self.hub.updates;
-        let status = updates.status();
+        let status = self.hub.with(|m| m.firmware);
         let trust = updates.trust();
         let (Some((key, board, max_body)), true) = (trust, status.supported) else {
             return error(StatusCode::NOT_IMPLEMENTED, SlotError::Unsupported.as_str());
@@ -107,15 +107,13 @@ impl<C: Clock> App<'_, C> {
         let result = self.receive(&expect, request).await;
         match result {
             Ok(v) => {
-                updates.set(|s| {
+                self.hub.firmware(|s| {
                     s.upload = Upload::Installed { version: v };
                     s.boot = Some(crate::update::BootState::Pending);
                 });
                 info!(
                     "update: firmware {}.{}.{} written and marked: the next restart installs it",
-                    v.major,
-                    v.minor,
-                    v.patch
+                    v.major, v.minor, v.patch
                 );
                 let mut detail = heapless::String::<32>::new();
                 let _ =
@@ -139,7 +137,7 @@ impl<C: Clock> App<'_, C> {
             }
             Err(failed) => {
                 let reason = failed.reason();
-                updates.set(|s| s.upload = Upload::Refused { reason });
+                self.hub.firmware(|s| s.upload = Upload::Refused { reason });
                 warn!("update: upload refused: {}", reason);
                 let mut detail = heapless::String::<80>::new();
                 let _ = core::fmt::write(&mut detail, format_args!("refused: {reason}"));
@@ -190,7 +188,7 @@ impl<C: Clock> App<'_, C> {
         if total - HEADER_LEN != header.body_len as usize {
             return Err(Failed::Image(ImageError::WrongLength));
         }
-        updates.set(|s| {
+        self.hub.firmware(|s| {
             s.upload = Upload::Receiving {
                 version: header.version,
                 received: HEADER_LEN as u32,
@@ -200,10 +198,7 @@ impl<C: Clock> App<'_, C> {
         let v = header.version;
         info!(
             "update: receiving firmware {}.{}.{} ({} bytes)",
-            v.major,
-            v.minor,
-            v.patch,
-            total
+            v.major, v.minor, v.patch, total
         );
         // The header at the slot's start, the body one header page on.
         if let Ok(mut piece) = updates.piece.try_borrow_mut() {
@@ -236,7 +231,7 @@ impl<C: Clock> App<'_, C> {
             offset += n as u32;
             left -= n;
             let received = (total - left) as u32;
-            updates.set(|s| {
+            self.hub.firmware(|s| {
                 if let Upload::Receiving { received: r, .. } = &mut s.upload {
                     *r = received;
                 }

@@ -1152,8 +1152,6 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 self.hub.with(|m| snap.take(doc, m, now));
                 #[cfg(feature = "mqtt")]
                 snap.set_mqtt(self.hub.mqtt.get());
-                #[cfg(feature = "update")]
-                snap.set_firmware(self.hub.updates.status());
                 match doc_body(&snap) {
                     Some(body) => {
                         Response::new(StatusCode::OK, Head { body, head })
