@@ -34,12 +34,13 @@
 use core::cell::RefCell;
 
 use cortex_m_rt::entry;
-use embassy_boot::{BootLoader, BootLoaderConfig, State};
+use embassy_boot::State;
 use embassy_embedded_hal::flash::partition::BlockingPartition;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
-use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
-use hans_gateway::update::image::{Expect, Header, ImageError, Verifier, Version, HEADER_LEN};
+use embedded_storage::nor_flash::ReadNorFlash;
+use fw_boot::{check_image, expect, refuse_or_swap, Pending, Refusal};
+use hans_gateway::update::image::{Header, Version, HEADER_LEN};
 use hans_gateway::update::layout::{Layout, HEADER_PAGE, MPS2_AN386};
 use semihosting::io::Write as _;
 use semihosting_flash::{FlashPath, SemihostingFlash};
@@ -50,13 +51,6 @@ const LAYOUT: Layout = MPS2_AN386;
 /// The flash file's bytes moved at once (one page: one read and one write
 /// per page of the swap).
 const BUF: usize = 4096;
-
-/// The embassy-boot state partition's words (4 bytes, the flash's write
-/// size): the magic, the progress's validity, then the progress indices
-/// (embassy-boot 0.7, `BootLoader`'s documentation of the format).
-const WORD: u32 = 4;
-const SWAP_MAGIC: u8 = 0xF0;
-const ERASED: u8 = 0xFF;
 
 /// A line of the log on semihosting's stderr.
 struct Line {
@@ -128,123 +122,15 @@ fn fail(line: &mut Line) -> ! {
     semihosting::process::exit(1)
 }
 
-/// What the boot state asks for, read before embassy-boot acts on it.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Pending {
-    /// Nothing: boot the active slot.
-    Boot,
-    /// A swap marked by the application, not begun.
-    Swap,
-    /// A swap a power cut interrupted: embassy-boot resumes it.
-    SwapResumed,
-    /// The swapped-in image ran but never confirmed itself: revert.
-    Revert,
-}
-
-/// Reads the boot state as embassy-boot 0.7 will (`prepare_boot`): swap
-/// magic in the first word; the swap's progress from the third word on, a
-/// word with an erased byte being a step not done; invalid progress (the
-/// second word written) counts as swapped.
-fn read_pending(
-    flash: &mut SemihostingFlash,
-    buf: &mut [u8; BUF],
-) -> Result<Pending, &'static str> {
-    let state = buf
-        .get_mut(..(LAYOUT.state.end - LAYOUT.state.start) as usize)
-        .ok_or("the boot state is larger than the buffer")?;
-    flash
-        .read(LAYOUT.state.start, state)
-        .map_err(|e| e.as_str())?;
-    let word = |i: u32| {
-        let at = (i * WORD) as usize;
-        state.get(at..at + WORD as usize).unwrap_or(&[])
-    };
-    if word(0).iter().any(|b| *b != SWAP_MAGIC) {
-        return Ok(Pending::Boot);
-    }
-    let pages = (LAYOUT.active.end - LAYOUT.active.start) / LAYOUT.page;
-    let max_index = (state.len() as u32 - WORD) / WORD - 2;
-    let progress = if word(1).iter().any(|b| *b != ERASED) {
-        max_index
-    } else {
-        (0..max_index)
-            .find(|i| word(2 + i).contains(&ERASED))
-            .unwrap_or(max_index)
-    };
-    Ok(if progress >= 2 * pages {
-        Pending::Revert
-    } else if progress == 0 {
-        Pending::Swap
-    } else {
-        Pending::SwapResumed
-    })
-}
-
-/// What an image must match here: signed by the trusted key, for this board, no
-/// larger than a slot. Any version: the application refused a downgrade
-/// the administrator did not allow before it marked the update.
-fn expect() -> Expect<'static> {
-    Expect {
-        key: &fw_keys::TRUSTED,
-        board: LAYOUT.board,
-        running: Version {
-            major: 0,
-            minor: 0,
-            patch: 0,
-        },
-        allow_downgrade: true,
-        max_body: LAYOUT.max_body(),
-    }
-}
-
-/// Why an image is refused: its own checks, or the flash.
-#[derive(Clone, Copy)]
-enum Refusal {
-    Image(ImageError),
-    Flash(&'static str),
-}
-
-impl Refusal {
-    fn as_str(self) -> &'static str {
-        match self {
-            Refusal::Image(e) => e.as_str(),
-            Refusal::Flash(e) => e,
-        }
-    }
-}
-
-/// Checks the image whose header is at `at` in the flash file (its body
-/// at `at + HEADER_PAGE`); with `copy`, each piece of the body read goes
-/// to `copy` first and is hashed from there (the RAM the image runs in).
+/// Checks the image whose header is at `at` in the flash file, through
+/// a partition-less view (the whole file).
 fn check_slot(
     flash: &mut SemihostingFlash,
     at: u32,
     buf: &mut [u8; BUF],
-    mut copy: Option<&mut [u8]>,
+    copy: Option<&mut [u8]>,
 ) -> Result<Header, Refusal> {
-    let head = buf.get_mut(..HEADER_LEN).ok_or(Refusal::Flash("buffer"))?;
-    flash
-        .read(at, head)
-        .map_err(|e| Refusal::Flash(e.as_str()))?;
-    let mut v = Verifier::new(head, &expect()).map_err(Refusal::Image)?;
-    let len = v.header().body_len;
-    let body = at + HEADER_PAGE;
-    let mut done = 0u32;
-    while done < len {
-        let n = (len - done).min(BUF as u32);
-        let piece = match copy.as_deref_mut() {
-            Some(ram) => ram
-                .get_mut(done as usize..(done + n) as usize)
-                .ok_or(Refusal::Image(ImageError::TooLarge))?,
-            None => buf.get_mut(..n as usize).ok_or(Refusal::Flash("buffer"))?,
-        };
-        flash
-            .read(body + done, piece)
-            .map_err(|e| Refusal::Flash(e.as_str()))?;
-        v.update(piece).map_err(Refusal::Image)?;
-        done += n;
-    }
-    v.finish().map_err(Refusal::Image)
+    check_image(flash, at, &expect(&LAYOUT, &fw_keys::TRUSTED), buf, copy)
 }
 
 #[entry]
@@ -253,7 +139,7 @@ fn main() -> ! {
         Ok(p) => p,
         Err(e) => fail(Line::new().s("the flash file's name: ").s(e.as_str())),
     };
-    let mut flash = match SemihostingFlash::open(&path, LAYOUT.size) {
+    let flash = match SemihostingFlash::open(&path, LAYOUT.size) {
         Ok(f) => f,
         Err(e) => fail(
             Line::new()
@@ -268,59 +154,48 @@ fn main() -> ! {
     };
     let mut buf = [0u8; BUF];
 
-    let mut pending = match read_pending(&mut flash, &mut buf) {
-        Ok(p) => p,
-        Err(e) => fail(Line::new().s("boot state: ").s(e)),
+    let shared = Mutex::<NoopRawMutex, _>::new(RefCell::new(flash));
+    let prepared = {
+        let part =
+            |r: &core::ops::Range<u32>| BlockingPartition::new(&shared, r.start, r.end - r.start);
+        refuse_or_swap(
+            part(&LAYOUT.active),
+            part(&LAYOUT.dfu),
+            part(&LAYOUT.state),
+            &LAYOUT,
+            &fw_keys::TRUSTED,
+            &mut buf,
+        )
     };
-    if pending == Pending::Swap {
-        // Never swap in an image that would not be started: the running
-        // one stays, and the boot state is cleared (the application then
-        // sees no update pending).
-        match check_slot(&mut flash, LAYOUT.dfu.start, &mut buf, None) {
-            Ok(h) => Line::new()
-                .s("swapping in ")
-                .version(h.version)
-                .s(" from the download slot")
-                .emit(),
-            Err(e) => {
-                Line::new()
-                    .s("update refused, not swapped in: ")
-                    .s(e.as_str())
-                    .s("; the running image stays")
-                    .emit();
-                if let Err(e) = flash.erase(LAYOUT.state.start, LAYOUT.state.end) {
-                    fail(Line::new().s("clearing the boot state: ").s(e.as_str()));
-                }
-                pending = Pending::Boot;
-            }
-        }
+    let mut flash = shared.into_inner().into_inner();
+    let prepared = match prepared {
+        Ok(p) => p,
+        Err(e) => fail(Line::new().s(e.as_str())),
+    };
+    if let Some(e) = prepared.refused {
+        Line::new()
+            .s("update refused, not swapped in: ")
+            .s(e.as_str())
+            .s("; the running image stays")
+            .emit();
     }
-    match pending {
+    if let Some(h) = prepared.swapped_in {
+        Line::new()
+            .s("swapped in ")
+            .version(h.version)
+            .s(" from the download slot")
+            .emit();
+    }
+    match prepared.pending {
         Pending::SwapResumed => Line::new()
-            .s("resuming the swap a power cut interrupted")
+            .s("resumed the swap a power cut interrupted")
             .emit(),
         Pending::Revert => Line::new()
-            .s("reverting: the image on trial did not confirm itself")
+            .s("reverted: the image on trial did not confirm itself")
             .emit(),
         Pending::Boot | Pending::Swap => {}
     }
-
-    let shared = Mutex::<NoopRawMutex, _>::new(RefCell::new(flash));
-    let state = {
-        let part =
-            |r: &core::ops::Range<u32>| BlockingPartition::new(&shared, r.start, r.end - r.start);
-        let mut bl = BootLoader::new(BootLoaderConfig {
-            active: part(&LAYOUT.active),
-            dfu: part(&LAYOUT.dfu),
-            state: part(&LAYOUT.state),
-        });
-        bl.prepare_boot(&mut buf)
-    };
-    let mut flash = shared.into_inner().into_inner();
-    let state = match state {
-        Ok(s) => s,
-        Err(_) => fail(Line::new().s("the swap failed (flash error)")),
-    };
+    let (pending, state) = (prepared.pending, prepared.state);
 
     // The active slot, checked as it is copied to where it runs.
     let run_at = LAYOUT.entry - HEADER_PAGE;

@@ -137,7 +137,7 @@ fn the_bootloader_swaps_in_a_marked_update_and_refuses_corrupted_images() {
     let t0 = Instant::now();
     let (mut qemu, log) = boot("bootloader-swap", &f, "hans-boot: booting");
     assert!(
-        log.contains("hans-boot: swapping in 0.2.0 from the download slot")
+        log.contains("hans-boot: swapped in 0.2.0 from the download slot")
             && log.contains("hans-boot: booting 0.2.0 (swapped in"),
         "{log}"
     );
