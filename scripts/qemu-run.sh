@@ -1,10 +1,21 @@
 #!/usr/bin/env bash
-# Runs a firmware ELF on QEMU's mps2-an386 machine with user-mode networking.
+# Runs a firmware ELF on QEMU's mps2-an386 machine with user-mode networking
+# (or on a TAP device: NET below).
 # This is the cargo runner of firmware/ (`cargo run --bin gateway` from there).
 #
 #   scripts/qemu-run.sh FIRMWARE.elf
 #
 # Environment:
+#   NET          `user` (default): QEMU's user-mode network with the forwards
+#                below; `tap:IFNAME`: the LAN9118 on the existing TAP device
+#                IFNAME instead (QEMU opens it, no up/down scripts), a real
+#                Ethernet segment: whoever made the device gives its other
+#                side addresses and runs the simulator (10.0.2.100:10003, the
+#                firmware's factory robot address) there. No forward applies
+#                then (MODBUS_PORT, SIM_PORT, ADMIN_PORT, WEB_PORT are
+#                ignored; MQTT_PORT still hands in the word
+#                `mqtt=10.0.2.100:1883`). host-tests/robustness runs it so,
+#                on a TAP device inside a network namespace it makes.
 #   MODBUS_PORT  host port forwarded to the firmware's Modbus port 502
 #                (default 5020; bound on 127.0.0.1 only)
 #   SIM_PORT     host port of the robot simulator; the firmware reaches it as
@@ -37,8 +48,9 @@
 # beside the ELF), which checks the image in the flash file's active slot,
 # copies it to RAM and starts it. The flash file is a host file the guest
 # reads and writes through semihosting (the word `flash=PATH`), made from the
-# ELF: llvm-objcopy -O binary, `hans-fw sign` with the development key,
-# `hans-fw install`. The bootloader's log is text on stderr (`hans-boot:`).
+# ELF by scripts/fw-image.sh: llvm-objcopy -O binary, `hans-fw sign` with
+# the development key, `hans-fw install`. The bootloader's log is text on
+# stderr (`hans-boot:`).
 #   FLASH_FILE   the flash file: kept and used as it is when it exists (a
 #                restart of QEMU keeps the flash: the configuration, an update
 #                and its boot state), else made there; default a new
@@ -57,29 +69,45 @@ elf=${1:?usage: qemu-run.sh FIRMWARE.elf}
 modbus_port=${MODBUS_PORT:-5020}
 sim_port=${SIM_PORT:-10003}
 
-nic="user,model=lan9118,restrict=on"
-nic+=",hostfwd=tcp:127.0.0.1:${modbus_port}-10.0.2.15:502"
-if [ -n "${ADMIN_PORT:-}" ]; then
-  nic+=",hostfwd=tcp:127.0.0.1:${ADMIN_PORT}-10.0.2.15:5021"
-fi
-if [ -n "${WEB_PORT:-}" ]; then
-  nic+=",hostfwd=tcp:127.0.0.1:${WEB_PORT}-10.0.2.15:80"
-fi
-# `cmd:` spawns one relay per guest connection, so every connection the
-# firmware opens is a new connection to the simulator, and one attempted
-# while the simulator is down fails as it would on a real network. (A
-# `tcp:` chardev target would be one shared stream, opened once at QEMU's
-# start, that fails QEMU when the simulator is not up yet and never
-# reconnects after the simulator restarts.)
-command -v socat >/dev/null || { echo "qemu-run.sh: socat is needed (apt-get install socat)" >&2; exit 2; }
-nic+=",guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:${sim_port}"
-# The broker the same way: one relay per connection, so the firmware's
-# reconnects reach a broker started (or restarted) after QEMU.
-if [ -n "${MQTT_PORT:-}" ]; then
-  case $MQTT_PORT in
-    *[!0-9]*) echo "qemu-run.sh: MQTT_PORT must be a port number, not '$MQTT_PORT'" >&2; exit 2 ;;
-  esac
-  nic+=",guestfwd=tcp:10.0.2.100:1883-cmd:socat - TCP:127.0.0.1:${MQTT_PORT}"
+net=${NET:-user}
+case $net in
+  user) ;;
+  tap:?*)
+    ifname=${net#tap:}
+    case $ifname in
+      *[!A-Za-z0-9_.-]*) echo "qemu-run.sh: NET=tap:IFNAME: '$ifname' is not an interface name" >&2; exit 2 ;;
+    esac
+    ;;
+  *) echo "qemu-run.sh: NET must be 'user' or 'tap:IFNAME', not '$net'" >&2; exit 2 ;;
+esac
+if [ "$net" = user ]; then
+  nic="user,model=lan9118,restrict=on"
+  nic+=",hostfwd=tcp:127.0.0.1:${modbus_port}-10.0.2.15:502"
+  if [ -n "${ADMIN_PORT:-}" ]; then
+    nic+=",hostfwd=tcp:127.0.0.1:${ADMIN_PORT}-10.0.2.15:5021"
+  fi
+  if [ -n "${WEB_PORT:-}" ]; then
+    nic+=",hostfwd=tcp:127.0.0.1:${WEB_PORT}-10.0.2.15:80"
+  fi
+  # `cmd:` spawns one relay per guest connection, so every connection the
+  # firmware opens is a new connection to the simulator, and one attempted
+  # while the simulator is down fails as it would on a real network. (A
+  # `tcp:` chardev target would be one shared stream, opened once at QEMU's
+  # start, that fails QEMU when the simulator is not up yet and never
+  # reconnects after the simulator restarts.)
+  command -v socat >/dev/null || { echo "qemu-run.sh: socat is needed (apt-get install socat)" >&2; exit 2; }
+  nic+=",guestfwd=tcp:10.0.2.100:10003-cmd:socat - TCP:127.0.0.1:${sim_port}"
+  # The broker the same way: one relay per connection, so the firmware's
+  # reconnects reach a broker started (or restarted) after QEMU.
+  if [ -n "${MQTT_PORT:-}" ]; then
+    case $MQTT_PORT in
+      *[!0-9]*) echo "qemu-run.sh: MQTT_PORT must be a port number, not '$MQTT_PORT'" >&2; exit 2 ;;
+    esac
+    nic+=",guestfwd=tcp:10.0.2.100:1883-cmd:socat - TCP:127.0.0.1:${MQTT_PORT}"
+  fi
+else
+  # The segment is the TAP device's: no forwards, no relays.
+  nic="tap,ifname=${ifname},script=no,downscript=no,model=lan9118"
 fi
 
 args=${FIRMWARE_ARGS:-}
@@ -104,25 +132,7 @@ if [ "$vectors" = 00010400 ]; then
     disown
   fi
   if [ ! -f "$flash" ]; then
-    hans_fw=${HANS_FW:-}
-    if [ -z "$hans_fw" ]; then
-      for t in "${CARGO_TARGET_DIR:-$root/target}" "$root/target"; do
-        for p in debug release; do
-          if [ -z "$hans_fw" ] && [ -x "$t/$p/hans-fw" ]; then hans_fw=$t/$p/hans-fw; fi
-        done
-      done
-      [ -n "$hans_fw" ] || hans_fw=$(command -v hans-fw || true)
-    fi
-    [ -n "$hans_fw" ] || {
-      echo "qemu-run.sh: hans-fw is needed to make the flash file: cargo build -p hans-fw, or set HANS_FW" >&2
-      exit 2
-    }
-    work=$(mktemp -d)
-    llvm-objcopy -O binary "$elf" "$work/firmware.bin"
-    "$hans_fw" sign --key "$root/firmware/keys/dev.key" --board mps2-an386 \
-      --version "${FW_VERSION:-0.1.0}" "$work/firmware.bin" -o "$work/firmware.img" >/dev/null
-    "$hans_fw" install --layout mps2-an386 --out "$flash" "$work/firmware.img" >/dev/null
-    rm -rf "$work"
+    bash "$root/scripts/fw-image.sh" --flash "$elf" "$flash"
   fi
   args="${args:+$args }flash=$(realpath "$flash")"
 fi
