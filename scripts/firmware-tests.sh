@@ -9,8 +9,11 @@
 # flash / 64 KiB static RAM, or a field-device firmware 384 KiB / 160 KiB),
 # then runs the QEMU tests (firmware/qemu-tests: smoke firmware; gateway
 # firmware with the robot simulator, run in-process, and a Modbus client;
-# field-device firmware over HTTP), which print the stack high-water marks
-# and the web page's load time.
+# field-device firmware over HTTP; the bootloader on flash files; signed
+# updates through the page's API: bad images refused while the PLC is
+# served, an update installed and confirmed, one rolled back), which print
+# the stack high-water marks, the web page's load time and the update's
+# figures.
 #
 # To run the field-device firmware for a browser (or by hand) instead, with
 # its web page forwarded to the host: scripts/qemu-field-device.sh.
@@ -107,4 +110,7 @@ echo "==> stack high-water marks measured under QEMU (painted stack)"
 grep -oE '[a-z0-9-]+: stack_used=[0-9]+ stack_size=[0-9]+' "$LOG" | grep -v '^diag:' | sed 's/^/  /' || echo "  (none reported)"
 echo "==> web page load time from the field-device firmware under QEMU (reported, not asserted)"
 grep -E '^[a-z0-9-]+: page load round' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
+echo "==> firmware update under QEMU (tests/update.rs; reported, not asserted)"
+grep -E '^update: (full image uploaded|the PLC, idle|the PLC during the uploads|longest engine stall|swap and restart|B confirmed)|^update-rollback: B on trial' "$LOG" |
+  sed 's/^/  /' || echo "  (none reported)"
 exit "$status"

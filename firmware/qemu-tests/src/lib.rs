@@ -7,7 +7,9 @@
 //!   request bounded by a timeout), as a PLC drives the gateway.
 //! * [`HttpClient`] is a small blocking HTTP/1.1 client (keep-alive,
 //!   `Content-Length` and chunked answers) for the field-device firmware's
-//!   web page, as a browser holds one connection; [`http_get`] is one request.
+//!   web page, as a browser holds one connection; [`http_get`] is one request;
+//!   [`HttpClient::send`] uploads a body while reading the answer.
+//! * [`hans_fw`] finds the host tool that signs and installs images.
 //! * [`free_port`] picks an unused port on 127.0.0.1.
 //!
 //! Every socket here binds or connects to 127.0.0.1 only.
@@ -27,6 +29,23 @@ pub const LOOPBACK: Ipv4Addr = Ipv4Addr::LOCALHOST;
 /// The repository root (two levels above this crate).
 pub fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// The hans-fw program (signs and installs images): `$HANS_FW`, else the
+/// host workspace's build (`$CARGO_TARGET_DIR` or `target/`, debug or
+/// release).
+pub fn hans_fw() -> PathBuf {
+    if let Some(p) = std::env::var_os("HANS_FW") {
+        return PathBuf::from(p);
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo_root().join("target"));
+    ["debug", "release"]
+        .iter()
+        .map(|p| target.join(p).join("hans-fw"))
+        .find(|p| p.exists())
+        .expect("hans-fw built (cargo build -p hans-fw; scripts/firmware-tests.sh does)")
 }
 
 /// Where the release firmware ELFs are: `$FIRMWARE_BIN_DIR`, else
@@ -501,6 +520,11 @@ impl HttpClient {
         })
     }
 
+    /// Bounds each later read of an answer by `limit` (default 10 s).
+    pub fn set_timeout(&mut self, limit: Duration) -> io::Result<()> {
+        self.stream.set_read_timeout(Some(limit))
+    }
+
     /// `GET path` on this connection.
     pub fn get(&mut self, path: &str) -> io::Result<HttpResponse> {
         self.request("GET", path, b"")
@@ -530,6 +554,68 @@ impl HttpClient {
         self.stream.write_all(head.as_bytes())?;
         self.stream.write_all(body.as_bytes())?;
         self.read_response()
+    }
+
+    /// `method path` with `headers` (name, value) and `body`, the body
+    /// written from a second thread while the answer is read: the server
+    /// may answer and close before the body ends (the firmware refuses an
+    /// upload at its header), and its answer is what counts. `limit`
+    /// bounds each read of the answer and each write of the body (an
+    /// upload may take longer than one read of an ordinary answer).
+    /// Returns the answer and how long the exchange took, from the first
+    /// byte sent to the answer's end.
+    pub fn send(
+        &mut self,
+        method: &str,
+        path: &str,
+        headers: &[(&str, &str)],
+        body: &[u8],
+        limit: Duration,
+    ) -> io::Result<(HttpResponse, Duration)> {
+        let mut head = format!(
+            "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\nContent-Length: {}\r\n",
+            self.port,
+            body.len()
+        );
+        for (name, value) in headers {
+            head.push_str(&format!("{name}: {value}\r\n"));
+        }
+        head.push_str("\r\n");
+        let mut writer = self.stream.try_clone()?;
+        // Both handles are one socket: the timeouts are shared.
+        self.stream.set_read_timeout(Some(limit))?;
+        self.stream.set_write_timeout(Some(limit))?;
+        let start = Instant::now();
+        let (answer, written) = std::thread::scope(|s| {
+            let sender = s.spawn(move || -> io::Result<()> {
+                writer.write_all(head.as_bytes())?;
+                for piece in body.chunks(4096) {
+                    writer.write_all(piece)?;
+                }
+                Ok(())
+            });
+            let answer = self.read_response();
+            if !sender.is_finished() {
+                // Answered before the body was taken: the connection is
+                // done; unblock the sender.
+                let _ = self.stream.shutdown(std::net::Shutdown::Both);
+            }
+            let written = sender
+                .join()
+                .unwrap_or_else(|_| Err(bad("the sender panicked")));
+            (answer, written)
+        });
+        let took = start.elapsed();
+        self.stream.set_read_timeout(Some(HTTP_READ_TIMEOUT))?;
+        self.stream.set_write_timeout(None)?;
+        match (answer, written) {
+            (Ok(r), _) => Ok((r, took)),
+            (Err(e), Ok(())) => Err(e),
+            (Err(e), Err(w)) => Err(io::Error::new(
+                e.kind(),
+                format!("{e} (sending the body: {w})"),
+            )),
+        }
     }
 
     /// Reads until `pending` holds `n` bytes.

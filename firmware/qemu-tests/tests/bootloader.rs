@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use qemu_tests::{firmware_elf, log_dir, repo_root, Ports, Qemu};
+use qemu_tests::{firmware_elf, hans_fw, log_dir, repo_root, Ports, Qemu};
 
 const ACTIVE: usize = 0x1000;
 const DFU: usize = 0x8_1000;
@@ -24,44 +24,23 @@ const HEADER_PAGE: usize = 1024;
 /// application writes when it marks an update.
 const SWAP_MAGIC: [u8; 4] = [0xF0; 4];
 
-/// The hans-fw program: `$HANS_FW`, else the host workspace's build.
-fn hans_fw() -> PathBuf {
-    if let Some(p) = std::env::var_os("HANS_FW") {
-        return PathBuf::from(p);
-    }
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo_root().join("target"));
-    ["debug", "release"]
-        .iter()
-        .map(|p| target.join(p).join("hans-fw"))
-        .find(|p| p.exists())
-        .expect("hans-fw built (cargo build -p hans-fw; scripts/firmware-tests.sh does)")
-}
-
 fn run(cmd: &mut Command) {
     let out = cmd.output().expect("run a tool");
     assert!(out.status.success(), "{cmd:?}: {out:?}");
 }
 
-/// The field-device firmware signed as `version` with the development key.
+/// The field-device firmware signed as `version` with the development key
+/// (`scripts/fw-image.sh`, as `scripts/qemu-run.sh` signs it).
 fn image(dir: &Path, version: &str) -> Vec<u8> {
-    let bin = dir.join("field-device.bin");
-    if !bin.exists() {
-        run(Command::new("llvm-objcopy")
-            .args(["-O", "binary"])
-            .arg(firmware_elf("field-device"))
-            .arg(&bin));
-    }
     let img = dir.join(format!("{version}.img"));
-    run(Command::new(hans_fw())
-        .arg("sign")
-        .arg("--key")
-        .arg(repo_root().join("firmware/keys/dev.key"))
-        .args(["--board", "mps2-an386", "--version", version])
-        .arg(&bin)
-        .arg("-o")
-        .arg(&img));
+    run(Command::new("bash")
+        .arg(repo_root().join("scripts/fw-image.sh"))
+        .arg(firmware_elf("field-device"))
+        .arg(&img)
+        .env("FW_VERSION", version)
+        .env("HANS_FW", hans_fw())
+        .env_remove("FW_KEY")
+        .env_remove("FW_BOARD"));
     std::fs::read(&img).expect("the signed image")
 }
 

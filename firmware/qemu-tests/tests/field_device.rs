@@ -22,7 +22,7 @@
 use std::net::{Ipv4Addr, SocketAddr, TcpStream};
 use std::time::{Duration, Instant};
 
-use qemu_tests::{http_get, must, request_line, HttpClient, Plc};
+use qemu_tests::{http_get, must, HttpClient, Plc};
 use serde_json::Value;
 
 const STATUS_FSM: u16 = 6;
@@ -80,19 +80,6 @@ impl Rig {
         let r = self.get("/api/status");
         serde_json::from_slice(&r.body)
             .unwrap_or_else(|e| panic!("/api/status is not JSON ({e}): {}", r.text()))
-    }
-
-    /// Ends the firmware through the diagnostics port (the stack report is
-    /// printed), prints its log, expects exit status 0. Returns the log
-    /// (text if `defmt-print` is installed).
-    fn finish(mut self) -> String {
-        let report = request_line(self.qemu.ports.admin, "exit\n", Duration::from_secs(30))
-            .expect("diagnostics report");
-        println!("{}: {}", self.name, report.trim());
-        let (status, log) = self.wait_end();
-        assert!(report.starts_with("stack_used="), "report: {report}");
-        assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
-        log
     }
 }
 
@@ -223,7 +210,7 @@ fn the_field_device_serves_its_page_and_the_live_status_of_the_robot() {
         );
     }
 
-    let _ = rig.finish();
+    let _ = rig.exit();
 }
 
 /// A Modbus client whose connection comes from `local` (127.0.0.x).
@@ -357,7 +344,7 @@ fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees(
     });
 
     drop(admin);
-    let _ = rig.finish();
+    let _ = rig.exit();
 }
 
 #[test]
@@ -376,7 +363,7 @@ fn the_field_device_takes_its_address_from_dhcp() {
     wait_for("the robot link over the leased address", STEP, || {
         (rig.status()["link"]["state"] == "connected").then_some(())
     });
-    let log = rig.finish();
+    let log = rig.exit();
     if !log.starts_with("(raw defmt") {
         assert!(log.contains("network: DHCP"), "DHCP asked for");
         assert!(

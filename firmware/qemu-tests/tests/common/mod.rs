@@ -10,7 +10,7 @@ use std::process::ExitStatus;
 use std::time::{Duration, Instant};
 
 use hans_sim::{Config as SimConfig, Sim, Timing};
-use qemu_tests::{connect_retry, firmware_elf, Plc, Ports, Qemu};
+use qemu_tests::{connect_retry, firmware_elf, request_line, Plc, Ports, Qemu};
 
 /// The bound of every wait for the firmware (QEMU under load is slow).
 pub const STEP: Duration = Duration::from_secs(60);
@@ -72,24 +72,22 @@ impl Rig {
         self.sim.as_ref().expect("simulator running")
     }
 
-    /// A Modbus session that has answered one request (the guest may not be
-    /// listening yet, or all its sessions may be busy: then QEMU accepts and
-    /// closes at once, and we try again).
+    /// A Modbus session that has answered one request (see [`modbus_at`]).
     pub fn modbus(&self) -> Plc {
-        let start = Instant::now();
-        loop {
-            let stream = connect_retry(self.qemu.ports.modbus, STEP).expect("connect to :502");
-            let mut client = Plc::new(stream, Duration::from_secs(5)).expect("Modbus client");
-            if let Ok(Ok(_)) = client.read_holding_registers(0, 1) {
-                return client;
-            }
-            assert!(
-                start.elapsed() < STEP,
-                "{}: no Modbus session within {STEP:?}",
-                self.name
-            );
-            std::thread::sleep(Duration::from_millis(300));
-        }
+        modbus_at(self.qemu.ports.modbus, self.name)
+    }
+
+    /// Ends the firmware through the diagnostics port (the stack report is
+    /// printed), prints its log, expects exit status 0. Returns the log
+    /// (text if `defmt-print` is installed).
+    pub fn exit(mut self) -> String {
+        let report = request_line(self.qemu.ports.admin, "exit\n", Duration::from_secs(30))
+            .expect("diagnostics report");
+        println!("{}: {}", self.name, report.trim());
+        let (status, log) = self.wait_end();
+        assert!(report.starts_with("stack_used="), "report: {report}");
+        assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
+        log
     }
 
     /// Waits (30 s at most) for QEMU to end after the firmware was told to,
@@ -118,6 +116,26 @@ impl Drop for Rig {
                 println!("--- simulator received ---\n{:?}", sim.received());
             }
         }
+    }
+}
+
+/// A Modbus session with the firmware on host port `port` that has
+/// answered one request (the guest may not be listening yet, or all its
+/// sessions may be busy: then QEMU accepts and closes at once, and we try
+/// again, for [`STEP`] at most). `name` names the test in the failure.
+pub fn modbus_at(port: u16, name: &str) -> Plc {
+    let start = Instant::now();
+    loop {
+        let stream = connect_retry(port, STEP).expect("connect to :502");
+        let mut client = Plc::new(stream, Duration::from_secs(5)).expect("Modbus client");
+        if let Ok(Ok(_)) = client.read_holding_registers(0, 1) {
+            return client;
+        }
+        assert!(
+            start.elapsed() < STEP,
+            "{name}: no Modbus session within {STEP:?}"
+        );
+        std::thread::sleep(Duration::from_millis(300));
     }
 }
 
