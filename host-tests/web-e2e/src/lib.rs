@@ -231,6 +231,61 @@ pub fn field_device_elf() -> PathBuf {
     elf
 }
 
+/// The hans-fw program (keys, signed images): `$HANS_FW`, else the cargo
+/// target directory's (`cargo build -p hans-fw`, debug or release).
+pub fn hans_fw() -> PathBuf {
+    if let Some(p) = std::env::var_os("HANS_FW") {
+        return PathBuf::from(p);
+    }
+    let target = screenshot_dir()
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    ["debug", "release"]
+        .iter()
+        .map(|p| target.join(p).join("hans-fw"))
+        .find(|p| p.exists())
+        .unwrap_or_else(|| {
+            panic!(
+                "hans-fw not found in {}: cargo build -p hans-fw (scripts/firmware-tests.sh does), \
+                 or set HANS_FW",
+                target.display()
+            )
+        })
+}
+
+/// `elf` (the QEMU field device) as a signed update image at `out`, with
+/// `version` and `key` (the development key if `None`), made by
+/// `scripts/fw-image.sh` as `scripts/qemu-run.sh` makes the device's own.
+pub fn signed_image(elf: &Path, out: &Path, version: &str, key: Option<&Path>) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scripts/fw-image.sh");
+    let mut cmd = Command::new("bash");
+    cmd.arg(script)
+        .arg(elf)
+        .arg(out)
+        .env("FW_VERSION", version)
+        .env("HANS_FW", hans_fw())
+        .env_remove("FW_BOARD");
+    match key {
+        Some(k) => cmd.env("FW_KEY", k),
+        None => cmd.env_remove("FW_KEY"),
+    };
+    let done = cmd.output().expect("running scripts/fw-image.sh");
+    assert!(done.status.success(), "{cmd:?}: {done:?}");
+}
+
+/// A signing key the device does not trust, made by `hans-fw keygen` in
+/// `dir` (`untrusted.key`).
+pub fn untrusted_key(dir: &Path) -> PathBuf {
+    let done = Command::new(hans_fw())
+        .args(["keygen", "--name", "untrusted", "--out"])
+        .arg(dir)
+        .output()
+        .expect("running hans-fw keygen");
+    assert!(done.status.success(), "hans-fw keygen: {done:?}");
+    dir.join("untrusted.key")
+}
+
 /// A port on 127.0.0.1 that was free a moment ago.
 pub fn free_port() -> u16 {
     TcpListener::bind((Ipv4Addr::LOCALHOST, 0))
@@ -673,6 +728,35 @@ impl WebRig {
             js_str(id),
             js_str(value)
         ));
+    }
+
+    /// Limits what the page sends to `bytes_per_s` (DevTools' network
+    /// throttling: an upload then takes long enough to be seen); `None`
+    /// lifts the limit.
+    pub fn throttle_upload(&self, bytes_per_s: Option<f64>) {
+        use headless_chrome::protocol::cdp::Network;
+        self.tab
+            .call_method(Network::Enable {
+                max_total_buffer_size: None,
+                max_resource_buffer_size: None,
+                max_post_data_size: None,
+                report_direct_socket_traffic: None,
+                enable_durable_messages: None,
+            })
+            .expect("Network.enable");
+        self.tab
+            .call_method(Network::EmulateNetworkConditions {
+                offline: false,
+                latency: 0.0,
+                // -1: not limited.
+                download_throughput: -1.0,
+                upload_throughput: bytes_per_s.unwrap_or(-1.0),
+                connection_Type: None,
+                packet_loss: None,
+                packet_queue_length: None,
+                packet_reordering: None,
+            })
+            .expect("Network.emulateNetworkConditions");
     }
 
     /// Sets the files of the file input `id` (as the file chooser does).

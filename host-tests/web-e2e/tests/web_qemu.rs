@@ -3,12 +3,16 @@
 //! robot: the same page as on Linux, served by the firmware over its own
 //! TCP stack, shows the live status and follows a move; a configuration
 //! edit through the form is read back over Modbus. The page's load time is
-//! printed (not asserted). Needs the firmware built first
-//! ([`hans_web_e2e::field_device_elf`]); `scripts/firmware-tests.sh` runs
-//! it (`cargo test -p hans-web-e2e --features qemu --test web_qemu`).
+//! printed (not asserted). The page's Firmware section on the same device:
+//! a signed image uploaded with its progress bar and installed, a wrongly
+//! signed one refused with its reason. Needs the firmware and hans-fw built
+//! first ([`hans_web_e2e::field_device_elf`], [`hans_web_e2e::hans_fw`]);
+//! `scripts/firmware-tests.sh` runs it (`cargo test -p hans-web-e2e
+//! --features qemu --test web_qemu`).
 
 use hans_gateway::registers as r;
-use hans_web_e2e::{field_device_elf, WebRig};
+use hans_web_e2e::{field_device_elf, signed_image, untrusted_key, WebRig};
+use serde_json::Value;
 
 #[test]
 fn the_page_from_the_qemu_field_device_shows_the_live_status_and_takes_a_form_edit() {
@@ -57,5 +61,109 @@ fn the_page_from_the_qemu_field_device_shows_the_live_status_and_takes_a_form_ed
     });
     assert!(rig.visible("restart-btn"), "the board can restart itself");
     rig.shot("applied");
+    rig.finish();
+}
+
+/// The images of the firmware test, in a directory of their own.
+struct Images(std::path::PathBuf);
+
+impl Drop for Images {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+#[test]
+fn the_firmware_section_on_the_qemu_field_device_installs_a_signed_image_and_refuses_another() {
+    let elf = field_device_elf();
+    let dir = Images(std::env::temp_dir().join(format!("hans-web-fw-{}", std::process::id())));
+    std::fs::create_dir_all(&dir.0).expect("the images' directory");
+    // Image B (0.2.0, the development key, as the device's 0.1.0 is
+    // signed) and the same signed by a key the device does not trust.
+    let good = dir.0.join("field-device-0.2.0.img");
+    signed_image(&elf, &good, "0.2.0", None);
+    let key = untrusted_key(&dir.0);
+    let bad = dir.0.join("field-device-0.2.0-untrusted.img");
+    signed_image(&elf, &bad, "0.2.0", Some(&key));
+    let size = std::fs::metadata(&good).expect("image B").len();
+
+    let mut rig = WebRig::start_qemu("qemu-update", &elf);
+    rig.wait_live();
+    rig.wait_text("fw-running", "the running version on the page", |t| {
+        t == "0.1.0"
+    });
+    assert_eq!(rig.text("fw-state"), "confirmed");
+    assert!(
+        !rig.visible("fw-file"),
+        "no upload without an administrator"
+    );
+    rig.set_first_password("commission-2026");
+    rig.wait_for("the upload form for the administrator", |r| {
+        r.visible("fw-file").then_some(())
+    });
+
+    // Every change of the progress bar, recorded by the page itself (an
+    // upload may be over between two looks of the test).
+    rig.js(
+        "(() => { const bar = document.getElementById('fw-progress'); window.fwBar = []; \
+         new MutationObserver(() => window.fwBar.push({shown: !bar.hidden, value: bar.value, max: bar.max})) \
+         .observe(bar, {attributes: true}); })()",
+    );
+    // Slowed to 128 KiB/s, so that the bar is seen moving (~3 s).
+    rig.throttle_upload(Some(128.0 * 1024.0));
+    rig.set_file("fw-file", &good);
+    rig.click("fw-send");
+    let t0 = std::time::Instant::now();
+    rig.wait_for("the progress bar part way", |r| {
+        let v = r.js(
+            "(() => { const b = document.getElementById('fw-progress'); \
+             return !b.hidden && b.value > 0 && b.value < b.max; })()",
+        );
+        (v == Value::Bool(true)).then_some(())
+    });
+    rig.shot_at("firmware", "firmware-uploading");
+    let msg = rig.wait_text("fw-msg", "the image installed", |t| t.contains("installed"));
+    println!(
+        "web: image B ({size} bytes) uploaded from the page in {:.1} s (throttled to 128 KiB/s): {msg}",
+        t0.elapsed().as_secs_f64()
+    );
+    rig.throttle_upload(None);
+    assert_eq!(msg, "Firmware 0.2.0 installed: it runs after the restart.");
+    let bar = rig.js("window.fwBar");
+    let steps = bar.as_array().expect("the bar's changes");
+    assert!(
+        steps.iter().any(|s| s["shown"] == true
+            && s["value"]
+                .as_f64()
+                .is_some_and(|v| v > 0.0 && v < size as f64)),
+        "the bar shown part way: {bar}"
+    );
+    assert!(
+        steps
+            .iter()
+            .any(|s| s["value"].as_f64() == Some(size as f64)
+                && s["max"].as_f64() == Some(size as f64)),
+        "the bar full at the end: {bar}"
+    );
+    assert!(!rig.visible("fw-progress"), "the bar hidden once answered");
+    rig.wait_text("fw-state", "the update waiting for the restart", |t| {
+        t == "an update waits for the restart"
+    });
+    rig.wait_text("fw-upload", "the last update's result", |t| {
+        t == "0.2.0 installed: restart to run it"
+    });
+    assert!(rig.visible("fw-restart"), "the restart offered");
+    rig.shot_at("firmware", "firmware-installed");
+
+    // A wrongly signed image: refused with its reason; B stays marked.
+    rig.set_file("fw-file", &bad);
+    rig.click("fw-send");
+    let msg = rig.wait_text("fw-msg", "the refusal", |t| t.starts_with("Refused"));
+    assert_eq!(msg, "Refused: not signed by the trusted key");
+    rig.wait_text("fw-upload", "the refusal as the last result", |t| {
+        t == "refused: not signed by the trusted key"
+    });
+    assert_eq!(rig.text("fw-state"), "an update waits for the restart");
+    rig.shot_at("firmware", "firmware-refused");
     rig.finish();
 }
