@@ -17,9 +17,21 @@ const DEFAULT_NET: &str = "192.168.1.50/24,192.168.1.1";
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     let dir = PathBuf::from(env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets it"));
-    fs::copy(dir.join("memory.x"), out.join("memory.x")).expect("memory.x is readable");
-    println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed=memory.x");
+    // Each binary gets the memory map of its own (cortex-m-rt's `link.x`
+    // includes the `memory.x` found on the search path): the core firmware
+    // runs alone from the flash's start (`memory.x`); the field device is
+    // started by the bootloader from the active slot (`memory-slot.x`).
+    let _ = fs::remove_file(out.join("memory.x"));
+    for (map, bin) in [
+        ("memory.x", "nucleo-f767zi"),
+        ("memory-slot.x", "nucleo-f767zi-field-device"),
+    ] {
+        let search = out.join(bin);
+        fs::create_dir_all(&search).expect("OUT_DIR is writable");
+        fs::copy(dir.join(map), search.join("memory.x")).expect("the memory map is readable");
+        println!("cargo:rustc-link-arg-bin={bin}=-L{}", search.display());
+        println!("cargo:rerun-if-changed={map}");
+    }
     println!("cargo:rerun-if-env-changed=HANS_GW_NET");
 
     let net = env::var("HANS_GW_NET").unwrap_or_else(|_| DEFAULT_NET.to_string());

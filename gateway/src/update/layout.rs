@@ -64,13 +64,14 @@ pub const MPS2_AN386: Layout = Layout {
 };
 
 /// The NUCLEO-F767ZI in dual-bank mode (firmware/README.md draws it):
-/// offsets from 0x0800_0000; bank 1 holds the bootloader (sectors 0-1),
-/// the boot state (sector 2) and the active slot (sectors 5-10), bank 2
-/// the configuration (12-15, as before updates), the audit ring (16) and
-/// the download slot (17-23).
+/// offsets from 0x0800_0000; bank 1 holds the bootloader (sectors 0-3)
+/// and the active slot (sectors 5-10), bank 2 the configuration (12-15,
+/// as before updates), the boot state (16) and the download slot (17-23).
+/// Everything the running firmware writes is in bank 2: the program runs
+/// from bank 1 and is never stalled by an erase.
 pub const NUCLEO_F767ZI: Layout = Layout {
     board: "nucleo-f767zi",
-    state: 0x0_8000..0x0_C000,
+    state: 0x11_0000..0x12_0000,
     active: 0x2_0000..0x0E_0000,
     dfu: 0x12_0000..0x20_0000,
     page: 0x2_0000,
@@ -106,7 +107,8 @@ mod tests {
             );
             assert!(r.end <= l.size);
         }
-        assert!(l.state.end <= l.active.start && l.active.end <= l.dfu.start);
+        let apart = |a: &Range<u32>, b: &Range<u32>| a.end <= b.start || b.end <= a.start;
+        assert!(apart(&l.state, &l.active) && apart(&l.state, &l.dfu) && apart(&l.active, &l.dfu));
         assert_eq!(l.entry % HEADER_PAGE, 0);
         assert!(
             l.max_body() >= 384 * 1024,
@@ -122,6 +124,11 @@ mod tests {
         // The NUCLEO's configuration (bank 2, sectors 12-15) stays outside
         // every slot: a board updated from the layout before keeps it.
         let config = 0x10_0000..0x11_0000;
+        // What the running firmware writes (the boot state, the download
+        // slot) is in bank 2, away from the program in bank 1.
+        let n = &NUCLEO_F767ZI;
+        assert!(n.state.start >= 0x10_0000 && n.dfu.start >= 0x10_0000);
+        assert!(n.active.end <= 0x10_0000);
         for r in [
             &NUCLEO_F767ZI.state,
             &NUCLEO_F767ZI.active,

@@ -26,8 +26,12 @@ pub use image::{Header, ImageError, Version};
 pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
 
 /// Bytes handed to the storage task at once (a multiple of every flash
-/// write size the boards have).
-pub const PIECE: usize = 1024;
+/// write size the boards have, and at least an image header). Small: the
+/// buffer is static RAM of every field device, and a piece costs a signal
+/// there and back, nothing that a larger one would save.
+pub const PIECE: usize = 512;
+
+const _: () = assert!(PIECE >= image::HEADER_LEN);
 
 /// What the storage task is asked to do with the slots.
 // The web server's upload asks for writes and the mark (builds with `web`).

@@ -181,10 +181,18 @@ impl<C: Clock> App<'_, C> {
             .reader()
             .with_different_timeout_signal(core::future::pending::<()>());
         let deadline = self.clock.now() + UPLOAD_DEADLINE;
-        let mut head = [0u8; HEADER_LEN];
-        self.fill(&mut reader, &mut head, deadline).await?;
-        let mut verifier = Verifier::new(&head, expect).map_err(Failed::Image)?;
-        let header = *verifier.header();
+        // The header is read into the piece buffer, where it is handed to
+        // the storage task from (no copy of it in every web slot's future).
+        let (mut verifier, header) = {
+            let Ok(mut piece) = updates.piece.try_borrow_mut() else {
+                return Err(Failed::Slot(SlotError::Flash));
+            };
+            let head = piece.get_mut(..HEADER_LEN).unwrap_or(&mut []);
+            self.fill(&mut reader, head, deadline).await?;
+            let verifier = Verifier::new(head, expect).map_err(Failed::Image)?;
+            let header = *verifier.header();
+            (verifier, header)
+        };
         if total - HEADER_LEN != header.body_len as usize {
             return Err(Failed::Image(ImageError::WrongLength));
         }
@@ -201,11 +209,6 @@ impl<C: Clock> App<'_, C> {
             v.major, v.minor, v.patch, total
         );
         // The header at the slot's start, the body one header page on.
-        if let Ok(mut piece) = updates.piece.try_borrow_mut() {
-            if let Some(p) = piece.get_mut(..HEADER_LEN) {
-                p.copy_from_slice(&head);
-            }
-        }
         let write = Op::Write {
             offset: 0,
             len: HEADER_LEN,

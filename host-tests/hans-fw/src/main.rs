@@ -7,7 +7,7 @@
 //! hans-fw sign --key K --board B --version X.Y.Z FIRMWARE.bin -o IMAGE
 //! hans-fw verify --pub P --board B [--running X.Y.Z] [--allow-downgrade] IMAGE
 //! hans-fw inspect IMAGE
-//! hans-fw install --layout BOARD --out FLASH.bin IMAGE [--dfu IMAGE2]
+//! hans-fw install --layout BOARD --out FLASH.bin IMAGE [--dfu IMAGE2 | --slot-only]
 //! ```
 //!
 //! Keys are 32 bytes in hex on one line. Exit status: 0 done (verify: the
@@ -101,8 +101,14 @@ enum Cmd {
         /// The image for the active slot.
         image: PathBuf,
         /// An image for the download slot as well (not marked for a swap).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "slot_only")]
         dfu: Option<PathBuf>,
+        /// Writes the active slot's bytes alone (header page and body, no
+        /// padding), for a probe to program at the slot's address (the
+        /// NUCLEO's first flashing: 0x0802_0000), leaving the rest of the
+        /// flash (the bootloader, the configuration) as it is.
+        #[arg(long)]
+        slot_only: bool,
     },
 }
 
@@ -319,10 +325,27 @@ fn run(cli: Cli) -> Result<(), String> {
             out,
             image,
             dfu,
+            slot_only,
         } => {
             let l = layout(&board)?;
             let mut flash = vec![0xFF; l.size as usize];
             let h = put_image(&mut flash, &l.active, l, &image)?;
+            if slot_only {
+                let at = l.active.start as usize;
+                let end = at + (HEADER_PAGE + h.body_len) as usize;
+                write_file(&out, &flash[at..end], 0o644)?;
+                println!(
+                    "{}: {} bytes, {} {}.{}.{} for the active slot at offset {:#x}",
+                    out.display(),
+                    end - at,
+                    h.board(),
+                    h.version.major,
+                    h.version.minor,
+                    h.version.patch,
+                    l.active.start
+                );
+                return Ok(());
+            }
             let mut said = format!(
                 "{}: {} bytes, {} {}.{}.{} in the active slot",
                 out.display(),

@@ -212,6 +212,28 @@ fn install_writes_a_flash_file() {
     assert!(f[a_end..0x8_1000].iter().all(|b| *b == 0xFF));
     assert!(f[b_end..].iter().all(|b| *b == 0xFF));
 
+    // The NUCLEO's first flashing: the active slot's bytes alone, for a
+    // probe at 0x0802_0000 (header, erased padding, body; nothing else).
+    let n = sign(&a_body, "nucleo-f767zi", "1.0.0", "nucleo");
+    let slot_file = d.join("active.bin");
+    let out = run(&[
+        "install",
+        "--layout",
+        "nucleo-f767zi",
+        "--slot-only",
+        "--out",
+        s(&slot_file),
+        s(&n),
+    ]);
+    assert!(out.status.success(), "{out:?}");
+    assert!(String::from_utf8_lossy(&out.stdout).contains("at offset 0x20000"));
+    let sf = std::fs::read(&slot_file).unwrap();
+    let n_img = std::fs::read(&n).unwrap();
+    assert_eq!(sf.len(), 1024 + a_body.len());
+    assert_eq!(&sf[..136], &n_img[..136]);
+    assert!(sf[136..1024].iter().all(|b| *b == 0xFF));
+    assert_eq!(&sf[1024..], &a_body[..]);
+
     let refused = |args: &[&str], why: &str| {
         let out = run(args);
         assert_eq!(out.status.code(), Some(1), "{out:?}");

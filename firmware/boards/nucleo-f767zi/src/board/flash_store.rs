@@ -32,16 +32,34 @@ use embedded_storage_async::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
 
-/// Start of the store: sector 12, the first of bank 2.
+/// Start of the configuration's store: sector 12, the first of bank 2.
 pub const BASE: u32 = 0x0810_0000;
 /// Sectors 12-15.
 pub const SECTORS: u32 = 4;
 /// Size of each.
 pub const SECTOR_SIZE: u32 = 16 * 1024;
-/// SNB of sector 12 in dual-bank mode (bit 4 selects bank 2).
-const FIRST_SNB: u8 = 0x10;
 /// Words programmed between two yields to the executor.
 pub const YIELD_EVERY: usize = 64;
+
+/// The configuration's store: sectors 12-15 (16 KiB each; SNB 0x10-0x13,
+/// bit 4 selects bank 2).
+pub type Bank2 = Sectors<BASE, SECTOR_SIZE, SECTORS, 0x10>;
+/// The firmware update's boot state: sector 16 (64 KiB, SNB 0x14), at
+/// `hans_gateway::update::layout::NUCLEO_F767ZI.state`.
+pub type BootState = Sectors<0x0811_0000, 0x1_0000, 1, 0x14>;
+/// The download slot: sectors 17-23 (128 KiB each, SNB 0x15-0x1B), at
+/// `NUCLEO_F767ZI.dfu`.
+pub type Download = Sectors<0x0812_0000, 0x2_0000, 7, 0x15>;
+
+/// Takes the flash peripheral: the three stores of bank 2 are its only
+/// users (the configuration's, and with updates the boot state and the
+/// download slot), driven one operation at a time by the gateway's storage
+/// task. Only use them in dual-bank mode.
+pub fn split(
+    _flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
+) -> (Bank2, BootState, Download) {
+    (Sectors(()), Sectors(()), Sectors(()))
+}
 
 /// `true` when the flash is in dual-bank mode (nDBANK = 0).
 pub fn is_dual_bank() -> bool {
@@ -67,21 +85,17 @@ impl NorFlashError for FlashError {
     }
 }
 
-/// Sectors 12-15 of bank 2; offsets count from [`BASE`].
-pub struct Bank2 {
-    /// The flash peripheral, owned so that nothing else programs it.
-    _flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>,
-}
+/// `COUNT` sectors of `SIZE` bytes of bank 2 from address `BASE`, the
+/// first with sector number `SNB`; offsets count from `BASE`. Made by
+/// [`split`].
+pub struct Sectors<const BASE: u32, const SIZE: u32, const COUNT: u32, const SNB: u8>(());
 
-impl Bank2 {
-    /// Takes the flash peripheral. Only use it in dual-bank mode.
-    pub fn new(flash: embassy_stm32::Peri<'static, embassy_stm32::peripherals::FLASH>) -> Self {
-        Bank2 { _flash: flash }
-    }
-
+impl<const BASE: u32, const SIZE: u32, const COUNT: u32, const SNB: u8>
+    Sectors<BASE, SIZE, COUNT, SNB>
+{
     fn check(offset: u32, len: usize, align: u32) -> Result<(), FlashError> {
         let end = offset as usize + len;
-        if !offset.is_multiple_of(align) || end > (SECTORS * SECTOR_SIZE) as usize {
+        if !offset.is_multiple_of(align) || end > (COUNT * SIZE) as usize {
             return Err(FlashError::Bounds);
         }
         Ok(())
@@ -122,11 +136,15 @@ impl Bank2 {
     }
 }
 
-impl ErrorType for Bank2 {
+impl<const BASE: u32, const SIZE: u32, const COUNT: u32, const SNB: u8> ErrorType
+    for Sectors<BASE, SIZE, COUNT, SNB>
+{
     type Error = FlashError;
 }
 
-impl ReadNorFlash for Bank2 {
+impl<const BASE: u32, const SIZE: u32, const COUNT: u32, const SNB: u8> ReadNorFlash
+    for Sectors<BASE, SIZE, COUNT, SNB>
+{
     const READ_SIZE: usize = 1;
 
     async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FlashError> {
@@ -143,26 +161,28 @@ impl ReadNorFlash for Bank2 {
     }
 
     fn capacity(&self) -> usize {
-        (SECTORS * SECTOR_SIZE) as usize
+        (COUNT * SIZE) as usize
     }
 }
 
-impl NorFlash for Bank2 {
+impl<const BASE: u32, const SIZE: u32, const COUNT: u32, const SNB: u8> NorFlash
+    for Sectors<BASE, SIZE, COUNT, SNB>
+{
     const WRITE_SIZE: usize = 4;
-    const ERASE_SIZE: usize = SECTOR_SIZE as usize;
+    const ERASE_SIZE: usize = SIZE as usize;
 
     async fn erase(&mut self, from: u32, to: u32) -> Result<(), FlashError> {
-        Self::check(from, to.saturating_sub(from) as usize, SECTOR_SIZE)?;
-        if !to.is_multiple_of(SECTOR_SIZE) || to < from {
+        Self::check(from, to.saturating_sub(from) as usize, SIZE)?;
+        if !to.is_multiple_of(SIZE) || to < from {
             return Err(FlashError::Bounds);
         }
-        for sector in from / SECTOR_SIZE..to / SECTOR_SIZE {
+        for sector in from / SIZE..to / SIZE {
             Self::idle().await;
             Self::unlock();
             let _ = Self::take_errors();
             pac::FLASH.cr().modify(|w| {
                 w.set_ser(true);
-                w.set_snb(FIRST_SNB + sector as u8);
+                w.set_snb(SNB + sector as u8);
                 w.set_psize(pac::flash::vals::Psize::PSIZE32);
             });
             pac::FLASH.cr().modify(|w| w.set_strt(true));
@@ -209,5 +229,59 @@ impl NorFlash for Bank2 {
         pac::FLASH.cr().modify(|w| w.set_pg(false));
         Self::lock();
         result
+    }
+}
+
+/// The active slot (bank 1, sectors 5-10, `NUCLEO_F767ZI.active`), read
+/// only: the running firmware reads its own header from it; only the
+/// bootloader writes it (a write or erase here is refused).
+#[cfg(feature = "field-device")]
+pub struct ActiveSlot;
+
+/// The active slot's address.
+#[cfg(feature = "field-device")]
+const ACTIVE_BASE: u32 = 0x0802_0000;
+/// Its bytes.
+#[cfg(feature = "field-device")]
+const ACTIVE_LEN: u32 = 6 * 0x2_0000;
+
+#[cfg(feature = "field-device")]
+impl ErrorType for ActiveSlot {
+    type Error = FlashError;
+}
+
+#[cfg(feature = "field-device")]
+impl ReadNorFlash for ActiveSlot {
+    const READ_SIZE: usize = 1;
+
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), FlashError> {
+        if offset as usize + bytes.len() > ACTIVE_LEN as usize {
+            return Err(FlashError::Bounds);
+        }
+        let src = (ACTIVE_BASE + offset) as *const u8;
+        for (i, b) in bytes.iter_mut().enumerate() {
+            // SAFETY: inside the active slot (checked above), memory-mapped
+            // flash that nothing writes while the program runs.
+            *b = unsafe { ptr::read_volatile(src.add(i)) };
+        }
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        ACTIVE_LEN as usize
+    }
+}
+
+#[cfg(feature = "field-device")]
+impl NorFlash for ActiveSlot {
+    const WRITE_SIZE: usize = 4;
+    const ERASE_SIZE: usize = 0x2_0000;
+
+    async fn erase(&mut self, _from: u32, _to: u32) -> Result<(), FlashError> {
+        Err(FlashError::Bounds)
+    }
+
+    async fn write(&mut self, _offset: u32, _bytes: &[u8]) -> Result<(), FlashError> {
+        Err(FlashError::Bounds)
     }
 }

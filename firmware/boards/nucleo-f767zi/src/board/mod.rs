@@ -33,6 +33,8 @@
 //!   program runs on (see `flash_store`; needs the flash in dual-bank mode).
 
 mod flash_store;
+#[cfg(feature = "field-device")]
+mod slots;
 
 use defmt_rtt as _;
 use embassy_executor::Spawner;
@@ -170,9 +172,11 @@ pub async fn run(spawner: Spawner) -> ! {
         Err(_) => defmt::panic!("net task already spawned"),
     }
 
-    let mut storage = if flash_store::is_dual_bank() {
+    let dual_bank = flash_store::is_dual_bank();
+    let (config_flash, _state_flash, _dfu_flash) = flash_store::split(p.FLASH);
+    let storage = if dual_bank {
         let range = 0..flash_store::SECTORS * flash_store::SECTOR_SIZE;
-        match FlashStorage::new(flash_store::Bank2::new(p.FLASH), range) {
+        match FlashStorage::new(config_flash, range) {
             Ok(f) => BoardStorage::Flash(f),
             Err(_) => defmt::panic!("the configuration range is not whole sectors"),
         }
@@ -182,6 +186,18 @@ pub async fn run(spawner: Spawner) -> ! {
         );
         BoardStorage::Ram(NoStorage)
     };
+    // The field device updates itself (signed A/B updates): the slots of
+    // the layout, where the bootloader finds them. In single-bank mode the
+    // bootloader starts the firmware but swaps nothing: no updates then.
+    #[cfg(feature = "field-device")]
+    let mut storage = hans_gateway::WithSlots {
+        storage,
+        slots: slots::BoardSlots(dual_bank.then(|| {
+            hans_gateway::update::BootSlots::new(flash_store::ActiveSlot, _dfu_flash, _state_flash)
+        })),
+    };
+    #[cfg(not(feature = "field-device"))]
+    let mut storage = storage;
     let options = Options {
         // The robot address and the other settings come from flash
         // (written from the page or the configuration registers); until
@@ -195,6 +211,11 @@ pub async fn run(spawner: Spawner) -> ! {
         seed,
         restart: Some(restart),
         setup_code,
+        // Images signed with the key the bootloader trusts, for this board.
+        #[cfg(feature = "field-device")]
+        update_key: Some(fw_keys::TRUSTED),
+        #[cfg(feature = "field-device")]
+        board: hans_gateway::update::layout::NUCLEO_F767ZI.board,
         ..Options::default()
     };
     run_gateway(stack, &mut storage, options).await
@@ -205,9 +226,9 @@ async fn net_task(mut runner: embassy_net::Runner<'static, Device>) -> ! {
     runner.run().await
 }
 
-async fn run_gateway(
+async fn run_gateway<S: Storage>(
     stack: embassy_net::Stack<'static>,
-    storage: &mut BoardStorage,
+    storage: &mut S,
     options: Options,
 ) -> ! {
     // By reference: the storage (3 KiB of buffer) stays where `run` built
