@@ -213,7 +213,8 @@ impl Device {
     /// nothing answers (QEMU's forward closes the connection, or holds it
     /// while it retries its SYN to the guest with a growing back-off) or
     /// the old firmware still does: each attempt is a new connection given
-    /// a second, so that the time the page is back is seen to about that.
+    /// half a second, so that the time the page is back is seen to about
+    /// that.
     fn wait_firmware(&self, what: &str, want: impl Fn(&Value) -> bool) -> Value {
         wait_for(what, BACK_LIMIT, || {
             let fw = self.firmware_now()?;
@@ -221,10 +222,10 @@ impl Device {
         })
     }
 
-    /// `/api/status`'s `firmware` object if it answers within about a
-    /// second.
+    /// `/api/status`'s `firmware` object if it answers within half a
+    /// second (it takes milliseconds when the page is up).
     fn firmware_now(&self) -> Option<Value> {
-        let limit = Duration::from_secs(1);
+        let limit = Duration::from_millis(500);
         let mut c = HttpClient::connect(self.web(), limit).ok()?;
         c.set_timeout(limit).ok()?;
         let r = c.get("/api/status").ok()?;
@@ -233,27 +234,38 @@ impl Device {
     }
 
     /// After `restart`, waits for `version` to run: the time (from the
-    /// restart's answer) the bootloader said it boots it and the time the
-    /// page answered with it running; the `firmware` object then.
+    /// restart's answer) the bootloader said it boots it (its log watched
+    /// every 10 ms on a thread of its own, as a status request may wait a
+    /// second for a guest that is not up) and the time the page answered
+    /// with it running; the `firmware` object then.
     fn wait_back(&self, restart: &Restart, version: &str) -> (Duration, Duration, Value) {
         let line = format!("hans-boot: booting {version}");
-        let mut booted = None;
-        let what = format!("{version} running after the restart");
-        let fw = wait_for(&what, BACK_LIMIT, || {
-            if booted.is_none()
-                && self
-                    .boot_log()
-                    .lines()
-                    .skip(restart.lines)
-                    .any(|l| l.starts_with(&line))
-            {
-                booted = Some(restart.at.elapsed());
-            }
-            let fw = self.firmware_now()?;
-            (fw["running"] == version).then_some(fw)
-        });
-        let page = restart.at.elapsed();
-        (booted.unwrap_or(page), page, fw)
+        let found = AtomicBool::new(false);
+        std::thread::scope(|s| {
+            let watcher = s.spawn(|| {
+                while !found.load(Ordering::Relaxed) && restart.at.elapsed() < BACK_LIMIT {
+                    let log = self.boot_log();
+                    if log
+                        .lines()
+                        .skip(restart.lines)
+                        .any(|l| l.starts_with(&line))
+                    {
+                        return Some(restart.at.elapsed());
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                None
+            });
+            let what = format!("{version} running after the restart");
+            let fw = wait_for(&what, BACK_LIMIT, || {
+                let fw = self.firmware_now()?;
+                (fw["running"] == version).then_some(fw)
+            });
+            let page = restart.at.elapsed();
+            found.store(true, Ordering::Relaxed);
+            let booted = watcher.join().expect("the log's watcher");
+            (booted.unwrap_or(page), page, fw)
+        })
     }
 
     /// FW_VERSION (major, minor, patch) and FW_STATE over Modbus.
@@ -591,8 +603,9 @@ fn bad_images_are_refused_and_a_signed_update_is_installed_and_confirms_itself()
     assert_eq!(fw["state"], "trial", "{fw}");
     assert_eq!(dev.fw_registers(), ([0, 2, 0], FW_TRIAL), "B on trial");
     println!(
-        "update: swap and restart: the bootloader boots B {:.2} s after the restart's answer, \
-         the page answers with B running {:.2} s after it",
+        "update: swap and restart: the bootloader boots B {:.2} s after the restart's answer \
+         (the device waits 0.5 s for the answer to leave), the page answers with B running \
+         {:.2} s after it",
         booted.as_secs_f64(),
         back.as_secs_f64()
     );
