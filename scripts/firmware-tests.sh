@@ -116,6 +116,7 @@ grep -oE '[a-z0-9-]+: stack_used=[0-9]+ stack_size=[0-9]+' "$LOG" | grep -v '^di
 echo "==> web page load time from the field-device firmware under QEMU (reported, not asserted)"
 grep -E '^[a-z0-9-]+: page load round' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
 echo "==> firmware update under QEMU (tests/update.rs; reported, not asserted)"
-grep -E '^update: (full image uploaded|the PLC, idle|the PLC during the uploads|longest engine stall|swap and restart|B confirmed)|^update-rollback: B on trial' "$LOG" |
+# (A test's first line follows its "test ... " line: matched anywhere.)
+grep -oE '(update: (full image uploaded|the PLC, idle|the PLC during the uploads|longest engine stall|swap and restart|B confirmed)|update-rollback: B on trial).*' "$LOG" |
   sed 's/^/  /' || echo "  (none reported)"
 exit "$status"
