@@ -156,9 +156,16 @@ fn the_firmware_section_on_the_qemu_field_device_installs_a_signed_image_and_ref
     rig.shot_at("firmware", "firmware-installed");
 
     // A wrongly signed image: refused with its reason; B stays marked.
+    // Throttled as well: the device refuses it at its header and closes
+    // while the browser is still sending, and the page must still show
+    // the device's answer (not a failed upload).
+    rig.throttle_upload(Some(128.0 * 1024.0));
     rig.set_file("fw-file", &bad);
     rig.click("fw-send");
-    let msg = rig.wait_text("fw-msg", "the refusal", |t| t.starts_with("Refused"));
+    let msg = rig.wait_text("fw-msg", "the refusal", |t| {
+        t.starts_with("Refused") || t.starts_with("The upload failed")
+    });
+    rig.throttle_upload(None);
     assert_eq!(msg, "Refused: not signed by the trusted key");
     rig.wait_text("fw-upload", "the refusal as the last result", |t| {
         t == "refused: not signed by the trusted key"
