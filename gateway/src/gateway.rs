@@ -570,13 +570,17 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
         }
         return core::future::pending().await;
     }
-    let _mailbox = hub.updates.take().await;
-    match hub.updates.ask(Op::Confirm).await {
-        Ok(()) => {
-            hub.firmware(|s| s.boot = Some(BootState::Confirmed));
-            info!("update: the new firmware passed its self-check and is confirmed");
+    {
+        // The mailbox for the confirmation only: released before this
+        // future waits for ever (an upload needs it next).
+        let _mailbox = hub.updates.take().await;
+        match hub.updates.ask(Op::Confirm).await {
+            Ok(()) => {
+                hub.firmware(|s| s.boot = Some(BootState::Confirmed));
+                info!("update: the new firmware passed its self-check and is confirmed");
+            }
+            Err(e) => warn!("update: the confirmation failed: {}", e.as_str()),
         }
-        Err(e) => warn!("update: the confirmation failed: {}", e.as_str()),
     }
     core::future::pending().await
 }
@@ -647,6 +651,10 @@ async fn firmware<S: Storage>(
             };
             let data = piece.get(..len).unwrap_or(&[]);
             storage.firmware(SlotOp::Write { offset, data }).await
+        }
+        Op::Survey => {
+            survey(hub, storage).await;
+            Ok(())
         }
         Op::MarkUpdated => storage.firmware(SlotOp::MarkUpdated).await,
         Op::Confirm => storage.firmware(SlotOp::Confirm).await,

@@ -1185,6 +1185,11 @@ mod update {
         send(w, PC, &request("POST", &path, &headers, image)).expect("an answer")
     }
 
+    /// A session after a restart (which ended the one before).
+    fn token_after_restart(w: &mut World) -> String {
+        login(w, "admin", "correct horse").token()
+    }
+
     fn firmware(w: &mut World) -> Value {
         get(w, "/api/status").json()["firmware"].clone()
     }
@@ -1233,6 +1238,21 @@ mod update {
         assert_eq!(firmware(&mut w)["state"], v("confirmed"));
         assert_eq!(w.reg(r::STATUS_FW_STATE), 1);
         assert!(!w.restart_asked());
+        // The confirmation gave the mailbox back: the next update is taken
+        // at once (a confirmed trial once held it until a restart).
+        let next = sign(&TEST_KEY_SEED, BOARD, version(1, 2, 0), &body(0xC, 5000));
+        let token = token_after_restart(&mut w);
+        let a = upload(&mut w, &token, "", &next);
+        assert_eq!(a.status, 200, "{}", String::from_utf8_lossy(&a.body));
+        assert_eq!(firmware(&mut w)["state"], v("pending"));
+        // An upload whose body turns out corrupted has overwritten the
+        // pending one's slot: nothing is pending any more, and the state
+        // says so.
+        let mut bad = sign(&TEST_KEY_SEED, BOARD, version(1, 3, 0), &body(0xD, 5000));
+        let n = bad.len();
+        bad[n - 10] ^= 1;
+        assert_eq!(upload(&mut w, &token, "", &bad).status, 422);
+        assert_eq!(firmware(&mut w)["state"], v("confirmed"));
         // Confirmed: another restart keeps it.
         w.restart();
         w.run_for(ms(300));

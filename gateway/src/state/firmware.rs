@@ -7,7 +7,7 @@
 
 /// A firmware version (semantic: major.minor.patch), as an image's signed
 /// header gives it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Version {
     /// Major.
     pub major: u16,

@@ -49,11 +49,30 @@ pub const fn version(major: u16, minor: u16, patch: u16) -> Version {
     }
 }
 
-/// The flash: shared by every view of it (it survives a restart).
+/// The flash: shared by every view of it (it survives a restart). The
+/// power can be cut at a chosen write or erase ([`SimFlash::cut_after`]):
+/// that operation is done half, and every later one fails until
+/// [`SimFlash::power_on`].
 #[derive(Clone, Debug)]
 pub struct SimFlash {
     mem: Rc<RefCell<Vec<u8>>>,
     layout: &'static Layout,
+    power: Rc<Power>,
+}
+
+/// The power went during the bootloader's step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PowerCut;
+
+/// The power of a [`SimFlash`].
+#[derive(Debug, Default)]
+struct Power {
+    /// Writes and erases left before the cut.
+    left: core::cell::Cell<Option<u32>>,
+    /// The power is off: every operation fails.
+    off: core::cell::Cell<bool>,
+    /// Writes and erases done since the start.
+    ops: core::cell::Cell<u64>,
 }
 
 impl Default for SimFlash {
@@ -68,6 +87,7 @@ impl SimFlash {
         SimFlash {
             mem: Rc::new(RefCell::new(vec![0xFF; MPS2_AN386.size as usize])),
             layout: &MPS2_AN386,
+            power: Rc::new(Power::default()),
         }
     }
 
@@ -85,9 +105,46 @@ impl SimFlash {
     fn part(&self, r: &Range<u32>) -> Part {
         Part {
             mem: self.mem.clone(),
+            power: self.power.clone(),
             at: r.start as usize,
             len: (r.end - r.start) as usize,
         }
+    }
+
+    /// Cuts the power at the `n`-th write or erase from now (0: the next):
+    /// it is done half, and everything after fails until [`Self::power_on`].
+    pub fn cut_after(&self, n: u32) {
+        self.power.left.set(Some(n));
+    }
+
+    /// The power is back (no cut scheduled).
+    pub fn power_on(&self) {
+        self.power.off.set(false);
+        self.power.left.set(None);
+    }
+
+    /// The power is off (a cut happened).
+    pub fn is_off(&self) -> bool {
+        self.power.off.get()
+    }
+
+    /// Writes and erases done since the start (to pick cut points).
+    pub fn ops(&self) -> u64 {
+        self.power.ops.get()
+    }
+
+    /// The bootloader at power-up, where the power may be cut: its state,
+    /// or [`PowerCut`] when the power went (run it again after
+    /// [`Self::power_on`], as the next power-up does).
+    pub fn try_boot(&self) -> Result<State, PowerCut> {
+        let l = self.layout;
+        let mut boot = BootLoader::new(BootLoaderConfig {
+            active: self.part(&l.active),
+            dfu: self.part(&l.dfu),
+            state: self.part(&l.state),
+        });
+        let mut buf = [0u8; 4096];
+        boot.prepare_boot(&mut buf).map_err(|_| PowerCut)
     }
 
     /// The application's view: its slots.
@@ -97,16 +154,12 @@ impl SimFlash {
     }
 
     /// The bootloader at power-up: swaps an update in, or rolls a trial
-    /// image that never confirmed back. Its state.
+    /// image that never confirmed back (embassy-boot's `prepare_boot`; the
+    /// boards' bootloaders also check the images, which the application
+    /// checked before it marked one). Its state.
     pub fn boot(&self) -> State {
-        let l = self.layout;
-        let mut boot = BootLoader::new(BootLoaderConfig {
-            active: self.part(&l.active),
-            dfu: self.part(&l.dfu),
-            state: self.part(&l.state),
-        });
-        let mut buf = [0u8; 4096];
-        boot.prepare_boot(&mut buf).expect("the bootloader's swap")
+        self.try_boot()
+            .expect("the bootloader's swap (the power on)")
     }
 
     /// The header in a slot (`dfu`: the download slot).
@@ -126,6 +179,15 @@ impl SimFlash {
         self.mem.borrow()[at..at + 4] == [0xF0; 4]
     }
 
+    /// The image in the active slot as a file holds it: its header, then
+    /// `len` bytes of its body.
+    pub fn active_image(&self, len: usize) -> Vec<u8> {
+        let at = self.layout.active.start as usize;
+        let mut image = self.mem.borrow()[at..at + HEADER_LEN].to_vec();
+        image.extend(self.active_body(len));
+        image
+    }
+
     /// The body of the image in the active slot, `len` bytes.
     pub fn active_body(&self, len: usize) -> Vec<u8> {
         let at = (self.layout.active.start + HEADER_PAGE) as usize;
@@ -137,6 +199,7 @@ impl SimFlash {
 #[derive(Debug)]
 pub struct Part {
     mem: Rc<RefCell<Vec<u8>>>,
+    power: Rc<Power>,
     at: usize,
     len: usize,
 }
@@ -162,26 +225,67 @@ impl Part {
         }
         Ok(self.at + o)
     }
+    /// Counts a write or erase; `Ok(true)`: do it whole, `Ok(false)`: do
+    /// half of it (the power goes), `Err`: the power is off.
+    fn spend(&self) -> Result<bool, Bad> {
+        let p = &self.power;
+        if p.off.get() {
+            return Err(Bad(a::NorFlashErrorKind::Other));
+        }
+        p.ops.set(p.ops.get() + 1);
+        match p.left.get() {
+            Some(0) => {
+                p.off.set(true);
+                p.left.set(None);
+                Ok(false)
+            }
+            Some(n) => {
+                p.left.set(Some(n - 1));
+                Ok(true)
+            }
+            None => Ok(true),
+        }
+    }
+
     fn do_read(&self, offset: u32, bytes: &mut [u8]) -> Result<(), Bad> {
+        if self.power.off.get() {
+            return Err(Bad(a::NorFlashErrorKind::Other));
+        }
         let at = self.check(offset, bytes.len(), 1)?;
         bytes.copy_from_slice(&self.mem.borrow()[at..at + bytes.len()]);
         Ok(())
     }
     fn do_write(&self, offset: u32, bytes: &[u8]) -> Result<(), Bad> {
         let at = self.check(offset, bytes.len(), 4)?;
+        let whole = self.spend()?;
+        let n = if whole { bytes.len() } else { bytes.len() / 2 };
         let mut m = self.mem.borrow_mut();
-        for (d, s) in m[at..at + bytes.len()].iter_mut().zip(bytes) {
+        for (d, s) in m[at..at + n].iter_mut().zip(bytes) {
             *d &= *s;
         }
-        Ok(())
+        if whole {
+            Ok(())
+        } else {
+            Err(Bad(a::NorFlashErrorKind::Other))
+        }
     }
     fn do_erase(&self, from: u32, to: u32) -> Result<(), Bad> {
         let len = to
             .checked_sub(from)
             .ok_or(Bad(a::NorFlashErrorKind::OutOfBounds))?;
         let at = self.check(from, len as usize, 4096)?;
-        self.mem.borrow_mut()[at..at + len as usize].fill(0xFF);
-        Ok(())
+        let whole = self.spend()?;
+        let n = if whole {
+            len as usize
+        } else {
+            len as usize / 2
+        };
+        self.mem.borrow_mut()[at..at + n].fill(0xFF);
+        if whole {
+            Ok(())
+        } else {
+            Err(Bad(a::NorFlashErrorKind::Other))
+        }
     }
 }
 

@@ -38,6 +38,8 @@ const _: () = assert!(PIECE >= image::HEADER_LEN);
 #[cfg_attr(not(feature = "web"), allow(dead_code))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Op {
+    /// Read the boot state and the slots' headers into the state again.
+    Survey,
     /// Write `len` bytes of the piece buffer into the download slot at
     /// `offset`.
     Write { offset: u32, len: usize },

@@ -138,6 +138,10 @@ impl<C: Clock> App<'_, C> {
             Err(failed) => {
                 let reason = failed.reason();
                 self.hub.firmware(|s| s.upload = Upload::Refused { reason });
+                // Writing into the download slot unmarks an update that
+                // was waiting for the restart (its image is overwritten):
+                // the state says what the flash says now.
+                let _ = updates.ask(Op::Survey).await;
                 warn!("update: upload refused: {}", reason);
                 let mut detail = heapless::String::<80>::new();
                 let _ = core::fmt::write(&mut detail, format_args!("refused: {reason}"));
