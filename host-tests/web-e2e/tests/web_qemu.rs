@@ -5,7 +5,8 @@
 //! edit through the form is read back over Modbus. The page's load time is
 //! printed (not asserted). The page's Firmware section on the same device:
 //! a signed image uploaded with its progress bar and installed, a wrongly
-//! signed one refused with its reason. Needs the firmware and hans-fw built
+//! signed one refused with its reason, the restart into the new image, on
+//! trial and then confirmed. Needs the firmware and hans-fw built
 //! first ([`hans_web_e2e::field_device_elf`], [`hans_web_e2e::hans_fw`]);
 //! `scripts/firmware-tests.sh` runs it (`cargo test -p hans-web-e2e
 //! --features qemu --test web_qemu`).
@@ -172,5 +173,23 @@ fn the_firmware_section_on_the_qemu_field_device_installs_a_signed_image_and_ref
     });
     assert_eq!(rig.text("fw-state"), "an update waits for the restart");
     rig.shot_at("firmware", "firmware-refused");
+
+    // The restart the person asks for: the QEMU machine resets in place,
+    // the bootloader swaps B in, and the page, back live, shows B on trial
+    // with A as the previous version, then B confirmed by its self-check.
+    rig.click("fw-restart");
+    rig.wait_text("fw-msg", "the restart under way", |t| {
+        t.starts_with("Restarting")
+    });
+    rig.wait_text("fw-running", "B running on the page", |t| t == "0.2.0");
+    assert_eq!(rig.text("fw-previous"), "0.1.0");
+    assert_eq!(
+        rig.text("fw-state"),
+        "on trial (confirms itself after its check)"
+    );
+    rig.shot_at("firmware", "firmware-trial");
+    rig.wait_text("fw-state", "B confirmed on the page", |t| t == "confirmed");
+    assert_eq!(rig.text("fw-running"), "0.2.0");
+    rig.shot_at("firmware", "firmware-confirmed");
     rig.finish();
 }
