@@ -598,10 +598,13 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
         return;
     }
     let mut versions = [None, None];
-    for (slot, v) in [Slot::Active, Slot::Previous]
-        .into_iter()
-        .zip(versions.iter_mut())
-    {
+    // The other image: after a swap the one it replaced (one page into the
+    // download slot); after a rollback the one rolled back (at its start).
+    let other = match boot {
+        BootState::RolledBack => Slot::Dfu,
+        _ => Slot::Previous,
+    };
+    for (slot, v) in [Slot::Active, other].into_iter().zip(versions.iter_mut()) {
         let mut head = [0u8; image::HEADER_LEN];
         let read = storage
             .firmware(SlotOp::Read {

@@ -4,11 +4,14 @@
 //! Needs the `mqtt` feature: `cargo test -p hans-gateway --features mqtt
 //! --test mqtt`.
 
-use std::net::{Ipv4Addr, SocketAddrV4, TcpListener, TcpStream};
+use std::net::{Ipv4Addr, SocketAddrV4, TcpStream};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{free_port, make_ca, make_cert, Killed};
 use hans_gateway::mqtt::{run_host, Settings, Status};
 use hans_gateway::sparkplug::NodeConfig;
 use hans_gateway::{Gateway, Options};
@@ -87,15 +90,6 @@ fn mosquitto() -> Mosquitto {
     m
 }
 
-/// A free port on 127.0.0.1 (free when asked).
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 /// `hans-gateway` with a configuration file in `dir` (robot absent, edge
 /// id `edge`, then `mqtt_toml` in its `[mqtt]` table) and `args`, its
 /// stderr in `dir/EDGE.log`; killed when dropped.
@@ -164,16 +158,6 @@ async fn published(
             Event::Incoming(Packet::Publish(p)) if p.topic.contains(what) => return p,
             _ => continue,
         }
-    }
-}
-
-/// A child process killed (and reaped) when dropped.
-struct Killed(Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
     }
 }
 
@@ -374,49 +358,6 @@ fn two_listeners(
     broker
 }
 
-/// Runs `openssl` with `args` in `dir`; panics with its output on failure.
-fn openssl(dir: &std::path::Path, args: &[&str]) {
-    let out = Command::new("openssl")
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("openssl (Debian's package) is installed");
-    assert!(
-        out.status.success(),
-        "openssl {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// A CA (`NAME.crt`, `NAME.key`) in `dir`.
-fn make_ca(dir: &std::path::Path, name: &str) {
-    let (key, crt) = (format!("{name}.key"), format!("{name}.crt"));
-    openssl(
-        dir,
-        &[
-            "req",
-            "-x509",
-            "-newkey",
-            "ec",
-            "-pkeyopt",
-            "ec_paramgen_curve:P-256",
-            "-nodes",
-            "-keyout",
-            &key,
-            "-out",
-            &crt,
-            "-days",
-            "2",
-            "-subj",
-            &format!("/CN={name}"),
-            "-addext",
-            "basicConstraints=critical,CA:TRUE",
-            "-addext",
-            "keyUsage=critical,keyCertSign",
-        ],
-    );
-}
-
 /// `hans-gateway --mqtt mqtts://127.0.0.1:PORT --mqtt-ca CA` against a
 /// Mosquitto TLS listener whose certificate (for 127.0.0.1) a test CA
 /// signed: the NBIRTH arrives (seen on the broker's second, plain
@@ -428,47 +369,11 @@ async fn over_tls_the_broker_is_trusted_by_its_ca_only() {
     std::fs::create_dir_all(&dir).unwrap();
     make_ca(&dir, "plant-ca");
     make_ca(&dir, "other-ca");
-    openssl(
+    make_cert(
         &dir,
-        &[
-            "req",
-            "-newkey",
-            "ec",
-            "-pkeyopt",
-            "ec_paramgen_curve:P-256",
-            "-nodes",
-            "-keyout",
-            "broker.key",
-            "-out",
-            "broker.csr",
-            "-subj",
-            "/CN=broker",
-        ],
-    );
-    std::fs::write(
-        dir.join("ext.cnf"),
+        "plant-ca",
+        "broker",
         "subjectAltName=IP:127.0.0.1\nextendedKeyUsage=serverAuth\n",
-    )
-    .unwrap();
-    openssl(
-        &dir,
-        &[
-            "x509",
-            "-req",
-            "-in",
-            "broker.csr",
-            "-CA",
-            "plant-ca.crt",
-            "-CAkey",
-            "plant-ca.key",
-            "-CAcreateserial",
-            "-out",
-            "broker.crt",
-            "-days",
-            "2",
-            "-extfile",
-            "ext.cnf",
-        ],
     );
     // Mosquitto started as root reads its files as the user `mosquitto`:
     // the throwaway test key is made readable to it.

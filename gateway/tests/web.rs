@@ -1279,6 +1279,7 @@ mod update {
         let f = firmware(&mut w);
         assert_eq!(f["running"], v("1.0.0"));
         assert_eq!(f["state"], v("rolled back"));
+        assert_eq!(f["previous"], v("2.0.0"), "the image rolled back");
         assert_eq!([55, 56, 57, 58].map(|a| w.reg(a)), [1, 0, 0, 4]);
         assert_eq!(flash.active_body(30_000), body(0xA, 30_000));
         // A rolled-back device takes the next update.

@@ -88,7 +88,8 @@ pub struct Firmware {
     pub supported: bool,
     /// The running image's version (its header in the active slot).
     pub running: Option<Version>,
-    /// The image from before the last update (after a swap).
+    /// The other image the slots keep: after an update the one it
+    /// replaced; after a rollback the one rolled back; none before any.
     pub previous: Option<Version>,
     /// The boot state.
     pub boot: Option<BootState>,
