@@ -244,6 +244,9 @@ pub fn init(spawner: Spawner, config: embassy_net::Config) -> Result<Stack<'stat
     let buffers = BUFFERS.take();
     let eth = unsafe { Lan9118::new(ETH_BASE, buffers) }.map_err(BoardError::Ethernet)?;
     let mac = eth.mac_address();
+    // ARP from hosts the device does not talk to, at a bounded rate: an
+    // ARP flood must not evict the PLC's and the robot's neighbor entries.
+    let eth = arp_guard::Guarded::new(eth);
     defmt::info!("lan9118: up, MAC {=[u8]:02x}", mac);
     // SAFETY: the handler it enables (`irq::ETHERNET`) only touches
     // lock-free wakers and the controller, so unmasking it breaks no
@@ -266,7 +269,9 @@ pub fn init(spawner: Spawner, config: embassy_net::Config) -> Result<Stack<'stat
 }
 
 #[embassy_executor::task]
-async fn net_task(mut runner: embassy_net::Runner<'static, Lan9118<'static>>) -> ! {
+async fn net_task(
+    mut runner: embassy_net::Runner<'static, arp_guard::Guarded<Lan9118<'static>>>,
+) -> ! {
     runner.run().await
 }
 
@@ -327,6 +332,7 @@ pub fn report() {
         stack.size
     );
     defmt::info!("lan9118: {}", lan9118::stats());
+    defmt::info!("arp-guard: {}", arp_guard::stats());
 }
 
 #[panic_handler]
