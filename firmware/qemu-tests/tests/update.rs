@@ -647,6 +647,7 @@ fn an_update_whose_self_check_fails_is_rolled_back() {
     assert_eq!(fw["state"], "trial", "{fw}");
     let (_, back, fw) = dev.wait_back(&restart, "0.1.0");
     assert_eq!(fw["state"], "rolled back", "{fw}");
+    assert_eq!(fw["previous"], "0.2.0", "the image rolled back: {fw}");
     assert_eq!(dev.fw_registers(), ([0, 1, 0], FW_ROLLED_BACK), "A back");
     println!(
         "update-rollback: B on trial {:.1} s after the restart's answer, A back and rolled back after {:.1} s: {fw}",
