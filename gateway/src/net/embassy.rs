@@ -3,15 +3,32 @@
 //! embassy-net has no listener type: every socket that serves a port calls
 //! `accept(port)` itself, so the gateway keeps one socket per Modbus session
 //! (and two for the robot link in listen mode). When all of them are busy,
-//! further connection attempts are refused (RST) by the stack.
+//! further connection attempts are refused (RST) by the stack. A SYN that
+//! took a listening socket must complete its handshake within
+//! [`HANDSHAKE`], else the socket listens again (a SYN flood from forged
+//! addresses holds each socket that long, not for the socket's timeout).
 
 use core::net::SocketAddrV4;
 
 use embassy_net::tcp::{State, TcpSocket};
 use embassy_net::{IpAddress, IpEndpoint, Stack};
-use embassy_time::Duration;
+use embassy_time::{with_timeout, Duration, Instant};
 
 use super::{Net, NetError, Socket};
+
+/// How long a connection may take to complete its handshake once its SYN
+/// has taken a listening socket. The socket's own timeout (20 s, below)
+/// would let a SYN from a forged address, whose SYN-ACKs nobody answers,
+/// hold the socket that long: a SYN flood then took every listening socket
+/// of Modbus and the page for 20 s after it ended (found by the robustness
+/// rig, host-tests/robustness). A real client completes it in one round
+/// trip; this leaves room for one SYN-ACK retransmission (the stack's first
+/// retransmission timeout is 1 s).
+const HANDSHAKE: Duration = Duration::from_millis(1500);
+
+/// How often a listening socket looks whether a SYN took it: the stack
+/// wakes the waiting task when a handshake completes, not when it starts.
+const LISTEN_TICK: Duration = Duration::from_millis(250);
 
 /// An embassy-net stack as the gateway's network.
 #[derive(Clone, Copy)]
@@ -44,28 +61,40 @@ impl Socket for EmbassySocket<'_> {
     }
 
     async fn accept(&mut self, port: u16) -> Result<(), NetError> {
-        match self.socket.state() {
-            State::Closed => self
-                .socket
-                .accept(port)
-                .await
-                .map_err(|_| NetError::ListenFailed),
-            // A former `accept` was cancelled with the socket listening: the
-            // handshake goes on in the stack; wait until it completes.
-            State::Listen | State::SynReceived => {
-                self.socket.wait_write_ready().await;
-                match self.socket.state() {
-                    State::Established => Ok(()),
-                    _ => Err(NetError::Reset),
+        // When the handshake of the connection on this socket started (its
+        // SYN arrived), as this call saw it.
+        let mut syn_at: Option<Instant> = None;
+        loop {
+            match self.socket.state() {
+                State::Established | State::CloseWait => return Ok(()),
+                State::Closed => {
+                    syn_at = None;
+                    // Cancelled at the tick with the socket listening (or in
+                    // its handshake): the arms below go on from there.
+                    if let Ok(accepted) = with_timeout(LISTEN_TICK, self.socket.accept(port)).await
+                    {
+                        return accepted.map_err(|_| NetError::ListenFailed);
+                    }
                 }
-            }
-            State::Established => Ok(()),
-            _ => {
-                self.close().await;
-                self.socket
-                    .accept(port)
-                    .await
-                    .map_err(|_| NetError::ListenFailed)
+                State::Listen => {
+                    syn_at = None;
+                    let _ = with_timeout(LISTEN_TICK, self.socket.wait_write_ready()).await;
+                }
+                State::SynReceived => {
+                    let since = *syn_at.get_or_insert_with(Instant::now);
+                    let deadline = since + HANDSHAKE;
+                    let now = Instant::now();
+                    if now >= deadline {
+                        // A SYN whose sender never completed the handshake (a
+                        // forged source): free the socket for the next client.
+                        self.close().await;
+                    } else {
+                        let left = (deadline - now).min(LISTEN_TICK);
+                        let _ = with_timeout(left, self.socket.wait_write_ready()).await;
+                    }
+                }
+                // Closing states of an earlier connection: end it, listen again.
+                _ => self.close().await,
             }
         }
     }
