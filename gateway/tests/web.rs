@@ -1175,12 +1175,22 @@ mod update {
     }
 
     fn upload(w: &mut World, token: &str, query: &str, image: &[u8]) -> Answer {
-        let cookie = format!("hgw_session={token}");
-        let headers = [
-            ("Cookie", cookie.as_str()),
-            ("Origin", ORIGIN),
-            ("Content-Type", "application/octet-stream"),
-        ];
+        post_image(w, Some(token), "application/octet-stream", query, image)
+    }
+
+    /// `POST /api/firmware` with `image`, the session `token` (if any) and
+    /// the content type `ty`.
+    fn post_image(
+        w: &mut World,
+        token: Option<&str>,
+        ty: &str,
+        query: &str,
+        image: &[u8],
+    ) -> Answer {
+        let cookie = token.map(|t| format!("hgw_session={t}"));
+        let mut headers: Vec<(&str, &str)> =
+            cookie.iter().map(|c| ("Cookie", c.as_str())).collect();
+        headers.extend([("Origin", ORIGIN), ("Content-Type", ty)]);
         let path = format!("/api/firmware{query}");
         send(w, PC, &request("POST", &path, &headers, image)).expect("an answer")
     }
@@ -1375,30 +1385,13 @@ mod update {
         // Not an administrator, or not declared as bytes: refused before a
         // byte is read.
         let image = sign(&TEST_KEY_SEED, BOARD, at(1, 2), &good);
-        let headers = [
-            ("Origin", ORIGIN),
-            ("Content-Type", "application/octet-stream"),
-        ];
-        let a = send(
-            &mut w,
-            PC,
-            &request("POST", "/api/firmware", &headers, &image),
-        )
-        .unwrap();
-        assert_eq!(a.status, 401);
-        let cookie = format!("hgw_session={token}");
-        let headers = [
-            ("Cookie", cookie.as_str()),
-            ("Origin", ORIGIN),
-            ("Content-Type", "application/json"),
-        ];
-        let a = send(
-            &mut w,
-            PC,
-            &request("POST", "/api/firmware", &headers, &image),
-        )
-        .unwrap();
-        assert_eq!(a.status, 415);
+        let bytes = "application/octet-stream";
+        assert_eq!(post_image(&mut w, None, bytes, "", &image).status, 401);
+        let json = "application/json";
+        assert_eq!(
+            post_image(&mut w, Some(&token), json, "", &image).status,
+            415
+        );
         // Nothing was installed: a restart runs 1.0.0, confirmed.
         w.restart();
         w.run_for(ms(300));
