@@ -130,6 +130,14 @@ step "fuzz: codec (framer, request, reply, DataSheet) and gateway (Modbus sessio
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
 step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
 
+# --- communication robustness (issue 19): the field device under QEMU on a
+# TAP device in a network namespace, storms and malformed traffic at every
+# layer while a PLC monitor watches its essential functions; short form, 4 s
+# a case (~3 min; the long form, 60 s a case, is `run.sh --long` and writes
+# host-tests/robustness/RESULTS.md). Needs root, as CI has.
+step "robustness rig, short form (every case 4 s; table in target/robustness/RESULTS-short.md)" \
+  bash host-tests/robustness/run.sh
+
 echo
 echo "Summary:"
 printf '  %s\n' "${STEPS[@]}"
