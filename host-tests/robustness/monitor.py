@@ -154,9 +154,12 @@ class Monitor:
         words = [0, code, self.seq, 0]
         for p in params:
             words += f32_words(p)
-        ok = self.call(lambda c: c.write(CH0, words)) is not None
-        ok = ok and self.call(lambda c: c.write(CH0, [1])) is not None
-        return ok
+        # As a PLC does: a write whose answer was lost is sent again on the
+        # new connection (both writes can be repeated: Execute rises once).
+        for regs in (words, [1]):
+            if not any(self.call(lambda c: c.write(CH0, regs)) is not None for _ in range(3)):
+                return False
+        return True
 
     def release(self):
         """Execute falls; waits (up to 5 s) for the outputs to clear."""
