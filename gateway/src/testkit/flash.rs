@@ -1,5 +1,5 @@
 //! A board's flash for the update tests (features `testkit` and
-//! `update`): the QEMU board's layout ([`layout::MPS2_AN386`]) in RAM, the
+//! `update`): the QEMU board's layout ([`MPS2_AN386`]) in RAM, the
 //! application's slots over it ([`BootSlots`], what the board gives the
 //! gateway), and the bootloader's step at power-up ([`SimFlash::boot`]:
 //! embassy-boot's `prepare_boot`, as the boards' bootloaders run it). A
