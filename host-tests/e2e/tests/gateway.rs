@@ -15,6 +15,8 @@ use tokio::net::TcpStream;
 use tokio_modbus::client::{Reader, Writer};
 use tokio_modbus::ExceptionCode;
 
+/// VERSION (register 0) as it reads: the register map's version.
+const VERSION: [u8; 2] = hans_gateway::registers::MAP_VERSION.to_be_bytes();
 #[tokio::test]
 async fn bring_up_from_power_off() {
     let mut rig = Rig::start(Config::default()).await;
@@ -342,7 +344,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     );
     // Unmapped address -> 02; read-only register written -> 02.
     assert_eq!(
-        raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 55, 0, 1]).await,
+        raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 59, 0, 1]).await,
         [0x83, 2]
     );
     assert_eq!(
@@ -373,7 +375,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     tokio::time::sleep(Duration::from_millis(50)).await;
     assert_eq!(
         raw_frame(&mut s, &[1, 3, 0, 0, 0, 1]).await,
-        [3, 2, 0x01, 0x02]
+        [3, 2, VERSION[0], VERSION[1]]
     );
     // FC 5 echoes the request.
     let coil = 16 * r::CONTROL_HEARTBEAT;
@@ -395,7 +397,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     // ... and the others go on.
     assert_eq!(
         raw_frame(&mut s, &[0, 10, 0, 0, 0, 6, 1, 4, 0, 0, 0, 1]).await,
-        [4, 2, 0x01, 0x02]
+        [4, 2, VERSION[0], VERSION[1]]
     );
     assert_eq!(
         rig.plc.read1(r::STATUS_VERSION).await,
@@ -405,7 +407,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     let e = rig
         .plc
         .ctx
-        .read_holding_registers(55, 1)
+        .read_holding_registers(59, 1)
         .await
         .expect("transport");
     assert_eq!(e, Err(ExceptionCode::IllegalDataAddress));
@@ -469,7 +471,7 @@ async fn an_oversized_write_gets_exception_03_and_the_connection_stays() {
     // The same connection goes on.
     assert_eq!(
         raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]).await,
-        [3, 2, 0x01, 0x02]
+        [3, 2, VERSION[0], VERSION[1]]
     );
     rig.stop().await;
 }
