@@ -68,7 +68,6 @@ use embassy_time::{Duration, Instant};
 use hans_gateway::error::Outcome;
 use hans_gateway::job::Source;
 use hans_gateway::mqtt::{self, Error, Settings, Stats, Status, RX_BUF};
-use hans_gateway::registers::STATUS_PROTOCOL;
 use hans_gateway::sparkplug::{Id, NodeConfig};
 use hans_gateway::state::history::LogEntry;
 use hans_gateway::state::{
@@ -225,10 +224,12 @@ struct Snapshot {
     log_total: u32,
     log: Vec<LogEntry>,
     error_text: ErrorText,
+    firmware: hans_gateway::state::firmware::Firmware,
 }
 
 fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
-    let mut status_registers = vec![0u16; usize::from(STATUS_PROTOCOL) + 1];
+    let mut status_registers =
+        vec![0u16; usize::from(hans_gateway::registers::STATUS_FW_STATE) + 1];
     g.hub()
         .read_registers(0, &mut status_registers, now)
         .expect("the status block");
@@ -249,6 +250,7 @@ fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
             access,
             log,
             error_text,
+            firmware,
         } = m;
         Snapshot {
             status_registers,
@@ -268,6 +270,7 @@ fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
             log_total: log.total,
             log: log.iter().cloned().collect(),
             error_text: error_text.clone(),
+            firmware: *firmware,
         }
     })
 }
