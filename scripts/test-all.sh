@@ -125,7 +125,7 @@ step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bas
 # artifacts (a release build of the whole workspace took 402 s of a fresh
 # run); measure them with `cargo bench` (release).
 step "benchmarks build" cargo build --workspace --benches --locked
-step "fuzz: codec (framer, request, reply, DataSheet) and gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload), 20 s each" bash host-tests/fuzz/run.sh 20
+step "fuzz: codec (framer, request, reply, DataSheet) and gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload), 15 s each" bash host-tests/fuzz/run.sh 15
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
 step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
