@@ -1,7 +1,7 @@
 //! A board's flash for the update tests (features `testkit` and
 //! `update`): the QEMU board's layout ([`MPS2_AN386`]) in RAM, the
 //! application's slots over it ([`BootSlots`], what the board gives the
-//! gateway), and the bootloader's step at power-up ([`SimFlash::boot`]:
+//! gateway), and the bootloader's step at power-up ([`SimFlash::try_boot`]:
 //! embassy-boot's `prepare_boot`, as the boards' bootloaders run it). A
 //! [`World`](super::world::World) whose storage has one updates as a board
 //! does: upload, restart, trial, confirmation or rollback.
@@ -151,15 +151,6 @@ impl SimFlash {
     pub fn slots(&self) -> BootSlots<Part, Part, Part> {
         let l = self.layout;
         BootSlots::new(self.part(&l.active), self.part(&l.dfu), self.part(&l.state))
-    }
-
-    /// The bootloader at power-up: swaps an update in, or rolls a trial
-    /// image that never confirmed back (embassy-boot's `prepare_boot`; the
-    /// boards' bootloaders also check the images, which the application
-    /// checked before it marked one). Its state.
-    pub fn boot(&self) -> State {
-        self.try_boot()
-            .expect("the bootloader's swap (the power on)")
     }
 
     /// The header in a slot (`dfu`: the download slot).

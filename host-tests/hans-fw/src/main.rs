@@ -20,8 +20,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use ed25519_dalek::{Signer, SigningKey};
-use hans_gateway::update::image::{check, Expect, Header, Version, HEADER_LEN};
-use hans_gateway::update::layout::{Layout, HEADER_PAGE, MPS2_AN386, NUCLEO_F767ZI};
+use hans_gateway::update::image::{check, key_from_hex, Expect, Header, Version, HEADER_LEN};
+use hans_gateway::update::layout::{Layout, HEADER_PAGE};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -114,9 +114,7 @@ enum Cmd {
 
 /// The layout of `board`.
 fn layout(board: &str) -> Result<&'static Layout, String> {
-    [&MPS2_AN386, &NUCLEO_F767ZI]
-        .into_iter()
-        .find(|l| l.board == board)
+    hans_gateway::update::layout::of(board)
         .ok_or_else(|| format!("no layout for board {board:?} (mps2-an386, nucleo-f767zi)"))
 }
 
@@ -188,17 +186,8 @@ fn hex(bytes: &[u8]) -> String {
 
 /// 32 bytes from a file of 64 hex digits (one line).
 fn read_key(path: &Path) -> Result<[u8; 32], String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let t = text.trim();
-    let mut out = [0u8; 32];
-    if t.len() != 64 {
-        return Err(format!("{}: expected 64 hex digits", path.display()));
-    }
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = u8::from_str_radix(t.get(2 * i..2 * i + 2).unwrap_or(""), 16)
-            .map_err(|_| format!("{}: not hex", path.display()))?;
-    }
-    Ok(out)
+    let text = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    key_from_hex(&text).ok_or_else(|| format!("{}: expected 64 hex digits", path.display()))
 }
 
 fn write_file(path: &Path, bytes: &[u8], mode: u32) -> Result<(), String> {
