@@ -79,15 +79,7 @@ impl TokioNet {
     /// Binds `addr` now and returns the port bound (useful with port 0).
     /// Sockets then accept on that port.
     pub(crate) async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
-        let l = TcpListener::bind(addr).await?;
-        let port = l.local_addr()?.port();
-        self.listeners.borrow_mut().push(Listener {
-            port,
-            tcp: Rc::new(l),
-            #[cfg(feature = "tls-server")]
-            tls: None,
-        });
-        Ok(port)
+        self.bind(addr, None, None).await
     }
 
     /// Binds `addr` now for TLS as `server`; returns the port bound.
@@ -98,14 +90,7 @@ impl TokioNet {
         addr: SocketAddrV4,
         server: super::tls::TlsServer,
     ) -> io::Result<u16> {
-        let l = TcpListener::bind(addr).await?;
-        let port = l.local_addr()?.port();
-        self.listeners.borrow_mut().push(Listener {
-            port,
-            tcp: Rc::new(l),
-            tls: Some(Rc::new(server)),
-        });
-        Ok(port)
+        self.bind(addr, None, Some(server)).await
     }
 
     /// Binds `addr` now for TLS as `server`, its connections accepted by
@@ -118,12 +103,27 @@ impl TokioNet {
         addr: SocketAddrV4,
         server: super::tls::TlsServer,
     ) -> io::Result<u16> {
+        self.bind(addr, Some(beside), Some(server)).await
+    }
+
+    /// Binds `addr` for the sockets accepting on `beside` (else on the
+    /// port bound), with TLS as `server` if given; returns the port bound.
+    async fn bind(
+        &self,
+        addr: SocketAddrV4,
+        beside: Option<u16>,
+        #[cfg(feature = "tls-server")] server: Option<super::tls::TlsServer>,
+        #[cfg(not(feature = "tls-server"))] server: Option<core::convert::Infallible>,
+    ) -> io::Result<u16> {
         let l = TcpListener::bind(addr).await?;
         let port = l.local_addr()?.port();
+        #[cfg(not(feature = "tls-server"))]
+        let _ = server;
         self.listeners.borrow_mut().push(Listener {
-            port: beside,
+            port: beside.unwrap_or(port),
             tcp: Rc::new(l),
-            tls: Some(Rc::new(server)),
+            #[cfg(feature = "tls-server")]
+            tls: server.map(Rc::new),
         });
         Ok(port)
     }
