@@ -349,7 +349,15 @@ fn a_session_opened_over_https_has_a_secure_cookie() {
     pki(&dir.0);
     let gw = Gateway::start(&dir.0);
     let host = format!("127.0.0.1:{}", gw.web);
-    let code = std::fs::read_to_string(dir.0.join("code")).unwrap();
+    // Written just after the ports are bound (what `start` waits for).
+    let end = Instant::now() + Duration::from_secs(10);
+    let code = loop {
+        match std::fs::read_to_string(dir.0.join("code")) {
+            Ok(c) if !c.trim().is_empty() => break c,
+            _ if Instant::now() < end => std::thread::sleep(Duration::from_millis(20)),
+            other => panic!("no setup code file within 10 s: {other:?}"),
+        }
+    };
     let body = format!(
         r#"{{"code":"{}","name":"admin","password":"correct horse"}}"#,
         code.trim()
