@@ -1299,6 +1299,31 @@ mod update {
         assert_eq!(upload(&mut w, &token, "", &image).status, 200);
     }
 
+    /// An upload that stops sending holds its web slot no longer than the
+    /// stall bound (5 s), then is dropped: 408, nothing marked.
+    #[test]
+    fn a_stalled_upload_is_dropped_after_the_stall_bound() {
+        let (mut w, _flash, token) = board(false);
+        let image = sign(&TEST_KEY_SEED, BOARD, version(1, 1, 0), &body(0xB, 20_000));
+        let cookie = format!("hgw_session={token}");
+        let headers = [
+            ("Cookie", cookie.as_str()),
+            ("Origin", ORIGIN),
+            ("Content-Type", "application/octet-stream"),
+        ];
+        // The whole length declared, a third of it sent, then silence.
+        let mut raw = request("POST", "/api/firmware", &headers, &image);
+        raw.truncate(raw.len() - 2 * image.len() / 3);
+        let start = w.now();
+        let a = send(&mut w, PC, &raw).expect("an answer");
+        let took = w.now() - start;
+        assert_eq!(a.status, 408, "{}", String::from_utf8_lossy(&a.body));
+        assert!(took < Duration::from_secs(6), "held {took:?}");
+        let f = firmware(&mut w);
+        assert_eq!(f["upload"]["state"], v("refused"));
+        assert_eq!(f["state"], v("confirmed"));
+    }
+
     #[test]
     fn bad_images_are_refused_with_their_reason_and_nothing_is_installed() {
         let (mut w, flash, token) = board(false);
