@@ -85,7 +85,7 @@ pub struct Options {
     /// this platform installs no image.
     #[cfg(feature = "update")]
     pub update_key: Option<[u8; 32]>,
-    /// The board id an image must name (`update::layout`).
+    /// The board id an image must name (`hans_fw_image::layout`).
     #[cfg(feature = "update")]
     pub board: &'static str,
     /// A test's failure of the trial image's self-check (the QEMU board's
@@ -589,7 +589,8 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
 /// status (at start, and after an update is marked).
 #[cfg(feature = "update")]
 async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
-    use crate::update::{image, BootState, Slot, SlotOp};
+    use crate::update::{BootState, Slot, SlotOp};
+    use hans_fw_image::{Header, HEADER_LEN};
     let mut boot = BootState::Confirmed;
     if let Err(e) = storage.firmware(SlotOp::State(&mut boot)).await {
         if e != crate::update::SlotError::Unsupported {
@@ -605,7 +606,7 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
         _ => Slot::Previous,
     };
     for (slot, v) in [Slot::Active, other].into_iter().zip(versions.iter_mut()) {
-        let mut head = [0u8; image::HEADER_LEN];
+        let mut head = [0u8; HEADER_LEN];
         let read = storage
             .firmware(SlotOp::Read {
                 slot,
@@ -615,7 +616,7 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
             .await;
         *v = read
             .ok()
-            .and_then(|()| image::Header::parse(&head).ok())
+            .and_then(|()| Header::parse(&head).ok())
             .map(|h| h.version);
     }
     hub.firmware(|s| {

@@ -1143,7 +1143,7 @@ mod update {
     use super::*;
     use hans_gateway::testkit::flash::{sign, version, SimFlash, TEST_KEY_SEED};
     use hans_gateway::testkit::world::MemStorage;
-    use hans_gateway::update::image::Version;
+    use hans_gateway::update::Version;
 
     const BOARD: &str = "mps2-an386";
 

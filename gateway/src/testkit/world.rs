@@ -332,7 +332,7 @@ impl World {
         if config.storage.flash.is_some() {
             return Options {
                 update_key: Some(super::flash::test_key()),
-                board: crate::update::layout::MPS2_AN386.board,
+                board: hans_fw_image::layout::MPS2_AN386.board,
                 self_check_fails: config.self_check_fails,
                 restart: Some(ask_restart),
                 ..opts

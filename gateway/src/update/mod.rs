@@ -12,8 +12,6 @@
 //! A slow flash slows the upload (TCP's window closes), never the engine
 //! or the Modbus sessions.
 
-pub mod image;
-pub mod layout;
 pub mod slots;
 
 use core::cell::{Cell, RefCell};
@@ -22,7 +20,7 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::{Mutex, MutexGuard};
 use embassy_sync::signal::Signal;
 
-pub use image::{Header, ImageError, Version};
+pub use hans_fw_image::{layout, Header, ImageError, Version};
 pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
 
 /// Bytes handed to the storage task at once (a multiple of every flash
@@ -31,7 +29,7 @@ pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
 /// there and back, nothing that a larger one would save.
 pub const PIECE: usize = 512;
 
-const _: () = assert!(PIECE >= image::HEADER_LEN);
+const _: () = assert!(PIECE >= hans_fw_image::HEADER_LEN);
 
 /// What the storage task is asked to do with the slots.
 // The web server's upload asks for writes and the mark (builds with `web`).
@@ -127,6 +125,3 @@ impl Updates {
         self.done.signal(result);
     }
 }
-
-#[cfg(test)]
-mod tests;

@@ -32,9 +32,9 @@ use super::{error, error_json, App, Reply};
 use crate::access::session::Who;
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::{with_deadline, Clock};
-use crate::update::image::{Expect, ImageError, Verifier, HEADER_LEN};
-use crate::update::layout::HEADER_PAGE;
 use crate::update::{Op, SlotError, Upload, Version, PIECE};
+use hans_fw_image::layout::HEADER_PAGE;
+use hans_fw_image::{Expect, ImageError, Verifier, HEADER_LEN};
 
 /// The longest wait for the next bytes of an upload.
 pub(crate) const UPLOAD_STALL: Duration = Duration::from_secs(5);

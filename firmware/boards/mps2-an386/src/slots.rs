@@ -1,7 +1,7 @@
 //! The field device's firmware slots: the flash file the bootloader
 //! started it from (`semihosting-flash`, the word `flash=PATH` of QEMU's
 //! command line), cut into the three partitions of
-//! [`MPS2_AN386`](hans_gateway::update::layout::MPS2_AN386): embassy-boot's
+//! [`MPS2_AN386`](hans_fw_image::layout::MPS2_AN386): embassy-boot's
 //! boot state, the active slot and the download slot, as
 //! [`BootSlots`]. The gateway writes an upload into the download slot,
 //! marks it, confirms a trial image; the bootloader swaps and reverts at
@@ -12,7 +12,7 @@ use core::ops::Range;
 use embassy_embedded_hal::flash::partition::Partition;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::Mutex;
-use hans_gateway::update::layout::MPS2_AN386;
+use hans_fw_image::layout::MPS2_AN386;
 use hans_gateway::update::BootSlots;
 use semihosting_flash::{FlashPath, SemihostingFlash};
 use static_cell::StaticCell;

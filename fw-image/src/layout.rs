@@ -4,7 +4,7 @@
 //! flash image (`hans-fw install`).
 //!
 //! A slot holds a signed image as it was uploaded, in two parts: the
-//! image's header ([`super::image::HEADER_LEN`] bytes) at the slot's
+//! image's header ([`crate::HEADER_LEN`] bytes) at the slot's
 //! start, padded to [`HEADER_PAGE`], then the body (the firmware, whose
 //! vector table therefore sits at `slot + HEADER_PAGE`, aligned as the
 //! Cortex-M's VTOR needs). The swap moves whole slots, headers with them:

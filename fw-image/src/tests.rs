@@ -1,10 +1,9 @@
 //! The image checks, against images signed here with ed25519-dalek.
 
+use std::format;
 use std::vec::Vec;
 
-use ed25519_dalek::{Signer, SigningKey};
-
-use super::image::*;
+use crate::*;
 
 const SEED: [u8; 32] = [7; 32];
 const OTHER: [u8; 32] = [9; 32];
@@ -15,16 +14,13 @@ const V: Version = Version {
 };
 
 fn sign(seed: &[u8; 32], board: &str, version: Version, body: &[u8]) -> Vec<u8> {
-    let key = SigningKey::from_bytes(seed);
-    let signed = Header::signed_part(board, version, body).unwrap();
-    let sig = key.sign(&signed).to_bytes();
-    let mut out = Header::write(&signed, &sig).to_vec();
+    let mut out = crate::sign(seed, board, version, body).unwrap().to_vec();
     out.extend_from_slice(body);
     out
 }
 
 fn public(seed: &[u8; 32]) -> [u8; 32] {
-    SigningKey::from_bytes(seed).verifying_key().to_bytes()
+    public_key(seed)
 }
 
 fn body() -> Vec<u8> {
@@ -162,11 +158,93 @@ fn the_signing_side_refuses_what_the_reader_would() {
 
 #[test]
 fn a_key_file_reads_as_its_key() {
-    let k = key_from_hex(include_bytes!("../../../firmware/keys/dev.pub")).expect("the dev key");
+    let text = *b"  f3d6c3f24de573f8523d650e705a4e2c32aaa724431051c75ffa82fefc66c42e\n";
+    let k = key_from_hex(&text).expect("a key");
     assert_eq!(k[0], 0xf3);
     assert_eq!(k[31], 0x2e);
     assert_eq!(key_from_hex(b"f3d6"), None);
-    let mut bad = *include_bytes!("../../../firmware/keys/dev.pub");
+    let mut bad = text;
     bad[3] = b'g';
     assert_eq!(key_from_hex(&bad), None);
+    let mut long = [b'a'; 66];
+    assert_eq!(key_from_hex(&long), None);
+    long[64] = b' ';
+    long[65] = b' ';
+    assert!(key_from_hex(&long).is_some());
+    // Usable where a board compiles its key in.
+    const K: Option<[u8; 32]> =
+        key_from_hex(b"00000000000000000000000000000000000000000000000000000000000000ff");
+    assert_eq!(K.map(|k| k[31]), Some(0xff));
+}
+
+/// The images of `vectors/format1.txt`, written by the first release:
+/// every release reads them as the file says (the format is a contract).
+#[test]
+fn the_first_releases_images_read_as_they_did() {
+    fn bytes(hex: &str) -> Vec<u8> {
+        (0..hex.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+            .collect()
+    }
+    let text = include_str!("../vectors/format1.txt");
+    let mut key = None;
+    let (mut passed, mut refused) = (0, 0);
+    for line in text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.is_empty())
+    {
+        let f: Vec<&str> = line.split(' ').collect();
+        match f[..] {
+            ["key", hex] => key = key_from_hex(hex.as_bytes()),
+            ["ok", board, version, len, hex] => {
+                let key = key.expect("the key line comes first");
+                let image = bytes(hex);
+                let v: Vec<u16> = version.split('.').map(|n| n.parse().unwrap()).collect();
+                let version = Version {
+                    major: v[0],
+                    minor: v[1],
+                    patch: v[2],
+                };
+                let e = Expect {
+                    key: &key,
+                    board,
+                    running: Version {
+                        major: 0,
+                        minor: 0,
+                        patch: 0,
+                    },
+                    allow_downgrade: false,
+                    max_body: u32::MAX,
+                };
+                let h = check(&image, &e).unwrap_or_else(|err| panic!("{line}: {err}"));
+                assert_eq!(
+                    (h.board(), h.version, h.body_len),
+                    (board, version, len.parse().unwrap())
+                );
+                assert_eq!(Header::parse(&image), Ok(h));
+                passed += 1;
+            }
+            ["err", reason, hex] => {
+                let key = key.expect("the key line comes first");
+                let image = bytes(hex);
+                let e = Expect {
+                    key: &key,
+                    board: "mps2-an386",
+                    running: Version {
+                        major: 0,
+                        minor: 0,
+                        patch: 0,
+                    },
+                    allow_downgrade: false,
+                    max_body: u32::MAX,
+                };
+                let got = check(&image, &e).expect_err(line);
+                assert_eq!(format!("{got:?}").split('(').next(), Some(reason));
+                refused += 1;
+            }
+            _ => panic!("a line the file's header does not describe: {line}"),
+        }
+    }
+    assert_eq!((passed, refused), (3, 4));
 }
