@@ -60,12 +60,10 @@ use crate::clock::SystemClock;
 #[cfg(feature = "mqtt")]
 use crate::config::HostName;
 use crate::config::NetConfig;
-use crate::gateway::{Gateway, Options, MAX_SESSIONS};
+use crate::gateway::Storage;
+use crate::gateway::{Gateway, Options};
+use crate::limits::MAX_SESSIONS;
 use crate::net::embassy::EmbassyNet;
-use crate::storage::Storage;
-
-#[allow(unused_imports)]
-use crate::storage::NoStorage;
 
 /// Sockets of the DataSheet reader (feature `datasheet`).
 const DATASHEET_SOCKETS: usize = if cfg!(feature = "datasheet") { 1 } else { 0 };

@@ -72,12 +72,12 @@
 
 pub(crate) mod keep;
 pub(crate) mod log;
-pub(crate) mod record;
+pub mod record;
 
 use core::net::Ipv4Addr;
 
 pub(crate) use log::{Log, RING};
-pub(crate) use record::{Interface, Kind, Record, Short, RECORD_MAX};
+pub use record::{Interface, Kind, Record, Short, RECORD_MAX};
 #[cfg(test)]
 pub(crate) use record::{ACTOR_MAX, DETAIL_MAX};
 

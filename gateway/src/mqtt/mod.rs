@@ -662,20 +662,3 @@ pub async fn serve<C: Clock, N: Net>(
     );
     run(hub, clock, net, &settings, status).await
 }
-
-/// [`run`] on Linux, over tokio's sockets and the system clock (on a
-/// current-thread runtime: the future is not `Send`); the timestamps from
-/// the host's wall clock unless `settings` has one.
-#[cfg(feature = "std")]
-pub async fn run_host(hub: &Hub, settings: &Settings, status: &Status) -> Infallible {
-    let mut settings = settings.clone();
-    if settings.utc_at_zero.is_none() {
-        let utc = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
-            .unwrap_or(0);
-        settings.utc_at_zero = Some(utc.saturating_sub(Instant::now().as_millis()));
-    }
-    let net = crate::net::tokio::TokioNet::new(core::net::Ipv4Addr::UNSPECIFIED);
-    run(hub, &crate::SystemClock, &net, &settings, status).await
-}

@@ -21,7 +21,7 @@ use embassy_sync::mutex::{Mutex, MutexGuard};
 use embassy_sync::signal::Signal;
 
 pub use hans_fw_image::{layout, Header, ImageError, Version};
-pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
+pub use slots::{BootSlots, BootState, NoSlots, Slot, SlotError, SlotStore, WithSlots};
 
 /// Bytes handed to the storage task at once (a multiple of every flash
 /// write size the boards have, and at least an image header). Small: the

@@ -90,7 +90,7 @@ pub(crate) struct StatusSnapshot {
     watchdog_armed: bool,
     plc: PlcState,
     sessions: u16,
-    modbus_peers: heapless::Vec<SocketAddrV4, { crate::MAX_SESSIONS }>,
+    modbus_peers: heapless::Vec<SocketAddrV4, { crate::limits::MAX_SESSIONS }>,
     admin_exists: bool,
     restart_pending: bool,
     recovery: bool,
@@ -801,7 +801,7 @@ mod tests {
                 end,
             );
         }
-        for p in 0..crate::MAX_SESSIONS {
+        for p in 0..crate::limits::MAX_SESSIONS {
             let _ = m.modbus_peers.push(SocketAddrV4::new(
                 Ipv4Addr::new(255, 255, 255, 255),
                 65535 - p as u16,

@@ -122,15 +122,7 @@ pub(crate) const PER_ADDRESS: usize = WEB_SLOTS - 1;
 /// first byte. The longest request ([`HTTP_BUF`], 6 KiB) is four or five
 /// segments: well within this on any link a browser uses, a lost segment
 /// included (sent again within a second).
-pub(crate) const REQUEST_DEADLINE: Duration = Duration::from_secs(2);
-// A TLS handshake (Linux, `--web-tls`) holds a web slot no longer than a
-// request: checked here, where the web server meets the socket layer (the
-// socket layer does not import the web server).
-#[cfg(feature = "tls-server")]
-const _: () = assert!(
-    crate::net::tls::HANDSHAKE_DEADLINE.as_millis() <= REQUEST_DEADLINE.as_millis(),
-    "a handshake holds a web slot no longer than a request"
-);
+pub(crate) const REQUEST_DEADLINE: Duration = crate::limits::WEB_REQUEST_DEADLINE;
 /// An answer must be written this long after its first write (the page,
 /// ~12 KiB, needs ~32 kbit/s); a client reading more slowly is closed.
 pub(crate) const ANSWER_DEADLINE: Duration = Duration::from_secs(3);

@@ -12,7 +12,7 @@ use core::ops::Range;
 use embassy_embedded_hal::flash::partition::Partition;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::Mutex;
-use hans_fw_image::layout::MPS2_AN386;
+use hans_gateway::update::layout::MPS2_AN386;
 use hans_gateway::update::BootSlots;
 use semihosting_flash::{FlashPath, SemihostingFlash};
 use static_cell::StaticCell;

@@ -17,12 +17,12 @@ use std::process::{Child, ChildStderr, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use hans_gateway::host::config_file::{self, Format};
 use hans_gateway::registers::map as reg;
 use hans_gateway::registers::MAP_VERSION;
 use hans_gateway::state::Text;
 use hans_gateway::storage::{image, IMAGE_LEN};
 use hans_gateway::{Config, SetupCode};
+use hans_gateway_linux::config_file::{self, Format};
 
 const BIN: &str = env!("CARGO_BIN_EXE_hans-gateway");
 

@@ -492,7 +492,7 @@ async fn the_certificates_role_decides_whether_a_client_may_write() {
         );
     }
     let log = gw.log_says("refused: its certificate's role may only read");
-    assert!(log.contains("Unknown(\"engineer\")"), "{log}");
+    assert!(log.contains("Named(\"engineer\")"), "{log}");
 
     // Plain Modbus TCP, as before: writes and reads.
     let mut plain = tokio::net::TcpStream::connect(("127.0.0.1", gw.modbus))

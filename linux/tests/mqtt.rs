@@ -1,8 +1,7 @@
 //! The MQTT client against a real broker: Debian's Mosquitto, started here
 //! on 127.0.0.1 at a free port, and an independent subscriber (rumqttc,
 //! payloads decoded with prost from the specification's field numbers).
-//! Needs the `mqtt` feature: `cargo test -p hans-gateway --features mqtt
-//! --test mqtt`.
+//! `cargo test -p hans-gateway-linux --test mqtt`.
 
 use std::net::{Ipv4Addr, SocketAddrV4, TcpStream};
 use std::path::PathBuf;
@@ -12,9 +11,10 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::{free_port, make_ca, make_cert, Killed};
-use hans_gateway::mqtt::{run_host, Settings, Status};
+use hans_gateway::mqtt::{Settings, Status};
 use hans_gateway::sparkplug::NodeConfig;
 use hans_gateway::{Gateway, Options};
+use hans_gateway_linux::mqtt::run_host;
 use prost::Message as _;
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};
 

@@ -29,8 +29,8 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::vec::Vec;
 
-use crate::audit::Record;
-use crate::storage::{AuditStore, StorageError};
+use hans_gateway::audit::Record;
+use hans_gateway::storage::{AuditStore, StorageError};
 
 /// The size a file grows to before it is rotated.
 pub const DEFAULT_LIMIT: u64 = 1 << 20;
@@ -249,6 +249,10 @@ impl AuditStore for AuditFile {
             }
         }
     }
+
+    fn persistent(&self) -> bool {
+        true
+    }
 }
 
 /// The host's clock: Unix seconds now (`None` if it reads before 1970).
@@ -262,7 +266,7 @@ pub fn unix_now() -> Option<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::audit::{Kind, Short, RECORD_MAX};
+    use hans_gateway::audit::{Kind, Short, RECORD_MAX};
 
     fn record(seq: u32) -> Vec<u8> {
         let r = Record {

@@ -1,6 +1,6 @@
 //! The configuration file of the Linux binary (`--config FILE`): TOML that
 //! people edit and keep in version control. Boards keep the binary image
-//! ([`crate::storage::image`]); this file is another view of the same
+//! ([`hans_gateway::storage::image`]); this file is another view of the same
 //! stored state: the settings, the sixteen trigger entries and the web
 //! password's salted hash.
 //!
@@ -22,7 +22,7 @@
 //! the crate's `Cargo.toml`.
 //!
 //! ## Rules
-//! * Each key is one setting of the schema ([`crate::config::schema`]):
+//! * Each key is one setting of the schema ([`hans_gateway::config::schema`]):
 //!   `[link] poll_ms` is the setting `link.poll_ms`. Its value is checked
 //!   by the setting's kind, the same rule as every other view's: no range
 //!   is written twice.
@@ -112,10 +112,10 @@ use std::path::{Path, PathBuf};
 use std::string::String;
 use std::vec::Vec;
 
-use crate::config::{Config, Kind, Setting, ALLOW_ENTRIES, SETTINGS};
-use crate::registers::config::register_of;
-use crate::state::inputs::{Text, TRIGGERS};
-use crate::storage::image::{self, Entries, ImageError, Stored};
+use hans_gateway::config::{Config, Kind, Setting, ALLOW_ENTRIES, SETTINGS};
+use hans_gateway::registers::config::register_of;
+use hans_gateway::state::inputs::{Text, TRIGGERS};
+use hans_gateway::storage::image::{self, Entries, ImageError, Stored};
 
 /// The tables: the groups of the settings' keys, in the order of
 /// [`SETTINGS`] (`access` also holds the password), then the trigger table.
@@ -174,7 +174,7 @@ impl Contents {
         Contents {
             stored: Stored {
                 config,
-                accounts: crate::access::accounts::Accounts::NONE,
+                accounts: hans_gateway::access::accounts::Accounts::NONE,
             },
             triggers: [Text::EMPTY; TRIGGERS],
         }
@@ -324,7 +324,7 @@ fn takes(s: &Setting) -> String {
         ),
         Kind::Host => format!(
             "a host name or address, up to {} characters; \"\" = none",
-            crate::config::HostName::MAX
+            hans_gateway::config::HostName::MAX
         ),
     }
 }

@@ -1,8 +1,8 @@
-//! TLS servers on Linux (feature `tls-server`): the web page over HTTPS
-//! and Modbus/TCP Security, with rustls (ring) through tokio-rustls.
+//! TLS servers on Linux: the web page over HTTPS and Modbus/TCP Security,
+//! with rustls (ring) through tokio-rustls.
 //!
-//! The servers above (`crate::web`, `crate::modbus`) do not know about
-//! TLS: a listener of [`super::tokio::TokioNet`] made with a [`TlsServer`]
+//! The gateway's servers (the page, Modbus) do not know about TLS: a
+//! listener of [`crate::net::TokioNet`] made with a [`TlsServer`]
 //! hands its sockets TCP connections whose handshake has not started yet.
 //! The servers check the allow-list and give a slot as for a plain
 //! connection; the handshake runs at the connection's first read, bounded
@@ -15,8 +15,9 @@
 //! The Modbus Organization's "MB/TCP Security" protocol (port 802): TLS 1.2
 //! or later, the client's certificate required and verified against the
 //! CAs given (`--modbus-tls-ca`), and the client's role in the certificate's
-//! role extension ([`ROLE_OID`], an ASN.1 UTF8String). The role is mapped to
-//! the accounts' roles ([`crate::access::accounts::Role`]) by its word:
+//! role extension ([`ROLE_OID`], an ASN.1 UTF8String). The socket hands the
+//! extension's word to the Modbus server as the client's claim
+//! ([`hans_gateway::net::PeerClaim`]), which maps it to the accounts' roles:
 //!
 //! | role extension | role | Modbus |
 //! |---|---|---|
@@ -27,9 +28,7 @@
 //!
 //! A refused write is answered with exception 01 (Illegal Function), as the
 //! specification asks for an authorization failure, logged and counted in
-//! `WRITES_REFUSED` (`crate::modbus::Grant`).
-
-extern crate std;
+//! `WRITES_REFUSED`.
 
 use std::io;
 use std::path::Path;
@@ -42,28 +41,31 @@ use x509_cert::der::asn1::Utf8StringRef;
 use x509_cert::der::oid::ObjectIdentifier;
 use x509_cert::der::Decode;
 
-use crate::access::accounts::Role;
+use hans_gateway::net::PeerClaim;
 
 /// The longest a TLS handshake may take, from the connection's first read
 /// (at once after it was given its slot): then the connection is closed.
 /// No longer than a web request may take once started
-/// (`web::REQUEST_DEADLINE`); for Modbus, as long as a session may stay
-/// silent before a newcomer may take its slot (`modbus::EVICT_IDLE`). A
-/// handshake on a plant network takes milliseconds.
+/// ([`hans_gateway::limits::WEB_REQUEST_DEADLINE`], checked below); for
+/// Modbus, as long as a session may stay silent before a newcomer may take
+/// its slot. A handshake on a plant network takes milliseconds.
 pub(crate) const HANDSHAKE_DEADLINE: embassy_time::Duration = embassy_time::Duration::from_secs(2);
+
+const _: () = assert!(
+    HANDSHAKE_DEADLINE.as_millis() <= hans_gateway::limits::WEB_REQUEST_DEADLINE.as_millis(),
+    "a handshake holds a web slot no longer than a request"
+);
 
 /// The role extension of Modbus/TCP Security (its "Role" OID under the
 /// Modbus Organization's enterprise number 50316).
 pub(crate) const ROLE_OID: ObjectIdentifier =
     ObjectIdentifier::new_unwrap("1.3.6.1.4.1.50316.802.1");
 
-/// What a client's certificate says its holder may do.
+/// What a client's certificate's role extension says.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) enum CertRole {
-    /// The role extension names a role of the accounts.
-    Known(Role),
-    /// It names another role (the text, for the log).
-    Unknown(String),
+    /// It names this role (its word, as written).
+    Named(String),
     /// The certificate has no role extension.
     Missing,
     /// The extension is not one UTF8String, appears twice, or the
@@ -72,12 +74,13 @@ pub(crate) enum CertRole {
 }
 
 impl CertRole {
-    /// The role to serve with: the one named, else the least (viewer:
-    /// reads only).
-    pub(crate) fn role(&self) -> Role {
+    /// The claim the socket hands the server: the word named (one longer
+    /// than [`hans_gateway::net::CLAIM_MAX`] names no role the gateway
+    /// knows: none), else none. The server grants the least to none.
+    pub(crate) fn claim(&self) -> PeerClaim {
         match self {
-            CertRole::Known(r) => *r,
-            CertRole::Unknown(_) | CertRole::Missing | CertRole::Malformed => Role::Viewer,
+            CertRole::Named(word) => PeerClaim::Certificate(word.as_str().try_into().ok()),
+            CertRole::Missing | CertRole::Malformed => PeerClaim::Certificate(None),
         }
     }
 }
@@ -112,10 +115,7 @@ pub(crate) fn client_cert(der: &[u8]) -> ClientCert {
     let role = match (roles.next(), roles.next()) {
         (None, _) => CertRole::Missing,
         (Some(ext), None) => match Utf8StringRef::from_der(ext.extn_value.as_bytes()) {
-            Ok(text) => match Role::parse(text.as_str()) {
-                Some(r) => CertRole::Known(r),
-                None => CertRole::Unknown(text.as_str().to_string()),
-            },
+            Ok(text) => CertRole::Named(text.as_str().to_string()),
             Err(_) => CertRole::Malformed,
         },
         // RFC 5280: an extension appears at most once.
@@ -303,19 +303,11 @@ mod tests {
         let read = |exts: &[(&[u8], &[u8])]| client_cert(&cert_with(exts)).role;
         assert_eq!(
             read(&[(ROLE, b"\x0C\x08operator")]),
-            CertRole::Known(Role::Operator)
-        );
-        assert_eq!(
-            read(&[(ROLE, b"\x0C\x05admin")]),
-            CertRole::Known(Role::Admin)
-        );
-        assert_eq!(
-            read(&[(ROLE, b"\x0C\x06viewer")]),
-            CertRole::Known(Role::Viewer)
+            CertRole::Named("operator".into())
         );
         assert_eq!(
             read(&[(ROLE, b"\x0C\x08Operator")]),
-            CertRole::Unknown("Operator".into())
+            CertRole::Named("Operator".into())
         );
         assert_eq!(read(&[]), CertRole::Missing);
         // Another extension (subjectKeyIdentifier) is not a role.
@@ -330,12 +322,17 @@ mod tests {
             read(&[(ROLE, b"\x0C\x05admin"), (ROLE, b"\x0C\x05admin")]),
             CertRole::Malformed
         );
+        // The word goes to the server as it is; none where there is none
+        // or it is longer than any role's.
+        let word = |w: &str| PeerClaim::Certificate(Some(w.try_into().unwrap()));
+        assert_eq!(CertRole::Named("admin".into()).claim(), word("admin"));
+        assert_eq!(CertRole::Named("x".into()).claim(), word("x"));
         for role in [
-            CertRole::Unknown("x".into()),
+            CertRole::Named("a-role-word-longer-than-any".into()),
             CertRole::Missing,
             CertRole::Malformed,
         ] {
-            assert_eq!(role.role(), Role::Viewer, "{role:?}");
+            assert_eq!(role.claim(), PeerClaim::Certificate(None), "{role:?}");
         }
         assert_eq!(client_cert(b"\x30\x00").role, CertRole::Malformed);
         assert_eq!(client_cert(&cert_with(&[])).subject, "CN=plc");

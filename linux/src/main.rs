@@ -23,10 +23,10 @@ use std::process::ExitCode;
 use clap::error::ErrorKind;
 use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
 use hans_gateway::config::HostName;
-use hans_gateway::host::config_file::{self, Error as FileProblem};
-use hans_gateway::host::{os_random, FileStorage, HostOptions, RunningGateway};
 use hans_gateway::registers::MAP_VERSION;
 use hans_gateway::{MqttOverride, SetupCode, SETUP_CODE_LEN};
+use hans_gateway_linux::config_file::{self, Error as FileProblem};
+use hans_gateway_linux::{os_random, FileStorage, HostOptions, RunningGateway};
 
 /// The robot controller's command port, used when `--robot` names none.
 const ROBOT_PORT: u16 = 10003;
@@ -55,7 +55,7 @@ The configuration file (--config FILE) is TOML that you may edit and keep in ver
 control: the settings in the tables [robot], [link], [motion], [watchdog], [registers],
 [network] and [access] (each key's comment names its CFG_* / NET_* register), the sixteen
 trigger entries in [triggers], and the web password as a salted hash (never in clear). An
-example with every key: gateway/examples/gateway.toml. A key left out takes its factory
+example with every key: linux/examples/gateway.toml. A key left out takes its factory
 default; a file that does not exist yet means the defaults (the first save creates it).
 The file is checked before anything starts: a malformed file, an unknown key or a value
 out of range is refused, one line per problem on stderr
@@ -424,15 +424,13 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
             _ => None,
         },
         node_name: host_name(),
-        #[cfg(feature = "tls-server")]
         web_tls: cli.web_tls.as_deref().and_then(identity),
-        #[cfg(feature = "tls-server")]
         modbus_tls: match (
             &cli.modbus_tls_listen,
             cli.modbus_tls.as_deref(),
             &cli.modbus_tls_ca,
         ) {
-            (Some(e), Some(files), Some(ca)) => Some(hans_gateway::host::ModbusTls {
+            (Some(e), Some(files), Some(ca)) => Some(hans_gateway_linux::ModbusTls {
                 listen: resolve("modbus-tls-listen", e)?,
                 identity: identity(files).ok_or("--modbus-tls: CERT and KEY are needed")?,
                 client_ca: ca.clone(),
@@ -443,10 +441,9 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
 }
 
 /// `--web-tls` / `--modbus-tls` CERT KEY (clap takes exactly two).
-#[cfg(feature = "tls-server")]
-fn identity(files: &[PathBuf]) -> Option<hans_gateway::host::TlsIdentity> {
+fn identity(files: &[PathBuf]) -> Option<hans_gateway_linux::TlsIdentity> {
     match files {
-        [cert, key] => Some(hans_gateway::host::TlsIdentity {
+        [cert, key] => Some(hans_gateway_linux::TlsIdentity {
             cert: cert.clone(),
             key: key.clone(),
         }),

@@ -8,8 +8,8 @@ use std::string::{String, ToString};
 use std::vec::Vec;
 
 use super::{register_name, takes, Contents, ACCOUNTS, SCHEME};
-use crate::config::{Kind, Setting, Value, SETTINGS};
-use crate::state::inputs::{TRIGGERS, TRIGGER_TEXT};
+use hans_gateway::config::{Kind, Setting, Value, SETTINGS};
+use hans_gateway::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()

@@ -9,7 +9,7 @@
 //! A listener made with a TLS server ([`TokioNet::listen_tls`], feature
 //! `tls-server`) hands its sockets connections whose handshake starts at
 //! their first read or write and must end within
-//! [`super::tls::HANDSHAKE_DEADLINE`] (see [`super::tls`]); the address is
+//! [`crate::tls::HANDSHAKE_DEADLINE`] (see [`crate::tls`]); the address is
 //! known at accept, so the servers' allow-lists and slots apply before
 //! the handshake costs anything. A TLS listener may also serve beside
 //! another port ([`TokioNet::listen_tls_beside`]): the sockets accepting
@@ -18,24 +18,19 @@
 //!
 //! Needs a tokio runtime with I/O enabled (current-thread is enough).
 
-extern crate std;
-
 use core::cell::RefCell;
 use core::future::Future;
 use core::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
-#[cfg(any(feature = "mqtt-tls", feature = "tls-server"))]
 use std::borrow::ToOwned;
 use std::io;
 use std::rc::Rc;
-#[cfg(feature = "tls-server")]
 use std::string::ToString;
 use std::vec::Vec;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 
-use super::{Net, NetError, Socket};
-use crate::access::accounts::Role;
+use hans_gateway::net::{Net, NetError, PeerClaim, Socket};
 
 /// A bound listener: sockets accepting on `port` take its connections.
 struct Listener {
@@ -43,52 +38,47 @@ struct Listener {
     port: u16,
     tcp: Rc<TcpListener>,
     /// Its connections start TLS as this server.
-    #[cfg(feature = "tls-server")]
-    tls: Option<Rc<super::tls::TlsServer>>,
+    tls: Option<Rc<crate::tls::TlsServer>>,
 }
 
 /// Tokio networking for the gateway.
-pub(crate) struct TokioNet {
+pub struct TokioNet {
     bind_ip: core::net::Ipv4Addr,
     listeners: RefCell<Vec<Listener>>,
     /// The PEM file of the CAs a TLS server must be signed by
     /// ([`Socket::connect_tls`]); read at each TLS connect.
-    #[cfg(feature = "mqtt-tls")]
     tls_ca: Option<std::path::PathBuf>,
 }
 
 impl TokioNet {
     /// A stack whose on-demand listeners bind to `bind_ip` (use
     /// `127.0.0.1` in tests).
-    pub(crate) fn new(bind_ip: core::net::Ipv4Addr) -> Self {
+    pub fn new(bind_ip: core::net::Ipv4Addr) -> Self {
         TokioNet {
             bind_ip,
             listeners: RefCell::new(Vec::new()),
-            #[cfg(feature = "mqtt-tls")]
             tls_ca: None,
         }
     }
 
     /// TLS clients of this stack trust the CAs of the PEM file `ca`.
-    #[cfg(feature = "mqtt-tls")]
-    pub(crate) fn with_tls_ca(mut self, ca: std::path::PathBuf) -> Self {
+    pub fn with_tls_ca(mut self, ca: std::path::PathBuf) -> Self {
         self.tls_ca = Some(ca);
         self
     }
 
     /// Binds `addr` now and returns the port bound (useful with port 0).
     /// Sockets then accept on that port.
-    pub(crate) async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
+    pub async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
         self.bind(addr, None, None).await
     }
 
     /// Binds `addr` now for TLS as `server`; returns the port bound.
     /// Sockets accepting on that port start TLS with their clients.
-    #[cfg(feature = "tls-server")]
     pub(crate) async fn listen_tls(
         &self,
         addr: SocketAddrV4,
-        server: super::tls::TlsServer,
+        server: crate::tls::TlsServer,
     ) -> io::Result<u16> {
         self.bind(addr, None, Some(server)).await
     }
@@ -96,12 +86,11 @@ impl TokioNet {
     /// Binds `addr` now for TLS as `server`, its connections accepted by
     /// the sockets accepting on `beside` (bound before); returns the port
     /// bound.
-    #[cfg(feature = "tls-server")]
     pub(crate) async fn listen_tls_beside(
         &self,
         beside: u16,
         addr: SocketAddrV4,
-        server: super::tls::TlsServer,
+        server: crate::tls::TlsServer,
     ) -> io::Result<u16> {
         self.bind(addr, Some(beside), Some(server)).await
     }
@@ -112,17 +101,13 @@ impl TokioNet {
         &self,
         addr: SocketAddrV4,
         beside: Option<u16>,
-        #[cfg(feature = "tls-server")] server: Option<super::tls::TlsServer>,
-        #[cfg(not(feature = "tls-server"))] server: Option<core::convert::Infallible>,
+        server: Option<crate::tls::TlsServer>,
     ) -> io::Result<u16> {
         let l = TcpListener::bind(addr).await?;
         let port = l.local_addr()?.port();
-        #[cfg(not(feature = "tls-server"))]
-        let _ = server;
         self.listeners.borrow_mut().push(Listener {
             port: beside.unwrap_or(port),
             tcp: Rc::new(l),
-            #[cfg(feature = "tls-server")]
             tls: server.map(Rc::new),
         });
         Ok(port)
@@ -136,7 +121,6 @@ impl TokioNet {
                 .filter(|l| l.port == port)
                 .map(|l| Accepting {
                     tcp: l.tcp.clone(),
-                    #[cfg(feature = "tls-server")]
                     tls: l.tls.clone(),
                 })
                 .collect()
@@ -159,8 +143,7 @@ impl TokioNet {
 /// A listener a socket accepts from.
 struct Accepting {
     tcp: Rc<TcpListener>,
-    #[cfg(feature = "tls-server")]
-    tls: Option<Rc<super::tls::TlsServer>>,
+    tls: Option<Rc<crate::tls::TlsServer>>,
 }
 
 impl Accepting {
@@ -170,7 +153,6 @@ impl Accepting {
         let (s, _) = self.tcp.accept().await?;
         // Small request/reply messages: send each at once.
         let _ = s.set_nodelay(true);
-        #[cfg(feature = "tls-server")]
         if let Some(server) = &self.tls {
             return Ok(Stream::Handshake(std::boxed::Box::new(Handshake {
                 accept: server.acceptor.accept(s),
@@ -184,16 +166,15 @@ impl Accepting {
 
 /// A TLS server's connection whose handshake has not ended: it runs at
 /// the first read or write ([`Stream::ready`]).
-#[cfg(feature = "tls-server")]
 struct Handshake {
     accept: tokio_rustls::Accept<TcpStream>,
-    server: Rc<super::tls::TlsServer>,
+    server: Rc<crate::tls::TlsServer>,
     /// When it must have ended (set when it starts).
     until: Option<tokio::time::Instant>,
 }
 
 /// A tokio TCP stream slot.
-pub(crate) struct TokioSocket<'a> {
+pub struct TokioSocket<'a> {
     net: &'a TokioNet,
     stream: Option<Stream>,
 }
@@ -202,16 +183,13 @@ pub(crate) struct TokioSocket<'a> {
 /// before and after its handshake).
 enum Stream {
     Plain(TcpStream),
-    #[cfg(feature = "mqtt-tls")]
     Tls(std::boxed::Box<tokio_rustls::client::TlsStream<TcpStream>>),
-    #[cfg(feature = "tls-server")]
     Handshake(std::boxed::Box<Handshake>),
-    /// A TLS server's connection, and its client's role when the server
-    /// asked for a certificate.
-    #[cfg(feature = "tls-server")]
+    /// A TLS server's connection, and what its client's certificate claims
+    /// when the server asked for one.
     Served(
         std::boxed::Box<tokio_rustls::server::TlsStream<TcpStream>>,
-        Option<Role>,
+        Option<PeerClaim>,
     ),
 }
 
@@ -219,7 +197,6 @@ impl Stream {
     /// Ends a TLS server's handshake if it has not ended (within its
     /// deadline from the first call); else nothing. Cancel-safe: the
     /// handshake goes on at the next call, with the same deadline.
-    #[cfg(feature = "tls-server")]
     async fn ready(&mut self) -> io::Result<()> {
         let Stream::Handshake(h) = self else {
             return Ok(());
@@ -229,7 +206,7 @@ impl Stream {
             .get_ref()
             .and_then(|s| s.peer_addr().ok())
             .map_or_else(|| "(unknown)".to_owned(), |a| a.to_string());
-        let deadline = super::tls::HANDSHAKE_DEADLINE;
+        let deadline = crate::tls::HANDSHAKE_DEADLINE;
         let until = *h.until.get_or_insert_with(|| {
             tokio::time::Instant::now() + std::time::Duration::from_millis(deadline.as_millis())
         });
@@ -254,18 +231,16 @@ impl Stream {
                 .1
                 .peer_certificates()
                 .and_then(|c| c.first())
-                .map(|c| super::tls::client_cert(c));
-            let role = cert.as_ref().map_or(Role::Viewer, |c| c.role.role());
+                .map(|c| crate::tls::client_cert(c));
             match &cert {
                 Some(c) => log::info!(
-                    "{what}: TLS client {peer} authenticated as {:?}, role extension {:?}: {}",
+                    "{what}: TLS client {peer} authenticated as {:?}, role extension {:?}",
                     c.subject,
                     c.role,
-                    role.as_str()
                 ),
-                None => log::warn!("{what}: TLS client {peer} without a certificate: viewer"),
+                None => log::warn!("{what}: TLS client {peer} without a certificate: no role"),
             }
-            Some(role)
+            Some(cert.map_or(PeerClaim::Certificate(None), |c| c.role.claim()))
         } else {
             None
         };
@@ -276,11 +251,8 @@ impl Stream {
     async fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
         match self {
             Stream::Plain(s) => s.read(buf).await,
-            #[cfg(feature = "mqtt-tls")]
             Stream::Tls(s) => s.read(buf).await,
-            #[cfg(feature = "tls-server")]
             Stream::Served(s, _) => s.read(buf).await,
-            #[cfg(feature = "tls-server")]
             Stream::Handshake(_) => Err(io::ErrorKind::NotConnected.into()),
         }
     }
@@ -288,18 +260,15 @@ impl Stream {
     async fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
         match self {
             Stream::Plain(s) => s.write_all(buf).await,
-            #[cfg(feature = "mqtt-tls")]
             Stream::Tls(s) => {
                 s.write_all(buf).await?;
                 // rustls buffers: what was written goes out now.
                 s.flush().await
             }
-            #[cfg(feature = "tls-server")]
             Stream::Served(s, _) => {
                 s.write_all(buf).await?;
                 s.flush().await
             }
-            #[cfg(feature = "tls-server")]
             Stream::Handshake(_) => Err(io::ErrorKind::NotConnected.into()),
         }
     }
@@ -307,12 +276,9 @@ impl Stream {
     async fn shutdown(&mut self) -> io::Result<()> {
         match self {
             Stream::Plain(s) => s.shutdown().await,
-            #[cfg(feature = "mqtt-tls")]
             Stream::Tls(s) => s.shutdown().await,
-            #[cfg(feature = "tls-server")]
             Stream::Served(s, _) => s.shutdown().await,
             // No TLS yet: dropping the stream closes the connection.
-            #[cfg(feature = "tls-server")]
             Stream::Handshake(_) => Ok(()),
         }
     }
@@ -320,36 +286,26 @@ impl Stream {
     fn tcp(&self) -> Option<&TcpStream> {
         match self {
             Stream::Plain(s) => Some(s),
-            #[cfg(feature = "mqtt-tls")]
             Stream::Tls(s) => Some(s.get_ref().0),
-            #[cfg(feature = "tls-server")]
             Stream::Served(s, _) => Some(s.get_ref().0),
-            #[cfg(feature = "tls-server")]
             Stream::Handshake(h) => h.accept.get_ref(),
         }
     }
 
-    /// The role of a TLS client's certificate (see [`Socket::role`]).
-    #[cfg(feature = "tls-server")]
-    fn role(&self) -> Option<Role> {
+    /// What a TLS client's certificate claims (see
+    /// [`Socket::peer_claim`]).
+    fn peer_claim(&self) -> PeerClaim {
         match self {
-            Stream::Served(_, role) => *role,
-            // Not authenticated yet: the least.
-            Stream::Handshake(h) if h.server.clients => Some(Role::Viewer),
-            _ => None,
+            Stream::Served(_, Some(claim)) => claim.clone(),
+            // Not authenticated yet: no claim (the least).
+            Stream::Handshake(h) if h.server.clients => PeerClaim::Certificate(None),
+            _ => PeerClaim::None,
         }
-    }
-
-    /// The role of a TLS client's certificate: none without TLS servers.
-    #[cfg(not(feature = "tls-server"))]
-    fn role(&self) -> Option<Role> {
-        None
     }
 }
 
 /// The TLS client configuration: the CAs of `ca` (PEM), else the system's
 /// bundle; TLS 1.2 and 1.3 with rustls' safe defaults (ring).
-#[cfg(feature = "mqtt-tls")]
 fn tls_config(
     ca: Option<&std::path::Path>,
 ) -> Result<std::sync::Arc<rustls::ClientConfig>, NetError> {
@@ -393,7 +349,6 @@ impl TokioSocket<'_> {
     /// Ends a TLS server's handshake first (see [`Stream::ready`]); one
     /// that failed or timed out ends the connection (it cannot go on).
     async fn ready(&mut self) -> Result<(), NetError> {
-        #[cfg(feature = "tls-server")]
         if let Some(s) = self.stream.as_mut() {
             if s.ready().await.is_err() {
                 self.stream = None;
@@ -415,7 +370,6 @@ impl Socket for TokioSocket<'_> {
         Ok(())
     }
 
-    #[cfg(feature = "mqtt-tls")]
     async fn connect_tls(
         &mut self,
         remote: SocketAddrV4,
@@ -478,8 +432,10 @@ impl Socket for TokioSocket<'_> {
         s.write_all(buf).await.map_err(|_| NetError::Reset)
     }
 
-    fn role(&self) -> Option<Role> {
-        self.stream.as_ref().and_then(Stream::role)
+    fn peer_claim(&self) -> PeerClaim {
+        self.stream
+            .as_ref()
+            .map_or(PeerClaim::None, Stream::peer_claim)
     }
 
     async fn close(&mut self) {
@@ -489,7 +445,6 @@ impl Socket for TokioSocket<'_> {
     }
 
     fn encrypted(&self) -> bool {
-        #[cfg(feature = "tls-server")]
         if let Some(Stream::Handshake(_) | Stream::Served(..)) = &self.stream {
             return true;
         }

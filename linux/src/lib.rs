@@ -1,17 +1,32 @@
-//! Running the gateway on Linux (feature `std`): file storage, and a
-//! gateway on its own thread (used by the binary, the tests and the
-//! benchmark).
+//! # hans-gateway-linux
+//!
+//! The gateway (`hans-gateway`, a `no_std` crate) on Linux: the platform
+//! it runs on here, as the boards' crates (`firmware/`) are the platform
+//! on a microcontroller, and the `hans-gateway` binary.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`net`] | the socket interface over tokio (listeners bound ahead, TLS connections) |
+//! | [`tls`] | the TLS servers (the page over HTTPS, Modbus/TCP Security and its role extension) and the broker's TLS client |
+//! | [`config_file`] | the configuration as a TOML file people edit (read, checked with line and column, written) |
+//! | [`audit_file`] | the audit log's file beside it, with rotation |
+//! | this page | [`FileStorage`], and [`RunningGateway`]: a gateway on its own thread (the binary, the tests, the benchmarks) |
 //!
 //! The no_std logic runs on a tokio current-thread runtime: tokio supplies
-//! the sockets (the `TokioNet` adapter) and embassy-time's std driver the
+//! the sockets ([`net::TokioNet`]) and embassy-time's std driver the
 //! timers (with a generic timer queue, so embassy timers work under tokio).
 //! One thread, one future: the same shape as one embassy task on a board.
 
-extern crate std;
+// The gateway is one future of nested futures: computing its layout needs
+// more depth than the default 128.
+#![recursion_limit = "256"]
 
-#[cfg(feature = "audit")]
 pub mod audit_file;
 pub mod config_file;
+pub mod mqtt;
+pub mod net;
+pub mod tls;
+mod waker;
 
 use core::convert::Infallible;
 use core::net::{Ipv4Addr, SocketAddrV4};
@@ -21,15 +36,16 @@ use std::string::{String, ToString};
 use std::sync::mpsc;
 use std::thread;
 
-use crate::access::setup::SetupCode;
-use crate::clock::SystemClock;
-use crate::config::HostName;
-use crate::gateway::{MqttOverride, Options, RobotOverride};
-use crate::net::tokio::TokioNet;
-use crate::state::inputs::{Text, TRIGGERS};
-use crate::storage::image::{self, Entries};
-use crate::storage::{Image, NoStorage, Storage, StorageError, IMAGE_LEN};
-use crate::Config;
+use hans_gateway::config::HostName;
+use hans_gateway::state::inputs::{Text, TRIGGERS};
+use hans_gateway::storage::image::{self, Entries};
+use hans_gateway::storage::{Image, IMAGE_LEN};
+use hans_gateway::{
+    AuditStore, Config, ConfigStore, Medium, MqttOverride, NoSlots, NoStorage, Options,
+    RobotOverride, SetupCode, StorageError, SystemClock, WithAudit, WithSlots,
+};
+
+use crate::net::TokioNet;
 use config_file::{Contents, Format};
 
 /// Storage in a TOML file that people may edit ([`config_file`]): read at
@@ -110,7 +126,11 @@ fn create_private(path: &std::path::Path) -> io::Result<std::fs::File> {
     options.open(path)
 }
 
-impl Storage for FileStorage {
+impl ConfigStore for FileStorage {
+    fn medium(&self) -> Medium {
+        Medium::File
+    }
+
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         let (contents, format) = match config_file::read_file(&self.path, &self.defaults) {
             Ok(Some(read)) => read,
@@ -174,7 +194,7 @@ pub struct HostOptions {
     /// keeps the configuration in RAM.
     pub config_file: Option<PathBuf>,
     /// Configuration used when storage holds none.
-    pub defaults: crate::Config,
+    pub defaults: hans_gateway::Config,
     /// Serve the web page here (port 0 = any free port); `None`: no page.
     pub web_listen: Option<SocketAddrV4>,
     /// The one-time code for creating the first administrator
@@ -190,20 +210,16 @@ pub struct HostOptions {
     /// system's bundle.
     pub mqtt_ca: Option<PathBuf>,
     /// The broker's user name and password ([`Options::mqtt_login`]).
-    #[cfg(feature = "mqtt")]
-    pub mqtt_login: Option<crate::mqtt::Login>,
+    pub mqtt_login: Option<hans_gateway::mqtt::Login>,
     /// Serve the web page over HTTPS with this certificate and key
     /// (`--web-tls`); `None`: plain HTTP.
-    #[cfg(feature = "tls-server")]
     pub web_tls: Option<TlsIdentity>,
     /// Serve Modbus/TCP Security too (`--modbus-tls-listen`); `None`:
     /// plain Modbus TCP only.
-    #[cfg(feature = "tls-server")]
     pub modbus_tls: Option<ModbusTls>,
 }
 
 /// A TLS server's certificate (chain) and private key, PEM files.
-#[cfg(feature = "tls-server")]
 #[derive(Clone, Debug)]
 pub struct TlsIdentity {
     /// The certificate, then the CAs up to the root's child (PEM).
@@ -215,7 +231,6 @@ pub struct TlsIdentity {
 /// Modbus/TCP Security (TLS with client certificates, the client's role
 /// from its certificate's role extension; see the README): served beside
 /// the plain Modbus server, sharing its sessions and allow-list.
-#[cfg(feature = "tls-server")]
 #[derive(Clone, Debug)]
 pub struct ModbusTls {
     /// Where to listen (port 0 = any free port; the standard is 802).
@@ -234,17 +249,14 @@ impl HostOptions {
             robot: Some(robot),
             robot_listen: None,
             config_file: None,
-            defaults: crate::Config::default(),
+            defaults: hans_gateway::Config::default(),
             web_listen: None,
             setup_code: None,
             mqtt: None,
             node_name: Options::default().node_name,
             mqtt_ca: None,
-            #[cfg(feature = "mqtt")]
             mqtt_login: None,
-            #[cfg(feature = "tls-server")]
             web_tls: None,
-            #[cfg(feature = "tls-server")]
             modbus_tls: None,
         }
     }
@@ -386,7 +398,6 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         .map(|a| *a.ip())
         .unwrap_or(Ipv4Addr::LOCALHOST);
     let net = TokioNet::new(bind_ip);
-    #[cfg(feature = "mqtt-tls")]
     let net = match &opts.mqtt_ca {
         Some(ca) => net.with_tls_ca(ca.clone()),
         None => net,
@@ -404,21 +415,15 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             )),
             None => None,
         };
-        #[cfg(feature = "tls-server")]
         let modbus_tls = match &opts.modbus_tls {
             Some(m) => {
-                let server = crate::net::tls::TlsServer::modbus(
-                    &m.identity.cert,
-                    &m.identity.key,
-                    &m.client_ca,
-                )?;
+                let server =
+                    crate::tls::TlsServer::modbus(&m.identity.cert, &m.identity.key, &m.client_ca)?;
                 let port = net.listen_tls_beside(mport, m.listen, server).await?;
                 Some(SocketAddrV4::new(*m.listen.ip(), port))
             }
             None => None,
         };
-        #[cfg(not(feature = "tls-server"))]
-        let modbus_tls = None;
         io::Result::Ok(Bound {
             modbus: SocketAddrV4::new(*opts.modbus_listen.ip(), mport),
             robot_listen: robot,
@@ -448,53 +453,90 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         web_port: bound.web.map_or(0, |w| w.port()),
         restart: None,
         setup_code: opts.setup_code,
-        #[cfg(feature = "audit")]
         wall_clock: Some(audit_file::unix_now),
-        #[cfg(not(feature = "audit"))]
-        wall_clock: None,
         node_name: opts.node_name,
         mqtt_override: opts.mqtt,
-        #[cfg(feature = "mqtt")]
         mqtt_login: opts.mqtt_login,
         // Linux installs no firmware image: its package does.
-        #[cfg(feature = "update")]
         update_key: None,
-        #[cfg(feature = "update")]
         board: "linux",
-        #[cfg(feature = "update")]
         self_check_fails: false,
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;
-    match &opts.config_file {
-        Some(p) => {
-            let storage = FileStorage::with_defaults(p.clone(), opts.defaults);
-            // The audit log beside the configuration file.
-            #[cfg(feature = "audit")]
-            let storage = crate::storage::WithAudit {
-                config: storage,
-                audit: audit_file::AuditFile::beside(p),
-            };
-            tokio::select! {
-                _ = crate::gateway::run(&net, &clock, storage, options) => {}
-                _ = stop => {}
-            }
+    // The configuration file and the audit file beside it, or nothing;
+    // Linux has no firmware slots (its package updates it).
+    let storage = match &opts.config_file {
+        Some(p) => Files::Kept(Box::new(WithAudit {
+            config: FileStorage::with_defaults(p.clone(), opts.defaults),
+            audit: audit_file::AuditFile::beside(p),
+        })),
+        None => Files::None(NoStorage),
+    };
+    let storage = WithSlots {
+        storage,
+        slots: NoSlots,
+    };
+    let run = waker::steady_waker(hans_gateway::run(&net, &clock, storage, options));
+    tokio::select! {
+        _ = run => {}
+        _ = stop => {}
+    }
+}
+
+/// Where a Linux gateway keeps its things: the files of `--config`, or
+/// nothing.
+enum Files {
+    Kept(Box<WithAudit<FileStorage, audit_file::AuditFile>>),
+    None(NoStorage),
+}
+
+impl ConfigStore for Files {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        match self {
+            Files::Kept(f) => f.load().await,
+            Files::None(n) => n.load().await,
         }
-        None => {
-            let storage = NoStorage;
-            tokio::select! {
-                _ = crate::gateway::run(&net, &clock, storage, options) => {}
-                _ = stop => {}
-            }
+    }
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        match self {
+            Files::Kept(f) => f.save(image).await,
+            Files::None(n) => n.save(image).await,
+        }
+    }
+    fn medium(&self) -> Medium {
+        match self {
+            Files::Kept(f) => f.medium(),
+            Files::None(n) => n.medium(),
+        }
+    }
+}
+
+impl AuditStore for Files {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        match self {
+            Files::Kept(f) => f.read(each).await,
+            Files::None(n) => n.read(each).await,
+        }
+    }
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        match self {
+            Files::Kept(f) => f.append(record).await,
+            Files::None(n) => n.append(record).await,
+        }
+    }
+    fn persistent(&self) -> bool {
+        match self {
+            Files::Kept(f) => f.persistent(),
+            Files::None(n) => n.persistent(),
         }
     }
 }
 
 /// Binds the web page's `addr`: for HTTPS with `--web-tls`.
 async fn listen_web(net: &TokioNet, addr: SocketAddrV4, opts: &HostOptions) -> io::Result<u16> {
-    #[cfg(feature = "tls-server")]
     if let Some(id) = &opts.web_tls {
-        let server = crate::net::tls::TlsServer::web(&id.cert, &id.key)?;
+        let server = crate::tls::TlsServer::web(&id.cert, &id.key)?;
         return net.listen_tls(addr, server).await;
     }
     let _ = opts;

@@ -16,12 +16,12 @@ use toml::Spanned;
 use super::{
     quoted, register_name, setting_of, tables, takes, Contents, Problem, ACCOUNTS, PASSWORD, SCHEME,
 };
-use crate::access::accounts::{Account, Role, UserName};
-use crate::access::password::{PasswordHash, HASH_LEN, ITERATIONS, SALT_LEN};
-use crate::config::{
+use hans_gateway::access::accounts::{Account, Role, UserName};
+use hans_gateway::access::password::{PasswordHash, HASH_LEN, ITERATIONS, SALT_LEN};
+use hans_gateway::config::{
     AllowEntry, AllowList, Config, HostName, Kind, Setting, Value, ALLOW_ENTRIES, SETTINGS,
 };
-use crate::state::inputs::{TRIGGERS, TRIGGER_TEXT};
+use hans_gateway::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
 /// The line and column of byte `offset` of `text`, and the reason.
 pub(super) fn problem(text: &str, offset: usize, reason: String) -> Problem {
@@ -364,7 +364,7 @@ impl Reader<'_> {
             Some(hash) => {
                 // The previous version's one password: the administrator
                 // the binary image migrates it to, too.
-                let name = UserName::new(crate::storage::image::MIGRATED_ADMIN.as_bytes());
+                let name = UserName::new(hans_gateway::storage::image::MIGRATED_ADMIN.as_bytes());
                 let added = name.map(|name| {
                     self.contents.stored.accounts.add(Account {
                         name,
