@@ -143,17 +143,11 @@ pub async fn run<S: Storage>(
 /// plant's network, and what its label shows. `None` without a 6-byte MAC.
 #[cfg(feature = "mqtt")]
 fn mac_name(mac: &[u8]) -> Option<HostName> {
-    const HEX: &[u8; 16] = b"0123456789abcdef";
     let mac: &[u8; 6] = mac.try_into().ok()?;
     let mut out = [0u8; 17];
     let (prefix, digits) = out.split_at_mut(5);
     prefix.copy_from_slice(b"hans-");
-    for (pair, b) in digits.chunks_exact_mut(2).zip(mac) {
-        if let [hi, lo] = pair {
-            *hi = HEX.get(usize::from(b >> 4)).copied().unwrap_or(b'0');
-            *lo = HEX.get(usize::from(b & 15)).copied().unwrap_or(b'0');
-        }
-    }
+    crate::hex::encode(mac, digits)?;
     HostName::from_bytes(&out)
 }
 

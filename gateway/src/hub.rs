@@ -63,7 +63,7 @@ pub struct Hub {
     /// The MQTT client's connection and counters (the status page shows
     /// them).
     #[cfg(feature = "mqtt")]
-    pub mqtt: crate::telemetry::Status,
+    pub mqtt: crate::state::telemetry::Status,
     /// Raised by every [`Hub::with`] (the state may have changed): wakes
     /// the MQTT client, which publishes by exception, so that a change goes
     /// out at once instead of at its next look (it reads with
@@ -90,7 +90,7 @@ impl Hub {
             #[cfg(feature = "audit")]
             audit: Log::new(),
             #[cfg(feature = "mqtt")]
-            mqtt: crate::telemetry::Status::new(),
+            mqtt: crate::state::telemetry::Status::new(),
             #[cfg(feature = "mqtt")]
             changed: Signal::new(),
             #[cfg(feature = "update")]

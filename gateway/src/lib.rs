@@ -122,6 +122,7 @@ pub(crate) mod datasheet;
 pub(crate) mod engine;
 pub mod error;
 mod gateway;
+pub mod hex;
 pub mod hub;
 pub mod job;
 pub mod limits;
@@ -134,12 +135,8 @@ pub(crate) mod plc;
 pub mod registers;
 #[cfg(any(test, feature = "sntp"))]
 pub(crate) mod sntp;
-#[cfg(feature = "sparkplug")]
-pub mod sparkplug;
 pub mod state;
 pub mod storage;
-#[cfg(feature = "mqtt")]
-pub mod telemetry;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
 #[cfg(feature = "update")]

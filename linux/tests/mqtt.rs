@@ -11,8 +11,8 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::{free_port, make_ca, make_cert, Killed};
+use hans_gateway::mqtt::sparkplug::NodeConfig;
 use hans_gateway::mqtt::{Settings, Status};
-use hans_gateway::sparkplug::NodeConfig;
 use hans_gateway::{Gateway, Options};
 use hans_gateway_linux::mqtt::run_host;
 use prost::Message as _;

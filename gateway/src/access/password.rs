@@ -9,6 +9,7 @@
 //! `pbkdf2` crate.
 
 use hmac::{KeyInit, Mac};
+use subtle::ConstantTimeEq;
 
 type HmacSha256 = hmac::Hmac<sha2::Sha256>;
 
@@ -102,10 +103,7 @@ impl PasswordHash {
             return false;
         }
         let h = derive(password, &self.salt, self.iterations).await;
-        h.iter()
-            .zip(&self.hash)
-            .fold(0u8, |acc, (a, b)| acc | (a ^ b))
-            == 0
+        bool::from(h.ct_eq(&self.hash))
     }
 
     /// The stored form: rounds (little-endian), salt, hash.

@@ -46,6 +46,7 @@
 //!   this task's own.
 
 pub mod packet;
+pub mod sparkplug;
 
 #[cfg(test)]
 mod tests;
@@ -59,12 +60,12 @@ use embassy_time::{Duration, Instant};
 use crate::clock::{with_deadline, with_timeout, Clock};
 use crate::config::MqttConfig;
 use crate::hub::Hub;
+use crate::mqtt::sparkplug::topic::ID_MAX;
+use crate::mqtt::sparkplug::{EdgeNode, Id, IdError, MessageType, NodeConfig};
 use crate::net::{Net, Socket};
-use crate::sparkplug::topic::ID_MAX;
-use crate::sparkplug::{EdgeNode, Id, IdError, MessageType, NodeConfig};
-pub use crate::telemetry::{Error, Stats, Status};
+pub use crate::state::telemetry::{Error, Stats, Status};
 
-pub use crate::sparkplug::PAYLOAD_BUF;
+pub use crate::mqtt::sparkplug::PAYLOAD_BUF;
 use packet::{Frame, Packet, Will};
 
 /// The largest packet received whole (an NCMD/DCMD is a few dozen bytes).

@@ -17,6 +17,8 @@ pub mod handshake;
 pub mod history;
 pub mod inputs;
 pub mod robot;
+#[cfg(feature = "mqtt")]
+pub mod telemetry;
 
 use core::net::Ipv4Addr;
 

@@ -103,7 +103,7 @@ pub(crate) struct StatusSnapshot {
     config_applied: u32,
     /// The MQTT client's, set after `take` (it lives in the hub).
     #[cfg(feature = "mqtt")]
-    mqtt: crate::telemetry::Stats,
+    mqtt: crate::state::telemetry::Stats,
     mqtt_broker: (crate::config::HostName, u16),
     /// The firmware.
     firmware: crate::state::firmware::Firmware,
@@ -133,7 +133,7 @@ impl Snapshot {
     /// Sets the MQTT client's counters of a status snapshot (they live in
     /// the hub, beside the state).
     #[cfg(feature = "mqtt")]
-    pub(crate) fn set_mqtt(&mut self, stats: crate::telemetry::Stats) {
+    pub(crate) fn set_mqtt(&mut self, stats: crate::state::telemetry::Stats) {
         if let Snapshot::Status(s) = self {
             s.mqtt = stats;
         }
@@ -254,7 +254,7 @@ impl StatusSnapshot {
             config_saves: 0,
             config_applied: 0,
             #[cfg(feature = "mqtt")]
-            mqtt: crate::telemetry::Status::new().get(),
+            mqtt: crate::state::telemetry::Status::new().get(),
             mqtt_broker: (crate::config::HostName::EMPTY, 0),
             firmware: crate::state::firmware::Firmware::NONE,
             channels: [(Handshake::default(), false); r::CHANNELS],

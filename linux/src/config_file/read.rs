@@ -463,11 +463,6 @@ fn parse_hash(s: &str) -> Option<PasswordHash> {
 
 fn unhex<const N: usize>(s: &str) -> Option<[u8; N]> {
     let mut out = [0u8; N];
-    if s.len() != 2 * N || !s.is_ascii() {
-        return None;
-    }
-    for (b, pair) in out.iter_mut().zip(s.as_bytes().chunks(2)) {
-        *b = u8::from_str_radix(core::str::from_utf8(pair).ok()?, 16).ok()?;
-    }
+    hans_gateway::hex::decode(s.as_bytes(), &mut out)?;
     Some(out)
 }

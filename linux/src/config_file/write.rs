@@ -12,7 +12,10 @@ use hans_gateway::config::{Kind, Setting, Value, SETTINGS};
 use hans_gateway::state::inputs::{TRIGGERS, TRIGGER_TEXT};
 
 fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
+    let mut out = vec![0u8; bytes.len() * 2];
+    hans_gateway::hex::encode(bytes, &mut out)
+        .unwrap_or_default()
+        .to_owned()
 }
 
 /// A TOML basic string: `"` and `\` escaped, control characters as

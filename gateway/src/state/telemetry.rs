@@ -1,8 +1,8 @@
 //! The MQTT telemetry's connection, as the rest of the gateway sees it
-//! (feature `mqtt`): its state and counters ([`Status`], kept by the hub
-//! and shown by the page) and why a connection ended ([`Error`]). Apart
-//! from the client (`crate::mqtt`), which keeps them, so that the hub
-//! holds them without depending on the client.
+//! (feature `mqtt`): its state and counters ([`Status`], held by the hub
+//! and shown by the page) and why a connection ended ([`Error`]). Part of
+//! the state, apart from the client (`crate::mqtt`) that keeps them, so
+//! that the hub and the page hold them without depending on the client.
 
 use core::cell::Cell;
 
@@ -80,7 +80,26 @@ pub struct Stats {
     /// Received packets too long for [`crate::mqtt::RX_BUF`], skipped.
     pub skipped: u32,
     /// The edge node's counters.
-    pub node: crate::sparkplug::Stats,
+    pub node: NodeStats,
+}
+
+/// The Sparkplug edge node's counters, for the status page (the client's
+/// `sparkplug::EdgeNode` keeps them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NodeStats {
+    /// Messages made (births, deaths, data), since start.
+    pub messages: u32,
+    /// Data metrics dropped because one alone did not fit a payload.
+    pub dropped: u32,
+    /// Command events that left the log before they were published (an
+    /// upper bound).
+    pub events_lost: u32,
+    /// Metric writes refused in NCMD/DCMD.
+    pub refused: u32,
+    /// Command payloads that could not be decoded.
+    pub malformed: u32,
+    /// Births made on a host's request.
+    pub rebirths: u32,
 }
 
 /// The client's state for others to read (the status page, tests).
@@ -100,7 +119,7 @@ impl Status {
             sent: 0,
             dropped: 0,
             skipped: 0,
-            node: crate::sparkplug::Stats {
+            node: NodeStats {
                 messages: 0,
                 dropped: 0,
                 events_lost: 0,

@@ -1,4 +1,5 @@
-//! Sparkplug B 3.0: the gateway as an edge node (feature `sparkplug`).
+//! Sparkplug B 3.0: the gateway as an edge node (part of the MQTT client,
+//! feature `mqtt`).
 //!
 //! This module makes the messages and keeps the publishing rules; it does
 //! no networking. The MQTT client drives an [`EdgeNode`]:
@@ -146,23 +147,7 @@ pub struct Publish<'b> {
     pub payload: &'b [u8],
 }
 
-/// Counters, for the status page.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Stats {
-    /// Messages made (births, deaths, data), since start.
-    pub messages: u32,
-    /// Data metrics dropped because one alone did not fit a payload.
-    pub dropped: u32,
-    /// Command events that left the log before they were published (an
-    /// upper bound).
-    pub events_lost: u32,
-    /// Metric writes refused in NCMD/DCMD.
-    pub refused: u32,
-    /// Command payloads that could not be decoded.
-    pub malformed: u32,
-    /// Births made on a host's request.
-    pub rebirths: u32,
-}
+pub use crate::state::telemetry::NodeStats as Stats;
 
 /// Where the node's session is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
