@@ -120,6 +120,11 @@ pub async fn run<S: Storage>(
         apply_network(stack, &gateway);
     }
     let net = EmbassyNet::new(stack);
+    // `serve` borrows the storage (`&mut S` is a `Storage`), as it borrows
+    // `net` and `clock`: given the storage itself (the field device's
+    // firmware slots, 96 bytes), its future (110 KiB with its join) was
+    // built on the stack, in the frame of the board task's poll, and then
+    // moved into the task: 138 KiB of stack for as long as the gateway runs.
     // With DHCP the address comes (and may go) while the gateway runs: a
     // second future logs it. Without, apply_network has logged it.
     // With SNTP a third asks the time server (`crate::sntp`).
@@ -133,11 +138,11 @@ pub async fn run<S: Storage>(
         let sntp = crate::sntp::on_stack(stack, gateway.hub(), &clock, options.seed);
         #[cfg(not(feature = "sntp"))]
         let sntp = core::future::pending::<Infallible>();
-        let (never, _, _) = join3(gateway.serve(&net, &clock, storage), announce, sntp).await;
+        let (never, _, _) = join3(gateway.serve(&net, &clock, &mut storage), announce, sntp).await;
         never
     }
     #[cfg(not(any(feature = "dhcp", feature = "sntp")))]
-    gateway.serve(&net, &clock, storage).await
+    gateway.serve(&net, &clock, &mut storage).await
 }
 
 /// The board's own name, `hans-` and its MAC address in hex (the

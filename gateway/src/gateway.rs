@@ -226,7 +226,8 @@ impl Gateway {
         mut storage: S,
     ) -> Infallible {
         self.load(&mut storage, clock).await;
-        self.serve(net, clock, storage).await
+        // Borrowed, not moved: see `board::run`.
+        self.serve(net, clock, &mut storage).await
     }
 
     /// The network settings to run with, once [`Self::load`] has run:
@@ -248,7 +249,10 @@ impl Gateway {
     }
 
     /// Runs the gateway with the configuration [`Self::load`] loaded
-    /// (see [`Self::run`]).
+    /// (see [`Self::run`]). Pass the storage by reference (`&mut S` is a
+    /// [`Storage`]), as `board::run` does: a storage moved in is carried
+    /// by this future, and a future that copies its arguments in can be
+    /// built on the caller's stack before it moves into place.
     pub async fn serve<N: Net, C: Clock, S: Storage>(
         &self,
         net: &N,
