@@ -7,7 +7,7 @@ use core::convert::Infallible;
 use core::net::Ipv4Addr;
 use core::pin::pin;
 
-use embassy_futures::join::{join, join5, join_array};
+use embassy_futures::join::{join, join5};
 
 use crate::access::setup::SetupCode;
 use crate::clock::Clock;
@@ -249,7 +249,8 @@ impl Gateway {
         mut storage: S,
     ) -> Infallible {
         self.load(&mut storage, clock).await;
-        self.serve(net, clock, storage).await
+        // Borrowed, not moved: see `board::run`.
+        self.serve(net, clock, &mut storage).await
     }
 
     /// The network settings to run with, once [`Self::load`] has run:
@@ -271,7 +272,10 @@ impl Gateway {
     }
 
     /// Runs the gateway with the configuration [`Self::load`] loaded
-    /// (see [`Self::run`]).
+    /// (see [`Self::run`]). Pass the storage by reference (`&mut S` is a
+    /// [`Storage`]), as `board::run` does: a storage moved in is carried
+    /// by this future, and a future that copies its arguments in can be
+    /// built on the caller's stack before it moves into place.
     pub async fn serve<N: Net, C: Clock, S: Storage>(
         &self,
         net: &N,
@@ -291,13 +295,23 @@ impl Gateway {
         let engine = crate::engine::run(hub, clock, net.socket(l0, l1), net.socket(l2, l3));
         let plc = PlcPort { hub, clock };
         let mut bufs = [[[0u8; MODBUS_BUF]; 2]; MAX_SESSIONS];
-        let mut index = 0;
-        let sessions = bufs.each_mut().map(|b| {
+        // The sessions one by one, each pinned where it stays: built as an
+        // array (`map`) and moved into `join_array`, the array (4.4 KiB)
+        // went through a temporary in the frame of the board task's poll.
+        // (The pattern does not compile if MAX_SESSIONS changes: then add
+        // or remove a session here.)
+        let [k0, k1, k2, k3, k4] = bufs.each_mut().map(|b| {
             let [rx, tx] = b.each_mut();
-            let i = index;
-            index += 1;
-            crate::modbus::session(&plc, clock, net.socket(rx, tx), port, i)
+            net.socket(rx, tx)
         });
+        let session = |sock, i| crate::modbus::session(&plc, clock, sock, port, i);
+        let (s0, s1, s2) = (
+            pin!(session(k0, 0)),
+            pin!(session(k1, 1)),
+            pin!(session(k2, 2)),
+        );
+        let (s3, s4) = (pin!(session(k3, 3)), pin!(session(k4, 4)));
+        let sessions = join5(s0, s1, s2, s3, s4);
         #[cfg(feature = "datasheet")]
         let (mut ds_rx, mut ds_tx) = ([0u8; LINK_BUF], [0u8; 64]);
         #[cfg(feature = "datasheet")]
@@ -343,7 +357,7 @@ impl Gateway {
         let trial = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
         // built, instead of being moved into the join (through the stack).
-        let (engine, sessions) = (pin!(engine), pin!(join_array(sessions)));
+        let (engine, sessions) = (pin!(engine), pin!(sessions));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
         let (telemetry, trial) = (pin!(telemetry), pin!(trial));
         let _ = join(
