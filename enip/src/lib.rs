@@ -24,5 +24,19 @@
 #[macro_use]
 mod macros;
 
+pub mod adapter;
+pub mod app;
 pub mod device;
+pub mod framer;
+pub mod objects;
+pub mod time;
 pub mod wire;
+
+pub use adapter::{Adapter, Config, ConnectionInfo, IoOutcome, LinkId, TcpAction};
+pub use app::{Application, CloseReason, ConnectionId, Event, WriteOrigin};
+pub use device::{
+    Assembly, AssemblyKind, ConnectionKind, Device, EthernetLinkInfo, Identity, IoConnection,
+    Revision, TcpIpInfo,
+};
+pub use framer::{Frame, Framer};
+pub use time::Instant;

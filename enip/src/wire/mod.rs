@@ -193,7 +193,13 @@ impl<'a> Writer<'a> {
         self.bytes(&v.to_le_bytes(), what)
     }
 
-    /// The bytes written from `start` on, to patch a length in place.
+    /// Forgets what was written from `len` on (to replace a reply begun
+    /// with an error reply).
+    pub(crate) fn truncate(&mut self, len: usize) {
+        self.pos = self.pos.min(len);
+    }
+
+    /// The bytes written in `range`, to patch a length in place.
     pub(crate) fn written_mut(&mut self, range: Field) -> Option<&mut [u8]> {
         if range.end > self.pos {
             return None;
