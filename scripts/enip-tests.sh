@@ -4,7 +4,10 @@
 #      runner (enip/examples/loopback_adapter.rs): explicit messaging, class
 #      3, class 1 I/O at 10 ms RPI, Forward_Close, a scanner that stops
 #      (host-tests/enip/scanners.py);
-#   2. the whole exchange captured on lo (tshark, a capture filter on the
+#   2. the EDS the crate writes for the runner's device, read by eds_pie
+#      (an EDS parser and semantic checker, PyPI) and compared with what the
+#      adapter serves (host-tests/enip/eds_check.py);
+#   3. the whole exchange captured on lo (tshark, a capture filter on the
 #      runner's ports, bounded in time) and decoded by Wireshark's ENIP, CIP
 #      and CIP I/O dissectors: no malformed packet and no expert error in
 #      anything the adapter sent.
@@ -33,14 +36,20 @@ if ! command -v tshark >/dev/null; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq tshark >/dev/null
 fi
-if ! "$VENV/bin/python" -c 'import pycomm3, cpppo, ethernetip' 2>/dev/null; then
-  echo "enip-tests: pip install pycomm3 cpppo ethernetip into $VENV"
+if ! "$VENV/bin/python" -c 'import pycomm3, cpppo, ethernetip, eds_pie' 2>/dev/null; then
+  echo "enip-tests: pip install pycomm3 cpppo ethernetip eds_pie into $VENV"
   python3 -m venv "$VENV"
-  "$VENV/bin/pip" install -q pycomm3==1.2.16 cpppo==5.2.5 ethernetip==1.2.0
+  "$VENV/bin/pip" install -q pycomm3==1.2.16 cpppo==5.2.5 ethernetip==1.2.0 eds_pie==1.2.0
 fi
 
 cargo build -q -p hans-enip --example loopback_adapter --locked
 RUNNER=$ROOT/target/debug/examples/loopback_adapter
+
+"$RUNNER" --eds "$OUT/loopback.eds"
+EDS_LOG=$OUT/eds_check.log
+eds_status=0
+"$VENV/bin/python" host-tests/enip/eds_check.py "$OUT/loopback.eds" >"$EDS_LOG" 2>/dev/null || eds_status=$?
+grep -E '^(ok|FAIL)' "$EDS_LOG" || true
 
 rm -f "$OUT/ports" "$OUT/ready" "$OUT/capture.pcapng"
 SCAN_LOG=$OUT/scanners.log
@@ -91,6 +100,11 @@ FAILED=$(grep -Eo '[0-9]+ failed$' "$SCAN_LOG" | awk '{print $1}' || echo 1)
 PASSED=${PASSED:-0}
 FAILED=${FAILED:-1}
 [ "$status" -eq 0 ] || { [ "$FAILED" -gt 0 ] || FAILED=1; }
+EDS_PASSED=$(grep -Eo '^[0-9]+ passed' "$EDS_LOG" | awk '{print $1}' || echo 0)
+EDS_FAILED=$(grep -Eo '[0-9]+ failed$' "$EDS_LOG" | awk '{print $1}' || echo 1)
+PASSED=$((PASSED + ${EDS_PASSED:-0}))
+FAILED=$((FAILED + ${EDS_FAILED:-1}))
+[ "$eds_status" -eq 0 ] || { [ "${EDS_FAILED:-1}" -gt 0 ] || FAILED=$((FAILED + 1)); }
 
 tcheck() {
   if [ "$2" = ok ]; then

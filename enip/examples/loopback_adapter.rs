@@ -6,6 +6,7 @@
 //! ```text
 //! cargo run -p hans-enip --example loopback_adapter -- \
 //!     [--bind 127.0.0.1] [--port 44818] [--io-port 2222] [--seconds 120]
+//! cargo run -p hans-enip --example loopback_adapter -- --eds FILE   (writes its EDS and stops)
 //! ```
 //! Port 0 picks a free port. It prints `listening tcp=P udp=P io=Q` first,
 //! then one line per event (`opened`, `closed ... reason=TimedOut`,
@@ -167,6 +168,23 @@ fn main() -> std::io::Result<()> {
         .parse()
         .expect("--seconds: a number");
     assert!(bind.is_loopback(), "a test runner: loopback addresses only");
+    if let Some(i) = args.iter().position(|a| a == "--eds") {
+        // Write the device's EDS and stop.
+        let path = args.get(i + 1).expect("--eds PATH");
+        let app = Echo {
+            output: [0; SIZE],
+            writes: 0,
+            ip: bind,
+            events: Vec::new(),
+        };
+        let identity = app.identity();
+        let mut info = hans_enip::eds::EdsInfo::new(&identity, &DEVICE, "hans-enip tests");
+        info.catalog = "LOOPBACK-1";
+        let mut text = String::new();
+        hans_enip::eds::write_eds(&mut text, &info).expect("EDS text");
+        std::fs::write(path, text)?;
+        return Ok(());
+    }
 
     // TCP and UDP on the same port number (port 0: a free one for both).
     let (listener, udp) = loop {

@@ -27,6 +27,7 @@ mod macros;
 pub mod adapter;
 pub mod app;
 pub mod device;
+pub mod eds;
 pub mod framer;
 pub mod objects;
 pub mod time;
