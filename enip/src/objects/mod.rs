@@ -1,5 +1,5 @@
 //! The CIP objects the adapter answers for, one file each. Each handler
-//! writes its reply data on success, or returns a [`Failure`] that the
+//! writes its reply data on success, or returns a failure that the
 //! dispatcher turns into an error reply. The Connection Manager's services
 //! change the adapter's connection table, so they live in the adapter.
 

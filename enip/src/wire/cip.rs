@@ -227,7 +227,7 @@ pub struct AppPath {
 }
 
 impl AppPath {
-    /// Reads a request path of the form class, instance, [attribute]. Any
+    /// Reads a request path of the form class, instance, optional attribute. Any
     /// other segment (a member, a symbol, a route) is a path segment error:
     /// this device neither routes nor has tags.
     pub fn parse(path: &[u8]) -> Result<AppPath, GeneralStatus> {

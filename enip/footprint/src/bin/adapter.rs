@@ -16,14 +16,39 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
 }
 
 static ASSEMBLIES: [Assembly<'static>; 2] = [
-    Assembly { instance: 100, kind: AssemblyKind::Input, size: 64, name: "Robot to PLC" },
-    Assembly { instance: 150, kind: AssemblyKind::Output, size: 64, name: "PLC to robot" },
+    Assembly {
+        instance: 100,
+        kind: AssemblyKind::Input,
+        size: 64,
+        name: "Robot to PLC",
+    },
+    Assembly {
+        instance: 150,
+        kind: AssemblyKind::Output,
+        size: 64,
+        name: "PLC to robot",
+    },
 ];
 static CONNECTIONS: [IoConnection<'static>; 2] = [
-    IoConnection { kind: ConnectionKind::ExclusiveOwner, o_to_t: 150, t_to_o: 100, config: 1, name: "Owner" },
-    IoConnection { kind: ConnectionKind::InputOnly, o_to_t: 198, t_to_o: 100, config: 1, name: "Input Only" },
+    IoConnection {
+        kind: ConnectionKind::ExclusiveOwner,
+        o_to_t: 150,
+        t_to_o: 100,
+        config: 1,
+        name: "Owner",
+    },
+    IoConnection {
+        kind: ConnectionKind::InputOnly,
+        o_to_t: 198,
+        t_to_o: 100,
+        config: 1,
+        name: "Input Only",
+    },
 ];
-static DEVICE: Device<'static> = Device { assemblies: &ASSEMBLIES, connections: &CONNECTIONS };
+static DEVICE: Device<'static> = Device {
+    assemblies: &ASSEMBLIES,
+    connections: &CONNECTIONS,
+};
 
 struct App {
     data: [u8; 64],
@@ -56,13 +81,22 @@ impl Application for App {
         }
     }
     fn ethernet_link(&self) -> EthernetLinkInfo {
-        EthernetLinkInfo { speed_mbps: 100, flags: 1, mac: [2, 0, 0, 0, 0, 1] }
+        EthernetLinkInfo {
+            speed_mbps: 100,
+            flags: 1,
+            mac: [2, 0, 0, 0, 0, 1],
+        }
     }
     fn read_assembly(&mut self, _instance: u16, buf: &mut [u8]) {
         let n = buf.len().min(self.data.len());
         buf[..n].copy_from_slice(&self.data[..n]);
     }
-    fn write_assembly(&mut self, _instance: u16, data: &[u8], _: WriteOrigin) -> Result<(), GeneralStatus> {
+    fn write_assembly(
+        &mut self,
+        _instance: u16,
+        data: &[u8],
+        _: WriteOrigin,
+    ) -> Result<(), GeneralStatus> {
         let n = data.len().min(self.data.len());
         self.data[..n].copy_from_slice(&data[..n]);
         Ok(())
@@ -74,7 +108,13 @@ impl Application for App {
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
-    let mut adapter: Adapter<'_, 4, 4> = Adapter::new(&DEVICE, Config { seed: word(), ..Config::default() });
+    let mut adapter: Adapter<'_, 4, 4> = Adapter::new(
+        &DEVICE,
+        Config {
+            seed: word(),
+            ..Config::default()
+        },
+    );
     let mut app = App { data: [0; 64] };
     let mut framer = Framer::<BUF>::new();
     let mut rx = [0u8; BUF];
@@ -90,7 +130,14 @@ fn main() -> ! {
                     let used = framer.push(rest);
                     rest = &rest[used..];
                     if let Some(frame) = framer.frame() {
-                        match adapter.handle_tcp(LinkId(word()), *peer.ip(), frame, now, &mut app, &mut tx) {
+                        match adapter.handle_tcp(
+                            LinkId(word()),
+                            *peer.ip(),
+                            frame,
+                            now,
+                            &mut app,
+                            &mut tx,
+                        ) {
                             TcpAction::Reply(m) => send(&tx[..m]),
                             TcpAction::Close => adapter.tcp_closed(LinkId(0), now, &mut app),
                             TcpAction::None => {}
@@ -115,8 +162,11 @@ fn main() -> ! {
         {
             let identity = app.identity();
             let mut text = heapless::String::<4096>::new();
-            if hans_enip::eds::write_eds(&mut text, &hans_enip::eds::EdsInfo::new(&identity, &DEVICE, "Hans"))
-                .is_ok()
+            if hans_enip::eds::write_eds(
+                &mut text,
+                &hans_enip::eds::EdsInfo::new(&identity, &DEVICE, "Hans"),
+            )
+            .is_ok()
             {
                 send(text.as_bytes());
             }

@@ -15,11 +15,13 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
 /// An adapter with 4 sessions and 4 connections.
 #[used]
 #[no_mangle]
-static ENIP_ADAPTER_4_4: [u8; size_of::<Adapter<'static, 4, 4>>()] = [0; size_of::<Adapter<'static, 4, 4>>()];
+static ENIP_ADAPTER_4_4: [u8; size_of::<Adapter<'static, 4, 4>>()] =
+    [0; size_of::<Adapter<'static, 4, 4>>()];
 /// An adapter with 8 sessions and 8 connections.
 #[used]
 #[no_mangle]
-static ENIP_ADAPTER_8_8: [u8; size_of::<Adapter<'static, 8, 8>>()] = [0; size_of::<Adapter<'static, 8, 8>>()];
+static ENIP_ADAPTER_8_8: [u8; size_of::<Adapter<'static, 8, 8>>()] =
+    [0; size_of::<Adapter<'static, 8, 8>>()];
 /// One TCP connection's framer holding 600 data bytes.
 #[used]
 #[no_mangle]
