@@ -87,8 +87,9 @@ pub struct Config {
     /// The longest RPI accepted, in microseconds (10,000,000: 10 s).
     pub max_rpi_us: u32,
     /// How long a new connection may wait for its first packet, in
-    /// microseconds, when that is longer than its own timeout (10 s, the
-    /// CIP rule for the first packet).
+    /// microseconds, when that is longer than its own timeout (10 s by
+    /// default: a scanner that needs a moment after the reply is not cut
+    /// off, and a half-open connection holds its slot at most this long).
     pub first_packet_timeout_us: u32,
     /// The largest class 3 connection size accepted, in bytes (504).
     pub max_explicit_size: u16,
