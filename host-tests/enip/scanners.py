@@ -248,8 +248,11 @@ def io_checks(a, seconds, rpi_ms, multiplier):
     in_order = all(b > a_ for a_, b in zip(seqs, seqs[1:]))
     check("T->O: sequence numbers increase, none missed", in_order and gaps == 0 and len(run) > 0,
           f"{len(run)} datagrams, {gaps} missed")
-    check(f"T->O: mean interval within 5% of the {rpi_ms} ms RPI", abs(mean - rpi_ms) <= rpi_ms * 0.05,
-          f"mean {mean:.2f} ms, longest {worst:.2f} ms")
+    # The interval is a figure (printed below), not a speed goal: the bound
+    # only catches a wrong rate (a unit error, a doubled or skipped RPI),
+    # not the jitter of a loaded machine.
+    check(f"T->O: produced at the {rpi_ms} ms RPI (mean interval within 0.9-1.5 x)",
+          rpi_ms * 0.9 <= mean <= rpi_ms * 1.5, f"mean {mean:.2f} ms, longest {worst:.2f} ms")
     if m:
         received, missed, produced = (int(x) for x in m.groups())
         check("O->T: none missed (by the adapter's sequence numbers)", missed == 0 and received > 0,
