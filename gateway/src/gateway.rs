@@ -400,7 +400,7 @@ impl Gateway {
                         info!("config: loaded from storage");
                         #[cfg(feature = "audit")]
                         {
-                            how = crate::audit::keep::Loaded::Image(image::crc32(image));
+                            how = crate::audit::keep::Loaded::Image(crate::crc::crc32(image));
                         }
                         m.access.accounts = stored.accounts;
                         Some(stored.config)

@@ -116,6 +116,7 @@ pub mod audit;
 #[cfg(feature = "embassy-net")]
 pub mod board;
 pub(crate) mod clock;
+pub mod crc;
 pub mod config;
 #[cfg(feature = "datasheet")]
 pub(crate) mod datasheet;

@@ -29,7 +29,7 @@ use super::record::{Interface, Kind, Record, Short, DETAIL_MAX, RECORD_MAX};
 use super::{AccountChange, Event, Who};
 use crate::config::{Config, SETTINGS};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
-use crate::storage::image::crc32;
+use crate::crc::crc32;
 
 /// Records kept in RAM (the page's newest, and the queue of those waiting
 /// to be kept): 64 of ~136 bytes.

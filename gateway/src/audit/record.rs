@@ -28,7 +28,7 @@
 
 use core::net::Ipv4Addr;
 
-use crate::storage::image::crc32;
+use crate::crc::crc32;
 
 /// Bytes of a stored record at most.
 pub const RECORD_MAX: usize = 128;
