@@ -611,7 +611,7 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
         let _mailbox = hub.updates.take().await;
         match hub.updates.ask(Op::Confirm).await {
             Ok(()) => {
-                hub.firmware(|s| s.boot = Some(BootState::Confirmed));
+                hub.with(|m| m.firmware.boot = Some(BootState::Confirmed));
                 info!("update: the new firmware passed its self-check and is confirmed");
             }
             Err(e) => warn!("update: the confirmation failed: {}", e.as_str()),
@@ -649,7 +649,8 @@ async fn survey<S: crate::update::SlotStore>(hub: &Hub, slots: &mut S) {
             .and_then(|()| Header::parse(&head).ok())
             .map(|h| h.version);
     }
-    hub.firmware(|s| {
+    hub.with(|m| {
+        let s = &mut m.firmware;
         s.supported = true;
         s.boot = Some(boot);
         s.running = versions[0];

@@ -98,17 +98,9 @@ impl Hub {
         }
     }
 
-    /// Changes what the state says of the firmware (the update's progress
-    /// and results).
-    #[cfg_attr(not(feature = "update"), allow(dead_code))] // updates change it
-    pub(crate) fn firmware(&self, f: impl FnOnce(&mut crate::state::firmware::Firmware)) {
-        self.with(|m| f(&mut m.firmware))
-    }
-
     /// Records `event` in the audit log (the accounts' and the page's
     /// events; see `crate::audit`): at once, never blocking.
     #[cfg(feature = "audit")]
-    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the page calls it
     pub(crate) fn audit(&self, event: Event<'_>) {
         self.audit.record(event)
     }

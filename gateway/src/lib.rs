@@ -116,8 +116,8 @@ pub mod audit;
 #[cfg(feature = "embassy-net")]
 pub mod board;
 pub(crate) mod clock;
-pub mod crc;
 pub mod config;
+pub mod crc;
 #[cfg(feature = "datasheet")]
 pub(crate) mod datasheet;
 pub(crate) mod engine;

@@ -99,7 +99,8 @@ pub struct Settings {
     pub keep_alive: Duration,
     /// The wall time at `Instant` 0 (ms since 1970 UTC), for the
     /// payloads' timestamps; without it they count from the start
-    /// ([`EdgeNode::set_wall_time`]). [`run_host`] sets it from the host.
+    /// ([`EdgeNode::set_wall_time`]); the Linux platform sets it from the
+    /// host's clock.
     pub utc_at_zero: Option<u64>,
     /// A Sparkplug 3.0 primary host: the births wait for its STATE online
     /// message (`spBv1.0/STATE/ID`, JSON `{"online":true,...}`), and its

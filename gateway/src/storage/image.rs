@@ -36,13 +36,13 @@
 //! as a whole: nothing of it is used.
 
 use super::StorageError;
-use crate::crc::crc32;
 use crate::access::accounts::{
     Account, AccountError, Accounts, Role, UserName, ACCOUNTS, ACCOUNT_STORED,
 };
 use crate::access::password::{PasswordHash, STORED_LEN};
 use crate::config::schema::{self, stored_len, Kind, Value};
 use crate::config::{AllowEntry, AllowList, Config, HostName, SETTINGS};
+use crate::crc::crc32;
 use crate::registers::config::{self as reg, Layout};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 
@@ -353,7 +353,6 @@ fn migrate(format: u16, b: &[u8], defaults: &Config) -> Result<Config, ImageErro
         ImageError::Invalid(key)
     })
 }
-
 
 #[cfg(test)]
 mod tests {

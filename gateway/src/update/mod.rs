@@ -32,8 +32,6 @@ pub const PIECE: usize = 512;
 const _: () = assert!(PIECE >= hans_fw_image::HEADER_LEN);
 
 /// What the storage task is asked to do with the slots.
-// The web server's upload asks for writes and the mark (builds with `web`).
-#[cfg_attr(not(feature = "web"), allow(dead_code))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Op {
     /// Read the boot state and the slots' headers into the state again.
@@ -90,14 +88,12 @@ impl Updates {
     }
 
     /// What an upload must match: the key, the board id, the largest body.
-    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the upload's
     pub(crate) fn trust(&self) -> Option<([u8; 32], &'static str, u32)> {
         self.trust.get()
     }
 
     /// Takes the mailbox for one operation or a whole upload; `None` if
     /// it is taken (another upload runs).
-    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the upload's
     pub(crate) fn try_take(&self) -> Option<MutexGuard<'_, NoopRawMutex, ()>> {
         self.lock.try_lock().ok()
     }
