@@ -3,7 +3,7 @@ use super::*;
 use crate::access::accounts::{Account, Role, UserName};
 use crate::access::password::PasswordHash;
 use crate::config::{AllowEntry, AllowList, LinkMode, NetConfig, ProtocolSetting, StatusSource};
-use crate::config::{Kind, WatchdogAction, WordOrder, SETTINGS};
+use crate::config::{Kind, NumberFormat, WatchdogAction, WordOrder, SETTINGS};
 use crate::registers::config::register_of;
 use crate::state::inputs::TRIGGER_TEXT;
 use crate::storage::IMAGE_LEN;
@@ -32,6 +32,7 @@ fn full() -> Contents {
         poll_ms: 20,
         reply_timeout_ms: 2500,
         word_order: WordOrder::LowFirst,
+        number_format: NumberFormat::Thousandths,
         watchdog_ms: 500,
         watchdog_action: WatchdogAction::Pause,
         wait_blending_done: true,
