@@ -193,41 +193,108 @@ def chunks(text: str):
     return out
 
 
-def parse_chunk(path, line: int, text: str):
-    """blark's transformed items of one declaration (cached on disk by the
-    text's hash when PLC_PARSE_CACHE names a directory)."""
+_CHUNKS: dict = {}   # this process's parses: key -> items, or the StError's text
+
+
+def chunk_key(text: str) -> str:
+    """The cache key of a declaration: its text and the parser's versions
+    (the same text parses to the same tree in every run)."""
     import hashlib
-    import pickle
     import blark
-    key = hashlib.sha256((blark.__version__ + "\0" + text).encode()).hexdigest()
-    if CACHE:
-        f = os.path.join(CACHE, key + ".pickle")
-        if os.path.exists(f):
-            with open(f, "rb") as fh:
-                return pickle.load(fh)
+    import lark
+    return hashlib.sha256(f"{blark.__version__}\0{lark.__version__}\0{text}".encode()).hexdigest()
+
+
+def _parse_uncached(path, line: int, text: str, key: str):
+    """Parses one declaration: its items, or the error's text."""
+    import pickle
     res = blark_parse.parse_source_code(text, fn=str(path))
     if res.exception is not None:
-        raise StError(f"{path} (declaration from line {line}): {res.exception}")
+        return f"{path} (declaration from line {line}): {res.exception}"
     items = res.transform().items
     if CACHE:
         os.makedirs(CACHE, exist_ok=True)
-        tmp = os.path.join(CACHE, key + ".tmp")
+        tmp = os.path.join(CACHE, f"{key}.{os.getpid()}.tmp")
         with open(tmp, "wb") as fh:
             pickle.dump(items, fh)
         os.replace(tmp, os.path.join(CACHE, key + ".pickle"))
     return items
 
 
-def parsed_items(path):
-    """blark's transformed items of a file, declaration by declaration."""
+def _cached(key: str):
+    """A parse this process or the disk cache already has, else None."""
+    import pickle
+    if key in _CHUNKS:
+        return _CHUNKS[key]
+    if CACHE:
+        f = os.path.join(CACHE, key + ".pickle")
+        if os.path.exists(f):
+            with open(f, "rb") as fh:
+                _CHUNKS[key] = pickle.load(fh)
+            return _CHUNKS[key]
+    return None
+
+
+def parse_chunk(path, line: int, text: str):
+    """blark's transformed items of one declaration (kept for this process,
+    and on disk by the key when PLC_PARSE_CACHE names a directory)."""
+    key = chunk_key(text)
+    got = _cached(key)
+    if got is None:
+        got = _CHUNKS[key] = _parse_uncached(path, line, text, key)
+    if isinstance(got, str):
+        raise StError(got)
+    return got
+
+
+def _parse_job(job):
+    path, line, text, key = job
+    return key, _parse_uncached(path, line, text, key)
+
+
+def preparse(paths, jobs: int = 2) -> int:
+    """Parses every declaration of these files that is not cached yet, in
+    `jobs` processes, the longest first (blark's Earley parser takes about
+    a second per kilobyte; a cold run of the tests is mostly this). Errors
+    are kept and raised where the declaration is used. Returns how many
+    declarations were parsed."""
+    todo, seen = [], set()
+    for path in paths:
+        for line, text in chunks(open(path, encoding="utf-8").read()):
+            key = chunk_key(text)
+            if key not in seen and _cached(key) is None:
+                seen.add(key)
+                todo.append((str(path), line, text, key))
+    if not todo:
+        return 0
+    todo.sort(key=lambda job: -len(job[2]))
+    blark_parse.get_parser()  # built once, inherited by the workers
+    if jobs <= 1 or len(todo) == 1:
+        results = map(_parse_job, todo)
+        for key, got in results:
+            _CHUNKS[key] = got
+        return len(todo)
+    import multiprocessing
+    with multiprocessing.get_context("fork").Pool(min(jobs, len(todo))) as pool:
+        for key, got in pool.imap_unordered(_parse_job, todo, chunksize=1):
+            _CHUNKS[key] = got
+    return len(todo)
+
+
+def parsed_chunks(path):
+    """(first line, text, blark's transformed items) of each top-level
+    declaration of a file; positions in the items' meta are offsets in that
+    declaration's text (the exporters cut literal source text by them)."""
     key = (str(path), os.stat(path).st_mtime_ns)
     if key not in _PARSED:
         text = open(path, encoding="utf-8").read()
-        items = []
-        for line, chunk in chunks(text):
-            items.extend(parse_chunk(path, line, chunk))
-        _PARSED[key] = items
+        _PARSED[key] = [(line, chunk, parse_chunk(path, line, chunk)) for line, chunk in chunks(text)]
     return _PARSED[key]
+
+
+def parsed_items(path):
+    """blark's transformed items of a file, declaration by declaration."""
+    return [item for _, _, items in parsed_chunks(path) for item in items]
 
 
 class Program:
