@@ -168,13 +168,20 @@ class Plc:
     """A PLC running the library: the interpreter, the register image moved
     over Modbus TCP, scan by scan on a fixed cycle."""
 
-    def __init__(self, cell: Cell, extra_sources=(), cycle: float = 0.01, run_task: bool = True):
+    def __init__(self, cell: Cell, extra_sources=(), cycle: float = 0.01, run_task: bool = True,
+                 one_block_per_scan: bool = False):
         self.clock0 = time.monotonic()
         self.prog = stinterp.Program(LIBRARY + list(extra_sources), clock=self.now)
         self.cell = cell
         self.mb = Modbus("127.0.0.1", cell.modbus_port)
         self.cycle = cycle
         self.run_task = run_task
+        # The adapters whose client does one transaction at a time (TwinCAT's
+        # FB_MBReadRegs/FB_MBWriteRegs, Siemens MB_CLIENT) move one block of
+        # the transfer table per scan, in the table's order, at the start of
+        # the scan: the image is refreshed block by block, 12 scans a round.
+        self.one_block_per_scan = one_block_per_scan
+        self.next_block = 0
         self.group = self.prog.default(self.prog.resolve_type("HANS_AXES_GROUP"))
         self.task = self.prog.instantiate("MC_RobotTask")
         self.info = self.prog.instantiate("HANS_TransferInfo")
@@ -234,15 +241,34 @@ class Plc:
         if wait > 0:
             time.sleep(wait)
         self.last = time.monotonic()
-        ok = self.transfer(writes=False)
-        self.group["TRANSPORTOK"] = ok
+        if self.one_block_per_scan:
+            self.group["TRANSPORTOK"] = self.transfer_one()
+        else:
+            ok = self.transfer(writes=False)
+            self.group["TRANSPORTOK"] = ok
         if self.run_task:
             self.prog.call_fb(self.task, {"AXESGROUP": self.group_ref()})
         for f in self.logic:
             f(self)
-        if ok:
+        if not self.one_block_per_scan and ok:
             self.group["TRANSPORTOK"] = self.transfer(writes=True)
         self.scans += 1
+
+    def transfer_one(self) -> bool:
+        """One block of the table (the next in turn): read into the image,
+        or written from it as the last scan left it."""
+        reg, idx, count, is_write = self.table[self.next_block]
+        self.next_block = (self.next_block + 1) % len(self.table)
+        image = self.group["IMAGE"]
+        try:
+            if is_write:
+                self.mb.write(reg, [image[idx + k] for k in range(count)])
+            else:
+                for k, w in enumerate(self.mb.read(reg, count)):
+                    image[idx + k] = w
+        except OSError:
+            return False
+        return True
 
     def run_until(self, cond, scans: int = 2000, what: str = "condition"):
         """Scans until cond(self) holds; fails after `scans` scans."""

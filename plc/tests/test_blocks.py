@@ -258,3 +258,33 @@ def test_the_example_cell_runs_a_pick_and_place_cycle(cell):
     p.run_until(lambda p: main.vars["CYCLES"] >= 2 or main.vars["FAULT"], 4000, "two cycles")
     assert main.vars["CYCLES"] >= 2 and not main.vars["FAULT"], main.vars["LASTERRORID"]
     assert seen_grip == {0, 1}, "the gripper closed and opened (END_DO bit 0)"
+
+
+def test_the_blocks_over_an_adapter_that_moves_one_block_per_scan(cell):
+    """TwinCAT's and Siemens' clients do one Modbus transaction at a time:
+    their adapters move one block of the transfer table per scan, and a
+    lane's Execute written low reaches the gateway some scans later. The
+    next command on that lane must wait for the gateway to have seen it
+    (else its rising edge is lost): enable (two commands on one lane),
+    buffered moves and an output, one after the other."""
+    p = Plc(cell, one_block_per_scan=True)
+    p.run_until(lambda p: p.task.vars["VALID"], 50, "MC_RobotTask valid (one round)")
+    p.block("enable", "MC_EnableRobot")
+    p.logic.append(lambda p: p.call("enable", Enable=True))
+    p.run_until(lambda p: v(p, "enable")["STATUS"] or v(p, "enable")["ERROR"], 3000, "enabled")
+    assert v(p, "enable")["STATUS"], outs(v(p, "enable"), "ERROR", "ERRORID")
+    done = []
+    for i, y in enumerate((20.0, 40.0, 60.0)):
+        drive(p, f"m{i}", "MC_MoveLinearAbsolute", Execute=True, Position=pose(Y=y), Velocity=200.0)
+    drive(p, "out", "MC_WriteDigitalOutput", Execute=True, OutputNumber=1, Value=True, ToolOutput=True)
+
+    def watch(p):
+        for n in ("m0", "m1", "m2", "out"):
+            if v(p, n)["DONE"] and n not in done:
+                done.append(n)
+    p.logic.append(watch)
+    names = ("m0", "m1", "m2", "out")
+    p.run_until(lambda p: all(not v(p, n)["BUSY"] for n in names), 4000, "all ended")
+    for n in names:
+        assert outs(v(p, n), "DONE", "ERROR", "ERRORID") == {"DONE": True, "ERROR": False, "ERRORID": 0}, n
+    assert done[:3] == ["m0", "m1", "m2"], "the moves in the order of their edges"
