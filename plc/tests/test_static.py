@@ -50,22 +50,33 @@ def test_a_construct_outside_the_subset_fails_the_check(what, tmp_path):
 
 
 def test_the_committed_scl_is_the_generators_output():
-    assert (PLC / "scl" / "HansRobot.scl").read_text() == st2scl.generate()
+    for out, text in st2scl.outputs().items():
+        assert out.read_text() == text, f"{out} is not the generator's output: run plc/tools/st2scl.py"
 
 
-def test_the_scl_is_balanced_and_names_what_the_st_declares():
-    scl = (PLC / "scl" / "HansRobot.scl").read_text()
+SCL_FILES = {"HansRobot.scl": st2scl.SOURCES, "HansMbClientAdapter.scl": st2scl.ADAPTER}
+
+
+def _scl_code(scl: str) -> str:
     code = re.sub(r"//[^\n]*", "", scl)
     code = re.sub(r"\(\*.*?\*\)", "", code, flags=re.S)
-    code = re.sub(r"'(?:\$.|[^'$])*'", "''", code)
+    return re.sub(r"'(?:\$.|[^'$])*'", "''", code)
+
+
+@pytest.mark.parametrize("name", sorted(SCL_FILES))
+def test_the_scl_is_balanced_and_names_what_the_st_declares(name):
+    scl = (PLC / "scl" / name).read_text()
+    code = _scl_code(scl)
     for a, b in [("FUNCTION_BLOCK", "END_FUNCTION_BLOCK"), ("IF", "END_IF"), ("CASE", "END_CASE"),
                  ("FOR", "END_FOR"), ("STRUCT", "END_STRUCT"), ("TYPE", "END_TYPE"), ("VAR\\w*", "END_VAR")]:
         opens = len(re.findall(rf"(?<![\w\"]){a}\b", code))
-        assert opens > 0 and opens == len(re.findall(rf"\b{b}\b", code)), f"{a} / {b} unbalanced"
+        closes = len(re.findall(rf"\b{b}\b", code))
+        assert opens == closes, f"{a} / {b} unbalanced"
+        assert opens > 0 or a in ("CASE", "STRUCT", "TYPE"), f"no {a} at all"
     fbs = re.findall(r'(?m)^FUNCTION_BLOCK "(\w+)"', scl)
     fcs = re.findall(r'(?m)^FUNCTION "(\w+)"', scl)
     assert len(re.findall(r"(?m)^BEGIN$", scl)) == len(fbs) + len(fcs)
-    st = "\n".join(p.read_text() for p in sorted((PLC / "src").glob("*.st")))
+    st = "\n".join(p.read_text() for p in SCL_FILES[name])
     st_fbs = re.findall(r"(?m)^FUNCTION_BLOCK (\w+)", st)
     st_fcs = re.findall(r"(?m)^FUNCTION (\w+)", st)
     assert sorted(fbs) == sorted(st_fbs) and sorted(fcs) == sorted(st_fcs)
@@ -75,3 +86,67 @@ def test_the_scl_is_balanced_and_names_what_the_st_declares():
     scl_vars = set(re.findall(r"(?m)^\s+(\w+) :", scl))
     st_vars = set(re.findall(r"(?m)^\s+(\w+) :(?!=)", re.sub(r"\(\*.*?\*\)", "", st, flags=re.S)))
     assert st_vars - scl_vars == set()
+
+
+def _scl_blocks(scl: str):
+    """(name, declared names, body) of each FUNCTION / FUNCTION_BLOCK."""
+    code = _scl_code(scl)
+    for m in re.finditer(r'(?ms)^(FUNCTION_BLOCK|FUNCTION) "(\w+)"(.*?)^BEGIN$(.*?)^END_\1$', code):
+        declared = set(re.findall(r"(?m)^\s+(\w+) :", m.group(3)))
+        if m.group(1) == "FUNCTION":
+            declared.add(m.group(2))   # the return value
+        yield m.group(2), declared, m.group(4)
+
+
+@pytest.mark.parametrize("name", sorted(SCL_FILES))
+def test_the_scl_writes_every_local_with_its_hash_and_only_locals(name):
+    """TIA reads a bare name as a global tag: a local written without '#'
+    compiles to something else, or not at all; '#' on an undeclared name is
+    an error."""
+    scl = (PLC / "scl" / name).read_text()
+    blocks = list(_scl_blocks(scl))
+    assert blocks
+    for block, declared, body in blocks:
+        hashed = set(re.findall(r"(?<![\w])#([A-Za-z_]\w*)", body))
+        assert hashed <= declared, f"{block}: #{sorted(hashed - declared)} not declared"
+        for m in re.finditer(r"(?<![#.\w\"])([A-Za-z_]\w*)\b", body):
+            word = m.group(1)
+            if word not in declared:
+                continue
+            before = body[:m.start()]
+            in_call = before.count("(") > before.count(")")
+            formal = in_call and body[m.end():m.end() + 4].lstrip().startswith(":=")
+            assert formal, f"{block}: {word} without '#' (only a formal parameter in a call may be)"
+
+
+# MB_CLIENT's and TCON_IP_v4's names as Siemens documents them (S7-1200/1500,
+# instruction MB_CLIENT, V5 and later: CONNECT replaces the IP parameters).
+MB_CLIENT_PARAMETERS = {"REQ", "DISCONNECT", "MB_MODE", "MB_DATA_ADDR", "MB_DATA_LEN", "MB_DATA_PTR", "CONNECT"}
+MB_CLIENT_OUTPUTS = {"DONE", "BUSY", "ERROR", "STATUS"}
+TCON_IP_V4 = {"InterfaceId", "ID", "ConnectionType", "ActiveEstablished", "RemoteAddress", "RemotePort",
+              "LocalPort"}
+
+
+def test_the_mb_client_adapter_uses_mb_client_and_the_library_by_their_names():
+    scl = (PLC / "scl" / "HansMbClientAdapter.scl").read_text()
+    ((block, declared, body),) = list(_scl_blocks(scl))
+    decls = _scl_code(scl)
+    assert re.search(r"(?m)^\s+Client : MB_CLIENT;", decls) and re.search(r"(?m)^\s+Connection : TCON_IP_v4;", decls)
+    call = re.search(r"#Client\((.*?)\);", body, re.S).group(1)
+    assert set(re.findall(r"(\w+)\s*:=", call)) == MB_CLIENT_PARAMETERS, "every parameter, by its name"
+    assert set(re.findall(r"#Client\.(\w+)", body)) <= MB_CLIENT_OUTPUTS
+    members = set(re.findall(r"#Connection\.(\w+)", body))
+    assert members == TCON_IP_V4, members ^ TCON_IP_V4
+    assert re.search(r"#Connection\.RemoteAddress\.ADDR\[[1-4]\]", body)
+    assert set(re.findall(r"MB_MODE := #?(\w+)", call)) == {"Mode"}
+    assert {int(x) for x in re.findall(r"#Mode := (\d+);", body)} == {103, 116}
+    # What it takes from the library is declared there, with those members.
+    library = (PLC / "scl" / "HansRobot.scl").read_text()
+    for quoted in set(re.findall(r'"(\w+)"', _scl_code(scl))) - {block}:
+        assert re.search(rf'(?m)^(TYPE|FUNCTION_BLOCK|FUNCTION) "{quoted}"', library), quoted
+    info = re.search(r'(?ms)^FUNCTION_BLOCK "HANS_TransferInfo"(.*?)^BEGIN$', library).group(1)
+    for member in set(re.findall(r"#Info\.(\w+)", body)):
+        assert re.search(rf"(?m)^\s+{member} :", info), member
+    group = re.search(r'(?ms)^TYPE "HANS_AXES_GROUP"(.*?)^END_TYPE', library).group(1)
+    for member in set(re.findall(r"#AxesGroup\.(\w+)", body)):
+        assert re.search(rf"(?m)^\s+{member} :", group), member

@@ -10,11 +10,14 @@ leaves the subset fails loudly, not silently):
   PROGRAM (as a function block instance).
 * Types: BOOL, SINT/INT/DINT/LINT, USINT/UINT/UDINT/ULINT, BYTE/WORD/DWORD,
   REAL/LREAL, TIME, STRING(n); named array types and inline arrays with one
-  subrange; structures; enumerations (values by name, first by default).
+  subrange; structures; enumerations (values by name, first by default);
+  aliases of elementary types (TYPE HW_ANY : UINT; END_TYPE).
   Integers wrap to their type's width when stored (two's complement for the
   signed ones), REAL is rounded to IEEE single precision when stored.
 * Standard blocks: R_TRIG, F_TRIG (the standard's bodies, so F_TRIG with
-  M = FALSE at start), TON (time from the clock the caller gives).
+  M = FALSE at start), TON (time from the clock the caller gives); a
+  platform's own blocks as Python objects the caller gives (Native: e.g.
+  the tests' emulation of Siemens MB_CLIENT).
 * Standard functions: the *_TO_* conversions between the types above
   (REAL to integer rounds to nearest, ties away from zero), SHL, SHR, MID,
   CONCAT, LEN, ABS, MIN, MAX.
@@ -297,14 +300,29 @@ def parsed_items(path):
     return [item for _, _, items in parsed_chunks(path) for item in items]
 
 
+class Native:
+    """A function block written in Python: a platform's own block that no
+    ST source declares (e.g. Siemens MB_CLIENT, emulated by a test). `meta`
+    maps its variables' upper-case names to (kind, Type), kind one of "in",
+    "out", "inout" (VARIANT and other by-reference parameters), "var";
+    `call(program, inst)` runs it with the inputs stored in inst.vars and
+    the in-outs as Refs."""
+
+    meta: dict = {}
+
+    def call(self, program: "Program", inst: "Instance") -> None:
+        raise NotImplementedError
+
+
 class Program:
     """Parsed sources, ready to instantiate and run."""
 
-    def __init__(self, paths, clock=None):
+    def __init__(self, paths, clock=None, natives=None):
         self.types: dict[str, object] = {}
         self.pous: dict[str, object] = {}
         self.enum_values: dict[str, tuple[str, int]] = {}
         self.clock = clock or (lambda: 0.0)
+        self.natives: dict[str, Native] = {k.upper(): v for k, v in (natives or {}).items()}
         self._metas = {}
         for p in paths:
             for item in parsed_items(p):
@@ -339,7 +357,7 @@ class Program:
             m = re.fullmatch(r"STRING\s*[\(\[]\s*(\d+)\s*[\)\]]", name)
             if m:
                 return Type("string", "STRING", length=int(m.group(1)))
-            if name in ("R_TRIG", "F_TRIG", "TON"):
+            if name in ("R_TRIG", "F_TRIG", "TON") or name in self.natives:
                 return Type("fb", name)
             if name in self.pous:
                 return Type("fb", name)
@@ -379,6 +397,11 @@ class Program:
             return t
         if isinstance(d, tf.EnumeratedTypeDeclaration):
             return Type("enum", str(d.name).upper(), values=[str(v.name).upper() for v in d.init.spec.values])
+        if isinstance(d, tf.SimpleTypeDeclaration):
+            # An alias of an elementary type (TYPE HW_ANY : UINT; END_TYPE).
+            if d.init.value is not None:
+                raise StError(f"{d.name}: an alias with an initial value is outside the subset")
+            return self.resolve_type(d.init.spec)
         raise StError(f"type declaration {type(d).__name__} not supported")
 
     def type_of_init(self, init) -> Type:
@@ -463,6 +486,8 @@ class Program:
 
     def fb_meta(self, name: str) -> dict:
         """An FB type's variables: name -> (kind, Type)."""
+        if name in self.natives:
+            return self.natives[name].meta
         if name not in self._metas:
             self._metas[name] = {} if name not in self.pous else {
                 vname: (kind, t) for kind, vname, t, _ in self.var_blocks(self.pous[name])}
@@ -474,6 +499,11 @@ class Program:
             return Instance(name, {"CLK": False, "Q": False, "M": False})
         if name == "TON":
             return Instance(name, {"IN": False, "PT": 0.0, "Q": False, "ET": 0.0, "START": None})
+        if name in self.natives:
+            meta = self.natives[name].meta
+            inst = Instance(name, {k: None if kind == "inout" else self.default(t) for k, (kind, t) in meta.items()})
+            inst.meta = meta
+            return inst
         pou = self.pous[name]
         vars_ = {}
         meta = {}
@@ -505,6 +535,9 @@ class Program:
         for k, (kind, _) in inst.meta.items():
             if kind == "inout" and inst.vars[k] is None:
                 raise StError(f"{inst.pou}: in-out {k} not bound")
+        if inst.pou in self.natives:
+            self.natives[inst.pou].call(self, inst)
+            return
         try:
             self.exec_list(self.pous[inst.pou].body, inst)
         except _Return:
