@@ -169,9 +169,9 @@ class Plc:
     over Modbus TCP, scan by scan on a fixed cycle."""
 
     def __init__(self, cell: Cell, extra_sources=(), cycle: float = 0.01, run_task: bool = True,
-                 one_block_per_scan: bool = False):
+                 one_block_per_scan: bool = False, adapter=None, natives=None):
         self.clock0 = time.monotonic()
-        self.prog = stinterp.Program(LIBRARY + list(extra_sources), clock=self.now)
+        self.prog = stinterp.Program(LIBRARY + list(extra_sources), clock=self.now, natives=natives)
         self.cell = cell
         self.mb = Modbus("127.0.0.1", cell.modbus_port)
         self.cycle = cycle
@@ -182,6 +182,12 @@ class Plc:
         # the scan: the image is refreshed block by block, 12 scans a round.
         self.one_block_per_scan = one_block_per_scan
         self.next_block = 0
+        # Or an adapter of the library's own, in ST, called first in every
+        # scan with these inputs (and the axes group): it moves the image.
+        self.adapter = None
+        if adapter is not None:
+            name, self.adapter_inputs = adapter
+            self.adapter = self.prog.instantiate(name)
         self.group = self.prog.default(self.prog.resolve_type("HANS_AXES_GROUP"))
         self.task = self.prog.instantiate("MC_RobotTask")
         self.info = self.prog.instantiate("HANS_TransferInfo")
@@ -241,7 +247,11 @@ class Plc:
         if wait > 0:
             time.sleep(wait)
         self.last = time.monotonic()
-        if self.one_block_per_scan:
+        if self.adapter is not None:
+            args = {k.upper(): v for k, v in self.adapter_inputs.items()}
+            args["AXESGROUP"] = self.group_ref()
+            self.prog.call_fb(self.adapter, args)
+        elif self.one_block_per_scan:
             self.group["TRANSPORTOK"] = self.transfer_one()
         else:
             ok = self.transfer(writes=False)
@@ -250,7 +260,7 @@ class Plc:
             self.prog.call_fb(self.task, {"AXESGROUP": self.group_ref()})
         for f in self.logic:
             f(self)
-        if not self.one_block_per_scan and ok:
+        if self.adapter is None and not self.one_block_per_scan and ok:
             self.group["TRANSPORTOK"] = self.transfer(writes=True)
         self.scans += 1
 
