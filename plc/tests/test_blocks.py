@@ -288,3 +288,22 @@ def test_the_blocks_over_an_adapter_that_moves_one_block_per_scan(cell):
     for n in names:
         assert outs(v(p, n), "DONE", "ERROR", "ERRORID") == {"DONE": True, "ERROR": False, "ERRORID": 0}, n
     assert done[:3] == ["m0", "m1", "m2"], "the moves in the order of their edges"
+
+
+# The robot is enabled already (from the teach pendant, or a PLC restart).
+@pytest.mark.cell(sim_args=["--ready"])
+def test_enable_robot_sends_nothing_while_enable_stays_low_and_disables_at_its_fall(cell):
+    p = Plc(cell)
+    en = drive(p, "enable", "MC_EnableRobot", Enable=False)
+    for _ in range(60):
+        p.scan()
+    # A PLC that starts with Enable low leaves the robot as it is (an F_TRIG
+    # would see a falling edge at the first call and send Disable).
+    assert outs(v(p, "enable"), "BUSY", "ERROR") == {"BUSY": False, "ERROR": False}
+    assert p.task.vars["GROUPSTATE"] == 1 and p.task.vars["ROBOTENABLED"], "still enabled"
+    en["ENABLE"] = True
+    p.run_until(lambda p: v(p, "enable")["STATUS"] or v(p, "enable")["ERROR"], 1500, "enabled")
+    assert v(p, "enable")["STATUS"]
+    en["ENABLE"] = False
+    p.run_until(lambda p: not p.task.vars["ROBOTENABLED"] or v(p, "enable")["ERROR"], 1500, "disabled")
+    assert not v(p, "enable")["ERROR"] and not v(p, "enable")["STATUS"]
