@@ -290,6 +290,55 @@ def test_the_blocks_over_an_adapter_that_moves_one_block_per_scan(cell):
     assert done[:3] == ["m0", "m1", "m2"], "the moves in the order of their edges"
 
 
+# The robot refuses the first gripper command (SetEndDO: Fail 20018, as a
+# controller that is not ready for it answers): an error in the middle of
+# the first cycle, after the approach and the descent.
+@pytest.mark.cell(sim_args=["--fault", "fail=20018@SetEndDO*1"])
+def test_the_example_cell_faults_waits_for_acknowledge_resets_and_goes_on(cell):
+    from rig import PLC
+    p = Plc(cell, extra_sources=[PLC / "examples" / "PickAndPlace.st"], run_task=False)
+    main = p.prog.instantiate("PickAndPlace")
+    p.group = main.vars["CELLGROUP"]
+    inputs = {"START": True, "ACKNOWLEDGE": False}
+    grips = []    # END_DO bit 0 (the gripper) as the cell saw it, on each change
+    phases = []   # the sequence's steps, on each change
+    resets = []   # the example's MC_GroupReset: Done seen
+
+    def run(p):
+        p.prog.call_fb(main, dict(inputs))
+        bit = p.group["IMAGE"][43] & 1
+        if not grips or grips[-1] != bit:
+            grips.append(bit)
+        if not phases or phases[-1] != main.vars["PHASE"]:
+            phases.append(main.vars["PHASE"])
+        if main.vars["RESET"].vars["DONE"]:
+            resets.append(p.scans)
+    p.logic.append(run)
+    m = main.vars
+    p.run_until(lambda p: m["FAULT"], 3000, "the fault")
+    # The sequence stopped where the error came, with the robot's code and
+    # its text; nothing moves on until the operator acknowledges.
+    assert m["PHASE"] == 900 and m["LASTERRORID"] == 20018 and m["CYCLES"] == 0
+    p.run_until(lambda p: len(m["LASTERRORTEXT"]) > 3, 300, "the error's text")
+    for _ in range(50):
+        p.scan()
+    assert m["PHASE"] == 900 and m["FAULT"] and grips == [0], "waiting, the gripper never closed"
+    assert phases == [10, 20, 30, 40, 900], "the error came at the gripper (40), after the descent"
+    assert not resets
+    # Acknowledge (a rising edge): MC_GroupReset, then the cycle goes on
+    # from the approach and completes, the gripper closing and opening.
+    inputs["ACKNOWLEDGE"] = True
+    p.run_until(lambda p: not m["FAULT"], 500, "reset done")
+    assert m["PHASE"] == 20
+    inputs["ACKNOWLEDGE"] = False
+    p.run_until(lambda p: m["CYCLES"] >= 1 or m["FAULT"], 4000, "a cycle after the reset")
+    assert m["CYCLES"] == 1 and not m["FAULT"], (m["PHASE"], m["LASTERRORID"])
+    assert grips == [0, 1, 0], "closed at the pick, opened at the place"
+    assert resets, "MC_GroupReset was Done"
+    assert phases[4:] == [900, 910, 20, 30, 40, 50, 20, 30, 40, 50, 20], phases
+    assert m["LASTERRORID"] == 20018, "the last error stays shown for the operator"
+
+
 # The robot is enabled already (from the teach pendant, or a PLC restart).
 @pytest.mark.cell(sim_args=["--ready"])
 def test_enable_robot_sends_nothing_while_enable_stays_low_and_disables_at_its_fall(cell):
