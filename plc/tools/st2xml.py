@@ -1,7 +1,8 @@
 """Generates the PLCopen XML (IEC 61131-10 / TC6 XML 2.01) export of the
 library from its ST, for import into CODESYS and TwinCAT 3:
-plc/xml/HansRobot.xml (the library: plc/src) and plc/xml/PickAndPlace.xml
-(the example program). Usage: st2xml.py [--check]
+plc/xml/HansRobot.xml (the library: plc/src), plc/xml/PickAndPlace.xml
+(the example program) and one file per adapter of those two platforms
+(HansCodesysAdapter.xml, HansTwinCatAdapter.xml). Usage: st2xml.py [--check]
 (--check: exit 1 when a committed file differs from the output).
 
 The declarations come from blark's parse tree (names, sections, types,
@@ -30,6 +31,11 @@ EXAMPLE = [PLC / "examples" / "PickAndPlace.st"]
 OUTPUTS = {
     PLC / "xml" / "HansRobot.xml": (LIBRARY, "hans-tcp PLC library (SRCI / PLCopen Part 4 names)"),
     PLC / "xml" / "PickAndPlace.xml": (EXAMPLE, "hans-tcp PLC library: the pick-and-place example (import the library first)"),
+    PLC / "xml" / "HansCodesysAdapter.xml": ([PLC / "adapters" / "CodesysAdapter.st"],
+                                             "hans-tcp PLC library: the CODESYS adapter (import the library first)"),
+    PLC / "xml" / "HansTwinCatAdapter.xml": ([PLC / "adapters" / "TwinCatAdapter.st"],
+                                             "hans-tcp PLC library: the TwinCAT 3 adapter (import the library first; "
+                                             "needs Tc2_ModbusSrv)"),
 }
 
 TC6 = "http://www.plcopen.org/xml/tc6_0201"
