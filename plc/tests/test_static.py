@@ -150,3 +150,36 @@ def test_the_mb_client_adapter_uses_mb_client_and_the_library_by_their_names():
     group = re.search(r'(?ms)^TYPE "HANS_AXES_GROUP"(.*?)^END_TYPE', library).group(1)
     for member in set(re.findall(r"#AxesGroup\.(\w+)", body)):
         assert re.search(rf"(?m)^\s+{member} :", group), member
+
+
+ROOT = PLC.parent
+
+
+def _readme_error_table() -> dict:
+    readme = (PLC / "README.md").read_text()
+    section = readme.split("## ErrorIDs, by name", 1)[1].split("\n## ", 1)[0]
+    return {int(code): name for code, name in re.findall(r"(?m)^\| (\d{5}) \| (\w+) \|", section)}
+
+
+def test_the_readme_names_every_error_id_as_the_gateway_and_the_library_do():
+    table = _readme_error_table()
+    # The gateway's codes: REGISTERS.md's table, named as gateway/src/error.rs names them.
+    registers = (ROOT / "gateway" / "REGISTERS.md").read_text()
+    codes = registers.split("## Error codes", 1)[1].split("\n## ", 1)[0]
+    gateway_codes = {int(c) for c in re.findall(r"(?m)^\| (\d{5}) \|", codes)}
+    names = dict((int(c), n) for n, c in re.findall(r"(?m)^\s+(\w+) = (\d{5}),", (
+        ROOT / "gateway" / "src" / "error.rs").read_text()))
+    assert gateway_codes and gateway_codes <= set(names)
+    for code in gateway_codes:
+        assert table.get(code) == names[code], f"{code}: README {table.get(code)}, gateway {names[code]}"
+    # The library's own: every 397xx the ST sets, and nothing else.
+    st = "\n".join(p.read_text() for p in sorted((PLC / "src").glob("*.st")))
+    library = {int(c) for c in re.findall(r"\b(397\d\d)\b", st)}
+    assert library == {39700, 39701, 39702}
+    assert set(table) == gateway_codes | library
+
+
+def test_the_readme_lists_every_scl_dialect_difference():
+    readme = (PLC / "README.md").read_text()
+    for d in st2scl.DIALECT:
+        assert f"- {d}\n" in readme, d
