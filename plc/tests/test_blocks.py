@@ -287,7 +287,8 @@ def test_the_blocks_over_an_adapter_that_moves_one_block_per_scan(cell):
     p.run_until(lambda p: all(not v(p, n)["BUSY"] for n in names), 4000, "all ended")
     for n in names:
         assert outs(v(p, n), "DONE", "ERROR", "ERRORID") == {"DONE": True, "ERROR": False, "ERRORID": 0}, n
-    assert done[:3] == ["m0", "m1", "m2"], "the moves in the order of their edges"
+    # The output is no motion: the gateway may run it while m2 moves.
+    assert [n for n in done if n.startswith("m")] == ["m0", "m1", "m2"], "the moves in the order of their edges"
 
 
 # The robot refuses the first gripper command (SetEndDO: Fail 20018, as a
@@ -344,10 +345,12 @@ def test_the_example_cell_faults_waits_for_acknowledge_resets_and_goes_on(cell):
 def test_enable_robot_sends_nothing_while_enable_stays_low_and_disables_at_its_fall(cell):
     p = Plc(cell)
     en = drive(p, "enable", "MC_EnableRobot", Enable=False)
-    for _ in range(60):
-        p.scan()
     # A PLC that starts with Enable low leaves the robot as it is (an F_TRIG
-    # would see a falling edge at the first call and send Disable).
+    # would see a falling edge at the first call and send Disable: Error
+    # 39500 while the robot link comes up, or a disabled robot after).
+    p.run_until(lambda p: p.task.vars["ROBOTENABLED"] or v(p, "enable")["ERROR"], 1000, "the robot's state")
+    for _ in range(30):
+        p.scan()
     assert outs(v(p, "enable"), "BUSY", "ERROR") == {"BUSY": False, "ERROR": False}
     assert p.task.vars["GROUPSTATE"] == 1 and p.task.vars["ROBOTENABLED"], "still enabled"
     en["ENABLE"] = True
