@@ -15,9 +15,14 @@ SIEMENS = [PLC / "tests" / "siemens_types.st", PLC / "adapters" / "SiemensMbClie
 
 
 def siemens_plc(cell, client):
-    return Plc(cell, extra_sources=SIEMENS, natives={"MB_CLIENT": client},
-               adapter=("HANS_MbClientAdapter", {"IpOctet1": 127, "IpOctet2": 0, "IpOctet3": 0, "IpOctet4": 1,
-                                                 "Port": cell.modbus_port}))
+    p = Plc(cell, extra_sources=SIEMENS, natives={"MB_CLIENT": client},
+            adapter=("HANS_MbClientAdapter", {"IpOctet1": 127, "IpOctet2": 0, "IpOctet3": 0, "IpOctet4": 1,
+                                              "Port": cell.modbus_port}))
+    # A round of the table takes 36 scans or more: the gateway's HEARTBEAT
+    # moves in the image once a round (plc/README.md: GatewayTimeout above
+    # two rounds; T#3S for MB_CLIENT).
+    p.task.vars["GATEWAYTIMEOUT"] = 3.0
+    return p
 
 
 def test_the_mb_client_adapter_runs_the_blocks(cell):
