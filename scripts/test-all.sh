@@ -100,6 +100,10 @@ step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd
 # Mosquitto, hans-gateway killed and frozen) and host-tests/e2e/tests/mqtt.rs
 # (hans-sim -> gateway -> Mosquitto -> an independent consumer).
 
+# --- the PLC function-block library (plc/): both ST parsers, the subset
+# check, the SCL file, and the blocks against hans-gateway + hans-sim
+step "PLC library (parsers, subset, SCL, blocks against the gateway)" bash scripts/plc-tests.sh
+
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked

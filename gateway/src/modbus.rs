@@ -1211,13 +1211,13 @@ mod tests {
         );
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]),
-            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 3]
+            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 4]
         );
-        // FC 1: bits 0-11 of register 0 (version 0x0103: bits 0, 1 and 8),
+        // FC 1: bits 0-11 of register 0 (version 0x0104: bits 2 and 8),
         // packed.
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
-            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x03, 0x01]
+            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x04, 0x01]
         );
         // FC 2 from bit 4, 940 bits (up to register 58): 118 bytes; bit 4
         // of the reply is bit 8 of register 0.

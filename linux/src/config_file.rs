@@ -75,6 +75,7 @@
 //! | `watchdog.period_ms` | CFG_WATCHDOG_MS | integer, 0 = off |
 //! | `watchdog.action` | CFG_WATCHDOG_ACTION | `"report-only"` (0), `"stop"` (1), `"pause"` (2) |
 //! | `registers.word_order` | CFG_FLOAT_WORD_ORDER | `"high-first"` (0), `"low-first"` (1) |
+//! | `registers.number_format` | CFG_NUMBER_FORMAT | `"f32"` (0), `"thousandths"` (1) |
 //! | `network.address` | NET_IP | `"a.b.c.d"` |
 //! | `network.mask` | NET_MASK | `"a.b.c.d"` |
 //! | `network.gateway` | NET_GATEWAY | `"a.b.c.d"` |

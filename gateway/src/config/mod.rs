@@ -24,6 +24,19 @@ pub enum WordOrder {
     LowFirst = 1,
 }
 
+/// How the map's real numbers (the `f32` registers: override, positions,
+/// a channel's parameters and results) are carried in their two registers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NumberFormat {
+    /// IEEE-754 single precision (the default).
+    #[default]
+    F32 = 0,
+    /// A 32-bit signed integer in thousandths (420.5 mm = 420500), for PLCs
+    /// that cannot pack floats; unknown = `i32::MIN`.
+    Thousandths = 1,
+}
+
 /// Who opens the robot connection (chapter 3.1 of the protocol document).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -387,6 +400,8 @@ pub struct Config {
     pub reply_timeout_ms: u16,
     /// Word order of 32-bit values.
     pub word_order: WordOrder,
+    /// How the `f32` registers carry their numbers.
+    pub number_format: NumberFormat,
     /// Watchdog period \[ms\], 0 = off (default), else 50-60000.
     pub watchdog_ms: u16,
     /// Watchdog action.
@@ -468,6 +483,7 @@ impl Config {
         poll_ms: 100,
         reply_timeout_ms: 1000,
         word_order: WordOrder::HighFirst,
+        number_format: NumberFormat::F32,
         watchdog_ms: 0,
         watchdog_action: WatchdogAction::Stop,
         wait_blending_done: false,

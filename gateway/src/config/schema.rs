@@ -29,8 +29,8 @@ use core::fmt::Write;
 use core::net::Ipv4Addr;
 
 use super::{
-    AllowList, Config, HostName, LinkMode, ProtocolSetting, StatusSource, WatchdogAction,
-    WordOrder, ALLOW_ENTRIES,
+    AllowList, Config, HostName, LinkMode, NumberFormat, ProtocolSetting, StatusSource,
+    WatchdogAction, WordOrder, ALLOW_ENTRIES,
 };
 
 /// What a setting holds, and which values are valid.
@@ -582,6 +582,21 @@ setting!(
     }
 );
 setting!(
+    REGISTERS_NUMBER_FORMAT,
+    "registers.number_format",
+    41,
+    Kind::Choice(&["f32", "thousandths"]),
+    "",
+    "real numbers in two registers (override, positions, a channel's parameters and results): f32, or thousandths as a 32-bit integer for PLCs that cannot pack floats",
+    false,
+    |c| Value::Choice(c.number_format as u8),
+    |c, v| c.number_format = if choice(v) == 1 {
+        NumberFormat::Thousandths
+    } else {
+        NumberFormat::F32
+    }
+);
+setting!(
     NETWORK_ADDRESS,
     "network.address",
     18,
@@ -776,7 +791,7 @@ setting!(
 
 /// The settings every build has, in the order the views list them (a
 /// group's settings together).
-const BASE: [&Setting; 29] = [
+const BASE: [&Setting; 30] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -794,6 +809,7 @@ const BASE: [&Setting; 29] = [
     &WATCHDOG_PERIOD_MS,
     &WATCHDOG_ACTION,
     &REGISTERS_WORD_ORDER,
+    &REGISTERS_NUMBER_FORMAT,
     &NETWORK_ADDRESS,
     &NETWORK_MASK,
     &NETWORK_GATEWAY,
@@ -832,8 +848,8 @@ const MQTT: [&Setting; 11] = [
 // index out of range; nothing runs on the device.
 #[cfg(feature = "mqtt")]
 #[allow(clippy::indexing_slicing)]
-pub const SETTINGS: [&Setting; 40] = {
-    let mut out = [BASE[0]; 40];
+pub const SETTINGS: [&Setting; 41] = {
+    let mut out = [BASE[0]; 41];
     let mut i = 0;
     while i < out.len() {
         out[i] = if i < BASE.len() {
@@ -848,7 +864,7 @@ pub const SETTINGS: [&Setting; 40] = {
 
 /// Every setting of this build, in the order the views list them.
 #[cfg(not(feature = "mqtt"))]
-pub const SETTINGS: [&Setting; 29] = BASE;
+pub const SETTINGS: [&Setting; 30] = BASE;
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a
 /// host name).

@@ -67,9 +67,9 @@ const fn at(name: &'static str, addr: u16, setting: &'static Setting) -> ConfigR
     }
 }
 
-/// Every configuration register, in address order: the block 100-116,
+/// Every configuration register, in address order: the block 100-117,
 /// then 160-193 (`REGISTERS.md`).
-pub const REGISTERS: [ConfigRegister; 25] = [
+pub const REGISTERS: [ConfigRegister; 26] = [
     at("CFG_ROBOT_IP", r::CONFIG_ROBOT_IP, &s::ROBOT_ADDRESS),
     at("CFG_ROBOT_PORT", r::CONFIG_ROBOT_PORT, &s::ROBOT_PORT),
     at("CFG_LINK_MODE", r::CONFIG_LINK_MODE, &s::LINK_MODE),
@@ -126,6 +126,11 @@ pub const REGISTERS: [ConfigRegister; 25] = [
     ),
     at("CFG_ROBOT_ID", r::CONFIG_ROBOT_ID, &s::ROBOT_ID),
     at("CFG_PROTOCOL", r::CONFIG_PROTOCOL, &s::LINK_PROTOCOL),
+    at(
+        "CFG_NUMBER_FORMAT",
+        r::CONFIG_NUMBER_FORMAT,
+        &s::REGISTERS_NUMBER_FORMAT,
+    ),
     at("NET_IP", r::NET_IP, &s::NETWORK_ADDRESS),
     at("NET_MASK", r::NET_MASK, &s::NETWORK_MASK),
     at("NET_GATEWAY", r::NET_GATEWAY, &s::NETWORK_GATEWAY),
@@ -145,13 +150,13 @@ pub const REGISTERS: [ConfigRegister; 25] = [
     at("WEB_ALLOW", r::WEB_ALLOW, &s::ACCESS_WEB_ALLOW),
 ];
 
-/// Registers of the settings: 100-116 and 160-193.
+/// Registers of the settings: 100-117 and 160-193.
 pub const CONFIG_WORDS: usize = (r::CONFIG_LEN + r::NET_LEN) as usize;
 
 // The PLC's edit is held in the state as words it does not interpret.
 const _: () = assert!(CONFIG_WORDS == crate::state::PLC_EDIT_WORDS);
 
-/// The settings as their registers: those of 100-116, then those of
+/// The settings as their registers: those of 100-117, then those of
 /// 160-193.
 pub type Words = [u16; CONFIG_WORDS];
 

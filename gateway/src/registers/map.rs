@@ -17,6 +17,8 @@
 //! * `u16`: one register. `bits`: one register of flags.
 //! * `f32`: IEEE-754 single in two registers; word order per
 //!   [`CONFIG_FLOAT_WORD_ORDER`] (default: high word at the lower address).
+//!   With [`CONFIG_NUMBER_FORMAT`] 1 every `f32` of the map is an `i32` of
+//!   thousandths instead (unknown = `i32::MIN`).
 //! * `i32`: two's complement in two registers, same word order as `f32`.
 //! * `text`: ASCII, two characters per register, first character in the
 //!   high byte; ends at the first NUL byte or at the end of the area.
@@ -80,9 +82,11 @@ pub struct Area {
 /// changes (1.1: RESULTS read NaN until a command gives them; urgent RAW and
 /// trigger texts go out in their canonical form; 1.2: the network and
 /// access settings at 160-193, the access status at 50-53; 1.3: the
-/// firmware's version and update state at 55-58); the major number when a
-/// PLC program written for the old map would break.
-pub const MAP_VERSION: u16 = 0x0103;
+/// firmware's version and update state at 55-58; 1.4: the number format
+/// at 117, real numbers as thousandths in 32-bit integers for PLCs that
+/// cannot pack floats); the major number when a PLC program written for
+/// the old map would break.
+pub const MAP_VERSION: u16 = 0x0104;
 
 // ----------------------------------------------------------------- status
 /// The register map's version ([`MAP_VERSION`]).
@@ -241,8 +245,11 @@ pub const CONFIG_DATASHEET_PORT: u16 = 114;
 pub const CONFIG_ROBOT_ID: u16 = 115;
 /// Protocol level: 0 detect, 1 V5, 2 V6.
 pub const CONFIG_PROTOCOL: u16 = 116;
+/// How the `f32` registers carry numbers: 0 = IEEE-754 single (default),
+/// 1 = a 32-bit integer of thousandths.
+pub const CONFIG_NUMBER_FORMAT: u16 = 117;
 /// Number of configuration registers from [`CONFIG_ROBOT_IP`].
-pub const CONFIG_LEN: u16 = 17;
+pub const CONFIG_LEN: u16 = 18;
 
 // ------------------------------------------- network and access settings
 // Settings like the ones above: edited, then applied with CONFIG_COMMAND 1.
@@ -614,6 +621,7 @@ pub const TABLE: &[Area] = &[
     area!("CFG_DATASHEET_PORT", CONFIG_DATASHEET_PORT, 1, Rw, U16),
     area!("CFG_ROBOT_ID", CONFIG_ROBOT_ID, 1, Rw, U16),
     area!("CFG_PROTOCOL", CONFIG_PROTOCOL, 1, Rw, U16),
+    area!("CFG_NUMBER_FORMAT", CONFIG_NUMBER_FORMAT, 1, Rw, U16),
     area!("PLC_HEARTBEAT", CONTROL_HEARTBEAT, 1, Rw, U16),
     area!("CONFIG_COMMAND", CONTROL_CONFIG_COMMAND, 1, Rw, U16),
     area!("CONFIG_RESULT", CONTROL_CONFIG_RESULT, 1, Ro, U16),

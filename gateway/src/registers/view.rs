@@ -4,14 +4,15 @@
 //! Encodings (REGISTERS.md, "Value types"): `f32` and `i32` in two
 //! registers in the configured word order (applied here, once: the model
 //! holds numbers, not words); zero as +0.0; unknown values NaN
-//! (`0x7FC0 0x0000`); texts two characters per register, the first in the
-//! high byte.
+//! (`0x7FC0 0x0000`); with the number format "thousandths" (map 1.4) every
+//! `f32` is an `i32` of thousandths instead, unknown `i32::MIN`; texts two
+//! characters per register, the first in the high byte.
 
 use embassy_time::Instant;
 
 use super::config;
 use super::map::{self as r, AccessError};
-use crate::config::WordOrder;
+use crate::config::{NumberFormat, WordOrder};
 use crate::error::Outcome;
 use crate::job::Source;
 use crate::state::handshake::{source_code, Handshake};
@@ -87,25 +88,63 @@ fn half(v: u32, half: u16, order: WordOrder) -> u16 {
     }
 }
 
+/// The "unknown" value of the thousandths format (`0x8000 0x0000`).
+pub const UNKNOWN_THOUSANDTHS: i32 = i32::MIN;
+
+/// `x` in thousandths, rounded half away from zero and kept inside
+/// `i32::MIN + 1 ..= i32::MAX` (`i32::MIN` means unknown); NaN is unknown.
+pub fn to_thousandths(x: f32) -> i32 {
+    if x.is_nan() {
+        return UNKNOWN_THOUSANDTHS;
+    }
+    let y = x * 1000.0;
+    // `as` saturates (no `round` in core): add the half first.
+    let v = if y >= 0.0 { y + 0.5 } else { y - 0.5 } as i32;
+    v.max(i32::MIN + 1)
+}
+
+/// A number written in thousandths (the PLC's parameters).
+pub fn from_thousandths(v: i32) -> f32 {
+    v as f32 / 1000.0
+}
+
 /// A value the gateway reports: zero as +0.0 (the controller sends
-/// `-0.000`), unknown as NaN.
-fn status_f32(v: Option<f32>) -> u32 {
-    match v {
+/// `-0.000`), unknown as NaN (thousandths: `i32::MIN`).
+fn status_f32(v: Option<f32>, format: NumberFormat) -> u32 {
+    match (v, format) {
         // -0.0 too.
-        Some(x) => {
+        (Some(x), NumberFormat::F32) => {
             if x == 0.0 {
                 0
             } else {
                 x.to_bits()
             }
         }
-        None => f32::NAN.to_bits(),
+        (None, NumberFormat::F32) => f32::NAN.to_bits(),
+        (Some(x), NumberFormat::Thousandths) => to_thousandths(x) as u32,
+        (None, NumberFormat::Thousandths) => UNKNOWN_THOUSANDTHS as u32,
+    }
+}
+
+/// The 32 bits of a parameter as the PLC wrote it.
+fn param_bits(p: f32, format: NumberFormat) -> u32 {
+    match format {
+        NumberFormat::F32 => p.to_bits(),
+        NumberFormat::Thousandths => to_thousandths(p) as u32,
+    }
+}
+
+/// A parameter from its 32 bits.
+fn param_from_bits(b: u32, format: NumberFormat) -> f32 {
+    match format {
+        NumberFormat::F32 => f32::from_bits(b),
+        NumberFormat::Thousandths => from_thousandths(b as i32),
     }
 }
 
 /// Element `i` of six status values.
-fn six(v: Option<[f32; 6]>, i: u16) -> u32 {
-    status_f32(v.and_then(|a| a.get(usize::from(i)).copied()))
+fn six(v: Option<[f32; 6]>, i: u16, format: NumberFormat) -> u32 {
+    status_f32(v.and_then(|a| a.get(usize::from(i)).copied()), format)
 }
 
 fn flag_bits(f: Option<RobotFlags>) -> u16 {
@@ -177,13 +216,14 @@ const _: () = assert!(
 /// checks the access first).
 pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
     let order = m.config.active.word_order;
+    let format = m.config.active.number_format;
     let robot = &m.robot;
     let in_area = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
     if let Some(o) = in_area(r::STATUS_JOINTS, 12) {
-        return half(six(robot.joints, o / 2), o, order);
+        return half(six(robot.joints, o / 2, format), o, order);
     }
     if let Some(o) = in_area(r::STATUS_POSE, 12) {
-        return half(six(robot.pose, o / 2), o, order);
+        return half(six(robot.pose, o / 2, format), o, order);
     }
     if let Some(o) = in_area(r::STATUS_BOX_DI, 6) {
         let io = Io::ALL.get(usize::from(o)).and_then(|&g| robot.io(g));
@@ -208,7 +248,7 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
             o if o < r::CH_TEXT1 => {
                 let k = usize::from((o - r::CH_PARAMS) / 2);
                 let v = inp.params.get(k).copied().unwrap_or(0.0);
-                half(v.to_bits(), o - r::CH_PARAMS, order)
+                half(param_bits(v, format), o - r::CH_PARAMS, order)
             }
             o if o < r::CH_TEXT2 => inp.text1.word(usize::from(o - r::CH_TEXT1)),
             o if o < r::CH_STATUS => inp.text2.word(usize::from(o - r::CH_TEXT2)),
@@ -216,7 +256,7 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
             o => {
                 let k = usize::from((o - r::CH_RESULTS) / 2);
                 let v = ch.results.and_then(|res| res.get(k).copied());
-                half(status_f32(v), o - r::CH_RESULTS, order)
+                half(status_f32(v, format), o - r::CH_RESULTS, order)
             }
         };
     }
@@ -264,7 +304,7 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         r::STATUS_ERROR_AXIS => robot.error_axis,
         r::STATUS_SOURCE => m.config.active.status_source as u16,
         a if a == r::STATUS_OVERRIDE || a == r::STATUS_OVERRIDE + 1 => half(
-            status_f32(robot.override_ratio),
+            status_f32(robot.override_ratio, format),
             a - r::STATUS_OVERRIDE,
             order,
         ),
@@ -387,6 +427,7 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
         }
     }
     let order = m.config.active.word_order;
+    let format = m.config.active.number_format;
     // Execute of every channel, then RAW's.
     let execute = |m: &Model| -> [bool; r::CHANNELS + 1] {
         core::array::from_fn(|i| match m.channels.get(i) {
@@ -398,7 +439,7 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
     let old_bits = m.triggers.bits;
     let old_beat = m.plc.heartbeat;
     for (addr, &v) in (start..).zip(values) {
-        store(m, addr, v, order);
+        store(m, addr, v, order, format);
     }
     ev.heartbeat = m.plc.heartbeat != old_beat;
     let new_exec = execute(m);
@@ -449,7 +490,7 @@ fn with_half(v: u32, h: u16, w: u16, order: WordOrder) -> u32 {
 }
 
 /// Stores one writable register (the access was checked).
-fn store(m: &mut Model, addr: u16, v: u16, order: WordOrder) {
+fn store(m: &mut Model, addr: u16, v: u16, order: WordOrder, format: NumberFormat) {
     let in_area = |start: u16, len: u16| addr.checked_sub(start).filter(|&o| o < len);
     if let Some(s) = config::slot_of(addr) {
         let active = &m.config.active;
@@ -472,7 +513,8 @@ fn store(m: &mut Model, addr: u16, v: u16, order: WordOrder) {
             o if o < r::CH_PARAMS + 2 * PARAMS as u16 => {
                 let k = usize::from((o - r::CH_PARAMS) / 2);
                 if let Some(p) = inp.params.get_mut(k) {
-                    *p = f32::from_bits(with_half(p.to_bits(), o - r::CH_PARAMS, v, order));
+                    let bits = with_half(param_bits(*p, format), o - r::CH_PARAMS, v, order);
+                    *p = param_from_bits(bits, format);
                 }
             }
             o if o < r::CH_TEXT2 => inp.text1.set_word(usize::from(o - r::CH_TEXT1), v),
@@ -534,6 +576,35 @@ mod tests {
         m.robot.updated = Some(Instant::from_millis(750));
         assert_eq!(read(&m, r::STATUS_AGE_MS, now()), 250);
         assert_eq!(read(&m, r::STATUS_VERSION, now()), r::MAP_VERSION);
+    }
+
+    #[test]
+    fn thousandths_round_half_away_from_zero_and_keep_the_unknown_value_apart() {
+        assert_eq!(to_thousandths(420.5), 420_500);
+        assert_eq!(to_thousandths(-0.0), 0);
+        assert_eq!(to_thousandths(0.0015), 2);
+        assert_eq!(to_thousandths(-0.0015), -2);
+        assert_eq!(to_thousandths(-123.4564), -123_456);
+        assert_eq!(to_thousandths(f32::NAN), UNKNOWN_THOUSANDTHS);
+        // Out of range saturates; the most negative stays "unknown" only.
+        assert_eq!(to_thousandths(1e12), i32::MAX);
+        assert_eq!(to_thousandths(-1e12), i32::MIN + 1);
+        assert_eq!(from_thousandths(-5250), -5.25);
+        // Every thousandth up to 4096 units survives the f32 the gateway
+        // keeps a parameter in (REGISTERS.md says so).
+        for v in (-4_096_000..=4_096_000).step_by(997) {
+            assert_eq!(to_thousandths(from_thousandths(v)), v, "{v}");
+        }
+        let mut m = model();
+        m.config.active.number_format = NumberFormat::Thousandths;
+        m.robot.joints = Some([-0.0, 12.3456, 0.0, 0.0, 0.0, -1.0]);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 2, now()), 0);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 3, now()), 12_346);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 10, now()), 0xFFFF);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 11, now()), 0xFC18);
+        m.robot.joints = None;
+        assert_eq!(read(&m, r::STATUS_JOINTS, now()), 0x8000);
+        assert_eq!(read(&m, r::STATUS_JOINTS + 1, now()), 0);
     }
 
     #[test]

@@ -147,7 +147,7 @@ pub struct PlcState {
 pub use crate::job::CHANNELS;
 
 /// Words of the PLC's edit of the configuration registers.
-pub const PLC_EDIT_WORDS: usize = 51;
+pub const PLC_EDIT_WORDS: usize = 52;
 
 /// The PLC's edit of the configuration registers: words as written, a
 /// value out of range included, until `CONFIG_COMMAND` 1 checks them.

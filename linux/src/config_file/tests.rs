@@ -6,7 +6,7 @@ use hans_gateway::access::password::PasswordHash;
 use hans_gateway::config::{
     AllowEntry, AllowList, LinkMode, NetConfig, ProtocolSetting, StatusSource,
 };
-use hans_gateway::config::{Kind, WatchdogAction, WordOrder, SETTINGS};
+use hans_gateway::config::{Kind, NumberFormat, WatchdogAction, WordOrder, SETTINGS};
 use hans_gateway::registers::config::register_of;
 use hans_gateway::state::inputs::TRIGGER_TEXT;
 use hans_gateway::storage::IMAGE_LEN;
@@ -34,6 +34,7 @@ fn full() -> Contents {
         poll_ms: 20,
         reply_timeout_ms: 2500,
         word_order: WordOrder::LowFirst,
+        number_format: NumberFormat::Thousandths,
         watchdog_ms: 500,
         watchdog_action: WatchdogAction::Pause,
         wait_blending_done: true,
