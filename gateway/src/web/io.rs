@@ -11,7 +11,7 @@
 //!
 //! The halves also keep the connection's [`Exchange`]: a read that brings
 //! the first byte of a request marks the connection busy (in the server's
-//! [`Slots`](super::slots::Slots)); an answer must be written within
+//! [`Slots`](super::Slots)); an answer must be written within
 //! [`ANSWER_DEADLINE`] of its first write (a client that reads slowly
 //! cannot hold a slot longer); and once the connection is asked to close
 //! (a newcomer takes its slot, or the allow-list no longer permits its
@@ -33,8 +33,8 @@ use picoserve::io::embedded_io_async::{self, ErrorKind, ErrorType};
 use picoserve::io::Read;
 use picoserve::mem::{BorrowedBuffer, BorrowedCursor};
 
-use super::slots::{Close, Session};
-use super::ANSWER_DEADLINE;
+use super::{Session, ANSWER_DEADLINE};
+use crate::admission::Close;
 use crate::clock::{with_deadline, Clock};
 use crate::net::{NetError, Socket};
 
@@ -348,7 +348,7 @@ mod tests {
     use picoserve::io::Socket as _;
 
     use crate::testkit::clock::VirtualClock;
-    use crate::web::slots::Slots;
+    use crate::web::{Slots, LIMITS, NAMES};
 
     /// A client that takes its answer a write a second: each write ends
     /// well within picoserve's timeout for one write.
@@ -377,7 +377,7 @@ mod tests {
     #[test]
     fn an_answer_taken_slowly_ends_at_the_answer_deadline() {
         let clock = VirtualClock::new();
-        let slots = Slots::new();
+        let slots = Slots::new(NAMES, LIMITS);
         let ex = Exchange::new(&clock, slots.session(0));
         let mut sock = SlowReader(&clock);
         let mut conn = Conn::new(&mut sock, &ex);
