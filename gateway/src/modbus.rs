@@ -65,7 +65,7 @@ use modbus_core::{
 };
 
 use crate::access::accounts::Role;
-use crate::admission::{self, octets, Close, Limits, Names, Refusal};
+use crate::admission::{self, octets, Close, Limits, Names, Refusal, Session};
 use crate::clock::{with_deadline, Clock};
 use crate::net::Socket;
 use crate::registers::{self as r, AccessError, WriteError};
@@ -222,11 +222,8 @@ pub(crate) const CLAIM_WAIT: Duration =
     Duration::from_millis(EVICT_IDLE.as_millis() + FRAME_DEADLINE.as_millis());
 /// The sessions' table: who is served, since when idle, who is asked to
 /// close. Shared by the session futures (and the hub, which closes the
-/// sessions an allow-list no longer permits). A waker for each session
-/// future.
-pub(crate) type Slots = admission::Slots<SOCKETS, MAX_CLIENTS, PER_ADDRESS, SOCKETS>;
-/// One session's end of [`Slots`].
-type Session<'a> = admission::Session<'a, SOCKETS, MAX_CLIENTS, PER_ADDRESS, SOCKETS>;
+/// sessions an allow-list no longer permits).
+pub(crate) type Slots = admission::Slots<SOCKETS, MAX_CLIENTS, PER_ADDRESS>;
 /// The sessions' times. A newcomer whose address has its [`PER_ADDRESS`]
 /// sessions, all in the middle of a frame, is closed at once: none waits
 /// for its own address's sessions (a client that reconnects finds its old
@@ -369,7 +366,7 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
                     if started.is_none() {
                         let now = clock.now();
                         started = Some(now);
-                        session.started(now);
+                        session.started();
                     }
                     len += n;
                 }
@@ -428,8 +425,8 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
         session.answered(now);
         // What is left is the start of the next frame.
         started = (len > 0).then_some(now);
-        if let Some(t) = started {
-            session.started(t);
+        if started.is_some() {
+            session.started();
         }
     }
 }
@@ -443,7 +440,7 @@ fn may_serve<R: Registers>(regs: &R, session: Session<'_>, peer: Option<SocketAd
         None if regs.permits(peer) => return true,
         None => Close::NotAllowed,
     };
-    regs.slots().closed(why, peer);
+    session.closed(why, peer);
     false
 }
 
@@ -862,7 +859,7 @@ mod tests {
         }
     }
 
-    crate::admission::tests::admission_suite!(Slots::new(NAMES, LIMITS));
+    crate::admission::tests::admission_suite!(Slots::new(&NAMES, &LIMITS));
 
     fn answer(map: &Map, adu: &[u8]) -> Vec<u8> {
         let mut out = [0u8; MAX_ADU];

@@ -8,9 +8,10 @@
 //! serving a client takes, a socket only what accepting one takes. With
 //! one socket more than slots, one always accepts a newcomer while every
 //! slot is taken; the newcomer then waits in this table for a slot
-//! ([`Slots::claim`]). Each socket has an entry here; the listener's
-//! futures and whoever applies an allow-list share the table, and none
-//! holds it across an await.
+//! ([`Slots::claim`]). Each socket has an entry here, and a waker: one
+//! future at a time waits on it (its newcomer's, or its session's
+//! server); the listener's futures and whoever applies an allow-list share
+//! the table, and none holds it across an await.
 //!
 //! # Rules
 //! * A session is *busy* from the first byte of a request until its answer
@@ -51,22 +52,23 @@
 //! keeps a slot for some addresses is added there.
 //!
 //! # One compiled copy
-//! The rules work on a slice of entries (`Core<[Entry]>`), so that the
-//! listeners' tables, arrays of their own sizes, share one copy of them in
-//! flash; only the shell around them ([`Slots`]: the lock, the wakers, the
-//! newcomer's wait) is generic.
+//! Everything but the storage works on a `Table`, the table seen as a
+//! slice of its sockets' entries whatever the listener's sizes, so that
+//! the listeners share one copy of the rules and the waits in flash; only
+//! [`Slots`], the storage (an array of the listener's size), is generic.
+//! Each socket's entry has its own waker, for the one future that waits on
+//! it at a time: no shared list of wakers to size (one too short makes
+//! waiting futures of separate tasks wake each other in turn).
 
 #[cfg(test)]
 pub(crate) mod tests;
 
 use core::cell::RefCell;
-use core::future::poll_fn;
+use core::future::{poll_fn, Future};
 use core::net::SocketAddrV4;
-use core::task::Poll;
+use core::task::{Context, Poll};
 
-use embassy_sync::blocking_mutex::raw::NoopRawMutex;
-use embassy_sync::blocking_mutex::Mutex;
-use embassy_sync::waitqueue::MultiWakerRegistration;
+use embassy_sync::waitqueue::WakerRegistration;
 use embassy_time::{Duration, Instant};
 
 use crate::clock::{with_deadline, Clock};
@@ -126,8 +128,8 @@ pub(crate) fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
 enum Phase {
     /// The socket accepts (or is between connections).
     Free,
-    /// A newcomer waits for a slot; the ticket says who came first.
-    Waiting(u64),
+    /// A newcomer waits for a slot (its ticket says since when).
+    Waiting,
     /// A client is served.
     Serving,
 }
@@ -136,11 +138,14 @@ enum Phase {
 #[derive(Clone, Copy, Debug)]
 struct Entry {
     phase: Phase,
+    /// Who came first: the newcomers' order (this one's, while it waits).
+    ticket: u64,
     peer: Option<SocketAddrV4>,
     /// When it last answered a request (or was given its slot).
     last: Instant,
-    /// A request (or its answer) in progress, since its first byte.
-    busy: Option<Instant>,
+    /// A request (or its answer) in progress: from its first byte until
+    /// it is answered.
+    busy: bool,
     /// Asked to close, and why.
     close: Option<Close>,
 }
@@ -148,19 +153,20 @@ struct Entry {
 impl Entry {
     const FREE: Entry = Entry {
         phase: Phase::Free,
+        ticket: 0,
         peer: None,
         last: Instant::from_ticks(0),
-        busy: None,
+        busy: false,
         close: None,
     };
 
     fn serving(&self) -> bool {
-        self.phase == Phase::Serving
+        matches!(self.phase, Phase::Serving)
     }
 
     /// A newcomer that came before the one with `ticket`.
     fn waiting_before(&self, ticket: u64) -> bool {
-        matches!(self.phase, Phase::Waiting(t) if t < ticket)
+        self.phase == Phase::Waiting && self.ticket < ticket
     }
 
     fn same_host(&self, peer: Option<SocketAddrV4>) -> bool {
@@ -169,7 +175,7 @@ impl Entry {
 
     /// Served, not asked to close, and no request in progress.
     fn quiet(&self) -> bool {
-        self.serving() && self.close.is_none() && self.busy.is_none()
+        self.serving() && self.close.is_none() && !self.busy
     }
 
     /// Quiet for `evict_idle`: a newcomer may take its slot.
@@ -178,7 +184,27 @@ impl Entry {
     }
 }
 
-/// What a waiting newcomer does next.
+/// A socket's entry, and the waker of the one future waiting on it.
+struct Seat {
+    entry: Entry,
+    waker: WakerRegistration,
+}
+
+impl Seat {
+    const FREE: Seat = Seat {
+        entry: Entry::FREE,
+        waker: WakerRegistration::new(),
+    };
+}
+
+/// What becomes of a waiting newcomer.
+enum Next {
+    Done(Result<(), Refusal>),
+    /// Look again at the next change, or then at the latest.
+    Wait(Instant),
+}
+
+/// What a waiting newcomer does next, by the rules.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Step {
     Claimed,
@@ -187,39 +213,49 @@ enum Step {
     Wait(Option<Instant>),
 }
 
-/// A table's sizes and limits, as the rules read them.
+/// A table's sizes, limits and names, as the rules read them.
+#[derive(Clone, Copy, Debug)]
 struct Rules {
     slots: usize,
     per_address: usize,
-    limits: Limits,
+    limits: &'static Limits,
+    names: &'static Names,
 }
 
-/// The table without its wakers: entries `E` (an array of the listener's
-/// size, seen by the rules as a slice).
-struct Core<E: ?Sized> {
+/// A table: its rules and its seats `S` (an array of the listener's size,
+/// seen as a slice by everything but [`Slots`]).
+struct Core<S: ?Sized> {
+    rules: Rules,
     tickets: u64,
-    /// Counts changes: a waiting newcomer looks again when it moved.
-    gen: u32,
-    /// A change since the wakers were last woken.
+    /// Changed since the waiting futures were last woken.
     changed: bool,
-    entries: E,
+    seats: S,
 }
 
-impl Core<[Entry]> {
-    fn changed(&mut self) {
-        self.gen = self.gen.wrapping_add(1);
-        self.changed = true;
+impl Core<[Seat]> {
+    fn entries(&self) -> impl Iterator<Item = &Entry> {
+        self.seats.iter().map(|s| &s.entry)
+    }
+
+    fn entry(&self, j: usize) -> Option<&Entry> {
+        self.seats.get(j).map(|s| &s.entry)
+    }
+
+    fn entry_mut(&mut self, j: usize) -> Option<&mut Entry> {
+        self.seats.get_mut(j).map(|s| &mut s.entry)
     }
 
     /// Socket `j` accepted `peer`: it waits for a slot from `now`.
     fn arrive(&mut self, j: usize, peer: Option<SocketAddrV4>, now: Instant) {
         self.tickets = self.tickets.wrapping_add(1);
-        if let Some(e) = self.entries.get_mut(j) {
+        let ticket = self.tickets;
+        if let Some(e) = self.entry_mut(j) {
             *e = Entry {
-                phase: Phase::Waiting(self.tickets),
+                phase: Phase::Waiting,
+                ticket,
                 peer,
                 last: now,
-                busy: None,
+                busy: false,
                 close: None,
             };
         }
@@ -229,29 +265,30 @@ impl Core<[Entry]> {
     /// close.
     fn evict(&mut self, which: impl Fn(&Entry) -> bool) -> bool {
         let victim = self
-            .entries
+            .seats
             .iter_mut()
+            .map(|s| &mut s.entry)
             .filter(|e| which(e))
             .min_by_key(|e| e.last);
         let Some(v) = victim else {
             return false;
         };
         v.close = Some(Close::Evicted);
-        self.changed();
+        self.changed = true;
         true
     }
 
     /// Slots of waiting newcomer `j`'s address ahead of it (served, or
     /// waiting since earlier), not asked to close.
     fn mine(&self, j: usize) -> usize {
-        let Some(me) = self.entries.get(j) else {
+        let Some(me) = self.entry(j) else {
             return 0;
         };
-        let Phase::Waiting(ticket) = me.phase else {
+        if me.phase != Phase::Waiting {
             return 0;
-        };
-        self.entries
-            .iter()
+        }
+        let ticket = me.ticket;
+        self.entries()
             .filter(|e| e.serving() || e.waiting_before(ticket))
             .filter(|e| e.close.is_none() && e.same_host(me.peer))
             .count()
@@ -259,28 +296,34 @@ impl Core<[Entry]> {
 
     /// Newcomer `j` (waiting): may it take a slot now? It asks a session
     /// to close for it only if `may_evict` (not at the end of its wait).
-    fn step(&mut self, r: &Rules, j: usize, now: Instant, may_evict: bool) -> Step {
-        let Some(me) = self.entries.get(j).copied() else {
+    fn step(&mut self, j: usize, now: Instant, may_evict: bool) -> Step {
+        let Rules {
+            slots,
+            per_address,
+            limits,
+            ..
+        } = self.rules;
+        let Some(me) = self.entry(j).copied() else {
             return Step::Refuse(Refusal::Full);
         };
         if me.close.is_some() {
             return Step::Refuse(Refusal::NotAllowed);
         }
-        let Phase::Waiting(ticket) = me.phase else {
+        if me.phase != Phase::Waiting {
             return Step::Refuse(Refusal::Full);
-        };
+        }
+        let ticket = me.ticket;
         // Its address's cap first: the newest connection of an address
         // wins over the least recently active quiet one; with all of them
         // busy, a few may wait.
-        if self.mine(j) >= r.per_address
+        if self.mine(j) >= per_address
             && !(may_evict && self.evict(|e| e.quiet() && e.same_host(me.peer)))
         {
             let waiting = self
-                .entries
-                .iter()
+                .entries()
                 .filter(|e| e.waiting_before(ticket) && e.same_host(me.peer))
                 .count();
-            return match waiting < r.limits.waiting_per_address {
+            return match waiting < limits.waiting_per_address {
                 // Woken when one of them answers.
                 true => Step::Wait(None),
                 false => Step::Refuse(Refusal::PerAddress),
@@ -288,112 +331,86 @@ impl Core<[Entry]> {
         }
         // First come, first served (a newcomer waiting for its own
         // address's sessions does not hold up the others).
-        let before = (0..self.entries.len()).any(|i| {
-            self.entries
-                .get(i)
-                .is_some_and(|e| e.waiting_before(ticket))
-                && self.mine(i) < r.per_address
+        let before = (0..self.seats.len()).any(|i| {
+            self.entry(i).is_some_and(|e| e.waiting_before(ticket)) && self.mine(i) < per_address
         });
         if before {
             return Step::Wait(None);
         }
-        let serving = self.entries.iter().filter(|e| e.serving()).count();
-        if serving < r.slots {
-            if let Some(e) = self.entries.get_mut(j) {
+        if self.entries().filter(|e| e.serving()).count() < slots {
+            if let Some(e) = self.entry_mut(j) {
                 e.phase = Phase::Serving;
                 e.last = now;
             }
-            self.changed();
+            self.changed = true;
             return Step::Claimed;
         }
-        let closing = self
-            .entries
-            .iter()
-            .any(|e| e.serving() && e.close.is_some());
-        let evict_idle = r.limits.evict_idle;
-        if closing || (may_evict && self.evict(|e| e.idle(now, evict_idle))) {
+        let closing = self.entries().any(|e| e.serving() && e.close.is_some());
+        if closing || (may_evict && self.evict(|e| e.idle(now, limits.evict_idle))) {
             return Step::Wait(None);
         }
         // None idle yet: wait until the first may be.
         let next = self
-            .entries
-            .iter()
+            .entries()
             .filter(|e| e.quiet())
-            .map(|e| e.last + evict_idle)
+            .map(|e| e.last + limits.evict_idle)
             .min();
         Step::Wait(next)
     }
 
     /// Socket `j`'s session ended (or its newcomer was refused).
     fn release(&mut self, j: usize) {
-        if let Some(e) = self.entries.get_mut(j) {
+        if let Some(e) = self.entry_mut(j) {
             *e = Entry::FREE;
         }
-        self.changed();
+        self.changed = true;
     }
 
     fn close_unless(&mut self, permits: &dyn Fn(Option<SocketAddrV4>) -> bool) {
-        let mut any = false;
-        for e in self.entries.iter_mut() {
-            if e.phase != Phase::Free && e.close.is_none() && !permits(e.peer) {
+        for s in self.seats.iter_mut() {
+            let e = &mut s.entry;
+            if !matches!(e.phase, Phase::Free) && e.close.is_none() && !permits(e.peer) {
                 e.close = Some(Close::NotAllowed);
-                any = true;
+                self.changed = true;
             }
-        }
-        if any {
-            self.changed();
         }
     }
 
-    fn started(&mut self, j: usize, at: Instant) {
-        if let Some(e) = self.entries.get_mut(j) {
-            e.busy.get_or_insert(at);
+    fn started(&mut self, j: usize) {
+        if let Some(e) = self.entry_mut(j) {
+            e.busy = true;
         }
     }
 
     fn answered(&mut self, j: usize, at: Instant) {
-        if let Some(e) = self.entries.get_mut(j) {
-            e.busy = None;
+        if let Some(e) = self.entry_mut(j) {
+            e.busy = false;
             e.last = at;
         }
         // A newcomer waiting for a quiet session learns when it may be
         // idle (or, at its address's cap, that it is quiet now).
-        self.changed();
+        self.changed = true;
     }
 
     fn asked(&self, j: usize) -> Option<Close> {
-        self.entries.get(j).and_then(|e| e.close)
+        self.entry(j).and_then(|e| e.close)
     }
-}
-
-struct Table<const SOCKETS: usize, const WAKERS: usize> {
-    core: Core<[Entry; SOCKETS]>,
-    wakers: MultiWakerRegistration<WAKERS>,
 }
 
 /// A listener's admission table (see the module documentation):
 /// `SOCKETS` sockets, `SLOTS` of them served at once, at most
-/// `PER_ADDRESS` of those for one address, and `WAKERS` wakers that may
-/// wait on it at once. With more, registering one wakes the others (which
-/// look again, and register again): it covers every accepting and serving
-/// future of the listener, for executors that poll them as tasks of their
-/// own; on the gateway's they are one task, which takes one.
-pub(crate) struct Slots<
-    const SOCKETS: usize,
-    const SLOTS: usize,
-    const PER_ADDRESS: usize,
-    const WAKERS: usize,
-> {
-    table: Mutex<NoopRawMutex, RefCell<Table<SOCKETS, WAKERS>>>,
-    names: Names,
-    limits: Limits,
+/// `PER_ADDRESS` of those for one address. Only the storage is generic:
+/// every method works on its `Table`, the same type whatever the sizes.
+pub(crate) struct Slots<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize> {
+    core: RefCell<Core<[Seat; SOCKETS]>>,
 }
 
-impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize, const WAKERS: usize>
-    Slots<SOCKETS, SLOTS, PER_ADDRESS, WAKERS>
+impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize>
+    Slots<SOCKETS, SLOTS, PER_ADDRESS>
 {
-    /// All free.
-    pub(crate) const fn new(names: Names, limits: Limits) -> Self {
+    /// All free; the listener's log lines name it and its allow-list by
+    /// `names`.
+    pub(crate) const fn new(names: &'static Names, limits: &'static Limits) -> Self {
         const {
             assert!(
                 0 < SLOTS && SLOTS <= SOCKETS,
@@ -403,194 +420,250 @@ impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize, const W
                 0 < PER_ADDRESS && PER_ADDRESS <= SLOTS,
                 "one address holds one slot at least, all at most"
             );
-            assert!(WAKERS > 0, "a waker at least");
         }
         Slots {
-            table: Mutex::new(RefCell::new(Table {
-                core: Core {
-                    tickets: 0,
-                    gen: 0,
-                    changed: false,
-                    entries: [Entry::FREE; SOCKETS],
+            core: RefCell::new(Core {
+                rules: Rules {
+                    slots: SLOTS,
+                    per_address: PER_ADDRESS,
+                    limits,
+                    names,
                 },
-                wakers: MultiWakerRegistration::new(),
-            })),
-            names,
-            limits,
+                tickets: 0,
+                changed: false,
+                seats: [Seat::FREE; SOCKETS],
+            }),
         }
     }
 
-    /// Runs `f` on the table; wakes whoever waits if it changed.
-    fn with<R>(&self, f: impl FnOnce(&mut Core<[Entry]>) -> R) -> R {
-        self.table.lock(|t| {
-            let t = &mut *t.borrow_mut();
-            let r = f(&mut t.core);
-            if core::mem::take(&mut t.core.changed) {
-                t.wakers.wake();
-            }
-            r
-        })
-    }
-
-    /// Resolves when `f` gives a value (it is asked again at each change
-    /// of the table).
-    async fn until<R>(&self, mut f: impl FnMut(&Core<[Entry]>) -> Option<R>) -> R {
-        poll_fn(|cx| {
-            self.table.lock(|t| {
-                let t = &mut *t.borrow_mut();
-                match f(&t.core) {
-                    Some(r) => Poll::Ready(r),
-                    None => {
-                        t.wakers.register(cx.waker());
-                        Poll::Pending
-                    }
-                }
-            })
-        })
-        .await
+    /// The table, whatever its sizes.
+    fn table(&self) -> Table<'_> {
+        Table { core: &self.core }
     }
 
     /// Socket `j` accepted `peer` (that the allow-list permits): waits
     /// until it is given a slot, at most [`Limits::claim_wait`].
-    pub(crate) async fn claim<C: Clock>(
-        &self,
+    pub(crate) fn claim<'a, C: Clock>(
+        &'a self,
         j: usize,
         peer: Option<SocketAddrV4>,
-        clock: &C,
-    ) -> Result<(), Refusal> {
-        let start = clock.now();
-        self.with(|t| t.arrive(j, peer, start));
-        let give_up = start + self.limits.claim_wait;
-        let rules = Rules {
-            slots: SLOTS,
-            per_address: PER_ADDRESS,
-            limits: self.limits,
-        };
-        loop {
-            let now = clock.now();
-            let (step, gen) = self.with(|t| {
-                let step = match t.step(&rules, j, now, now < give_up) {
-                    Step::Wait(_) if now >= give_up => Step::Refuse(Refusal::Full),
-                    s => s,
-                };
-                (step, t.gen)
-            });
-            let until = match step {
-                Step::Claimed => return Ok(()),
-                Step::Refuse(r) => {
-                    self.release(j);
-                    return Err(r);
-                }
-                Step::Wait(at) => at.map_or(give_up, |a| a.min(give_up)),
-            };
-            let changed = self.until(|t| (t.gen != gen).then_some(()));
-            // Looked at again either way.
-            let _ = with_deadline(clock, until, changed).await;
-        }
+        clock: &'a C,
+    ) -> impl Future<Output = Result<(), Refusal>> + 'a {
+        self.table().claim(j, peer, clock)
     }
 
     /// Socket `j`'s session ended (or its newcomer was refused): its slot,
     /// if it had one, is free.
     pub(crate) fn release(&self, j: usize) {
-        self.with(|t| t.release(j));
+        self.table().release(j);
     }
 
     /// Asks every session (served or waiting) whose peer `permits` refuses
     /// to close; they do before anything more of theirs is served.
     pub(crate) fn close_unless(&self, permits: impl Fn(Option<SocketAddrV4>) -> bool) {
-        self.with(|t| t.close_unless(&permits));
+        self.table().close_unless(&permits);
     }
 
     /// Socket `j`'s session, as its server sees it.
-    pub(crate) fn session(&self, j: usize) -> Session<'_, SOCKETS, SLOTS, PER_ADDRESS, WAKERS> {
-        Session { slots: self, j }
+    pub(crate) fn session(&self, j: usize) -> Session<'_> {
+        Session {
+            table: self.table(),
+            j,
+        }
     }
 
     /// Logs why the client at `peer` is not served.
     pub(crate) fn refused(&self, why: Refusal, peer: Option<SocketAddrV4>) {
-        log_refused(&self.names, why, peer, SLOTS, PER_ADDRESS);
+        self.table().refused(why, peer);
     }
 
     /// Logs why the session of the client at `peer` was closed.
     pub(crate) fn closed(&self, why: Close, peer: Option<SocketAddrV4>) {
-        log_closed(&self.names, why, peer);
+        self.table().closed(why, peer);
     }
 }
 
-fn log_refused(
-    names: &Names,
-    why: Refusal,
-    peer: Option<SocketAddrV4>,
-    slots: usize,
-    per_address: usize,
-) {
-    let [a, b, c, d] = octets(peer);
-    let n = names.listener;
-    match why {
-        Refusal::PerAddress => warn!(
-            "{}: client {}.{}.{}.{} refused: {} slots from that address, all busy",
-            n, a, b, c, d, per_address
-        ),
-        Refusal::Full => warn!(
-            "{}: client {}.{}.{}.{} refused: all {} slots busy, none idle",
-            n, a, b, c, d, slots
-        ),
-        Refusal::NotAllowed => warn!(
-            "{}: client {}.{}.{}.{} refused (not in {})",
-            n, a, b, c, d, names.allow_list
-        ),
-    }
+/// A listener's table seen without its sizes: what the newcomers, the
+/// sessions and whoever applies an allow-list share.
+#[derive(Clone, Copy)]
+struct Table<'a> {
+    core: &'a RefCell<Core<[Seat]>>,
 }
 
-fn log_closed(names: &Names, why: Close, peer: Option<SocketAddrV4>) {
-    let [a, b, c, d] = octets(peer);
-    let n = names.listener;
-    match why {
-        Close::Evicted => info!(
-            "{}: client {}.{}.{}.{} idle, closed for a new client",
-            n, a, b, c, d
-        ),
-        Close::NotAllowed => warn!(
-            "{}: client {}.{}.{}.{} no longer in {}, closed",
-            n, a, b, c, d, names.allow_list
-        ),
+impl Table<'_> {
+    /// Runs `f` on the table; if it changed, wakes every future waiting on
+    /// it.
+    fn with<R>(self, f: impl FnOnce(&mut Core<[Seat]>) -> R) -> R {
+        let core = &mut *self.core.borrow_mut();
+        let r = f(core);
+        if core::mem::take(&mut core.changed) {
+            for s in core.seats.iter_mut() {
+                s.waker.wake();
+            }
+        }
+        r
+    }
+
+    /// Socket `j` accepted `peer` (that the allow-list permits): waits
+    /// until it is given a slot, at most [`Limits::claim_wait`].
+    async fn claim<C: Clock>(
+        self,
+        j: usize,
+        peer: Option<SocketAddrV4>,
+        clock: &C,
+    ) -> Result<(), Refusal> {
+        let give_up = self.arrive(j, peer, clock.now());
+        loop {
+            let until = match self.next(j, clock.now(), give_up) {
+                Next::Done(r) => return r,
+                Next::Wait(until) => until,
+            };
+            // The next change of the table (it wakes this socket's
+            // waker), or `until`: looked at again either way.
+            let mut looked = false;
+            let changed = poll_fn(|cx| self.poll_changed(j, &mut looked, cx));
+            let _ = with_deadline(clock, until, changed).await;
+        }
+    }
+
+    /// Newcomer `j` arrives at `now`, from `peer`; returns when it gives
+    /// up.
+    fn arrive(self, j: usize, peer: Option<SocketAddrV4>, now: Instant) -> Instant {
+        let wait = self.with(|t| {
+            t.arrive(j, peer, now);
+            t.rules.limits.claim_wait
+        });
+        now + wait
+    }
+
+    /// Newcomer `j`, at `now`, waiting until `give_up` at the latest: its
+    /// slot, its refusal (its entry freed), or when to look again.
+    fn next(self, j: usize, now: Instant, give_up: Instant) -> Next {
+        let step = self.with(|t| match t.step(j, now, now < give_up) {
+            Step::Wait(_) if now >= give_up => Step::Refuse(Refusal::Full),
+            s => s,
+        });
+        match step {
+            Step::Claimed => Next::Done(Ok(())),
+            Step::Refuse(r) => {
+                self.release(j);
+                Next::Done(Err(r))
+            }
+            Step::Wait(at) => Next::Wait(at.map_or(give_up, |a| a.min(give_up))),
+        }
+    }
+
+    /// Ready once `looked` was set by an earlier poll and the table woke
+    /// socket `j`'s waker since (or anything else polled it again).
+    fn poll_changed(self, j: usize, looked: &mut bool, cx: &mut Context<'_>) -> Poll<()> {
+        if core::mem::replace(looked, true) {
+            return Poll::Ready(());
+        }
+        self.register(j, cx);
+        Poll::Pending
+    }
+
+    /// Socket `j`'s waiting future is woken at the next change.
+    fn register(self, j: usize, cx: &mut Context<'_>) {
+        if let Some(s) = self.core.borrow_mut().seats.get_mut(j) {
+            s.waker.register(cx.waker());
+        }
+    }
+
+    /// Ready with why socket `j`'s session is asked to close, once it is.
+    fn poll_asked(self, j: usize, cx: &mut Context<'_>) -> Poll<Close> {
+        let asked = self.core.borrow().asked(j);
+        match asked {
+            Some(why) => Poll::Ready(why),
+            None => {
+                self.register(j, cx);
+                Poll::Pending
+            }
+        }
+    }
+
+    /// Socket `j`'s session ended (or its newcomer was refused): its slot,
+    /// if it had one, is free.
+    fn release(self, j: usize) {
+        self.with(|t| t.release(j));
+    }
+
+    /// Asks every session (served or waiting) whose peer `permits` refuses
+    /// to close; they do before anything more of theirs is served.
+    fn close_unless(self, permits: &dyn Fn(Option<SocketAddrV4>) -> bool) {
+        self.with(|t| t.close_unless(permits));
+    }
+
+    /// Logs why the client at `peer` is not served.
+    fn refused(self, why: Refusal, peer: Option<SocketAddrV4>) {
+        let r = self.core.borrow().rules;
+        let [a, b, c, d] = octets(peer);
+        let n = r.names.listener;
+        match why {
+            Refusal::PerAddress => warn!(
+                "{}: client {}.{}.{}.{} refused: {} slots from that address, all busy",
+                n, a, b, c, d, r.per_address
+            ),
+            Refusal::Full => warn!(
+                "{}: client {}.{}.{}.{} refused: all {} slots busy, none idle",
+                n, a, b, c, d, r.slots
+            ),
+            Refusal::NotAllowed => warn!(
+                "{}: client {}.{}.{}.{} refused (not in {})",
+                n, a, b, c, d, r.names.allow_list
+            ),
+        }
+    }
+
+    /// Logs why the session of the client at `peer` was closed.
+    fn closed(self, why: Close, peer: Option<SocketAddrV4>) {
+        let names = self.core.borrow().rules.names;
+        let [a, b, c, d] = octets(peer);
+        let n = names.listener;
+        match why {
+            Close::Evicted => info!(
+                "{}: client {}.{}.{}.{} idle, closed for a new client",
+                n, a, b, c, d
+            ),
+            Close::NotAllowed => warn!(
+                "{}: client {}.{}.{}.{} no longer in {}, closed",
+                n, a, b, c, d, names.allow_list
+            ),
+        }
     }
 }
 
 /// One served session's end of the table: what its server reports and
 /// what it is asked.
 #[derive(Clone, Copy)]
-pub(crate) struct Session<
-    'a,
-    const SOCKETS: usize,
-    const SLOTS: usize,
-    const PER_ADDRESS: usize,
-    const WAKERS: usize,
-> {
-    slots: &'a Slots<SOCKETS, SLOTS, PER_ADDRESS, WAKERS>,
+pub(crate) struct Session<'a> {
+    table: Table<'a>,
     j: usize,
 }
 
-impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize, const WAKERS: usize>
-    Session<'_, SOCKETS, SLOTS, PER_ADDRESS, WAKERS>
-{
-    /// A request's first byte came at `at`: busy until it is answered.
-    pub(crate) fn started(&self, at: Instant) {
-        self.slots.with(|t| t.started(self.j, at));
+impl Session<'_> {
+    /// A request's first byte came: busy until it is answered.
+    pub(crate) fn started(&self) {
+        self.table.with(|t| t.started(self.j));
     }
 
     /// A request was answered at `at`: quiet from then.
     pub(crate) fn answered(&self, at: Instant) {
-        self.slots.with(|t| t.answered(self.j, at));
+        self.table.with(|t| t.answered(self.j, at));
     }
 
     /// Why it was asked to close, if it was.
     pub(crate) fn asked(&self) -> Option<Close> {
-        self.slots.with(|t| t.asked(self.j))
+        self.table.core.borrow().asked(self.j)
     }
 
     /// Resolves when it is asked to close.
-    pub(crate) async fn closing(&self) -> Close {
-        self.slots.until(|t| t.asked(self.j)).await
+    pub(crate) fn closing(&self) -> impl Future<Output = Close> + '_ {
+        poll_fn(|cx| self.table.poll_asked(self.j, cx))
+    }
+
+    /// Logs why it was closed from outside (its client at `peer`).
+    pub(crate) fn closed(&self, why: Close, peer: Option<SocketAddrV4>) {
+        self.table.closed(why, peer);
     }
 }

@@ -72,7 +72,7 @@ mod third_shape {
         waiting_per_address: 2,
     };
 
-    admission_suite!(Slots::<6, 4, 2, 6>::new(NAMES, LIMITS));
+    admission_suite!(Slots::<6, 4, 2>::new(&NAMES, &LIMITS));
 }
 
 /// How the tests' log lines name the listener.
@@ -111,22 +111,26 @@ struct Newcomer<'a> {
 
 /// One table, its newcomers and the clock: the scenarios are its
 /// methods.
-pub(crate) struct Rig<'a, const S: usize, const N: usize, const P: usize, const W: usize> {
+pub(crate) struct Rig<'a, const S: usize, const N: usize, const P: usize> {
     clock: &'a VirtualClock,
-    slots: &'a Slots<S, N, P, W>,
+    slots: &'a Slots<S, N, P>,
     waiting: Vec<Newcomer<'a>>,
     /// Claims ended: socket, outcome (taken by [`Rig::outcome`]).
     ended: Vec<(usize, Result<(), Refusal>)>,
 }
 
-impl<'a, const S: usize, const N: usize, const P: usize, const W: usize> Rig<'a, S, N, P, W> {
-    pub(crate) fn new(clock: &'a VirtualClock, slots: &'a Slots<S, N, P, W>) -> Self {
+impl<'a, const S: usize, const N: usize, const P: usize> Rig<'a, S, N, P> {
+    pub(crate) fn new(clock: &'a VirtualClock, slots: &'a Slots<S, N, P>) -> Self {
         Rig {
             clock,
             slots,
             waiting: Vec::new(),
             ended: Vec::new(),
         }
+    }
+
+    fn limits(&self) -> Limits {
+        *self.slots.core.borrow().rules.limits
     }
 
     fn now(&self) -> Instant {
@@ -199,7 +203,7 @@ impl<'a, const S: usize, const N: usize, const P: usize, const W: usize> Rig<'a,
     }
 
     fn started(&mut self, j: usize) {
-        self.slots.session(j).started(self.now());
+        self.slots.session(j).started();
         self.poll();
     }
 
@@ -237,7 +241,7 @@ impl<'a, const S: usize, const N: usize, const P: usize, const W: usize> Rig<'a,
 }
 
 /// The scenarios (see the module documentation).
-impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, N, P, W> {
+impl<const S: usize, const N: usize, const P: usize> Rig<'_, S, N, P> {
     /// Newcomers take free slots at once; with every slot taken (none idle
     /// yet) the next waits, and takes the first slot freed, at once.
     pub(crate) fn free_slots_are_taken_at_once(&mut self) {
@@ -268,7 +272,7 @@ impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, 
             self.answered(k);
         }
         assert_eq!(self.arrive(N, peer(60, 1)), None, "none idle yet: it waits");
-        let due = at(100) + self.slots.limits.evict_idle;
+        let due = at(100) + self.limits().evict_idle;
         self.run_until(due - ms(1));
         assert_eq!(self.outcome(N), None);
         assert_eq!(self.asked_of(N), [], "nobody asked before one is idle");
@@ -288,7 +292,7 @@ impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, 
     pub(crate) fn a_session_in_the_middle_of_a_request_is_never_idle(&mut self) {
         self.fill(true);
         assert_eq!(self.arrive(N, peer(60, 1)), None);
-        let give_up = at(0) + self.slots.limits.claim_wait;
+        let give_up = at(0) + self.limits().claim_wait;
         self.run_until(give_up - ms(1));
         assert_eq!(self.outcome(N), None, "it waits the whole claim wait");
         self.run_until(give_up);
@@ -306,7 +310,7 @@ impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, 
             evict_idle,
             claim_wait,
             ..
-        } = self.slots.limits;
+        } = self.limits();
         assert!(evict_idle < claim_wait, "a newcomer outwaits an idle time");
         self.fill(true);
         assert_eq!(self.arrive(N, peer(60, 1)), None);
@@ -328,7 +332,7 @@ impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, 
             evict_idle,
             claim_wait,
             ..
-        } = self.slots.limits;
+        } = self.limits();
         self.fill(true);
         assert_eq!(self.arrive(N, peer(60, 1)), None);
         self.run_until(at(0) + (claim_wait - evict_idle));
@@ -363,10 +367,7 @@ impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, 
             self.answered(k);
         }
         self.run_until(at(300));
-        assert!(
-            at(50) + self.slots.limits.evict_idle > at(300),
-            "none idle yet"
-        );
+        assert!(at(50) + self.limits().evict_idle > at(300), "none idle yet");
         assert_eq!(self.arrive(N, peer(66, 99)), None);
         assert_eq!(
             self.asked_of(N),
@@ -382,7 +383,7 @@ impl<const S: usize, const N: usize, const P: usize, const W: usize> Rig<'_, S, 
     /// while another address's newcomer is served at once; when one of the
     /// address's sessions answers, the first waiting takes its slot.
     pub(crate) fn an_address_at_its_cap_with_every_session_busy(&mut self) {
-        let waiting = self.slots.limits.waiting_per_address;
+        let waiting = self.limits().waiting_per_address;
         assert!(P < N && P + waiting < S, "the scenario needs its sockets");
         for k in 0..P {
             self.serve(k, peer(66, k));

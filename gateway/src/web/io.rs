@@ -33,8 +33,8 @@ use picoserve::io::embedded_io_async::{self, ErrorKind, ErrorType};
 use picoserve::io::Read;
 use picoserve::mem::{BorrowedBuffer, BorrowedCursor};
 
-use super::{Session, ANSWER_DEADLINE};
-use crate::admission::Close;
+use super::ANSWER_DEADLINE;
+use crate::admission::{Close, Session};
 use crate::clock::{with_deadline, Clock};
 use crate::net::{NetError, Socket};
 
@@ -129,7 +129,7 @@ impl<'a, C: Clock> Exchange<'a, C> {
     /// was read before).
     pub(crate) fn started(&self) {
         if !self.busy.replace(true) {
-            self.session.started(self.clock.now());
+            self.session.started();
         }
     }
 
@@ -377,7 +377,7 @@ mod tests {
     #[test]
     fn an_answer_taken_slowly_ends_at_the_answer_deadline() {
         let clock = VirtualClock::new();
-        let slots = Slots::new(NAMES, LIMITS);
+        let slots = Slots::new(&NAMES, &LIMITS);
         let ex = Exchange::new(&clock, slots.session(0));
         let mut sock = SlowReader(&clock);
         let mut conn = Conn::new(&mut sock, &ex);

@@ -99,7 +99,7 @@ use crate::access::accounts::{Role, UserName};
 use crate::access::limit::Limiter;
 use crate::access::session::{Sessions, Token, Who};
 use crate::access::setup::SetupCode;
-use crate::admission::{self, octets, Close, Limits, Names, Refusal};
+use crate::admission::{self, octets, Close, Limits, Names, Refusal, Session};
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::Clock;
 use crate::config::AllowList;
@@ -161,15 +161,9 @@ pub(crate) const LIMITS: Limits = Limits {
     claim_wait: CLAIM_WAIT,
     waiting_per_address: 1,
 };
-/// Futures that may wait on [`Slots`]: each socket's accepting future
-/// (a newcomer's wait) and each slot's (its connection's closing).
-const WAKERS: usize = WEB_CONNECTIONS + WEB_SLOTS;
 /// Who the web server serves: its connections' table
 /// ([`crate::admission`]).
-pub(crate) type Slots = admission::Slots<WEB_CONNECTIONS, WEB_SLOTS, PER_ADDRESS, WAKERS>;
-/// One connection's end of [`Slots`].
-pub(crate) type Session<'a> =
-    admission::Session<'a, WEB_CONNECTIONS, WEB_SLOTS, PER_ADDRESS, WAKERS>;
+pub(crate) type Slots = admission::Slots<WEB_CONNECTIONS, WEB_SLOTS, PER_ADDRESS>;
 /// Requests served on one connection: the last answer says
 /// `Connection: close` and the connection closes, so that no client keeps
 /// a slot (and its place among the idle) for ever.
@@ -247,7 +241,7 @@ pub(crate) async fn run<N: Net, C: Clock>(
         socks: bufs
             .each_mut()
             .map(|b| RefCell::new(net.socket(&mut b.rx, &mut b.tx))),
-        slots: Slots::new(NAMES, LIMITS),
+        slots: Slots::new(&NAMES, &LIMITS),
         admitted: Channel::new(),
         done: [const { Signal::new() }; WEB_CONNECTIONS],
     };
@@ -275,7 +269,7 @@ struct Conns<S> {
     slots: Slots,
     /// Admitted connections (socket, peer) on their way from their
     /// socket's accepting future to a free slot's. At most [`WEB_SLOTS`]
-    /// are admitted at once: a send never waits.
+    /// are admitted at once: it is never full.
     admitted: Channel<NoopRawMutex, (usize, Option<SocketAddrV4>), WEB_SLOTS>,
     /// Per socket: its slot's future is done with it (closed, released).
     done: [Signal<NoopRawMutex, ()>; WEB_CONNECTIONS],
@@ -347,7 +341,8 @@ async fn accept<S: Socket, C: Clock>(
             match slots.claim(j, peer, clock).await {
                 Ok(()) => {
                     // A slot's future serves it, closes it and releases it.
-                    conns.admitted.send((j, peer)).await;
+                    // At most WEB_SLOTS are admitted at once: never full.
+                    let _ = conns.admitted.try_send((j, peer));
                     done.wait().await;
                     false
                 }
@@ -1261,7 +1256,7 @@ mod tests {
     use super::*;
     use core::net::Ipv4Addr;
 
-    crate::admission::tests::admission_suite!(Slots::new(NAMES, LIMITS));
+    crate::admission::tests::admission_suite!(Slots::new(&NAMES, &LIMITS));
 
     #[test]
     fn own_host_names_the_device() {
