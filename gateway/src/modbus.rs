@@ -65,7 +65,7 @@ use modbus_core::{
 };
 
 use crate::access::accounts::Role;
-use crate::admission::{self, octets, Close, Limits, Names, Refusal, Session};
+use crate::admission::{self, octets, Limits, Refusal, Session};
 use crate::clock::{with_deadline, Clock};
 use crate::net::Socket;
 use crate::registers::{self as r, AccessError, WriteError};
@@ -233,11 +233,8 @@ pub(crate) const LIMITS: Limits = Limits {
     claim_wait: CLAIM_WAIT,
     waiting_per_address: 0,
 };
-/// How the log lines name the server and its allow-list.
-pub(crate) const NAMES: Names = Names {
-    listener: "modbus",
-    allow_list: "MODBUS_ALLOW",
-};
+/// The server's name in log lines.
+pub(crate) const NAME: &str = "modbus";
 
 /// Serves Modbus clients on `port`, one after the other, forever, as
 /// socket `i` of the [`SOCKETS`] (its entry in [`Registers::slots`]).
@@ -435,12 +432,10 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
 /// (for a newcomer, or by an allow-list applied since), and the allow-list
 /// in use, not only the one at accept, permits its client. Logs why not.
 fn may_serve<R: Registers>(regs: &R, session: Session<'_>, peer: Option<SocketAddrV4>) -> bool {
-    let why = match session.asked() {
-        Some(why) => why,
-        None if regs.permits(peer) => return true,
-        None => Close::NotAllowed,
+    let Some(why) = session.check(regs.permits(peer)) else {
+        return true;
     };
-    session.closed(why, peer);
+    regs.slots().closed(why, peer);
     false
 }
 
@@ -859,7 +854,7 @@ mod tests {
         }
     }
 
-    crate::admission::tests::admission_suite!(Slots::new(&NAMES, &LIMITS));
+    crate::admission::tests::admission_suite!(Slots::new(NAME, &LIMITS));
 
     fn answer(map: &Map, adu: &[u8]) -> Vec<u8> {
         let mut out = [0u8; MAX_ADU];

@@ -42,14 +42,15 @@
 //!   [`Slots::close_unless`] asks every session and newcomer that a new
 //!   list refuses to close ([`Close::NotAllowed`],
 //!   [`Refusal::NotAllowed`]). A session asked to close, for either
-//!   reason, is served nothing more: the listener checks
-//!   [`Session::asked`] before each request and stops reading when
+//!   reason, is served nothing more: before each request the listener
+//!   asks [`Session::check`] (with its list's verdict on the client, not
+//!   only the one at accept), and it stops reading when
 //!   [`Session::closing`] resolves.
 //!
-//! Who may take a slot is decided in one place, `Core::step`, and which
-//! sessions may be taken for it in `Entry::idle` and the two eviction
-//! calls in `step`: a rule that keeps some sessions from eviction or
-//! keeps a slot for some addresses is added there.
+//! Who may take a slot is decided in one place, `Core::step`, and whose
+//! slot a newcomer may take in another, `Core::evict`: a rule that keeps
+//! a slot for some addresses, or some sessions from eviction, is added
+//! there.
 //!
 //! # One compiled copy
 //! Everything but the storage works on a `Table`, the table seen as a
@@ -85,24 +86,18 @@ pub(crate) struct Limits {
     pub waiting_per_address: usize,
 }
 
-/// How a listener's log lines name it and its allow-list.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct Names {
-    /// The lines' prefix: `modbus`, `web`.
-    pub listener: &'static str,
-    /// The allow-list's setting: `MODBUS_ALLOW`.
-    pub allow_list: &'static str,
-}
-
 /// Why a session is asked to close.
+// Numbered from 1, so that `None::<Close>` is 0 and a free entry all
+// zeros: filled as such, not field by field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
 pub(crate) enum Close {
     /// A newcomer takes its slot (it was the longest idle, or the least
     /// recently active of the newcomer's own address).
-    Evicted,
+    Evicted = 1,
     /// The allow-list in use no longer permits its address.
-    NotAllowed,
+    NotAllowed = 2,
 }
 
 /// Why a newcomer is not served.
@@ -128,7 +123,7 @@ pub(crate) fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
 enum Phase {
     /// The socket accepts (or is between connections).
     Free,
-    /// A newcomer waits for a slot (its ticket says since when).
+    /// A newcomer waits for a slot (its ticket says who came first).
     Waiting,
     /// A client is served.
     Serving,
@@ -139,7 +134,7 @@ enum Phase {
 struct Entry {
     phase: Phase,
     /// Who came first: the newcomers' order (this one's, while it waits).
-    ticket: u64,
+    ticket: u32,
     peer: Option<SocketAddrV4>,
     /// When it last answered a request (or was given its slot).
     last: Instant,
@@ -164,9 +159,12 @@ impl Entry {
         matches!(self.phase, Phase::Serving)
     }
 
-    /// A newcomer that came before the one with `ticket`.
-    fn waiting_before(&self, ticket: u64) -> bool {
-        self.phase == Phase::Waiting && self.ticket < ticket
+    /// A newcomer that came before the one with `ticket`. Tickets wrap;
+    /// compared as serial numbers (RFC 1982), they are right as long as
+    /// the newcomers waiting at once came within 2^31 tickets of each
+    /// other (a few seconds apart, at most a socket each).
+    fn waiting_before(&self, ticket: u32) -> bool {
+        self.phase == Phase::Waiting && (ticket.wrapping_sub(self.ticket) as i32) > 0
     }
 
     fn same_host(&self, peer: Option<SocketAddrV4>) -> bool {
@@ -178,7 +176,7 @@ impl Entry {
         self.serving() && self.close.is_none() && !self.busy
     }
 
-    /// Quiet for `evict_idle`: a newcomer may take its slot.
+    /// Quiet for `evict_idle` at `now`: a newcomer may take its slot.
     fn idle(&self, now: Instant, evict_idle: Duration) -> bool {
         self.quiet() && now.saturating_duration_since(self.last) >= evict_idle
     }
@@ -197,6 +195,27 @@ impl Seat {
     };
 }
 
+/// Whose slot a newcomer may take ([`Core::evict`]).
+#[derive(Clone, Copy)]
+enum Among {
+    /// A session of its own address (at its cap): the newest connection
+    /// wins.
+    Host(Option<SocketAddrV4>),
+    /// A session idle at that instant.
+    IdleAt(Instant),
+}
+
+/// What a session's server reports.
+#[derive(Clone, Copy)]
+enum Mark {
+    /// A request's first byte came.
+    Started,
+    /// A request was answered, then.
+    Answered(Instant),
+    /// The session ended (or its newcomer was refused).
+    Released,
+}
+
 /// What becomes of a waiting newcomer.
 enum Next {
     Done(Result<(), Refusal>),
@@ -213,20 +232,19 @@ enum Step {
     Wait(Option<Instant>),
 }
 
-/// A table's sizes, limits and names, as the rules read them.
+/// A table's sizes and limits, as the rules read them.
 #[derive(Clone, Copy, Debug)]
 struct Rules {
     slots: usize,
     per_address: usize,
     limits: &'static Limits,
-    names: &'static Names,
 }
 
 /// A table: its rules and its seats `S` (an array of the listener's size,
 /// seen as a slice by everything but [`Slots`]).
 struct Core<S: ?Sized> {
     rules: Rules,
-    tickets: u64,
+    tickets: u32,
     /// Changed since the waiting futures were last woken.
     changed: bool,
     seats: S,
@@ -261,14 +279,22 @@ impl Core<[Seat]> {
         }
     }
 
-    /// Asks the least recently active session that `which` picks to
-    /// close.
-    fn evict(&mut self, which: impl Fn(&Entry) -> bool) -> bool {
+    /// Asks the least recently active quiet session among `among` to
+    /// close for a newcomer: `false` if there is none. (Which sessions a
+    /// newcomer may take the slot of is decided here.)
+    fn evict(&mut self, among: Among) -> bool {
+        let evict_idle = self.rules.limits.evict_idle;
         let victim = self
             .seats
             .iter_mut()
             .map(|s| &mut s.entry)
-            .filter(|e| which(e))
+            .filter(|e| {
+                e.quiet()
+                    && match among {
+                        Among::Host(peer) => e.same_host(peer),
+                        Among::IdleAt(now) => e.idle(now, evict_idle),
+                    }
+            })
             .min_by_key(|e| e.last);
         let Some(v) = victim else {
             return false;
@@ -316,9 +342,7 @@ impl Core<[Seat]> {
         // Its address's cap first: the newest connection of an address
         // wins over the least recently active quiet one; with all of them
         // busy, a few may wait.
-        if self.mine(j) >= per_address
-            && !(may_evict && self.evict(|e| e.quiet() && e.same_host(me.peer)))
-        {
+        if self.mine(j) >= per_address && !(may_evict && self.evict(Among::Host(me.peer))) {
             let waiting = self
                 .entries()
                 .filter(|e| e.waiting_before(ticket) && e.same_host(me.peer))
@@ -346,7 +370,7 @@ impl Core<[Seat]> {
             return Step::Claimed;
         }
         let closing = self.entries().any(|e| e.serving() && e.close.is_some());
-        if closing || (may_evict && self.evict(|e| e.idle(now, limits.evict_idle))) {
+        if closing || (may_evict && self.evict(Among::IdleAt(now))) {
             return Step::Wait(None);
         }
         // None idle yet: wait until the first may be.
@@ -356,14 +380,6 @@ impl Core<[Seat]> {
             .map(|e| e.last + limits.evict_idle)
             .min();
         Step::Wait(next)
-    }
-
-    /// Socket `j`'s session ended (or its newcomer was refused).
-    fn release(&mut self, j: usize) {
-        if let Some(e) = self.entry_mut(j) {
-            *e = Entry::FREE;
-        }
-        self.changed = true;
     }
 
     fn close_unless(&mut self, permits: &dyn Fn(Option<SocketAddrV4>) -> bool) {
@@ -376,24 +392,38 @@ impl Core<[Seat]> {
         }
     }
 
-    fn started(&mut self, j: usize) {
-        if let Some(e) = self.entry_mut(j) {
-            e.busy = true;
+    fn mark(&mut self, j: usize, m: Mark) {
+        let Some(e) = self.entry_mut(j) else {
+            return;
+        };
+        match m {
+            Mark::Started => e.busy = true,
+            Mark::Answered(at) => {
+                e.busy = false;
+                e.last = at;
+                // A newcomer waiting for a quiet session learns when it
+                // may be idle (or, at its address's cap, that it is quiet
+                // now).
+                self.changed = true;
+            }
+            Mark::Released => {
+                *e = Entry::FREE;
+                self.changed = true;
+            }
         }
-    }
-
-    fn answered(&mut self, j: usize, at: Instant) {
-        if let Some(e) = self.entry_mut(j) {
-            e.busy = false;
-            e.last = at;
-        }
-        // A newcomer waiting for a quiet session learns when it may be
-        // idle (or, at its address's cap, that it is quiet now).
-        self.changed = true;
     }
 
     fn asked(&self, j: usize) -> Option<Close> {
         self.entry(j).and_then(|e| e.close)
+    }
+}
+
+/// Wakes every future waiting on the table (one function, not a loop in
+/// each caller).
+#[inline(never)]
+fn wake_all(seats: &mut [Seat]) {
+    for s in seats.iter_mut() {
+        s.waker.wake();
     }
 }
 
@@ -403,14 +433,15 @@ impl Core<[Seat]> {
 /// every method works on its `Table`, the same type whatever the sizes.
 pub(crate) struct Slots<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize> {
     core: RefCell<Core<[Seat; SOCKETS]>>,
+    /// The listener's name in log lines: `modbus`, `web`.
+    name: &'static str,
 }
 
 impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize>
     Slots<SOCKETS, SLOTS, PER_ADDRESS>
 {
-    /// All free; the listener's log lines name it and its allow-list by
-    /// `names`.
-    pub(crate) const fn new(names: &'static Names, limits: &'static Limits) -> Self {
+    /// All free; the listener's log lines call it `name`.
+    pub(crate) const fn new(name: &'static str, limits: &'static Limits) -> Self {
         const {
             assert!(
                 0 < SLOTS && SLOTS <= SOCKETS,
@@ -427,12 +458,12 @@ impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize>
                     slots: SLOTS,
                     per_address: PER_ADDRESS,
                     limits,
-                    names,
                 },
                 tickets: 0,
                 changed: false,
                 seats: [Seat::FREE; SOCKETS],
             }),
+            name,
         }
     }
 
@@ -474,12 +505,12 @@ impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize>
 
     /// Logs why the client at `peer` is not served.
     pub(crate) fn refused(&self, why: Refusal, peer: Option<SocketAddrV4>) {
-        self.table().refused(why, peer);
+        log(self.name, Said::Refused(why), peer);
     }
 
     /// Logs why the session of the client at `peer` was closed.
     pub(crate) fn closed(&self, why: Close, peer: Option<SocketAddrV4>) {
-        self.table().closed(why, peer);
+        log(self.name, Said::Closed(why), peer);
     }
 }
 
@@ -492,16 +523,16 @@ struct Table<'a> {
 
 impl Table<'_> {
     /// Runs `f` on the table; if it changed, wakes every future waiting on
-    /// it.
-    fn with<R>(self, f: impl FnOnce(&mut Core<[Seat]>) -> R) -> R {
-        let core = &mut *self.core.borrow_mut();
-        let r = f(core);
+    /// it. `None` if the table is in use: it never is (nothing holds it
+    /// across a call out of this module), but a failed borrow is no
+    /// reason to panic.
+    fn with<R>(self, f: impl FnOnce(&mut Core<[Seat]>) -> R) -> Option<R> {
+        let mut core = self.core.try_borrow_mut().ok()?;
+        let r = f(&mut core);
         if core::mem::take(&mut core.changed) {
-            for s in core.seats.iter_mut() {
-                s.waker.wake();
-            }
+            wake_all(&mut core.seats);
         }
-        r
+        Some(r)
     }
 
     /// Socket `j` accepted `peer` (that the allow-list permits): waits
@@ -533,7 +564,7 @@ impl Table<'_> {
             t.arrive(j, peer, now);
             t.rules.limits.claim_wait
         });
-        now + wait
+        now + wait.unwrap_or(Duration::from_ticks(0))
     }
 
     /// Newcomer `j`, at `now`, waiting until `give_up` at the latest: its
@@ -543,7 +574,7 @@ impl Table<'_> {
             Step::Wait(_) if now >= give_up => Step::Refuse(Refusal::Full),
             s => s,
         });
-        match step {
+        match step.unwrap_or(Step::Refuse(Refusal::Full)) {
             Step::Claimed => Next::Done(Ok(())),
             Step::Refuse(r) => {
                 self.release(j);
@@ -565,15 +596,16 @@ impl Table<'_> {
 
     /// Socket `j`'s waiting future is woken at the next change.
     fn register(self, j: usize, cx: &mut Context<'_>) {
-        if let Some(s) = self.core.borrow_mut().seats.get_mut(j) {
-            s.waker.register(cx.waker());
+        if let Ok(mut t) = self.core.try_borrow_mut() {
+            if let Some(s) = t.seats.get_mut(j) {
+                s.waker.register(cx.waker());
+            }
         }
     }
 
     /// Ready with why socket `j`'s session is asked to close, once it is.
     fn poll_asked(self, j: usize, cx: &mut Context<'_>) -> Poll<Close> {
-        let asked = self.core.borrow().asked(j);
-        match asked {
+        match self.asked(j) {
             Some(why) => Poll::Ready(why),
             None => {
                 self.register(j, cx);
@@ -585,51 +617,60 @@ impl Table<'_> {
     /// Socket `j`'s session ended (or its newcomer was refused): its slot,
     /// if it had one, is free.
     fn release(self, j: usize) {
-        self.with(|t| t.release(j));
+        self.mark(j, Mark::Released);
+    }
+
+    /// Socket `j`'s session started a request, answered one, or ended.
+    fn mark(self, j: usize, m: Mark) {
+        let _ = self.with(|t| t.mark(j, m));
+    }
+
+    /// Why socket `j`'s session is asked to close, if it is.
+    fn asked(self, j: usize) -> Option<Close> {
+        self.core.try_borrow().ok()?.asked(j)
     }
 
     /// Asks every session (served or waiting) whose peer `permits` refuses
     /// to close; they do before anything more of theirs is served.
     fn close_unless(self, permits: &dyn Fn(Option<SocketAddrV4>) -> bool) {
-        self.with(|t| t.close_unless(permits));
+        let _ = self.with(|t| t.close_unless(permits));
     }
+}
 
-    /// Logs why the client at `peer` is not served.
-    fn refused(self, why: Refusal, peer: Option<SocketAddrV4>) {
-        let r = self.core.borrow().rules;
-        let [a, b, c, d] = octets(peer);
-        let n = r.names.listener;
-        match why {
-            Refusal::PerAddress => warn!(
-                "{}: client {}.{}.{}.{} refused: {} slots from that address, all busy",
-                n, a, b, c, d, r.per_address
-            ),
-            Refusal::Full => warn!(
-                "{}: client {}.{}.{}.{} refused: all {} slots busy, none idle",
-                n, a, b, c, d, r.slots
-            ),
-            Refusal::NotAllowed => warn!(
-                "{}: client {}.{}.{}.{} refused (not in {})",
-                n, a, b, c, d, r.names.allow_list
-            ),
-        }
-    }
+/// What the log says of a client.
+#[derive(Clone, Copy)]
+enum Said {
+    Refused(Refusal),
+    Closed(Close),
+}
 
-    /// Logs why the session of the client at `peer` was closed.
-    fn closed(self, why: Close, peer: Option<SocketAddrV4>) {
-        let names = self.core.borrow().rules.names;
-        let [a, b, c, d] = octets(peer);
-        let n = names.listener;
-        match why {
-            Close::Evicted => info!(
-                "{}: client {}.{}.{}.{} idle, closed for a new client",
-                n, a, b, c, d
-            ),
-            Close::NotAllowed => warn!(
-                "{}: client {}.{}.{}.{} no longer in {}, closed",
-                n, a, b, c, d, names.allow_list
-            ),
-        }
+/// Logs why the client at `peer` of the listener `name` is not served,
+/// or was closed.
+fn log(name: &str, said: Said, peer: Option<SocketAddrV4>) {
+    let [a, b, c, d] = octets(peer);
+    // A line each: a format string costs no flash (defmt keeps it on the
+    // host), a string argument does.
+    match said {
+        Said::Refused(Refusal::PerAddress) => warn!(
+            "{}: client {}.{}.{}.{} refused: its address has all the slots it may, all busy",
+            name, a, b, c, d
+        ),
+        Said::Refused(Refusal::Full) => warn!(
+            "{}: client {}.{}.{}.{} refused: every slot busy, none idle",
+            name, a, b, c, d
+        ),
+        Said::Refused(Refusal::NotAllowed) => warn!(
+            "{}: client {}.{}.{}.{} refused: not in the allow-list",
+            name, a, b, c, d
+        ),
+        Said::Closed(Close::Evicted) => info!(
+            "{}: client {}.{}.{}.{} idle, closed for a new client",
+            name, a, b, c, d
+        ),
+        Said::Closed(Close::NotAllowed) => warn!(
+            "{}: client {}.{}.{}.{} no longer in the allow-list, closed",
+            name, a, b, c, d
+        ),
     }
 }
 
@@ -644,26 +685,27 @@ pub(crate) struct Session<'a> {
 impl Session<'_> {
     /// A request's first byte came: busy until it is answered.
     pub(crate) fn started(&self) {
-        self.table.with(|t| t.started(self.j));
+        self.table.mark(self.j, Mark::Started);
     }
 
     /// A request was answered at `at`: quiet from then.
     pub(crate) fn answered(&self, at: Instant) {
-        self.table.with(|t| t.answered(self.j, at));
+        self.table.mark(self.j, Mark::Answered(at));
     }
 
-    /// Why it was asked to close, if it was.
-    pub(crate) fn asked(&self) -> Option<Close> {
-        self.table.core.borrow().asked(self.j)
+    /// Why it may not be served another request, if it may not: it was
+    /// asked to close (for a newcomer, or by an allow-list applied since),
+    /// or its client is not `permitted` by the allow-list in use (checked
+    /// by the listener, whose list it is, before each request).
+    pub(crate) fn check(&self, permitted: bool) -> Option<Close> {
+        match self.table.asked(self.j) {
+            None if !permitted => Some(Close::NotAllowed),
+            asked => asked,
+        }
     }
 
     /// Resolves when it is asked to close.
     pub(crate) fn closing(&self) -> impl Future<Output = Close> + '_ {
         poll_fn(|cx| self.table.poll_asked(self.j, cx))
-    }
-
-    /// Logs why it was closed from outside (its client at `peer`).
-    pub(crate) fn closed(&self, why: Close, peer: Option<SocketAddrV4>) {
-        self.table.closed(why, peer);
     }
 }

@@ -19,7 +19,7 @@ use std::vec::Vec;
 
 use embassy_time::{Duration, Instant};
 
-use super::{Close, Limits, Names, Refusal, Slots};
+use super::{Close, Limits, Refusal, Slots};
 use crate::clock::Clock;
 use crate::testkit::clock::VirtualClock;
 use crate::testkit::world::Flag;
@@ -72,14 +72,11 @@ mod third_shape {
         waiting_per_address: 2,
     };
 
-    admission_suite!(Slots::<6, 4, 2>::new(&NAMES, &LIMITS));
+    admission_suite!(Slots::<6, 4, 2>::new(NAME, &LIMITS));
 }
 
-/// How the tests' log lines name the listener.
-const NAMES: Names = Names {
-    listener: "test",
-    allow_list: "TEST_ALLOW",
-};
+/// The tests' listener's name in log lines.
+const NAME: &str = "test";
 
 fn peer(host: u8, port: usize) -> Option<SocketAddrV4> {
     let port = u16::try_from(port).unwrap_or(u16::MAX);
@@ -218,7 +215,7 @@ impl<'a, const S: usize, const N: usize, const P: usize> Rig<'a, S, N, P> {
     }
 
     fn asked(&self, j: usize) -> Option<Close> {
-        self.slots.session(j).asked()
+        self.slots.session(j).check(true)
     }
 
     /// Every slot served (socket `k` from host `k`), each in the middle of
@@ -426,8 +423,9 @@ impl<const S: usize, const N: usize, const P: usize> Rig<'_, S, N, P> {
     }
 
     /// A new allow-list asks the sessions it refuses to close (and wakes
-    /// those waiting for that), refuses the waiting newcomers it refuses, and
-    /// leaves the others alone.
+    /// those waiting for that), refuses the waiting newcomers it refuses,
+    /// and leaves the others alone; the check before each request says
+    /// so.
     pub(crate) fn a_new_allow_list_closes_whom_it_refuses(&mut self) {
         self.fill(true);
         let refused = peer(host(1), 2);
@@ -448,6 +446,13 @@ impl<const S: usize, const N: usize, const P: usize> Rig<'_, S, N, P> {
         );
         assert_eq!(self.asked_of(N), [(1, Close::NotAllowed)]);
         assert_eq!(self.outcome(N), Some(Err(Refusal::NotAllowed)));
+        // Before each request the listener checks with its list's verdict:
+        // an asked session is not served, whatever the verdict; another
+        // is, unless the verdict is no.
+        let (asked, other) = (self.slots.session(1), self.slots.session(0));
+        assert_eq!(asked.check(true), Some(Close::NotAllowed));
+        assert_eq!(other.check(true), None);
+        assert_eq!(other.check(false), Some(Close::NotAllowed));
     }
 
     /// Peers whose address is unknown are not one address: the cap does not

@@ -146,9 +146,11 @@ impl<'a, C: Clock> Exchange<'a, C> {
         self.served.get()
     }
 
-    /// Why the connection was asked to close, if it was.
-    pub(crate) fn asked(&self) -> Option<Close> {
-        self.session.asked()
+    /// Why the connection may not be served another request, if it may
+    /// not: asked to close, or its client not `permitted` by the
+    /// allow-list in use.
+    pub(crate) fn check(&self, permitted: bool) -> Option<Close> {
+        self.session.check(permitted)
     }
 
     /// When the answer in progress must be written by (from its first
@@ -348,7 +350,7 @@ mod tests {
     use picoserve::io::Socket as _;
 
     use crate::testkit::clock::VirtualClock;
-    use crate::web::{Slots, LIMITS, NAMES};
+    use crate::web::{Slots, LIMITS, NAME};
 
     /// A client that takes its answer a write a second: each write ends
     /// well within picoserve's timeout for one write.
@@ -377,7 +379,7 @@ mod tests {
     #[test]
     fn an_answer_taken_slowly_ends_at_the_answer_deadline() {
         let clock = VirtualClock::new();
-        let slots = Slots::new(&NAMES, &LIMITS);
+        let slots = Slots::new(NAME, &LIMITS);
         let ex = Exchange::new(&clock, slots.session(0));
         let mut sock = SlowReader(&clock);
         let mut conn = Conn::new(&mut sock, &ex);

@@ -99,7 +99,7 @@ use crate::access::accounts::{Role, UserName};
 use crate::access::limit::Limiter;
 use crate::access::session::{Sessions, Token, Who};
 use crate::access::setup::SetupCode;
-use crate::admission::{self, octets, Close, Limits, Names, Refusal, Session};
+use crate::admission::{self, octets, Close, Limits, Refusal, Session};
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::Clock;
 use crate::config::AllowList;
@@ -161,6 +161,8 @@ pub(crate) const LIMITS: Limits = Limits {
     claim_wait: CLAIM_WAIT,
     waiting_per_address: 1,
 };
+/// The server's name in log lines.
+pub(crate) const NAME: &str = "web";
 /// Who the web server serves: its connections' table
 /// ([`crate::admission`]).
 pub(crate) type Slots = admission::Slots<WEB_CONNECTIONS, WEB_SLOTS, PER_ADDRESS>;
@@ -241,7 +243,7 @@ pub(crate) async fn run<N: Net, C: Clock>(
         socks: bufs
             .each_mut()
             .map(|b| RefCell::new(net.socket(&mut b.rx, &mut b.tx))),
-        slots: Slots::new(&NAMES, &LIMITS),
+        slots: Slots::new(NAME, &LIMITS),
         admitted: Channel::new(),
         done: [const { Signal::new() }; WEB_CONNECTIONS],
     };
@@ -289,12 +291,6 @@ impl SocketBufs {
         }
     }
 }
-
-/// How the log lines name the server and its allow-list ([`permits`]).
-pub(crate) const NAMES: Names = Names {
-    listener: "web",
-    allow_list: "WEB_ALLOW",
-};
 
 /// `list` permits a client at `peer` (an unknown address only when the
 /// list is empty), as `Hub::admit_web` decides, without counting.
@@ -465,7 +461,7 @@ impl<C: Clock> PathRouterService<()> for Served<'_, C> {
         let allowed = app
             .hub
             .with(|m| permits(&m.config.active.web_allow, app.peer));
-        if self.ex.asked().is_some() || !allowed {
+        if self.ex.check(allowed).is_some() {
             // Closed unanswered, as at accept: the route is never looked
             // at, and the write fails (the connection is closing), which
             // ends it. (The same writer type as the routes': no code of
@@ -1256,7 +1252,7 @@ mod tests {
     use super::*;
     use core::net::Ipv4Addr;
 
-    crate::admission::tests::admission_suite!(Slots::new(&NAMES, &LIMITS));
+    crate::admission::tests::admission_suite!(Slots::new(NAME, &LIMITS));
 
     #[test]
     fn own_host_names_the_device() {
