@@ -12,8 +12,9 @@
 # field-device firmware over HTTP; the bootloader on flash files; signed
 # updates through the page's API: bad images refused while the PLC is
 # served, an update installed and confirmed, one rolled back), which print
-# the stack high-water marks, the web page's load time and the update's
-# figures.
+# the stack high-water marks (a test fails when its firmware's mark is over
+# its budget: firmware/qemu-tests/src/lib.rs, STACK_BUDGETS), the web
+# page's load time and the update's figures.
 #
 # To run the field-device firmware for a browser (or by hand) instead, with
 # its web page forwarded to the host: scripts/qemu-field-device.sh.
@@ -111,8 +112,11 @@ status=${PIPESTATUS[0]}
 set -e
 
 echo "==> stack high-water marks measured under QEMU (painted stack)"
-# Each QEMU test prints "<test>: stack_used=N stack_size=M ..." at its end.
+# Each QEMU test prints "<test>: stack_used=N stack_size=M ..." at its end,
+# and fails if N is over its firmware's budget (STACK_BUDGETS in
+# firmware/qemu-tests/src/lib.rs, the one place they are declared).
 grep -oE '[a-z0-9-]+: stack_used=[0-9]+ stack_size=[0-9]+' "$LOG" | grep -v '^diag:' | sed 's/^/  /' || echo "  (none reported)"
+grep -E '^[a-z0-9-]+: stack high-water mark .* is over' "$LOG" | sed 's/^/  OVER BUDGET: /' || true
 echo "==> web page load time from the field-device firmware under QEMU (reported, not asserted)"
 grep -E '^[a-z0-9-]+: page load round' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
 echo "==> firmware update under QEMU (tests/update.rs; reported, not asserted)"

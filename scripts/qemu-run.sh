@@ -43,7 +43,7 @@
 #                written raw to stdout
 #
 # A firmware linked for the update slots (the field device: its vector table
-# at 0x0001_0400, hans_gateway::update::layout::MPS2_AN386.entry) runs as on
+# at 0x0001_0400, hans_fw_image::layout::MPS2_AN386.entry) runs as on
 # a device with updates: QEMU starts the bootloader (firmware/bootloader-mps2,
 # beside the ELF), which checks the image in the flash file's active slot,
 # copies it to RAM and starts it. The flash file is a host file the guest

@@ -27,7 +27,7 @@ command -v openssl >/dev/null || need_apt+=(openssl) # the test CAs and certific
 command -v llvm-size >/dev/null && command -v llvm-objcopy >/dev/null && command -v llvm-readelf >/dev/null || need_apt+=(llvm)
 # Headless Chromium drives the web page in the browser tests (host-tests/web-e2e).
 command -v chromium >/dev/null || need_apt+=(chromium)
-command -v systemd-analyze >/dev/null || need_apt+=(systemd) # checks gateway/dist/hans-gateway.service
+command -v systemd-analyze >/dev/null || need_apt+=(systemd) # checks linux/dist/hans-gateway.service
 # The robustness rig (host-tests/robustness): a network namespace with a TAP
 # device (ip), floods (hping3), crafted frames (scapy for Debian's python3),
 # a DHCP server for the firmware's DHCP client (dnsmasq).

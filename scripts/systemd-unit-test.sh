@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Checks the systemd unit gateway/dist/hans-gateway.service.
+# Checks the systemd unit linux/dist/hans-gateway.service.
 #
 # (a) Always: the unit, its ExecStart pointed at the binary built here, passes
 #     `systemd-analyze verify` without a remark (an unknown key is only a
@@ -20,7 +20,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-UNIT=${UNIT:-gateway/dist/hans-gateway.service}
+UNIT=${UNIT:-linux/dist/hans-gateway.service}
 WAIT=20
 say() { echo "systemd-unit-test: $*"; }
 fail() {
@@ -28,7 +28,7 @@ fail() {
   exit 1
 }
 
-cargo build -p hans-gateway --bin hans-gateway --locked --quiet
+cargo build -p hans-gateway-linux --bin hans-gateway --locked --quiet
 BIN=$(pwd)/${CARGO_TARGET_DIR:-target}/debug/hans-gateway
 [ -x "$BIN" ] || fail "no binary at $BIN"
 

@@ -20,7 +20,7 @@ use embedded_storage_async::nor_flash::{
     ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
 use hans_gateway::storage::flash::FlashStorage;
-use hans_gateway::storage::{Image, Storage, StorageError, IMAGE_LEN};
+use hans_gateway::storage::{ConfigStore, Image, StorageError, IMAGE_LEN};
 
 const SECTOR: usize = 16 * 1024;
 

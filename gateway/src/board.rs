@@ -60,12 +60,10 @@ use crate::clock::SystemClock;
 #[cfg(feature = "mqtt")]
 use crate::config::HostName;
 use crate::config::NetConfig;
-use crate::gateway::{Gateway, Options, MAX_SESSIONS};
+use crate::gateway::Storage;
+use crate::gateway::{Gateway, Options};
+use crate::limits::MAX_SESSIONS;
 use crate::net::embassy::EmbassyNet;
-use crate::storage::Storage;
-
-#[allow(unused_imports)]
-use crate::storage::NoStorage;
 
 /// Sockets of the DataSheet reader (feature `datasheet`).
 const DATASHEET_SOCKETS: usize = if cfg!(feature = "datasheet") { 1 } else { 0 };
@@ -114,12 +112,22 @@ pub async fn run<S: Storage>(
         },
         None => options,
     };
-    let gateway = Gateway::new(options);
+    // The gateway's state (25 KiB on the field device, 10 KiB in the core)
+    // is built in `place`'s frame, which is gone once it returns: built
+    // here, it was a temporary in the frame of the board task's poll (this
+    // future's), which the stack carries for as long as the gateway runs.
+    let mut gateway = None;
+    let gateway: &Gateway = place(&mut gateway, || Gateway::new(options));
     gateway.load(&mut storage, &clock).await;
     if options.network_managed {
-        apply_network(stack, &gateway);
+        apply_network(stack, gateway);
     }
     let net = EmbassyNet::new(stack);
+    // `serve` borrows the storage (`&mut S` is a `Storage`), as it borrows
+    // `net` and `clock`: given the storage itself (the field device's
+    // firmware slots, 96 bytes), its future (110 KiB with its join) was
+    // built on the stack, in the frame of the board task's poll, and then
+    // moved into the task: 138 KiB of stack for as long as the gateway runs.
     // With DHCP the address comes (and may go) while the gateway runs: a
     // second future logs it. Without, apply_network has logged it.
     // With SNTP a third asks the time server (`crate::sntp`).
@@ -133,11 +141,20 @@ pub async fn run<S: Storage>(
         let sntp = crate::sntp::on_stack(stack, gateway.hub(), &clock, options.seed);
         #[cfg(not(feature = "sntp"))]
         let sntp = core::future::pending::<Infallible>();
-        let (never, _, _) = join3(gateway.serve(&net, &clock, storage), announce, sntp).await;
+        let (never, _, _) = join3(gateway.serve(&net, &clock, &mut storage), announce, sntp).await;
         never
     }
     #[cfg(not(any(feature = "dhcp", feature = "sntp")))]
-    gateway.serve(&net, &clock, storage).await
+    gateway.serve(&net, &clock, &mut storage).await
+}
+
+/// Puts what `make` builds into `slot` and returns it there. Not inlined:
+/// a large value is built in this function's frame (for the moment of the
+/// call), not in its caller's, a future's poll, whose frame stays on the
+/// stack under every other one while the future runs.
+#[inline(never)]
+fn place<T>(slot: &mut Option<T>, make: impl FnOnce() -> T) -> &mut T {
+    slot.insert(make())
 }
 
 /// The board's own name, `hans-` and its MAC address in hex (the
@@ -145,17 +162,11 @@ pub async fn run<S: Storage>(
 /// plant's network, and what its label shows. `None` without a 6-byte MAC.
 #[cfg(feature = "mqtt")]
 fn mac_name(mac: &[u8]) -> Option<HostName> {
-    const HEX: &[u8; 16] = b"0123456789abcdef";
     let mac: &[u8; 6] = mac.try_into().ok()?;
     let mut out = [0u8; 17];
     let (prefix, digits) = out.split_at_mut(5);
     prefix.copy_from_slice(b"hans-");
-    for (pair, b) in digits.chunks_exact_mut(2).zip(mac) {
-        if let [hi, lo] = pair {
-            *hi = HEX.get(usize::from(b >> 4)).copied().unwrap_or(b'0');
-            *lo = HEX.get(usize::from(b & 15)).copied().unwrap_or(b'0');
-        }
-    }
+    crate::hex::encode(mac, digits)?;
     HostName::from_bytes(&out)
 }
 

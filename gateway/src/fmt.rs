@@ -1,5 +1,5 @@
 //! Logging macros: one line per event, through `defmt` on boards (feature
-//! `defmt`), through `log` on Linux (feature `std`), or nowhere.
+//! `defmt`), through `log` on Linux (feature `log`), or nowhere.
 //!
 //! Arguments must be `Display` and `defmt::Format` alike (integers, `&str`):
 //! the same call compiles for both back ends.
@@ -9,9 +9,9 @@ macro_rules! info {
     ($($arg:tt)*) => {{
         #[cfg(feature = "defmt")]
         defmt::info!($($arg)*);
-        #[cfg(all(feature = "std", not(feature = "defmt")))]
+        #[cfg(all(feature = "log", not(feature = "defmt")))]
         log::info!($($arg)*);
-        #[cfg(not(any(feature = "std", feature = "defmt")))]
+        #[cfg(not(any(feature = "log", feature = "defmt")))]
         { let _ = ($crate::fmt::Ignore, $($arg)*); }
     }};
 }
@@ -20,9 +20,9 @@ macro_rules! warn {
     ($($arg:tt)*) => {{
         #[cfg(feature = "defmt")]
         defmt::warn!($($arg)*);
-        #[cfg(all(feature = "std", not(feature = "defmt")))]
+        #[cfg(all(feature = "log", not(feature = "defmt")))]
         log::warn!($($arg)*);
-        #[cfg(not(any(feature = "std", feature = "defmt")))]
+        #[cfg(not(any(feature = "log", feature = "defmt")))]
         { let _ = ($crate::fmt::Ignore, $($arg)*); }
     }};
 }
@@ -31,9 +31,9 @@ macro_rules! debug {
     ($($arg:tt)*) => {{
         #[cfg(feature = "defmt")]
         defmt::debug!($($arg)*);
-        #[cfg(all(feature = "std", not(feature = "defmt")))]
+        #[cfg(all(feature = "log", not(feature = "defmt")))]
         log::debug!($($arg)*);
-        #[cfg(not(any(feature = "std", feature = "defmt")))]
+        #[cfg(not(any(feature = "log", feature = "defmt")))]
         { let _ = ($crate::fmt::Ignore, $($arg)*); }
     }};
 }

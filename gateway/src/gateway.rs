@@ -7,7 +7,7 @@ use core::convert::Infallible;
 use core::net::Ipv4Addr;
 use core::pin::pin;
 
-use embassy_futures::join::{join, join5, join_array};
+use embassy_futures::join::{join, join5};
 
 use crate::access::setup::SetupCode;
 use crate::clock::Clock;
@@ -15,18 +15,9 @@ use crate::config::{self, Config, HostName};
 use crate::hub::{Hub, PlcPort};
 use crate::net::Net;
 use crate::state::Model;
-use crate::storage::{self, image, Image, SaveOutcome, Storage, StorageError, Stored};
+use crate::storage::{image, ConfigStore, Image, Medium, SaveOutcome, StorageError, Stored};
 
-/// Number of Modbus session sockets ([`Gateway::run`] starts one session
-/// future for each). One fewer clients are served at once (4), at most 3
-/// from one address: the last socket accepts a newcomer while all are
-/// served, so that it can take the slot of an idle session (see
-/// `modbus`, where the number of clients is set).
-pub const MAX_SESSIONS: usize = crate::modbus::SOCKETS;
-/// Socket buffer size of each Modbus session (each direction).
-pub const MODBUS_BUF: usize = 512;
-/// Socket buffer size of each robot-link socket (each direction).
-pub const LINK_BUF: usize = 1024;
+use crate::limits::{LINK_BUF, MAX_SESSIONS, MODBUS_BUF};
 
 /// How the gateway is started.
 #[derive(Clone, Copy, Debug)]
@@ -85,7 +76,7 @@ pub struct Options {
     /// this platform installs no image.
     #[cfg(feature = "update")]
     pub update_key: Option<[u8; 32]>,
-    /// The board id an image must name (`update::layout`).
+    /// The board id an image must name (`hans_fw_image::layout`).
     #[cfg(feature = "update")]
     pub board: &'static str,
     /// A test's failure of the trial image's self-check (the QEMU board's
@@ -190,6 +181,38 @@ impl Options {
     }
 }
 
+/// What the gateway keeps its things in: a [`ConfigStore`] always, an
+/// [`AuditStore`](crate::storage::AuditStore) with the feature `audit`,
+/// firmware slots ([`SlotStore`](crate::update::SlotStore)) with `update`.
+/// A platform implements the traits its build needs on one value (joining
+/// media with [`WithAudit`](crate::storage::WithAudit) and
+/// [`WithSlots`](crate::update::WithSlots)); this trait is implemented for
+/// every such value.
+pub trait Storage: ConfigStore + needs::Audit + needs::Slots {}
+
+impl<T: ConfigStore + needs::Audit + needs::Slots> Storage for T {}
+
+/// The stores a feature adds to [`Storage`]: one bound per feature, empty
+/// without it.
+pub mod needs {
+    /// With `audit`: [`AuditStore`](crate::storage::AuditStore).
+    #[cfg(feature = "audit")]
+    pub use crate::storage::AuditStore as Audit;
+    /// Without `audit`: nothing.
+    #[cfg(not(feature = "audit"))]
+    pub trait Audit {}
+    #[cfg(not(feature = "audit"))]
+    impl<T> Audit for T {}
+    /// With `update`: [`SlotStore`](crate::update::SlotStore).
+    #[cfg(feature = "update")]
+    pub use crate::update::SlotStore as Slots;
+    /// Without `update`: nothing.
+    #[cfg(not(feature = "update"))]
+    pub trait Slots {}
+    #[cfg(not(feature = "update"))]
+    impl<T> Slots for T {}
+}
+
 /// A gateway: its state, and how it was started.
 pub struct Gateway {
     hub: Hub,
@@ -226,7 +249,8 @@ impl Gateway {
         mut storage: S,
     ) -> Infallible {
         self.load(&mut storage, clock).await;
-        self.serve(net, clock, storage).await
+        // Borrowed, not moved: see `board::run`.
+        self.serve(net, clock, &mut storage).await
     }
 
     /// The network settings to run with, once [`Self::load`] has run:
@@ -248,7 +272,10 @@ impl Gateway {
     }
 
     /// Runs the gateway with the configuration [`Self::load`] loaded
-    /// (see [`Self::run`]).
+    /// (see [`Self::run`]). Pass the storage by reference (`&mut S` is a
+    /// [`Storage`]), as `board::run` does: a storage moved in is carried
+    /// by this future, and a future that copies its arguments in can be
+    /// built on the caller's stack before it moves into place.
     pub async fn serve<N: Net, C: Clock, S: Storage>(
         &self,
         net: &N,
@@ -268,13 +295,23 @@ impl Gateway {
         let engine = crate::engine::run(hub, clock, net.socket(l0, l1), net.socket(l2, l3));
         let plc = PlcPort { hub, clock };
         let mut bufs = [[[0u8; MODBUS_BUF]; 2]; MAX_SESSIONS];
-        let mut index = 0;
-        let sessions = bufs.each_mut().map(|b| {
+        // The sessions one by one, each pinned where it stays: built as an
+        // array (`map`) and moved into `join_array`, the array (4.4 KiB)
+        // went through a temporary in the frame of the board task's poll.
+        // (The pattern does not compile if MAX_SESSIONS changes: then add
+        // or remove a session here.)
+        let [k0, k1, k2, k3, k4] = bufs.each_mut().map(|b| {
             let [rx, tx] = b.each_mut();
-            let i = index;
-            index += 1;
-            crate::modbus::session(&plc, clock, net.socket(rx, tx), port, i)
+            net.socket(rx, tx)
         });
+        let session = |sock, i| crate::modbus::session(&plc, clock, sock, port, i);
+        let (s0, s1, s2) = (
+            pin!(session(k0, 0)),
+            pin!(session(k1, 1)),
+            pin!(session(k2, 2)),
+        );
+        let (s3, s4) = (pin!(session(k3, 3)), pin!(session(k4, 4)));
+        let sessions = join5(s0, s1, s2, s3, s4);
         #[cfg(feature = "datasheet")]
         let (mut ds_rx, mut ds_tx) = ([0u8; LINK_BUF], [0u8; 64]);
         #[cfg(feature = "datasheet")]
@@ -320,7 +357,7 @@ impl Gateway {
         let trial = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
         // built, instead of being moved into the join (through the stack).
-        let (engine, sessions) = (pin!(engine), pin!(join_array(sessions)));
+        let (engine, sessions) = (pin!(engine), pin!(sessions));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
         let (telemetry, trial) = (pin!(telemetry), pin!(trial));
         let _ = join(
@@ -341,6 +378,8 @@ impl Gateway {
         // The audit log first: the boot counter follows its newest record.
         #[cfg(feature = "audit")]
         let boot = crate::audit::keep::restore(&self.hub.audit, storage).await;
+        #[cfg(feature = "audit")]
+        let medium = storage.medium();
         let stored = storage.load().await;
         let opts = &self.opts;
         let now = clock.now();
@@ -352,7 +391,7 @@ impl Gateway {
                     info!("config: nothing stored, using defaults");
                     None
                 }
-                Ok(image) => match storage::image::decode(
+                Ok(image) => match image::decode(
                     image,
                     &opts.defaults,
                     &mut m.triggers.entries,
@@ -361,7 +400,7 @@ impl Gateway {
                         info!("config: loaded from storage");
                         #[cfg(feature = "audit")]
                         {
-                            how = crate::audit::keep::Loaded::Image(image::crc32(image));
+                            how = crate::audit::keep::Loaded::Image(crate::crc::crc32(image));
                         }
                         m.access.accounts = stored.accounts;
                         Some(stored.config)
@@ -426,6 +465,7 @@ impl Gateway {
                     loaded: how,
                     recovery: opts.recovery.then_some((&before_recovery, &config)),
                     triggers: &m.triggers.entries,
+                    medium,
                     wall_clock: opts.wall_clock,
                 },
                 now,
@@ -442,12 +482,7 @@ pub async fn run<N: Net, C: Clock, S: Storage>(
     storage: S,
     opts: Options,
 ) -> Infallible {
-    let gateway = Gateway::new(opts);
-    let run = gateway.run(net, clock, storage);
-    // On a host executor (tokio): see `steady_waker`.
-    #[cfg(feature = "std")]
-    let run = crate::clock::steady_waker(run);
-    run.await
+    Gateway::new(opts).run(net, clock, storage).await
 }
 
 /// The image of the hub's configuration and trigger table as they are.
@@ -576,7 +611,7 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
         let _mailbox = hub.updates.take().await;
         match hub.updates.ask(Op::Confirm).await {
             Ok(()) => {
-                hub.firmware(|s| s.boot = Some(BootState::Confirmed));
+                hub.with(|m| m.firmware.boot = Some(BootState::Confirmed));
                 info!("update: the new firmware passed its self-check and is confirmed");
             }
             Err(e) => warn!("update: the confirmation failed: {}", e.as_str()),
@@ -588,15 +623,17 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
 /// Reads the boot state and the two slots' headers into the firmware's
 /// status (at start, and after an update is marked).
 #[cfg(feature = "update")]
-async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
-    use crate::update::{image, BootState, Slot, SlotOp};
-    let mut boot = BootState::Confirmed;
-    if let Err(e) = storage.firmware(SlotOp::State(&mut boot)).await {
-        if e != crate::update::SlotError::Unsupported {
+async fn survey<S: crate::update::SlotStore>(hub: &Hub, slots: &mut S) {
+    use crate::update::{BootState, Slot, SlotError};
+    use hans_fw_image::{Header, HEADER_LEN};
+    let boot = match slots.state().await {
+        Ok(boot) => boot,
+        Err(SlotError::Unsupported) => return,
+        Err(e) => {
             warn!("update: the boot state cannot be read: {}", e.as_str());
+            return;
         }
-        return;
-    }
+    };
     let mut versions = [None, None];
     // The other image: after a swap the one it replaced (one page into the
     // download slot); after a rollback the one rolled back (at its start).
@@ -605,20 +642,15 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
         _ => Slot::Previous,
     };
     for (slot, v) in [Slot::Active, other].into_iter().zip(versions.iter_mut()) {
-        let mut head = [0u8; image::HEADER_LEN];
-        let read = storage
-            .firmware(SlotOp::Read {
-                slot,
-                offset: 0,
-                buf: &mut head,
-            })
-            .await;
+        let mut head = [0u8; HEADER_LEN];
+        let read = slots.read(slot, 0, &mut head).await;
         *v = read
             .ok()
-            .and_then(|()| image::Header::parse(&head).ok())
+            .and_then(|()| Header::parse(&head).ok())
             .map(|h| h.version);
     }
-    hub.firmware(|s| {
+    hub.with(|m| {
+        let s = &mut m.firmware;
         s.supported = true;
         s.boot = Some(boot);
         s.running = versions[0];
@@ -638,12 +670,12 @@ async fn survey<S: Storage>(hub: &Hub, storage: &mut S) {
 /// Does `op` on the slots.
 #[cfg(feature = "update")]
 #[allow(clippy::await_holding_refcell_ref)] // the piece's borrow: see `Op::Write`
-async fn firmware<S: Storage>(
+async fn firmware<S: crate::update::SlotStore>(
     hub: &Hub,
-    storage: &mut S,
+    slots: &mut S,
     op: crate::update::Op,
 ) -> Result<(), crate::update::SlotError> {
-    use crate::update::{Op, SlotOp};
+    use crate::update::Op;
     match op {
         // The uploader waits for the answer while this holds the piece
         // (the mailbox's protocol), so the borrow is never contended; a
@@ -653,24 +685,24 @@ async fn firmware<S: Storage>(
                 return Err(crate::update::SlotError::Flash);
             };
             let data = piece.get(..len).unwrap_or(&[]);
-            storage.firmware(SlotOp::Write { offset, data }).await
+            slots.write(offset, data).await
         }
         Op::Survey => {
-            survey(hub, storage).await;
+            survey(hub, slots).await;
             Ok(())
         }
-        Op::MarkUpdated => storage.firmware(SlotOp::MarkUpdated).await,
-        Op::Confirm => storage.firmware(SlotOp::Confirm).await,
+        Op::MarkUpdated => slots.mark_updated().await,
+        Op::Confirm => slots.confirm().await,
     }
 }
 
 /// Saves the configuration and trigger table as they are, and answers the
 /// request.
-async fn save<S: Storage>(hub: &Hub, storage: &mut S) {
+async fn save<S: ConfigStore>(hub: &Hub, storage: &mut S) {
     let result = storage.save(&Current(hub)).await;
-    let result = match (result, storage.is_persistent()) {
-        (Ok(()), true) => SaveOutcome::Saved,
-        (Ok(()), false) => SaveOutcome::NotPersistent,
+    let result = match (result, storage.medium()) {
+        (Ok(()), Medium::None) => SaveOutcome::NotPersistent,
+        (Ok(()), Medium::Flash | Medium::File) => SaveOutcome::Saved,
         (Err(e), _) => SaveOutcome::Failed(e),
     };
     hub.save_done.signal(result);

@@ -63,7 +63,7 @@ pub struct Hub {
     /// The MQTT client's connection and counters (the status page shows
     /// them).
     #[cfg(feature = "mqtt")]
-    pub mqtt: crate::telemetry::Status,
+    pub mqtt: crate::state::telemetry::Status,
     /// Raised by every [`Hub::with`] (the state may have changed): wakes
     /// the MQTT client, which publishes by exception, so that a change goes
     /// out at once instead of at its next look (it reads with
@@ -90,7 +90,7 @@ impl Hub {
             #[cfg(feature = "audit")]
             audit: Log::new(),
             #[cfg(feature = "mqtt")]
-            mqtt: crate::telemetry::Status::new(),
+            mqtt: crate::state::telemetry::Status::new(),
             #[cfg(feature = "mqtt")]
             changed: Signal::new(),
             #[cfg(feature = "update")]
@@ -98,17 +98,9 @@ impl Hub {
         }
     }
 
-    /// Changes what the state says of the firmware (the update's progress
-    /// and results).
-    #[cfg_attr(not(feature = "update"), allow(dead_code))] // updates change it
-    pub(crate) fn firmware(&self, f: impl FnOnce(&mut crate::state::firmware::Firmware)) {
-        self.with(|m| f(&mut m.firmware))
-    }
-
     /// Records `event` in the audit log (the accounts' and the page's
     /// events; see `crate::audit`): at once, never blocking.
     #[cfg(feature = "audit")]
-    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the page calls it
     pub(crate) fn audit(&self, event: Event<'_>) {
         self.audit.record(event)
     }

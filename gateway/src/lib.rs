@@ -105,44 +105,41 @@
     )
 )]
 
-#[cfg(any(feature = "std", feature = "testkit"))]
+#[cfg(any(test, feature = "testkit"))]
 extern crate std;
 
 #[macro_use]
 mod fmt;
 
-pub(crate) mod access;
+pub mod access;
 pub(crate) mod admission;
 #[cfg(feature = "audit")]
-pub(crate) mod audit;
+pub mod audit;
 #[cfg(feature = "embassy-net")]
 pub mod board;
 pub(crate) mod clock;
 pub mod config;
+pub mod crc;
 #[cfg(feature = "datasheet")]
 pub(crate) mod datasheet;
 pub(crate) mod engine;
 pub mod error;
 mod gateway;
-#[cfg(feature = "std")]
-pub mod host;
-pub(crate) mod hub;
+pub mod hex;
+pub mod hub;
 pub mod job;
+pub mod limits;
 pub(crate) mod link;
 pub(crate) mod modbus;
 #[cfg(feature = "mqtt")]
 pub mod mqtt;
-pub(crate) mod net;
+pub mod net;
 pub(crate) mod plc;
 pub mod registers;
 #[cfg(any(test, feature = "sntp"))]
 pub(crate) mod sntp;
-#[cfg(feature = "sparkplug")]
-pub mod sparkplug;
 pub mod state;
 pub mod storage;
-#[cfg(feature = "mqtt")]
-pub mod telemetry;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
 #[cfg(feature = "update")]
@@ -160,9 +157,8 @@ pub use config::Config;
 pub use engine::jog::{HEARTBEAT as JOG_HEARTBEAT, KEEP_ALIVE as JOG_KEEP_ALIVE};
 #[cfg(feature = "update")]
 pub use gateway::TRIAL_CHECK;
-pub use gateway::{
-    run, Gateway, MqttOverride, Options, RobotOverride, LINK_BUF, MAX_SESSIONS, MODBUS_BUF,
-};
+pub use gateway::{needs, Storage};
+pub use gateway::{run, Gateway, MqttOverride, Options, RobotOverride};
+pub use storage::{AuditStore, ConfigStore, Medium, NoStorage, StorageError, WithAudit};
 #[cfg(feature = "update")]
-pub use storage::WithSlots;
-pub use storage::{NoStorage, Storage, StorageError};
+pub use update::{NoSlots, SlotStore, WithSlots};

@@ -67,7 +67,7 @@ use modbus_core::{
 use crate::access::accounts::Role;
 use crate::admission::{self, octets, Limits, Refusal, Session};
 use crate::clock::{with_deadline, Clock};
-use crate::net::Socket;
+use crate::net::{PeerClaim, Socket};
 use crate::registers::{self as r, AccessError, WriteError};
 
 /// What the server serves: a register map (the gateway's is
@@ -116,12 +116,18 @@ pub(crate) enum Grant {
 }
 
 impl Grant {
-    /// The grant of a client with `role` (`None`: a plain connection,
-    /// which the allow-list alone admits).
-    pub(crate) fn of(role: Option<Role>) -> Grant {
-        match role {
-            None | Some(Role::Operator | Role::Admin) => Grant::ReadWrite,
-            Some(Role::Viewer) => Grant::ReadOnly,
+    /// The grant of a client whose transport says `claim` of it: a plain
+    /// connection (which the allow-list alone admits) and a certificate
+    /// naming the operator's or the administrator's role read and write;
+    /// a certificate naming the viewer's role, another word or none reads
+    /// only (the least role: unknown claims fail closed).
+    pub(crate) fn of(claim: &PeerClaim) -> Grant {
+        match claim {
+            PeerClaim::None => Grant::ReadWrite,
+            PeerClaim::Certificate(word) => match word.as_deref().and_then(Role::parse) {
+                Some(Role::Operator | Role::Admin) => Grant::ReadWrite,
+                Some(Role::Viewer) | None => Grant::ReadOnly,
+            },
         }
     }
 }
@@ -203,11 +209,11 @@ pub(crate) const FRAME_DEADLINE: Duration = Duration::from_secs(1);
 /// only when a newcomer needs its slot.
 pub(crate) const EVICT_IDLE: Duration = Duration::from_secs(2);
 /// Clients served at once.
-pub(crate) const MAX_CLIENTS: usize = 4;
-/// Sockets (session futures) of the server (`crate::MAX_SESSIONS`): one
-/// more than the clients served, so that one always accepts a newcomer,
-/// which may then take an idle session's slot.
-pub(crate) const SOCKETS: usize = MAX_CLIENTS + 1;
+pub(crate) const MAX_CLIENTS: usize = crate::limits::MODBUS_CLIENTS;
+/// Sockets (session futures) of the server: one more than the clients
+/// served, so that one always accepts a newcomer, which may then take an
+/// idle session's slot.
+pub(crate) const SOCKETS: usize = crate::limits::MAX_SESSIONS;
 /// Clients served at once from one address.
 /// One fewer than all of them: one address (a scanner, a flood) always
 /// leaves a slot for another, while a host running several clients (an
@@ -392,7 +398,7 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
             return;
         }
         // The role as it is now: known once the TLS handshake ended.
-        let answer = if let Some(n) = refuse(Grant::of(sock.role()), adu, &mut out) {
+        let answer = if let Some(n) = refuse(Grant::of(&sock.peer_claim()), adu, &mut out) {
             regs.write_refused(peer);
             let [a, b, c, d] = octets(peer);
             warn!(
@@ -919,10 +925,15 @@ mod tests {
     #[test]
     fn a_read_only_grant_refuses_every_write_with_exception_01() {
         let mut out = [0u8; MAX_ADU];
-        let viewer = Grant::of(Some(Role::Viewer));
+        let cert = |w: Option<&str>| PeerClaim::Certificate(w.map(|w| w.try_into().unwrap()));
+        let viewer = Grant::of(&cert(Some("viewer")));
         assert_eq!(viewer, Grant::ReadOnly);
-        for g in [None, Some(Role::Operator), Some(Role::Admin)] {
-            assert_eq!(Grant::of(g), Grant::ReadWrite, "{g:?}");
+        // Unknown words, none, and a handshake not ended: the least.
+        for c in [cert(Some("root")), cert(Some("Admin")), cert(None)] {
+            assert_eq!(Grant::of(&c), Grant::ReadOnly, "{c:?}");
+        }
+        for c in [PeerClaim::None, cert(Some("operator")), cert(Some("admin"))] {
+            assert_eq!(Grant::of(&c), Grant::ReadWrite, "{c:?}");
         }
         let write = [0x12, 0x34, 0, 0, 0, 6, 7, 6, 0, 140, 0, 1];
         let n = refuse(viewer, &write, &mut out).expect("refused");

@@ -192,12 +192,19 @@ fn the_page_is_served_compressed_and_the_status_is_the_state() {
     assert_eq!(s["modbus"]["sessions"], 1);
     assert_eq!(s["modbus"]["clients"][0], "10.0.0.10:50000");
     assert_eq!(get(&mut w, "/nope").status, 404);
-    assert_eq!(
-        send(&mut w, PC, &request("DELETE", "/api/status", &[], b""))
-            .unwrap()
-            .status,
-        405
-    );
+    // A method a path does not take: 405 with the methods it takes, from
+    // the one route table (/api/audit and GET /api/trigger/N were
+    // 404 when the 405 list was written apart from the routes).
+    for (method, path, allow) in [
+        ("DELETE", "/api/status", "GET, HEAD"),
+        ("PUT", "/api/audit", "GET, HEAD"),
+        ("GET", "/api/trigger/3", "POST"),
+        ("PUT", "/api/accounts", "GET, HEAD, POST"),
+    ] {
+        let a = send(&mut w, PC, &request(method, path, &[], b"")).unwrap();
+        assert_eq!(a.status, 405, "{method} {path}");
+        assert_eq!(a.header("allow"), Some(allow), "{method} {path}");
+    }
 }
 
 #[test]
@@ -1143,7 +1150,7 @@ mod update {
     use super::*;
     use hans_gateway::testkit::flash::{sign, version, SimFlash, TEST_KEY_SEED};
     use hans_gateway::testkit::world::MemStorage;
-    use hans_gateway::update::image::Version;
+    use hans_gateway::update::Version;
 
     const BOARD: &str = "mps2-an386";
 

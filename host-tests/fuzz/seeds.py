@@ -72,6 +72,7 @@ def main():
         # Two packets with garbage and a false magic between them.
         put("datasheet", bytes([i + 100]) + packet(p) + b"\x00LTB\xffLTBR\x01\x00" + packet(p))
     gateway_seeds()
+    enip_seeds()
     return 0
 
 
@@ -357,6 +358,62 @@ def mqtt_seeds():
         + publish(0x21, state_on, pid=3) + wait(0x02) + publish(0x00, rebirth)
         + publish(0xA0, built=b"\x04") + publish(0xA1, pid=4, built=b"\x09") + wait(0x81)
         + conn_ack() + publish(0x20, state_off) + wait(0x81) + conn_ack() + publish(0xA0, built=b"\x00"))
+
+
+
+def enip_seeds():
+    """Seeds of the hans-enip targets: a scanner's session (register, read
+    the identity, open and close a class 1 connection), its CPF items and
+    CIP requests, built from the specification's layouts."""
+    def encap(cmd, session, data):
+        return struct.pack("<HHII8sI", cmd, len(data), session, 0, b"seedctx!", 0) + data
+
+    def cpf(items):
+        return struct.pack("<H", len(items)) + b"".join(struct.pack("<HH", t, len(d)) + d for t, d in items)
+
+    def rr(mr):
+        return struct.pack("<IH", 0, 10) + cpf([(0x0000, b""), (0x00B2, mr)])
+
+    def forward_open(large, serial, path):
+        params = (lambda size: struct.pack("<I", 0x48000000 | size)) if large else (lambda size: struct.pack("<H", 0x4800 | size))
+        body = struct.pack("<BBIIHHIB3sI", 0x0A, 0x0E, 0, 0x70000000 + serial, serial, 1, 0xCAFE, 2, b"", 10000)
+        body += params(14) + struct.pack("<I", 10000) + params(10) + bytes([0x01, len(path) // 2]) + path
+        return bytes([0x5B if large else 0x54, 2, 0x20, 0x06, 0x24, 0x01]) + body
+
+    io_path = bytes([0x20, 0x04, 0x24, 151, 0x2C, 150, 0x2C, 100])
+    key = bytes([0x34, 0x04]) + struct.pack("<HHHBB", 0xFFFE, 0x0C, 1, 0x81, 1)
+    requests = [
+        bytes([0x01, 2, 0x20, 0x01, 0x24, 0x01]),                     # Get_Attributes_All, Identity
+        bytes([0x0E, 3, 0x20, 0xF5, 0x24, 0x01, 0x30, 0x05]),         # TCP/IP attribute 5
+        bytes([0x10, 3, 0x20, 0x04, 0x24, 150, 0x30, 0x03]) + bytes(8),  # Set the output assembly
+        forward_open(False, 1, io_path),
+        forward_open(True, 2, key + io_path),
+        bytes([0x4E, 2, 0x20, 0x06, 0x24, 0x01]) + struct.pack("<BBHHIBB", 0x0A, 0x0E, 1, 1, 0xCAFE, 2, 0) + io_path[:4],
+    ]
+    for r in requests:
+        put("enip_cip", r)
+        put("enip_cip", r[2 + 2 * r[1]:])  # the service data alone (Forward_Open as the parser sees it)
+    # The first session handle of an adapter with Config::default()'s seed
+    # (xorshift32 of 0x1F2E3D4C), so that the seeds get past the session check.
+    x = 0x1F2E3D4C
+    x ^= (x << 13) & 0xFFFFFFFF
+    x ^= x >> 17
+    x ^= (x << 5) & 0xFFFFFFFF
+    session = x
+    stream = encap(0x0065, 0, struct.pack("<HH", 1, 0)) + encap(0x0063, 0, b"")
+    for r in requests:
+        stream += encap(0x006F, session, rr(r))
+    io = cpf([(0x8002, struct.pack("<II", 1, 1)), (0x00B1, struct.pack("<HI", 1, 1) + bytes(8))])
+    for seed in (1, 7, 63):
+        put("enip_stream", bytes([seed]) + stream)
+    put("enip_stream", bytes([0]) + encap(0x0004, 0, b"") + encap(0x0064, 0, b"") + encap(0x0000, 0, b"x"))
+    put("enip_cpf", rr(requests[0])[6:])
+    put("enip_cpf", io)
+    ident = struct.pack("<H", 1) + struct.pack(">HHI8s", 2, 44818, 0x7F000001, b"") + struct.pack(
+        "<HHHBBHIB", 0xFFFE, 0x0C, 1, 1, 1, 0x30, 1, 4) + b"fuzz" + b"\x03"
+    put("enip_cpf", cpf([(0x000C, ident)]))
+    put("enip_cpf", cpf([(0x0100, struct.pack("<HH", 1, 0x120) + b"Communications\x00\x00")]))
+    put("enip_cpf", cpf([(0x0000, b""), (0x00B2, requests[3]), (0x8001, struct.pack(">HHI8s", 2, 2222, 0, b""))]))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 //! What every board's bootloader decides, over the board's three flash
 //! partitions (boot state, active slot, download slot; see
-//! `hans_gateway::update::layout`), written once for the QEMU board's
+//! `hans_fw_image::layout`), written once for the QEMU board's
 //! bootloader (`bootloader-mps2`) and the NUCLEO's (`bootloader-nucleo`):
 //!
 //! 1. [`read_pending`]: what the boot state asks for, read as embassy-boot
@@ -22,8 +22,8 @@
 
 use embassy_boot::{BootLoader, BootLoaderConfig, State};
 use embedded_storage::nor_flash::{NorFlash, ReadNorFlash};
-use hans_gateway::update::image::{Expect, Header, ImageError, Verifier, Version, HEADER_LEN};
-use hans_gateway::update::layout::{Layout, HEADER_PAGE};
+use hans_fw_image::layout::{Layout, HEADER_PAGE};
+use hans_fw_image::{Expect, Header, ImageError, Verifier, Version, HEADER_LEN};
 
 /// The boot state's words (embassy-boot 0.7: the magic, the progress's
 /// validity, then one word per step of the swap), `WORD` bytes each (the

@@ -40,8 +40,8 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embedded_storage::nor_flash::ReadNorFlash;
 use fw_boot::{check_image, expect, refuse_or_swap, Pending, Refusal};
-use hans_gateway::update::image::{Header, Version, HEADER_LEN};
-use hans_gateway::update::layout::{Layout, HEADER_PAGE, MPS2_AN386};
+use hans_fw_image::layout::{Layout, HEADER_PAGE, MPS2_AN386};
+use hans_fw_image::{Header, Version, HEADER_LEN};
 use semihosting::io::Write as _;
 use semihosting_flash::{FlashPath, SemihostingFlash};
 

@@ -36,7 +36,7 @@ use embassy_stm32::pac;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use fw_boot::{check_image, expect, refuse_or_swap, Pending};
-use hans_gateway::update::layout::{Layout, NUCLEO_F767ZI};
+use hans_fw_image::layout::{Layout, NUCLEO_F767ZI};
 
 /// This board's layout.
 const LAYOUT: Layout = NUCLEO_F767ZI;

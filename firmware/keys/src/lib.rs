@@ -25,27 +25,12 @@ pub const TRUSTED: [u8; 32] = match option_env!("HANS_FW_PUBKEY") {
 /// `HANS_FW_PUBKEY`): worth a warning in a log.
 pub const IS_DEVELOPMENT_KEY: bool = option_env!("HANS_FW_PUBKEY").is_none();
 
-/// 64 hex digits (white space may follow) as 32 bytes. Malformed text
-/// stops the build: the constant's evaluation fails.
+/// 64 hex digits (white space may follow) as 32 bytes, read by the image
+/// crate's parser (the one `hans-fw` uses). Malformed text stops the
+/// build: the constant's evaluation fails.
 const fn parse(text: &[u8]) -> [u8; 32] {
-    const fn digit(c: u8) -> u8 {
-        match c {
-            b'0'..=b'9' => c - b'0',
-            b'a'..=b'f' => c - b'a' + 10,
-            b'A'..=b'F' => c - b'A' + 10,
-            _ => panic!("HANS_FW_PUBKEY / dev.pub: not 64 hex digits"),
-        }
+    match hans_fw_image::key_from_hex(text) {
+        Some(key) => key,
+        None => panic!("HANS_FW_PUBKEY / dev.pub: not 64 hex digits"),
     }
-    let mut n = text.len();
-    while n > 0 && text[n - 1].is_ascii_whitespace() {
-        n -= 1;
-    }
-    assert!(n == 64, "HANS_FW_PUBKEY / dev.pub: not 64 hex digits");
-    let mut key = [0u8; 32];
-    let mut i = 0;
-    while i < 32 {
-        key[i] = (digit(text[2 * i]) << 4) | digit(text[2 * i + 1]);
-        i += 1;
-    }
-    key
 }

@@ -6,7 +6,7 @@
 //! (status 1, the reason and the valid image in the download slot named).
 //! The bootloader's log is its text on QEMU's stderr (`hans-boot: ...`).
 //!
-//! The flash file's layout is `hans_gateway::update::layout::MPS2_AN386`:
+//! The flash file's layout is `hans_fw_image::layout::MPS2_AN386`:
 //! boot state at 0, active slot at 0x1000, download slot at 0x8_1000, a
 //! slot's body 1 KiB after its header, 4 KiB pages.
 

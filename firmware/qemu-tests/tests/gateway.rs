@@ -83,7 +83,7 @@ impl Rig {
         let (status, log) = self.wait_end();
         match end {
             End::Exit => {
-                let report = report.unwrap_or_default();
+                let report = report.as_deref().unwrap_or_default();
                 assert!(report.starts_with("stack_used="), "report: {report}");
             }
             End::Panic => {
@@ -97,6 +97,9 @@ impl Rig {
             Some(end.status()),
             "firmware exit status (semihosting) after {end:?}"
         );
+        if let Some(report) = &report {
+            self.check_stack(report);
+        }
     }
 }
 

@@ -612,6 +612,7 @@ fn the_field_device_publishes_sparkplug_b_to_mosquitto_births_and_a_command_even
     let (status, _log) = rig.wait_end();
     assert!(report.starts_with("stack_used="), "report: {report}");
     assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
+    rig.check_stack(&report);
     let ndeath = sub.wait(
         "NDEATH",
         exit + Duration::from_secs(20),

@@ -11,14 +11,15 @@
 //!   write protection (`CFG_WRITE_PROTECT`) is on; then only an authorized
 //!   web session changes the configuration (and lifts the protection).
 //!   A Modbus/TCP Security client (Linux) writes only if its certificate's
-//!   role is operator or admin (`crate::modbus::Grant`, `crate::net::tls`).
+//!   certificate claims the operator's or the administrator's role
+//!   (`crate::modbus::Grant`; the platform's TLS reads the claim).
 //!
 //! The threat model (what this protects against on a plant network, and
 //! what it does not) is in the top-level README.
 
-pub(crate) mod accounts;
-pub(crate) mod password;
-pub(crate) mod setup;
+pub mod accounts;
+pub mod password;
+pub mod setup;
 // Sessions and the rate limit serve the web page only.
 #[cfg(feature = "web")]
 pub(crate) mod session;

@@ -9,15 +9,16 @@
 //! `pbkdf2` crate.
 
 use hmac::{KeyInit, Mac};
+use subtle::ConstantTimeEq;
 
 type HmacSha256 = hmac::Hmac<sha2::Sha256>;
 
 /// Bytes of salt.
-pub(crate) const SALT_LEN: usize = 16;
+pub const SALT_LEN: usize = 16;
 /// Bytes of the derived hash.
-pub(crate) const HASH_LEN: usize = 32;
+pub const HASH_LEN: usize = 32;
 /// PBKDF2 rounds for new passwords (a stored hash keeps its own count).
-pub(crate) const ITERATIONS: u32 = 10_000;
+pub const ITERATIONS: u32 = 10_000;
 /// Rounds of a password set now. In fuzz builds (`cfg(fuzzing)`, set by
 /// cargo-fuzz) 10, so that the web target tries thousands of requests a
 /// second instead of spending them in the hash; the code is the same, and a
@@ -102,10 +103,7 @@ impl PasswordHash {
             return false;
         }
         let h = derive(password, &self.salt, self.iterations).await;
-        h.iter()
-            .zip(&self.hash)
-            .fold(0u8, |acc, (a, b)| acc | (a ^ b))
-            == 0
+        bool::from(h.ct_eq(&self.hash))
     }
 
     /// The stored form: rounds (little-endian), salt, hash.

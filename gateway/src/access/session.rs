@@ -15,6 +15,7 @@ use embassy_time::{Duration, Instant};
 use super::accounts::Role;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha20Rng;
+use subtle::ConstantTimeEq;
 
 /// Sessions open at once.
 pub(crate) const SESSIONS: usize = 4;
@@ -39,43 +40,22 @@ impl core::fmt::Debug for Token {
 impl Token {
     /// The token as 32 lowercase hex characters.
     pub(crate) fn to_hex(self) -> [u8; TOKEN_CHARS] {
-        const HEX: &[u8; 16] = b"0123456789abcdef";
         let mut out = [0u8; TOKEN_CHARS];
-        for (pair, b) in out.chunks_exact_mut(2).zip(self.0) {
-            let digit = |n: u8| HEX.get(usize::from(n & 15)).copied().unwrap_or(b'0');
-            if let [hi, lo] = pair {
-                *hi = digit(b >> 4);
-                *lo = digit(b);
-            }
-        }
+        // TOKEN_CHARS is twice the token's bytes: always fits.
+        let _ = crate::hex::encode(&self.0, &mut out);
         out
     }
 
     /// Reads 32 hex characters.
     pub(crate) fn from_hex(s: &[u8]) -> Option<Token> {
-        if s.len() != TOKEN_CHARS {
-            return None;
-        }
-        let nib = |c: u8| match c {
-            b'0'..=b'9' => Some(c - b'0'),
-            b'a'..=b'f' => Some(c - b'a' + 10),
-            b'A'..=b'F' => Some(c - b'A' + 10),
-            _ => None,
-        };
         let mut t = [0u8; 16];
-        for (b, pair) in t.iter_mut().zip(s.chunks_exact(2)) {
-            *b = (nib(*pair.first()?)? << 4) | nib(*pair.get(1)?)?;
-        }
+        crate::hex::decode(s, &mut t)?;
         Some(Token(t))
     }
 
     fn same(&self, other: &Token) -> bool {
         // Constant time: the comparison does not reveal where a guess differs.
-        self.0
-            .iter()
-            .zip(&other.0)
-            .fold(0u8, |acc, (a, b)| acc | (a ^ b))
-            == 0
+        bool::from(self.0.ct_eq(&other.0))
     }
 }
 

@@ -16,6 +16,8 @@
 
 use core::fmt;
 
+use subtle::ConstantTimeEq;
+
 /// Characters of a code (without the dashes shown between groups of 4).
 pub const SETUP_CODE_LEN: usize = 12;
 
@@ -92,11 +94,7 @@ impl SetupCode {
     /// `true` if `other` is this code; takes the same time wherever they
     /// differ.
     pub fn matches(&self, other: &SetupCode) -> bool {
-        self.0
-            .iter()
-            .zip(&other.0)
-            .fold(0u8, |acc, (a, b)| acc | (a ^ b))
-            == 0
+        bool::from(self.0.ct_eq(&other.0))
     }
 }
 

@@ -12,16 +12,16 @@ use super::{Interface, Kind, Log, Record, Who, RECORD_MAX};
 use crate::clock::Clock;
 use crate::config::Config;
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
-use crate::storage::Storage;
+use crate::storage::{AuditStore, Medium};
 
 /// Reads the records `storage` kept back into the log's ring (the newest
 /// [`super::RING`]) and starts the log: the boot counter and the sequence
 /// numbers go on from the newest kept record. Damaged records are skipped
 /// (counted in the device log).
-pub(crate) async fn restore<S: Storage>(log: &Log, storage: &mut S) -> u32 {
+pub(crate) async fn restore<S: AuditStore>(log: &Log, storage: &mut S) -> u32 {
     let mut bad = 0u32;
     let read = storage
-        .audit_read(&mut |bytes| match Record::parse(bytes) {
+        .read(&mut |bytes| match Record::parse(bytes) {
             Ok((r, _)) => log.restore(r),
             Err(_) => bad += 1,
         })
@@ -32,7 +32,7 @@ pub(crate) async fn restore<S: Storage>(log: &Log, storage: &mut S) -> u32 {
     if bad > 0 {
         warn!("audit: {} damaged records skipped", bad);
     }
-    log.start(storage.audit_persistent())
+    log.start(storage.persistent())
 }
 
 /// How the configuration was found at start.
@@ -58,6 +58,9 @@ pub(crate) struct Start<'a> {
     pub recovery: Option<(&'a Config, &'a Config)>,
     /// The trigger table in use.
     pub triggers: &'a [Text<TRIGGER_TEXT>; TRIGGERS],
+    /// Where the configuration is kept (a file people edit is named as the
+    /// source of what was loaded).
+    pub medium: Medium,
     /// The platform's wall clock (Linux), if it has one.
     pub wall_clock: Option<fn() -> Option<u64>>,
 }
@@ -80,7 +83,7 @@ pub(crate) fn started(log: &Log, s: &Start<'_>, now: Instant) {
     });
     // On Linux the stored configuration is a file people edit.
     let from = Who {
-        interface: if cfg!(feature = "std") {
+        interface: if s.medium == Medium::File {
             Interface::File
         } else {
             Interface::System
@@ -133,17 +136,14 @@ pub(crate) async fn wait_work<C: Clock>(log: &Log, clock: &C) {
 /// Ends the refusal periods that are due, and keeps the stamped records
 /// that wait, oldest first; stops at the first the medium fails on (it is
 /// counted as lost).
-pub(crate) async fn keep<S: Storage, C: Clock>(log: &Log, clock: &C, storage: &mut S) {
+pub(crate) async fn keep<S: AuditStore, C: Clock>(log: &Log, clock: &C, storage: &mut S) {
     let now = clock.now();
     if log.refusals_due().is_some_and(|t| t <= now) {
         log.end_refusal_periods(now);
     }
     let mut buf = [0u8; RECORD_MAX];
     while let Some((seq, n)) = log.next_to_keep(&mut buf) {
-        let ok = storage
-            .audit_append(buf.get(..n).unwrap_or(&[]))
-            .await
-            .is_ok();
+        let ok = storage.append(buf.get(..n).unwrap_or(&[])).await.is_ok();
         if !log.kept(seq, ok) {
             warn!("audit: record {} could not be kept", seq);
             break;

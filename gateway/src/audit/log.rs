@@ -28,8 +28,8 @@ use embassy_time::{Duration, Instant};
 use super::record::{Interface, Kind, Record, Short, DETAIL_MAX, RECORD_MAX};
 use super::{AccountChange, Event, Who};
 use crate::config::{Config, SETTINGS};
+use crate::crc::crc32;
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
-use crate::storage::image::crc32;
 
 /// Records kept in RAM (the page's newest, and the queue of those waiting
 /// to be kept): 64 of ~136 bytes.
@@ -52,7 +52,8 @@ enum Wall {
     Unknown,
     /// The host's clock (Linux): Unix seconds, or `None` if it is unset.
     Host(fn() -> Option<u64>),
-    /// Set at instant `at` to `unix` (a time server).
+    /// Set at instant `at` to `unix` (a time server, feature `sntp`).
+    #[cfg(any(test, feature = "sntp"))]
     Set { unix: u64, at: Instant },
 }
 
@@ -198,6 +199,7 @@ impl Log {
                 });
             }
             Event::Restart { who } => self.add(Kind::Restart, &who, |_| {}),
+            #[cfg(feature = "update")]
             Event::Firmware { who, detail } => {
                 self.add(Kind::Firmware, &who, |d| d.push(detail.as_bytes()))
             }
@@ -274,7 +276,7 @@ impl Log {
     /// The wall clock was set to `unix` (Unix seconds) at `at` (a time
     /// server): recorded when it was not known or moved by more than a
     /// second.
-    #[cfg_attr(not(feature = "sntp"), allow(dead_code))] // the SNTP client calls it
+    #[cfg(any(test, feature = "sntp"))]
     pub(crate) fn set_wall_time(&self, unix: u64, at: Instant, source: Option<Ipv4Addr>) {
         let before = self.with(|i| {
             let before = i.wall_at(at);
@@ -506,9 +508,13 @@ impl Inner {
 
     /// Wall time at `now` (Unix seconds, up to 2106), if known.
     fn wall_at(&self, now: Instant) -> Option<u32> {
+        // Only a time server's setting counts from an instant.
+        #[cfg(not(any(test, feature = "sntp")))]
+        let _ = now;
         let unix = match self.wall {
             Wall::Unknown => None,
             Wall::Host(f) => f(),
+            #[cfg(any(test, feature = "sntp"))]
             Wall::Set { unix, at } => {
                 Some(unix.saturating_add(now.saturating_duration_since(at).as_secs()))
             }

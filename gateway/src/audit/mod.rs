@@ -66,18 +66,14 @@
 //!   `--config`) only the RAM ring holds them.
 //! * `GET /api/audit` (JSON, or `?format=csv`) exports the RAM ring.
 
-// Without the page (`audit` alone) nothing reads the ring back: the
-// records are only kept.
-#![cfg_attr(not(feature = "web"), allow(dead_code, unused_imports))]
-
 pub(crate) mod keep;
 pub(crate) mod log;
-pub(crate) mod record;
+pub mod record;
 
 use core::net::Ipv4Addr;
 
 pub(crate) use log::{Log, RING};
-pub(crate) use record::{Interface, Kind, Record, Short, RECORD_MAX};
+pub use record::{Interface, Kind, Record, Short, RECORD_MAX};
 #[cfg(test)]
 pub(crate) use record::{ACTOR_MAX, DETAIL_MAX};
 
@@ -124,8 +120,6 @@ impl<'a> Who<'a> {
 
 /// An event the accounts and the page record (see the module
 /// documentation for how).
-// `Firmware` is reserved for the update release (not constructed yet).
-#[allow(dead_code)]
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Event<'a> {
     /// A login on the page: `ok` or refused. `name` is the account's name,
@@ -163,8 +157,8 @@ pub(crate) enum Event<'a> {
         /// By whom.
         who: Who<'a>,
     },
-    /// A firmware update (reserved for the update release): what was
-    /// installed, or why not.
+    /// A firmware update: what was installed, or why not.
+    #[cfg(feature = "update")]
     Firmware {
         /// By whom.
         who: Who<'a>,
@@ -174,7 +168,6 @@ pub(crate) enum Event<'a> {
 }
 
 /// What changed in an account ([`Event::Account`]).
-#[cfg_attr(not(feature = "web"), allow(dead_code))] // the page makes them
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum AccountChange<'a> {
     /// Created with this role (`viewer`, `operator`, `admin`).

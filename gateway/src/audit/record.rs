@@ -28,17 +28,17 @@
 
 use core::net::Ipv4Addr;
 
-use crate::storage::image::crc32;
+use crate::crc::crc32;
 
 /// Bytes of a stored record at most.
-pub(crate) const RECORD_MAX: usize = 128;
+pub const RECORD_MAX: usize = 128;
 /// Bytes of an actor (an account name) at most: longer ones are cut.
-pub(crate) const ACTOR_MAX: usize = 16;
+pub const ACTOR_MAX: usize = 16;
 /// Bytes of a record's detail at most: a longer one is cut and ends in
 /// `...`.
-pub(crate) const DETAIL_MAX: usize = RECORD_MAX - field::TEXT - 4 - ACTOR_MAX;
+pub const DETAIL_MAX: usize = RECORD_MAX - field::TEXT - 4 - ACTOR_MAX;
 /// The version byte this gateway writes (and reads).
-pub(crate) const VERSION: u8 = 1;
+pub const VERSION: u8 = 1;
 
 /// Byte ranges of the fixed part (see the module documentation).
 mod field {
@@ -63,7 +63,7 @@ macro_rules! coded {
     ($(#[$m:meta])* $name:ident { $($(#[$vm:meta])* $v:ident = $code:literal, $word:literal;)* }) => {
         $(#[$m])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        pub(crate) enum $name {
+        pub enum $name {
             $($(#[$vm])* $v,)*
             /// A code this version does not know (a newer one wrote it):
             /// kept as read.
@@ -73,10 +73,10 @@ macro_rules! coded {
         impl $name {
             /// Every known value (tests and documentation).
             #[cfg(test)]
-            pub(crate) const ALL: &'static [$name] = &[$($name::$v),*];
+            pub const ALL: &'static [$name] = &[$($name::$v),*];
 
             /// The value of a stored code.
-            pub(crate) fn from_code(c: u8) -> Self {
+            pub fn from_code(c: u8) -> Self {
                 match c {
                     $($code => $name::$v,)*
                     n => $name::Unknown(n),
@@ -84,7 +84,7 @@ macro_rules! coded {
             }
 
             /// The stored code.
-            pub(crate) fn code(self) -> u8 {
+            pub fn code(self) -> u8 {
                 match self {
                     $($name::$v => $code,)*
                     $name::Unknown(n) => n,
@@ -92,7 +92,7 @@ macro_rules! coded {
             }
 
             /// The word in the exports (JSON and CSV).
-            pub(crate) fn as_str(self) -> &'static str {
+            pub fn as_str(self) -> &'static str {
                 match self {
                     $($name::$v => $word,)*
                     $name::Unknown(_) => "unknown",
@@ -167,7 +167,7 @@ coded! {
 /// stored as `?`; a longer text is cut and ends in `...` ([`Short::cut`]).
 /// Writable with `write!`, never failing.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub(crate) struct Short<const N: usize> {
+pub struct Short<const N: usize> {
     bytes: [u8; N],
     len: u8,
     cut: bool,
@@ -187,7 +187,7 @@ impl<const N: usize> Default for Short<N> {
 
 impl<const N: usize> Short<N> {
     /// No text.
-    pub(crate) const EMPTY: Self = {
+    pub const EMPTY: Self = {
         assert!(N < 256 && N >= 3, "a length byte, and room for the ...");
         Short {
             bytes: [0; N],
@@ -197,7 +197,7 @@ impl<const N: usize> Short<N> {
     };
 
     /// `s`, made printable and cut to fit.
-    pub(crate) fn new(s: &[u8]) -> Self {
+    pub fn new(s: &[u8]) -> Self {
         let mut t = Self::EMPTY;
         t.push(s);
         t
@@ -205,7 +205,7 @@ impl<const N: usize> Short<N> {
 
     /// Appends `s`, made printable; what does not fit is cut (the text
     /// then ends in `...` and takes nothing more).
-    pub(crate) fn push(&mut self, s: &[u8]) {
+    pub fn push(&mut self, s: &[u8]) {
         for &b in s {
             if self.cut {
                 return;
@@ -227,18 +227,18 @@ impl<const N: usize> Short<N> {
     }
 
     /// The text.
-    pub(crate) fn as_bytes(&self) -> &[u8] {
+    pub fn as_bytes(&self) -> &[u8] {
         self.bytes.get(..usize::from(self.len)).unwrap_or(&[])
     }
 
     /// The text (always ASCII).
-    pub(crate) fn as_str(&self) -> &str {
+    pub fn as_str(&self) -> &str {
         core::str::from_utf8(self.as_bytes()).unwrap_or("")
     }
 
     /// `true` if text was cut to fit.
     #[cfg(test)]
-    pub(crate) fn cut(&self) -> bool {
+    pub fn cut(&self) -> bool {
         self.cut
     }
 }
@@ -252,7 +252,7 @@ impl<const N: usize> core::fmt::Write for Short<N> {
 
 /// One audit record (see the module documentation for its stored form).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct Record {
+pub struct Record {
     /// Counts every record, across restarts (a gap: records lost).
     pub seq: u32,
     /// Which start of the gateway: counts every start, across restarts.
@@ -276,7 +276,7 @@ pub(crate) struct Record {
 /// Why stored bytes are not a record.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub(crate) enum DecodeError {
+pub enum DecodeError {
     /// Shorter than its lengths say (or than the fixed part).
     Short,
     /// A version this gateway does not read.
@@ -289,7 +289,7 @@ pub(crate) enum DecodeError {
 
 impl Record {
     /// An empty record (a slot of the ring).
-    pub(crate) const EMPTY: Record = Record {
+    pub const EMPTY: Record = Record {
         seq: 0,
         boot: 0,
         uptime_ms: 0,
@@ -303,12 +303,12 @@ impl Record {
 
     /// Bytes of the stored form.
     #[cfg(test)]
-    pub(crate) fn len(&self) -> usize {
+    pub(crate) fn encoded_len(&self) -> usize {
         field::TEXT + self.actor.as_bytes().len() + self.detail.as_bytes().len() + 4
     }
 
     /// Writes the stored form into `out`; returns its length.
-    pub(crate) fn emit(&self, out: &mut [u8; RECORD_MAX]) -> usize {
+    pub fn emit(&self, out: &mut [u8; RECORD_MAX]) -> usize {
         let put = |out: &mut [u8; RECORD_MAX], at: core::ops::Range<usize>, v: &[u8]| {
             if let Some(dst) = out.get_mut(at) {
                 dst.copy_from_slice(v);
@@ -340,7 +340,7 @@ impl Record {
 
     /// Reads a stored record from the start of `bytes` (which may go on
     /// with the next one); returns it and its length.
-    pub(crate) fn parse(bytes: &[u8]) -> Result<(Record, usize), DecodeError> {
+    pub fn parse(bytes: &[u8]) -> Result<(Record, usize), DecodeError> {
         let byte = |i: usize| bytes.get(i).copied().ok_or(DecodeError::Short);
         let word = |r: core::ops::Range<usize>| -> Result<[u8; 4], DecodeError> {
             bytes
@@ -387,7 +387,7 @@ impl Record {
     }
 
     /// The actor as shown: the account name, or `-` for none.
-    pub(crate) fn actor_str(&self) -> &str {
+    pub fn actor_str(&self) -> &str {
         match self.actor.as_str() {
             "" => "-",
             a => a,
@@ -419,7 +419,7 @@ mod tests {
         let mut buf = [0u8; RECORD_MAX];
         for r in [sample(), Record::EMPTY] {
             let n = r.emit(&mut buf);
-            assert_eq!(n, r.len());
+            assert_eq!(n, r.encoded_len());
             assert_eq!(Record::parse(&buf[..n]), Ok((r, n)));
             // Followed by the next one: only its own bytes are read.
             let mut two = buf[..n].to_vec();

@@ -370,7 +370,9 @@ fn every_start_is_counted_and_the_records_survive_a_restart() {
     assert_eq!(kinds, [(1, 1, Kind::Start), (2, 1, Kind::ConfigLoaded)]);
     assert!(first[0].detail.as_str().starts_with("hans-gateway "));
     assert_eq!(first[1].detail.as_str(), "nothing stored: defaults");
-    assert_eq!(first[1].interface, Interface::File, "Linux: the file");
+    // The world's storage is a device's flash (a file people edit would
+    // be named `file`: Linux `--config`, linux/tests/cli.rs).
+    assert_eq!(first[1].interface, Interface::System);
     assert_eq!(kept(&w.config.storage), first, "kept as they were made");
     w.run_for(secs(10));
     w.restart();
@@ -680,7 +682,7 @@ fn the_export_is_json_by_default_and_csv_as_a_download() {
     );
     assert!(lines[1].starts_with("1,1,"), "{}", lines[1]);
     assert!(
-        lines[2].contains(",config-loaded,\"-\",file,,\"nothing stored: defaults\""),
+        lines[2].contains(",config-loaded,\"-\",system,,\"nothing stored: defaults\""),
         "{}",
         lines[2]
     );

@@ -354,13 +354,10 @@ macro_rules! setting {
             id: $id,
             kind: $kind,
             unit: $unit,
-            // Shown by the page and the TOML file only: the core firmware
-            // (neither) keeps ~2 KiB of flash without the texts.
-            help: if cfg!(any(feature = "web", feature = "std")) {
-                $help
-            } else {
-                ""
-            },
+            // Shown by the page and the Linux TOML file (whose gateway has
+            // the page) only: the core firmware (neither) keeps ~2 KiB of
+            // flash without the texts.
+            help: if cfg!(feature = "web") { $help } else { "" },
             restart: $restart,
             get: |$c| $get,
             set: |$s, $v| $set,

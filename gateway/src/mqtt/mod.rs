@@ -46,6 +46,7 @@
 //!   this task's own.
 
 pub mod packet;
+pub mod sparkplug;
 
 #[cfg(test)]
 mod tests;
@@ -59,12 +60,12 @@ use embassy_time::{Duration, Instant};
 use crate::clock::{with_deadline, with_timeout, Clock};
 use crate::config::MqttConfig;
 use crate::hub::Hub;
+use crate::mqtt::sparkplug::topic::ID_MAX;
+use crate::mqtt::sparkplug::{EdgeNode, Id, IdError, MessageType, NodeConfig};
 use crate::net::{Net, Socket};
-use crate::sparkplug::topic::ID_MAX;
-use crate::sparkplug::{EdgeNode, Id, IdError, MessageType, NodeConfig};
-pub use crate::telemetry::{Error, Stats, Status};
+pub use crate::state::telemetry::{Error, Stats, Status};
 
-pub use crate::sparkplug::PAYLOAD_BUF;
+pub use crate::mqtt::sparkplug::PAYLOAD_BUF;
 use packet::{Frame, Packet, Will};
 
 /// The largest packet received whole (an NCMD/DCMD is a few dozen bytes).
@@ -98,7 +99,8 @@ pub struct Settings {
     pub keep_alive: Duration,
     /// The wall time at `Instant` 0 (ms since 1970 UTC), for the
     /// payloads' timestamps; without it they count from the start
-    /// ([`EdgeNode::set_wall_time`]). [`run_host`] sets it from the host.
+    /// ([`EdgeNode::set_wall_time`]); the Linux platform sets it from the
+    /// host's clock.
     pub utc_at_zero: Option<u64>,
     /// A Sparkplug 3.0 primary host: the births wait for its STATE online
     /// message (`spBv1.0/STATE/ID`, JSON `{"online":true,...}`), and its
@@ -661,21 +663,4 @@ pub async fn serve<C: Clock, N: Net>(
         settings.node.group.as_str()
     );
     run(hub, clock, net, &settings, status).await
-}
-
-/// [`run`] on Linux, over tokio's sockets and the system clock (on a
-/// current-thread runtime: the future is not `Send`); the timestamps from
-/// the host's wall clock unless `settings` has one.
-#[cfg(feature = "std")]
-pub async fn run_host(hub: &Hub, settings: &Settings, status: &Status) -> Infallible {
-    let mut settings = settings.clone();
-    if settings.utc_at_zero.is_none() {
-        let utc = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
-            .unwrap_or(0);
-        settings.utc_at_zero = Some(utc.saturating_sub(Instant::now().as_millis()));
-    }
-    let net = crate::net::tokio::TokioNet::new(core::net::Ipv4Addr::UNSPECIFIED);
-    run(hub, &crate::SystemClock, &net, &settings, status).await
 }

@@ -614,7 +614,7 @@ fn a_state_payload_says_online_or_offline() {
 #[test]
 fn with_a_primary_host_the_births_wait_for_its_state_and_its_offline_ends_the_session() {
     let mut s = settings(KA);
-    s.primary_host = Some(crate::sparkplug::Id::new("scada-1").unwrap());
+    s.primary_host = Some(crate::mqtt::sparkplug::Id::new("scada-1").unwrap());
     let mut t = T::with(s);
     assert!(t.run_until(Duration::from_secs(1), |t| t.broker.accept()));
     let c = t.expect(1, Duration::from_secs(1));

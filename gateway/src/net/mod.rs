@@ -1,31 +1,43 @@
-//! The small socket interface the gateway logic runs on.
+//! The small socket interface the gateway logic runs on: the platform API
+//! a network stack implements.
 //!
 //! The logic needs only TCP streams it can connect, accept, read, write and
 //! close, and it reuses each socket for many connections in turn (a board
 //! has a fixed number of sockets with fixed buffers). Two adapters exist:
 //!
-//! * [`tokio`] (feature `std`): Linux, the host binary and the host tests.
-//! * [`embassy`] (feature `embassy-net`): boards, and the
-//!   two-stacks host test.
-//!
-//! On Linux the tokio adapter also serves TLS ([`tls`], feature
-//! `tls-server`: HTTPS, Modbus/TCP Security) behind the same interface:
-//! the servers above do not change; a Modbus session asks its socket for
-//! the client's certificate role ([`Socket::role`]).
+//! * `embassy` (feature `embassy-net`): boards, and the two-stacks host
+//!   test.
+//! * tokio, in the Linux crate (`hans-gateway-linux`), which also serves
+//!   TLS behind the same interface (HTTPS, Modbus/TCP Security): the
+//!   servers above do not change; a Modbus session asks its socket what
+//!   the client's certificate claims ([`Socket::peer_claim`]) and decides
+//!   what that grants.
 //!
 //! The futures are not `Send`: the whole gateway runs as one task on a
 //! single-threaded executor (embassy's, or tokio's current-thread runtime).
 
 use core::net::{Ipv4Addr, SocketAddrV4};
 
-use crate::access::accounts::Role;
-
 #[cfg(feature = "embassy-net")]
 pub(crate) mod embassy;
-#[cfg(feature = "tls-server")]
-pub(crate) mod tls;
-#[cfg(feature = "std")]
-pub(crate) mod tokio;
+
+/// The longest role word a [`PeerClaim`] carries.
+pub const CLAIM_MAX: usize = 16;
+
+/// What a transport that authenticates its clients says of the peer (TLS
+/// with client certificates: Modbus/TCP Security on Linux); the server
+/// decides what it grants. The socket layer knows no roles.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum PeerClaim {
+    /// The transport does not authenticate clients (plain TCP, HTTPS).
+    None,
+    /// The client is authenticated by a certificate (or its handshake has
+    /// not ended yet): the role word it claims (the Modbus/TCP Security
+    /// role extension's text), or `None` where it claims none, an
+    /// unreadable one, one longer than [`CLAIM_MAX`], or has not finished
+    /// its handshake.
+    Certificate(Option<heapless::String<CLAIM_MAX>>),
+}
 
 /// Why a socket operation failed. Every failure ends the connection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -105,14 +117,12 @@ pub trait Socket {
         false
     }
 
-    /// The role a TLS client's certificate gives it, where the connection
-    /// was accepted by a TLS server that requires client certificates
-    /// (Modbus/TCP Security on Linux, see `tls`): the role its certificate
-    /// names, or the least ([`Role::Viewer`]) when it names none the
-    /// gateway knows or the handshake has not ended. `None`: no client
+    /// What the client's certificate claims, where the connection was
+    /// accepted by a TLS server that requires client certificates
+    /// (Modbus/TCP Security on Linux). [`PeerClaim::None`]: no client
     /// authentication (plain TCP, HTTPS), the allow-list alone decides.
-    fn role(&self) -> Option<Role> {
-        None
+    fn peer_claim(&self) -> PeerClaim {
+        PeerClaim::None
     }
 }
 

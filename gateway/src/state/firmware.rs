@@ -5,17 +5,7 @@
 //! and the page are views of it; the update machinery (`crate::update`,
 //! feature `update`) changes it.
 
-/// A firmware version (semantic: major.minor.patch), as an image's signed
-/// header gives it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Version {
-    /// Major.
-    pub major: u16,
-    /// Minor.
-    pub minor: u16,
-    /// Patch.
-    pub patch: u16,
-}
+pub use hans_fw_image::Version;
 
 /// The boot state, as the application finds it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

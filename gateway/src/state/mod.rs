@@ -17,6 +17,8 @@ pub mod handshake;
 pub mod history;
 pub mod inputs;
 pub mod robot;
+#[cfg(feature = "mqtt")]
+pub mod telemetry;
 
 use core::net::Ipv4Addr;
 
@@ -209,7 +211,7 @@ pub struct Model {
     /// Modbus clients connected.
     pub sessions: u16,
     /// Their addresses.
-    pub modbus_peers: heapless::Vec<core::net::SocketAddrV4, { crate::MAX_SESSIONS }>,
+    pub modbus_peers: heapless::Vec<core::net::SocketAddrV4, { crate::limits::MAX_SESSIONS }>,
     /// Password, network settings in use, refusals.
     pub access: AccessState,
     /// The last commands and link events.

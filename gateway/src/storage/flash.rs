@@ -34,7 +34,7 @@ use sequential_storage::queue::{QueueConfig, QueueStorage};
 
 use sequential_storage::map::{SerializationError, Value};
 
-use super::{Image, Storage, StorageError, IMAGE_MAX};
+use super::{AuditStore, ConfigStore, Image, Medium, StorageError, IMAGE_MAX};
 
 /// No cache: one item, read once at start and written on rare saves.
 type Uncached3 = Cache<Uncached, Uncached, Uncached, u8>;
@@ -134,7 +134,7 @@ impl<'a> Value<'a> for Item<'_> {
     }
 }
 
-impl<F: NorFlash> Storage for FlashStorage<F> {
+impl<F: NorFlash> ConfigStore for FlashStorage<F> {
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         let (mut map, buf) = self.map()?;
         match map.fetch_item::<&[u8]>(buf, &KEY).await {
@@ -167,7 +167,13 @@ impl<F: NorFlash> Storage for FlashStorage<F> {
         }
     }
 
-    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+    fn medium(&self) -> Medium {
+        Medium::Flash
+    }
+}
+
+impl<F: NorFlash> AuditStore for FlashStorage<F> {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
         let Some((mut queue, buf)) = self.queue() else {
             return Ok(());
         };
@@ -178,7 +184,7 @@ impl<F: NorFlash> Storage for FlashStorage<F> {
         Ok(())
     }
 
-    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
         let Some((mut queue, _)) = self.queue() else {
             return Ok(());
         };
@@ -197,7 +203,7 @@ impl<F: NorFlash> Storage for FlashStorage<F> {
         }
     }
 
-    fn audit_persistent(&self) -> bool {
+    fn persistent(&self) -> bool {
         self.audit.is_some()
     }
 }
@@ -460,7 +466,7 @@ mod tests {
     /// The records read back, oldest first; each must be whole.
     fn records(s: &mut FlashStorage<SmallNor>) -> Vec<u32> {
         let mut got = Vec::new();
-        block_on(s.audit_read(&mut |b| {
+        block_on(s.read(&mut |b| {
             let seq = u32::from_le_bytes(b[..4].try_into().unwrap());
             assert_eq!(b, record(seq).as_slice(), "record {seq} damaged");
             got.push(seq);
@@ -485,20 +491,20 @@ mod tests {
         assert!(!ok(0..2 * s, 2 * s + 4..4 * s), "not on a sector");
         // Without an audit range nothing is kept, and nothing fails.
         let mut plain = FlashStorage::new(SmallNor::sized(2), 0..2 * s).unwrap();
-        assert!(!plain.audit_persistent());
-        block_on(plain.audit_append(&record(1))).unwrap();
+        assert!(!plain.persistent());
+        block_on(plain.append(&record(1))).unwrap();
         let mut n = 0;
-        block_on(plain.audit_read(&mut |_| n += 1)).unwrap();
+        block_on(plain.read(&mut |_| n += 1)).unwrap();
         assert_eq!(n, 0);
     }
 
     #[test]
     fn the_ring_keeps_the_newest_records_across_restarts() {
         let mut s = ring(SmallNor::sized(5));
-        assert!(s.audit_persistent());
+        assert!(s.persistent());
         assert_eq!(records(&mut s), Vec::<u32>::new());
         for seq in 1..=200 {
-            block_on(s.audit_append(&record(seq))).unwrap();
+            block_on(s.append(&record(seq))).unwrap();
         }
         let mut s = ring(s.into_flash().power_up());
         let got = records(&mut s);
@@ -509,7 +515,7 @@ mod tests {
         assert!(got.windows(2).all(|w| w[1] == w[0] + 1), "{got:?}");
         // The configuration beside it is untouched, and vice versa.
         block_on(s.save(&SmallImage)).unwrap();
-        block_on(s.audit_append(&record(201))).unwrap();
+        block_on(s.append(&record(201))).unwrap();
         let mut s = ring(s.into_flash().power_up());
         assert_eq!(block_on(s.load()).unwrap(), SmallImage::BYTES);
         assert_eq!(records(&mut s).last(), Some(&201));
@@ -544,7 +550,7 @@ mod tests {
         for history in 0..100u32 {
             let mut s = ring(SmallNor::sized(5));
             for seq in 1..=history {
-                block_on(s.audit_append(&record(seq))).unwrap();
+                block_on(s.append(&record(seq))).unwrap();
             }
             let before = records(&mut s);
             let base = s.into_flash();
@@ -553,7 +559,7 @@ mod tests {
             nor.ops = 0;
             let mut s = ring(nor);
             let new = history + 1;
-            block_on(s.audit_append(&record(new))).unwrap();
+            block_on(s.append(&record(new))).unwrap();
             let full = records(&mut s);
             let ops = s.into_flash().ops;
             assert_eq!(full.last(), Some(&new));
@@ -565,7 +571,7 @@ mod tests {
                 nor.ops = 0;
                 nor.budget = Some(budget);
                 let mut s = ring(nor);
-                assert!(block_on(s.audit_append(&record(new))).is_err());
+                assert!(block_on(s.append(&record(new))).is_err());
                 let mut s = ring(s.into_flash().power_up());
                 let got = records(&mut s);
                 let why =
@@ -577,7 +583,7 @@ mod tests {
                 for seq in full.iter().filter(|&&q| q != new) {
                     assert!(got.contains(seq), "record {seq} lost: {why}");
                 }
-                block_on(s.audit_append(&record(500))).unwrap();
+                block_on(s.append(&record(500))).unwrap();
                 assert_eq!(records(&mut s).last(), Some(&500), "{why}");
                 cuts += 1;
             }

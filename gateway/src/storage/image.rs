@@ -42,6 +42,7 @@ use crate::access::accounts::{
 use crate::access::password::{PasswordHash, STORED_LEN};
 use crate::config::schema::{self, stored_len, Kind, Value};
 use crate::config::{AllowEntry, AllowList, Config, HostName, SETTINGS};
+use crate::crc::crc32;
 use crate::registers::config::{self as reg, Layout};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 
@@ -353,24 +354,6 @@ fn migrate(format: u16, b: &[u8], defaults: &Config) -> Result<Config, ImageErro
     })
 }
 
-/// CRC-32 (IEEE, reflected), bitwise: a few bytes of code for a check run
-/// only at load and save, not worth a dependency. Public for tools and
-/// fuzz targets that build or reseal images.
-pub fn crc32(data: &[u8]) -> u32 {
-    let mut crc = !0u32;
-    for &b in data {
-        crc ^= u32::from(b);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
-}
-
 #[cfg(test)]
 mod tests {
     extern crate std;
@@ -381,11 +364,6 @@ mod tests {
     use crate::registers::map as r;
     use core::net::Ipv4Addr;
     use std::vec::Vec;
-
-    #[test]
-    fn crc_matches_the_standard_check_value() {
-        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
-    }
 
     fn sample() -> (Stored, Entries) {
         let mut entries: Entries = [Text::EMPTY; TRIGGERS];

@@ -1,27 +1,27 @@
 //! Where the configuration and the trigger table are kept.
 //!
 //! The stored image ([`image`]) holds the applied configuration, the
-//! sixteen trigger entries and the web password's hash, with a CRC. It is written by the storage task
-//! (`task`), one of the gateway's futures, so that a save never stops the
+//! sixteen trigger entries and the accounts, with a CRC. It is written by the storage task
+//! (in `gateway.rs`), one of the gateway's futures, so that a save never stops the
 //! robot link, the watchdog or the Modbus sessions: the medium is driven
 //! through async calls that yield between flash operations.
 //!
+//! Two stores, one trait each: a [`ConfigStore`] keeps the image, an
+//! [`AuditStore`] the audit log's records (feature `audit`). A platform
+//! gives the gateway one value that is both (and, with updates, the
+//! firmware slots: `crate::update::SlotStore`); the gateway's `Storage`
+//! bound says which a build needs.
+//!
 //! Implementations:
-//! * [`NoStorage`]: no persistence (the QEMU board, the host without
+//! * [`NoStorage`]: no persistence (a board without a medium, Linux without
 //!   `--config`); a configuration applied with it is "applied, not saved".
 //! * [`flash::FlashStorage`] (feature `flash`): a power-fail-safe map in
 //!   NOR flash (sequential-storage over embedded-storage-async's
-//!   `NorFlash`). A power cut at any moment of a save leaves the old or the
-//!   new image.
-//! * `FileStorage` in [`crate::host`] (feature `std`): a file, replaced
-//!   atomically (write, fsync, rename, fsync the directory).
-//!
-//! The same medium keeps the audit log's records (feature `audit`, see
-//! `crate::audit`): [`Storage::audit_append`] and [`Storage::audit_read`],
-//! by default not kept. The flash storage keeps them in a ring of its own
-//! sectors ([`flash::FlashStorage::with_audit`]); on Linux [`WithAudit`]
-//! joins the configuration file and the audit file
-//! (`host::audit_file::AuditFile`).
+//!   `NorFlash`), and the audit records in a ring of its own sectors
+//!   ([`flash::FlashStorage::with_audit`]). A power cut at any moment of a
+//!   save leaves the old or the new image.
+//! * On Linux (crate `hans-gateway-linux`): the TOML file, replaced
+//!   atomically, and the audit file beside it, joined by [`WithAudit`].
 
 #[cfg(feature = "flash")]
 pub mod flash;
@@ -48,12 +48,25 @@ pub trait Image {
     fn write(&self, out: &mut [u8]) -> Result<usize, StorageError>;
 }
 
+/// Where a [`ConfigStore`] keeps the image: what a start's audit record and
+/// the views say of it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Medium {
+    /// Nowhere: a saved configuration is lost at restart ([`NoStorage`]).
+    None,
+    /// The device's own flash.
+    Flash,
+    /// A file that people may edit (Linux `--config`).
+    File,
+}
+
 /// A medium for the stored image. Calls are rare (at start, and on each
 /// apply); they must not block the executor for more than a few
 /// milliseconds at a time: yield (await) between slow operations.
 // The futures are deliberately not `Send` (single-threaded executors).
 #[allow(async_fn_in_trait)]
-pub trait Storage {
+pub trait ConfigStore {
     /// The stored image, empty when nothing is stored (valid until the
     /// next call).
     async fn load(&mut self) -> Result<&[u8], StorageError>;
@@ -61,89 +74,54 @@ pub trait Storage {
     /// Replaces the stored image with the one `image` writes.
     async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError>;
 
-    /// `true` if a saved image survives a restart (file, flash). A
-    /// configuration applied with a storage that does not is reported as
-    /// "applied, not saved" (`CONFIG_RESULT` 3).
-    fn is_persistent(&self) -> bool {
-        true
-    }
-
-    /// Calls `each` with every audit record kept (the bytes
-    /// [`Storage::audit_append`] was given), oldest first: the gateway reads
-    /// them at start (the boot counter, the page's newest records).
-    /// Default: none are kept.
-    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
-        let _ = each;
-        Ok(())
-    }
-
-    /// Keeps one audit record (at most 128 bytes) so that it survives a
-    /// restart and a power cut (a cut loses at most this record); when
-    /// the medium is full the oldest records go. Default: not kept.
-    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
-        let _ = record;
-        Ok(())
-    }
-
-    /// `true` if audit records are kept ([`Storage::audit_append`]).
-    fn audit_persistent(&self) -> bool {
-        false
-    }
-
-    /// Does `op` on the firmware slots of the medium (feature `update`,
-    /// see [`WithSlots`]). Default: there are none
-    /// ([`SlotError::Unsupported`](crate::update::SlotError)).
-    #[cfg(feature = "update")]
-    async fn firmware(
-        &mut self,
-        op: crate::update::SlotOp<'_>,
-    ) -> Result<(), crate::update::SlotError> {
-        let _ = op;
-        Err(crate::update::SlotError::Unsupported)
-    }
+    /// Where the image is kept. With [`Medium::None`] a configuration
+    /// applied is reported as "applied, not saved" (`CONFIG_RESULT` 3).
+    fn medium(&self) -> Medium;
 }
 
-impl<S: Storage> Storage for &mut S {
+impl<S: ConfigStore> ConfigStore for &mut S {
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         (**self).load().await
     }
     async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
         (**self).save(image).await
     }
-    fn is_persistent(&self) -> bool {
-        (**self).is_persistent()
-    }
-    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
-        (**self).audit_read(each).await
-    }
-    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
-        (**self).audit_append(record).await
-    }
-    fn audit_persistent(&self) -> bool {
-        (**self).audit_persistent()
-    }
-    #[cfg(feature = "update")]
-    async fn firmware(
-        &mut self,
-        op: crate::update::SlotOp<'_>,
-    ) -> Result<(), crate::update::SlotError> {
-        (**self).firmware(op).await
+    fn medium(&self) -> Medium {
+        (**self).medium()
     }
 }
 
-/// A medium for audit records alone (the Linux file), joined to the
-/// configuration's medium by [`WithAudit`]. The methods are those of
-/// [`Storage`] of the same names.
+/// A medium for the audit log's records (feature `audit`, see
+/// `crate::audit`): the flash storage's ring, the Linux file, or nothing.
 // The futures are deliberately not `Send` (single-threaded executors).
 #[allow(async_fn_in_trait)]
 pub trait AuditStore {
-    /// Calls `each` with every record kept, oldest first.
+    /// Calls `each` with every record kept (the bytes [`Self::append`] was
+    /// given), oldest first: the gateway reads them at start (the boot
+    /// counter, the page's newest records).
     async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError>;
-    /// Keeps one record, durably; when full, the oldest go.
+    /// Keeps one record (at most 128 bytes) so that it survives a restart
+    /// and a power cut (a cut loses at most this record); when the medium
+    /// is full the oldest records go.
     async fn append(&mut self, record: &[u8]) -> Result<(), StorageError>;
+    /// `true` if records survive a restart.
+    fn persistent(&self) -> bool;
 }
 
-/// The configuration in `config`, the audit records in `audit`.
+impl<A: AuditStore> AuditStore for &mut A {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        (**self).read(each).await
+    }
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        (**self).append(record).await
+    }
+    fn persistent(&self) -> bool {
+        (**self).persistent()
+    }
+}
+
+/// The configuration in `config`, the audit records in `audit` (Linux: the
+/// TOML file and the audit file beside it).
 #[derive(Debug)]
 pub struct WithAudit<S, A> {
     /// The configuration's medium.
@@ -152,85 +130,62 @@ pub struct WithAudit<S, A> {
     pub audit: A,
 }
 
-impl<S: Storage, A: AuditStore> Storage for WithAudit<S, A> {
+impl<S: ConfigStore, A> ConfigStore for WithAudit<S, A> {
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         self.config.load().await
     }
     async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
         self.config.save(image).await
     }
-    fn is_persistent(&self) -> bool {
-        self.config.is_persistent()
+    fn medium(&self) -> Medium {
+        self.config.medium()
     }
-    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+}
+
+impl<S, A: AuditStore> AuditStore for WithAudit<S, A> {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
         self.audit.read(each).await
     }
-    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
         self.audit.append(record).await
     }
-    fn audit_persistent(&self) -> bool {
-        true
+    fn persistent(&self) -> bool {
+        self.audit.persistent()
     }
 }
 
-/// A medium (`storage`) and the firmware slots of the board
-/// (`slots`, feature `update`): the configuration and audit calls go to
-/// the first, [`Storage::firmware`] to the second.
-#[cfg(feature = "update")]
-#[derive(Debug)]
-pub struct WithSlots<S, U> {
-    /// The configuration's (and audit log's) medium.
-    pub storage: S,
-    /// The firmware slots.
-    pub slots: U,
-}
-
-#[cfg(feature = "update")]
-impl<S: Storage, U: crate::update::Slots> Storage for WithSlots<S, U> {
-    async fn load(&mut self) -> Result<&[u8], StorageError> {
-        self.storage.load().await
-    }
-    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
-        self.storage.save(image).await
-    }
-    fn is_persistent(&self) -> bool {
-        self.storage.is_persistent()
-    }
-    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
-        self.storage.audit_read(each).await
-    }
-    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
-        self.storage.audit_append(record).await
-    }
-    fn audit_persistent(&self) -> bool {
-        self.storage.audit_persistent()
-    }
-    async fn firmware(
-        &mut self,
-        op: crate::update::SlotOp<'_>,
-    ) -> Result<(), crate::update::SlotError> {
-        op.apply(&mut self.slots).await
-    }
-}
-
-/// No persistent storage: boards without it (the QEMU board) and the host
-/// binary without `--config`. A configuration applied with it is reported
-/// as "applied, not saved" (`CONFIG_RESULT` 3) and lost at restart;
-/// nothing is kept, not even in RAM (nothing would read it back).
+/// No persistent storage: boards without it and the Linux gateway without
+/// `--config`. A configuration applied with it is reported as "applied,
+/// not saved" (`CONFIG_RESULT` 3) and lost at restart; no audit record is
+/// kept beyond the log's RAM (nothing would read it back).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoStorage;
 
-impl Storage for NoStorage {
-    fn is_persistent(&self) -> bool {
-        false
-    }
-
+impl ConfigStore for NoStorage {
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         Ok(&[])
     }
 
     async fn save(&mut self, _image: &dyn Image) -> Result<(), StorageError> {
         Ok(())
+    }
+
+    fn medium(&self) -> Medium {
+        Medium::None
+    }
+}
+
+impl AuditStore for NoStorage {
+    async fn read(&mut self, _each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        Ok(())
+    }
+
+    async fn append(&mut self, _record: &[u8]) -> Result<(), StorageError> {
+        Ok(())
+    }
+
+    fn persistent(&self) -> bool {
+        false
     }
 }
 

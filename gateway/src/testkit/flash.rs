@@ -12,30 +12,27 @@ use std::rc::Rc;
 use std::vec;
 use std::vec::Vec;
 
-use ed25519_dalek::{Signer, SigningKey};
 use embassy_boot::{BootLoader, BootLoaderConfig, State};
 use embedded_storage_async::nor_flash as a;
 
-use crate::update::image::{Header, Version, HEADER_LEN};
-use crate::update::layout::{Layout, HEADER_PAGE, MPS2_AN386};
 use crate::update::BootSlots;
+use hans_fw_image::layout::{Layout, HEADER_PAGE, MPS2_AN386};
+use hans_fw_image::{Header, Version, HEADER_LEN};
 
 /// The signing key of the test images (its seed).
 pub const TEST_KEY_SEED: [u8; 32] = [7; 32];
 
 /// The public key of [`TEST_KEY_SEED`] (what the world's gateway trusts).
 pub fn test_key() -> [u8; 32] {
-    SigningKey::from_bytes(&TEST_KEY_SEED)
-        .verifying_key()
-        .to_bytes()
+    hans_fw_image::public_key(&TEST_KEY_SEED)
 }
 
 /// An image of `body` for `board` at `version`, signed with the seed
 /// `key` (as `hans-fw sign` makes it).
 pub fn sign(key: &[u8; 32], board: &str, version: Version, body: &[u8]) -> Vec<u8> {
-    let signed = Header::signed_part(board, version, body).expect("a body that fits a header");
-    let sig = SigningKey::from_bytes(key).sign(&signed).to_bytes();
-    let mut out = Header::write(&signed, &sig).to_vec();
+    let mut out = hans_fw_image::sign(key, board, version, body)
+        .expect("a body that fits a header")
+        .to_vec();
     out.extend_from_slice(body);
     out
 }

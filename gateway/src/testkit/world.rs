@@ -32,7 +32,7 @@ use super::robot::SimRobot;
 use crate::config::{Config, LinkMode};
 use crate::gateway::{Gateway, Options};
 use crate::state::Model;
-use crate::storage::{Image, Storage, StorageError, IMAGE_LEN};
+use crate::storage::{AuditStore, ConfigStore, Image, Medium, StorageError, IMAGE_LEN};
 
 /// The gateway's address.
 pub const GATEWAY_IP: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 1);
@@ -82,7 +82,11 @@ impl Clone for MemStorage {
     }
 }
 
-impl Storage for MemStorage {
+impl ConfigStore for MemStorage {
+    fn medium(&self) -> Medium {
+        Medium::Flash
+    }
+
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         self.copy = self.data.borrow().clone();
         Ok(&self.copy)
@@ -98,15 +102,17 @@ impl Storage for MemStorage {
         *self.data.borrow_mut() = buf;
         Ok(())
     }
+}
 
-    async fn audit_read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+impl AuditStore for MemStorage {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
         for r in self.audit.borrow().iter() {
             each(r);
         }
         Ok(())
     }
 
-    async fn audit_append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
         if self.fail.get() {
             return Err(StorageError::Io);
         }
@@ -114,20 +120,49 @@ impl Storage for MemStorage {
         Ok(())
     }
 
-    fn audit_persistent(&self) -> bool {
+    fn persistent(&self) -> bool {
         true
     }
+}
 
-    #[cfg(feature = "update")]
-    async fn firmware(
+#[cfg(feature = "update")]
+impl MemStorage {
+    /// The slots over the simulated flash, `Unsupported` without one.
+    fn slots(
         &mut self,
-        op: crate::update::SlotOp<'_>,
+    ) -> Result<
+        &mut crate::update::BootSlots<super::flash::Part, super::flash::Part, super::flash::Part>,
+        crate::update::SlotError,
+    > {
+        let flash = self
+            .flash
+            .as_ref()
+            .ok_or(crate::update::SlotError::Unsupported)?;
+        Ok(self.slots.get_or_insert_with(|| flash.slots()))
+    }
+}
+
+#[cfg(feature = "update")]
+impl crate::update::SlotStore for MemStorage {
+    async fn state(&mut self) -> Result<crate::update::BootState, crate::update::SlotError> {
+        self.slots()?.state().await
+    }
+    async fn read(
+        &mut self,
+        slot: crate::update::Slot,
+        offset: u32,
+        buf: &mut [u8],
     ) -> Result<(), crate::update::SlotError> {
-        let Some(flash) = &self.flash else {
-            return Err(crate::update::SlotError::Unsupported);
-        };
-        let slots = self.slots.get_or_insert_with(|| flash.slots());
-        op.apply(slots).await
+        self.slots()?.read(slot, offset, buf).await
+    }
+    async fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), crate::update::SlotError> {
+        self.slots()?.write(offset, data).await
+    }
+    async fn mark_updated(&mut self) -> Result<(), crate::update::SlotError> {
+        self.slots()?.mark_updated().await
+    }
+    async fn confirm(&mut self) -> Result<(), crate::update::SlotError> {
+        self.slots()?.confirm().await
     }
 }
 
@@ -332,7 +367,7 @@ impl World {
         if config.storage.flash.is_some() {
             return Options {
                 update_key: Some(super::flash::test_key()),
-                board: crate::update::layout::MPS2_AN386.board,
+                board: hans_fw_image::layout::MPS2_AN386.board,
                 self_check_fails: config.self_check_fails,
                 restart: Some(ask_restart),
                 ..opts

@@ -12,8 +12,6 @@
 //! A slow flash slows the upload (TCP's window closes), never the engine
 //! or the Modbus sessions.
 
-pub mod image;
-pub mod layout;
 pub mod slots;
 
 use core::cell::{Cell, RefCell};
@@ -22,8 +20,8 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::mutex::{Mutex, MutexGuard};
 use embassy_sync::signal::Signal;
 
-pub use image::{Header, ImageError, Version};
-pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
+pub use hans_fw_image::{layout, Header, ImageError, Version};
+pub use slots::{BootSlots, BootState, NoSlots, Slot, SlotError, SlotStore, WithSlots};
 
 /// Bytes handed to the storage task at once (a multiple of every flash
 /// write size the boards have, and at least an image header). Small: the
@@ -31,11 +29,9 @@ pub use slots::{BootSlots, BootState, Slot, SlotError, SlotOp, Slots};
 /// there and back, nothing that a larger one would save.
 pub const PIECE: usize = 512;
 
-const _: () = assert!(PIECE >= image::HEADER_LEN);
+const _: () = assert!(PIECE >= hans_fw_image::HEADER_LEN);
 
 /// What the storage task is asked to do with the slots.
-// The web server's upload asks for writes and the mark (builds with `web`).
-#[cfg_attr(not(feature = "web"), allow(dead_code))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Op {
     /// Read the boot state and the slots' headers into the state again.
@@ -92,14 +88,12 @@ impl Updates {
     }
 
     /// What an upload must match: the key, the board id, the largest body.
-    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the upload's
     pub(crate) fn trust(&self) -> Option<([u8; 32], &'static str, u32)> {
         self.trust.get()
     }
 
     /// Takes the mailbox for one operation or a whole upload; `None` if
     /// it is taken (another upload runs).
-    #[cfg_attr(not(feature = "web"), allow(dead_code))] // the upload's
     pub(crate) fn try_take(&self) -> Option<MutexGuard<'_, NoopRawMutex, ()>> {
         self.lock.try_lock().ok()
     }
@@ -127,6 +121,3 @@ impl Updates {
         self.done.signal(result);
     }
 }
-
-#[cfg(test)]
-mod tests;

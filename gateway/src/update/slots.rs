@@ -15,6 +15,8 @@ use embedded_storage_async::nor_flash::{NorFlash, NorFlashError, NorFlashErrorKi
 
 use embassy_boot::{AlignedBuffer, FirmwareState, FirmwareUpdaterError, State};
 
+use crate::storage::{AuditStore, ConfigStore, Image, Medium, StorageError};
+
 /// Which slot to read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -79,7 +81,7 @@ fn flash<E: NorFlashError>(e: E) -> SlotError {
 /// download slot only; the active slot is read (its header).
 // The futures are deliberately not `Send` (single-threaded executors).
 #[allow(async_fn_in_trait)]
-pub trait Slots {
+pub trait SlotStore {
     /// The boot state.
     async fn state(&mut self) -> Result<BootState, SlotError>;
     /// Reads `buf.len()` bytes of `slot` from `offset`.
@@ -110,7 +112,7 @@ pub struct BootSlots<A, D, S> {
     aligned: AlignedBuffer<WORD_MAX>,
     /// The page erased last (written since): writes go forward.
     erased: Option<u32>,
-    /// A write since the last [`Slots::mark_updated`]: a pending update is
+    /// A write since the last [`SlotStore::mark_updated`]: a pending update is
     /// overwritten, so its mark must go.
     pending: bool,
 }
@@ -140,7 +142,7 @@ impl<A: NorFlash, D: NorFlash, S: NorFlash> BootSlots<A, D, S> {
     }
 }
 
-impl<A: NorFlash, D: NorFlash, S: NorFlash> Slots for BootSlots<A, D, S> {
+impl<A: NorFlash, D: NorFlash, S: NorFlash> SlotStore for BootSlots<A, D, S> {
     async fn state(&mut self) -> Result<BootState, SlotError> {
         let state = self.firmware_state().get_state().await?;
         Ok(match state {
@@ -242,47 +244,116 @@ impl<A: NorFlash, D: NorFlash, S: NorFlash> BootSlots<A, D, S> {
     }
 }
 
-/// One operation on the slots, as a medium's
-/// [`Storage::firmware`](crate::storage::Storage::firmware) takes it (one
-/// method, so that a medium without slots needs no code for them).
+/// A medium (`storage`) and the firmware slots of the board (`slots`):
+/// the configuration and audit calls go to the first, the slots' to the
+/// second.
 #[derive(Debug)]
-pub enum SlotOp<'a> {
-    /// [`Slots::state`], into the place given.
-    State(&'a mut BootState),
-    /// [`Slots::read`].
-    Read {
-        /// Which slot.
-        slot: Slot,
-        /// From where.
-        offset: u32,
-        /// Into what.
-        buf: &'a mut [u8],
-    },
-    /// [`Slots::write`].
-    Write {
-        /// Where in the download slot.
-        offset: u32,
-        /// What.
-        data: &'a [u8],
-    },
-    /// [`Slots::mark_updated`].
-    MarkUpdated,
-    /// [`Slots::confirm`].
-    Confirm,
+pub struct WithSlots<S, U> {
+    /// The configuration's (and audit log's) medium.
+    pub storage: S,
+    /// The firmware slots.
+    pub slots: U,
 }
 
-impl SlotOp<'_> {
-    /// Does the operation on `slots`.
-    pub async fn apply<U: Slots>(self, slots: &mut U) -> Result<(), SlotError> {
-        match self {
-            SlotOp::State(out) => {
-                *out = slots.state().await?;
-                Ok(())
-            }
-            SlotOp::Read { slot, offset, buf } => slots.read(slot, offset, buf).await,
-            SlotOp::Write { offset, data } => slots.write(offset, data).await,
-            SlotOp::MarkUpdated => slots.mark_updated().await,
-            SlotOp::Confirm => slots.confirm().await,
-        }
+impl<S: ConfigStore, U> ConfigStore for WithSlots<S, U> {
+    async fn load(&mut self) -> Result<&[u8], StorageError> {
+        self.storage.load().await
+    }
+    async fn save(&mut self, image: &dyn Image) -> Result<(), StorageError> {
+        self.storage.save(image).await
+    }
+    fn medium(&self) -> Medium {
+        self.storage.medium()
+    }
+}
+
+impl<S: AuditStore, U> AuditStore for WithSlots<S, U> {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        self.storage.read(each).await
+    }
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        self.storage.append(record).await
+    }
+    fn persistent(&self) -> bool {
+        self.storage.persistent()
+    }
+}
+
+impl<S, U: SlotStore> SlotStore for WithSlots<S, U> {
+    async fn state(&mut self) -> Result<BootState, SlotError> {
+        self.slots.state().await
+    }
+    async fn read(&mut self, slot: Slot, offset: u32, buf: &mut [u8]) -> Result<(), SlotError> {
+        self.slots.read(slot, offset, buf).await
+    }
+    async fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), SlotError> {
+        self.slots.write(offset, data).await
+    }
+    async fn mark_updated(&mut self) -> Result<(), SlotError> {
+        self.slots.mark_updated().await
+    }
+    async fn confirm(&mut self) -> Result<(), SlotError> {
+        self.slots.confirm().await
+    }
+}
+
+/// No firmware slots: a platform that installs no image (Linux: its
+/// package does; a board without the update layout). Every operation
+/// answers [`SlotError::Unsupported`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoSlots;
+
+impl SlotStore for NoSlots {
+    async fn state(&mut self) -> Result<BootState, SlotError> {
+        Err(SlotError::Unsupported)
+    }
+    async fn read(&mut self, _: Slot, _: u32, _: &mut [u8]) -> Result<(), SlotError> {
+        Err(SlotError::Unsupported)
+    }
+    async fn write(&mut self, _: u32, _: &[u8]) -> Result<(), SlotError> {
+        Err(SlotError::Unsupported)
+    }
+    async fn mark_updated(&mut self) -> Result<(), SlotError> {
+        Err(SlotError::Unsupported)
+    }
+    async fn confirm(&mut self) -> Result<(), SlotError> {
+        Err(SlotError::Unsupported)
+    }
+}
+
+/// Nothing kept, no firmware slots either.
+impl SlotStore for crate::storage::NoStorage {
+    async fn state(&mut self) -> Result<BootState, SlotError> {
+        NoSlots.state().await
+    }
+    async fn read(&mut self, slot: Slot, offset: u32, buf: &mut [u8]) -> Result<(), SlotError> {
+        NoSlots.read(slot, offset, buf).await
+    }
+    async fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), SlotError> {
+        NoSlots.write(offset, data).await
+    }
+    async fn mark_updated(&mut self) -> Result<(), SlotError> {
+        NoSlots.mark_updated().await
+    }
+    async fn confirm(&mut self) -> Result<(), SlotError> {
+        NoSlots.confirm().await
+    }
+}
+
+impl<S: SlotStore> SlotStore for &mut S {
+    async fn state(&mut self) -> Result<BootState, SlotError> {
+        (**self).state().await
+    }
+    async fn read(&mut self, slot: Slot, offset: u32, buf: &mut [u8]) -> Result<(), SlotError> {
+        (**self).read(slot, offset, buf).await
+    }
+    async fn write(&mut self, offset: u32, data: &[u8]) -> Result<(), SlotError> {
+        (**self).write(offset, data).await
+    }
+    async fn mark_updated(&mut self) -> Result<(), SlotError> {
+        (**self).mark_updated().await
+    }
+    async fn confirm(&mut self) -> Result<(), SlotError> {
+        (**self).confirm().await
     }
 }

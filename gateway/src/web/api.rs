@@ -90,7 +90,7 @@ pub(crate) struct StatusSnapshot {
     watchdog_armed: bool,
     plc: PlcState,
     sessions: u16,
-    modbus_peers: heapless::Vec<SocketAddrV4, { crate::MAX_SESSIONS }>,
+    modbus_peers: heapless::Vec<SocketAddrV4, { crate::limits::MAX_SESSIONS }>,
     admin_exists: bool,
     restart_pending: bool,
     recovery: bool,
@@ -103,7 +103,7 @@ pub(crate) struct StatusSnapshot {
     config_applied: u32,
     /// The MQTT client's, set after `take` (it lives in the hub).
     #[cfg(feature = "mqtt")]
-    mqtt: crate::telemetry::Stats,
+    mqtt: crate::state::telemetry::Stats,
     mqtt_broker: (crate::config::HostName, u16),
     /// The firmware.
     firmware: crate::state::firmware::Firmware,
@@ -133,7 +133,7 @@ impl Snapshot {
     /// Sets the MQTT client's counters of a status snapshot (they live in
     /// the hub, beside the state).
     #[cfg(feature = "mqtt")]
-    pub(crate) fn set_mqtt(&mut self, stats: crate::telemetry::Stats) {
+    pub(crate) fn set_mqtt(&mut self, stats: crate::state::telemetry::Stats) {
         if let Snapshot::Status(s) = self {
             s.mqtt = stats;
         }
@@ -254,7 +254,7 @@ impl StatusSnapshot {
             config_saves: 0,
             config_applied: 0,
             #[cfg(feature = "mqtt")]
-            mqtt: crate::telemetry::Status::new().get(),
+            mqtt: crate::state::telemetry::Status::new().get(),
             mqtt_broker: (crate::config::HostName::EMPTY, 0),
             firmware: crate::state::firmware::Firmware::NONE,
             channels: [(Handshake::default(), false); r::CHANNELS],
@@ -801,7 +801,7 @@ mod tests {
                 end,
             );
         }
-        for p in 0..crate::MAX_SESSIONS {
+        for p in 0..crate::limits::MAX_SESSIONS {
             let _ = m.modbus_peers.push(SocketAddrV4::new(
                 Ipv4Addr::new(255, 255, 255, 255),
                 65535 - p as u16,

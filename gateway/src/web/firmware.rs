@@ -32,9 +32,9 @@ use super::{error, error_json, App, Reply};
 use crate::access::session::Who;
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::{with_deadline, Clock};
-use crate::update::image::{Expect, ImageError, Verifier, HEADER_LEN};
-use crate::update::layout::HEADER_PAGE;
 use crate::update::{Op, SlotError, Upload, Version, PIECE};
+use hans_fw_image::layout::HEADER_PAGE;
+use hans_fw_image::{Expect, ImageError, Verifier, HEADER_LEN};
 
 /// The longest wait for the next bytes of an upload.
 pub(crate) const UPLOAD_STALL: Duration = Duration::from_secs(5);
@@ -107,7 +107,8 @@ impl<C: Clock> App<'_, C> {
         let result = self.receive(&expect, request).await;
         match result {
             Ok(v) => {
-                self.hub.firmware(|s| {
+                self.hub.with(|m| {
+                    let s = &mut m.firmware;
                     s.upload = Upload::Installed { version: v };
                     s.boot = Some(crate::update::BootState::Pending);
                 });
@@ -137,7 +138,8 @@ impl<C: Clock> App<'_, C> {
             }
             Err(failed) => {
                 let reason = failed.reason();
-                self.hub.firmware(|s| s.upload = Upload::Refused { reason });
+                self.hub
+                    .with(|m| m.firmware.upload = Upload::Refused { reason });
                 // Writing into the download slot unmarks an update that
                 // was waiting for the restart (its image is overwritten):
                 // the state says what the flash says now.
@@ -200,7 +202,8 @@ impl<C: Clock> App<'_, C> {
         if total - HEADER_LEN != header.body_len as usize {
             return Err(Failed::Image(ImageError::WrongLength));
         }
-        self.hub.firmware(|s| {
+        self.hub.with(|m| {
+            let s = &mut m.firmware;
             s.upload = Upload::Receiving {
                 version: header.version,
                 received: HEADER_LEN as u32,
@@ -238,7 +241,8 @@ impl<C: Clock> App<'_, C> {
             offset += n as u32;
             left -= n;
             let received = (total - left) as u32;
-            self.hub.firmware(|s| {
+            self.hub.with(|m| {
+                let s = &mut m.firmware;
                 if let Upload::Receiving { received: r, .. } = &mut s.upload {
                     *r = received;
                 }

@@ -397,17 +397,6 @@ impl Json {
         Ok(j)
     }
 
-    /// Bytes written so far.
-    pub(crate) fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Forgets what was written after the first `len` bytes (a part that
-    /// did not fit whole).
-    pub(crate) fn truncate(&mut self, len: usize) {
-        self.len = self.len.min(len);
-    }
-
     /// What was written.
     pub(crate) fn as_bytes(&self) -> &[u8] {
         self.buf.get(..self.len).unwrap_or(&[])
@@ -420,37 +409,6 @@ impl Json {
         let n = out.result()?;
         self.len += n;
         Ok(self)
-    }
-
-    // Piecewise writing, for the answers of `post.rs` written before the
-    // structured writer (the separators are the caller's there).
-
-    /// Literal JSON (punctuation, keys written by the caller).
-    pub(crate) fn raw(&mut self, s: &str) -> Result<&mut Self, Full> {
-        self.append(|o| o.put(s.as_bytes()))
-    }
-
-    /// `"key":`.
-    pub(crate) fn key(&mut self, k: &str) -> Result<&mut Self, Full> {
-        self.append(|o| {
-            o.string(k.as_bytes());
-            o.put(b":");
-        })
-    }
-
-    /// A string value (ASCII; other bytes as `?`).
-    pub(crate) fn str(&mut self, s: &[u8]) -> Result<&mut Self, Full> {
-        self.append(|o| o.value().str(s))
-    }
-
-    /// An unsigned integer.
-    pub(crate) fn uint(&mut self, v: u64) -> Result<&mut Self, Full> {
-        self.append(|o| o.value().uint(v))
-    }
-
-    /// `true` or `false`.
-    pub(crate) fn bool(&mut self, v: bool) -> Result<&mut Self, Full> {
-        self.append(|o| o.value().bool(v))
     }
 }
 
@@ -542,12 +500,8 @@ mod tests {
     }
 
     #[test]
-    fn a_full_answer_is_an_error_and_keeps_what_was_written() {
-        let mut j = Json::new();
-        j.raw("{").unwrap();
+    fn a_full_answer_is_an_error() {
         let long = [b'"'; ANSWER];
-        assert_eq!(j.str(&long).err(), Some(Full));
-        assert_eq!(j.as_bytes(), b"{");
         assert_eq!(Json::value(|v| v.str(&long)).err(), Some(Full));
         let j = Json::value(|v| v.object(|o| o.key("ok").bool(true))).unwrap();
         assert_eq!(j.as_bytes(), br#"{"ok":true}"#);

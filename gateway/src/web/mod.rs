@@ -76,6 +76,7 @@ pub(crate) mod firmware;
 pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
+pub(crate) mod routes;
 
 use core::cell::{Cell, RefCell};
 use core::convert::Infallible;
@@ -108,6 +109,7 @@ use crate::net::{Net, Socket};
 use api::{Doc, Snapshot};
 use io::{ClockTimer, Conn, Exchange};
 use json::Json;
+use routes::Route;
 
 /// Requests served at once: slots, each with an [`HTTP_BUF`] and a
 /// request handler.
@@ -126,15 +128,7 @@ pub(crate) const PER_ADDRESS: usize = WEB_SLOTS - 1;
 /// first byte. The longest request ([`HTTP_BUF`], 6 KiB) is four or five
 /// segments: well within this on any link a browser uses, a lost segment
 /// included (sent again within a second).
-pub(crate) const REQUEST_DEADLINE: Duration = Duration::from_secs(2);
-// A TLS handshake (Linux, `--web-tls`) holds a web slot no longer than a
-// request: checked here, where the web server meets the socket layer (the
-// socket layer does not import the web server).
-#[cfg(feature = "tls-server")]
-const _: () = assert!(
-    crate::net::tls::HANDSHAKE_DEADLINE.as_millis() <= REQUEST_DEADLINE.as_millis(),
-    "a handshake holds a web slot no longer than a request"
-);
+pub(crate) const REQUEST_DEADLINE: Duration = crate::limits::WEB_REQUEST_DEADLINE;
 /// An answer must be written this long after its first write (the page,
 /// ~12 KiB, needs ~32 kbit/s); a client reading more slowly is closed.
 pub(crate) const ANSWER_DEADLINE: Duration = Duration::from_secs(3);
@@ -851,6 +845,9 @@ pub(crate) enum Reply {
     Restart(Json),
     /// The audit log's export ([`audit`]).
     Audit(audit::Format),
+    /// 405: the path does not take the request's method; the `Allow`
+    /// header names those it takes ([`routes`]).
+    NotAllowed(&'static str),
 }
 
 /// `{"error":"..."}`, the text cut to fit: always valid JSON (an escaped
@@ -863,9 +860,8 @@ fn error_json(text: &str) -> Json {
             return j;
         }
     }
-    let mut j = Json::new();
-    let _ = j.raw("{\"error\":\"error\"}");
-    j
+    // Five bytes always fit.
+    Json::value(|v| v.object(|j| j.key("error").str(b"error"))).unwrap_or_else(|_| Json::new())
 }
 
 fn error(status: StatusCode, text: &str) -> Reply {
@@ -917,6 +913,20 @@ impl<C: Clock> App<'_, C> {
         .unwrap_or_else(|_| error_json("session"))
     }
 
+    /// A document of the API (role: viewer, unless reading without login
+    /// is on).
+    fn doc<R: Read>(&self, route: Route, request: &Request<'_, R>) -> Reply {
+        if let Err(r) = self.may_read(&request.parts) {
+            return r;
+        }
+        Reply::Doc(match route {
+            Route::Status => Doc::Status,
+            Route::Config => Doc::Config,
+            Route::Fields => Doc::Fields,
+            _ => Doc::Log,
+        })
+    }
+
     /// Reads the request (its body where the route has one) and decides
     /// the answer.
     async fn route<R: Read>(&self, path: &str, request: &mut Request<'_, R>) -> Reply {
@@ -958,29 +968,25 @@ impl<C: Clock> App<'_, C> {
                 "a change needs Content-Type: application/json",
             );
         }
-        match path {
-            "/" | "/index.html" if get => Reply::Page,
-            // role: viewer, unless reading without login is on.
-            "/api/status" | "/api/config" | "/api/fields" | "/api/log" if get => {
-                if let Err(r) = self.may_read(&request.parts) {
-                    return r;
-                }
-                Reply::Doc(match path {
-                    "/api/status" => Doc::Status,
-                    "/api/config" => Doc::Config,
-                    "/api/fields" => Doc::Fields,
-                    _ => Doc::Log,
-                })
-            }
+        let Some((route, methods)) = routes::lookup(path) else {
+            return error(StatusCode::NOT_FOUND, "not found");
+        };
+        if !methods.allow(method) {
+            return Reply::NotAllowed(methods.header());
+        }
+        match route {
+            Route::Page => Reply::Page,
+            Route::Status | Route::Fields | Route::Log => self.doc(route, request),
+            Route::Config if get => self.doc(route, request),
             // role: viewer, always.
-            "/api/audit" if get => self.audit(&request.parts),
-            "/api/session" if get => Reply::Json(
+            Route::Audit => self.audit(&request.parts),
+            Route::Session => Reply::Json(
                 StatusCode::OK,
                 self.session_json(self.peek_who(&request.parts)),
             ),
-            "/api/setup" if post => self.setup(request).await,
-            "/api/login" if post => self.login(request).await,
-            "/api/logout" if post => {
+            Route::Setup => self.setup(request).await,
+            Route::Login => self.login(request).await,
+            Route::Logout => {
                 if let Some(who) = self.peek_who(&request.parts) {
                     let name = self.name_of(who);
                     let from = self.peer.map(|p| *p.ip());
@@ -995,19 +1001,19 @@ impl<C: Clock> App<'_, C> {
                 Reply::Logout(post::ok_json())
             }
             // role: any account (its own password).
-            "/api/password" if post => match self.require(&request.parts, Role::Viewer) {
+            Route::Password => match self.require(&request.parts, Role::Viewer) {
                 Ok(who) => self.set_password(who, request).await,
                 Err(r) => r,
             },
             // role: admin.
-            "/api/accounts" if get || post => match self.require(&request.parts, Role::Admin) {
+            Route::Accounts => match self.require(&request.parts, Role::Admin) {
                 Ok(_) if get => Reply::Json(StatusCode::OK, self.accounts_json()),
                 Ok(who) => self.post_accounts(who, request).await,
                 Err(r) => r,
             },
             // role: admin.
-            #[cfg(feature = "update")]
-            "/api/firmware" if post => match self.require(&request.parts, Role::Admin) {
+            Route::Firmware => match self.require(&request.parts, Role::Admin) {
+                #[cfg(feature = "update")]
                 Ok(who) => {
                     let downgrade = request
                         .parts
@@ -1015,21 +1021,22 @@ impl<C: Clock> App<'_, C> {
                         .is_some_and(|q| q.0.split('&').any(|kv| kv == "downgrade=allow"));
                     self.post_firmware(who, downgrade, request).await
                 }
+                #[cfg(not(feature = "update"))]
+                Ok(_) => error(
+                    StatusCode::NOT_IMPLEMENTED,
+                    "this gateway installs no firmware",
+                ),
                 Err(r) => r,
             },
-            // role: admin.
-            p if post
-                && (p == "/api/config"
-                    || p == "/api/restart"
-                    || p.starts_with("/api/trigger/")) =>
-            {
+            // role: admin (the settings' change; their GET is above).
+            Route::Config | Route::Restart | Route::Trigger => {
                 let who = match self.require(&request.parts, Role::Admin) {
                     Ok(w) => w,
                     Err(r) => return r,
                 };
-                match p {
-                    "/api/config" => self.post_config(who, request).await,
-                    "/api/restart" => match self.web.restart {
+                match route {
+                    Route::Config => self.post_config(who, request).await,
+                    Route::Restart => match self.web.restart {
                         Some(_) if !self.restart_confirmed(request).await => error(
                             StatusCode::CONFLICT,
                             "a motion is running: the restart cuts the robot link in the middle of it. \
@@ -1050,19 +1057,13 @@ impl<C: Clock> App<'_, C> {
                         ),
                     },
                     _ => {
-                        let n = p
+                        let n = path
                             .strip_prefix("/api/trigger/")
                             .and_then(|n| n.parse::<usize>().ok());
                         self.post_trigger(who, n, request).await
                     }
                 }
             }
-            "/" | "/index.html" | "/api/status" | "/api/config" | "/api/fields" | "/api/log"
-            | "/api/session" | "/api/login" | "/api/logout" | "/api/password" | "/api/restart"
-            | "/api/setup" | "/api/accounts" | "/api/firmware" => {
-                error(StatusCode::METHOD_NOT_ALLOWED, "method not allowed")
-            }
-            _ => error(StatusCode::NOT_FOUND, "not found"),
         }
     }
 }
@@ -1177,6 +1178,20 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                             .await
                     }
                 }
+            }
+            Reply::NotAllowed(allow) => {
+                Response::new(
+                    StatusCode::METHOD_NOT_ALLOWED,
+                    Head {
+                        body: json_body(&error_json("method not allowed")),
+                        head,
+                    },
+                )
+                .with_header("Allow", allow)
+                .with_header("Cache-Control", "no-store")
+                .with_headers(SECURITY_HEADERS)
+                .write_to(c, w)
+                .await
             }
             Reply::Json(status, j) => {
                 Response::new(

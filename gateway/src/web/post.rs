@@ -44,27 +44,25 @@ const NAME_RULE: &str = "a name is 1 to 16 of a-z 0-9 . _ - beginning with a let
 
 /// `{"ok":true}`.
 pub(crate) fn ok_json() -> Json {
-    let mut j = Json::new();
-    let _ = j.raw("{\"ok\":true}");
-    j
+    // Always fits.
+    Json::value(|v| v.object(|j| j.key("ok").bool(true))).unwrap_or_else(|_| Json::new())
 }
 
 fn saved_json(outcome: SaveOutcome, restart_pending: bool) -> Json {
-    let mut j = Json::new();
     let saved = match outcome {
         SaveOutcome::Saved => "saved",
         SaveOutcome::NotPersistent => "not-saved",
         SaveOutcome::Failed(_) => "failed",
     };
-    let _ = j
-        .raw("{\"ok\":true,")
-        .and_then(|j| j.key("saved"))
-        .and_then(|j| j.str(saved.as_bytes()))
-        .and_then(|j| j.raw(","))
-        .and_then(|j| j.key("restart_pending"))
-        .and_then(|j| j.bool(restart_pending))
-        .and_then(|j| j.raw("}"));
-    j
+    // A few dozen bytes: always fits.
+    Json::value(|v| {
+        v.object(|j| {
+            j.key("ok").bool(true);
+            j.key("saved").str(saved.as_bytes());
+            j.key("restart_pending").bool(restart_pending);
+        })
+    })
+    .unwrap_or_else(|_| Json::new())
 }
 
 /// The settings of an import: name and text, in the order given.
@@ -149,8 +147,8 @@ fn unescape<const N: usize>(raw: &str, out: &mut heapless::Vec<u8, N>) -> Result
                 Some(b'u') => {
                     let mut v: u32 = 0;
                     for _ in 0..4 {
-                        let d = b.next().and_then(|d| char::from(d).to_digit(16));
-                        v = v * 16 + d.ok_or("a broken \\u escape")?;
+                        let d = b.next().and_then(crate::hex::value);
+                        v = v * 16 + u32::from(d.ok_or("a broken \\u escape")?);
                     }
                     u8::try_from(v)
                         .ok()
@@ -179,54 +177,62 @@ struct ConfigDoc<'a> {
 }
 
 /// Problems found in a posted configuration, as `{"ok":false,"errors":
-/// {"NAME":"reason",...}}`; at most [`MAX_ERRORS`] are named.
-struct Errors {
-    j: Json,
-    n: usize,
+/// {"NAME":"reason",...}}`; at most [`MAX_ERRORS`] are named (the first).
+struct Errors<'a> {
+    list: heapless::Vec<(Key<'a>, &'static str), MAX_ERRORS>,
+}
+
+/// What a problem is about.
+enum Key<'a> {
+    /// A member of the document (`format`, a setting's key as posted).
+    Name(&'a str),
+    /// Trigger entry n (named `TRIGn`).
+    Trigger(usize),
 }
 
 /// Errors named in one answer.
 const MAX_ERRORS: usize = 8;
-/// The start of an [`Errors`] answer.
-const OPENING: &str = "{\"ok\":false,\"errors\":{";
-/// Its end.
-const CLOSING: &str = "}}";
 
-impl Errors {
+impl<'a> Errors<'a> {
     fn new() -> Self {
-        let mut j = Json::new();
-        let _ = j.raw(OPENING);
-        Errors { j, n: 0 }
-    }
-
-    fn add(&mut self, key: &str, reason: &str) {
-        self.n += 1;
-        if self.n > MAX_ERRORS {
-            return;
-        }
-        // An entry goes in whole, with room left for the closing `}}`,
-        // or not at all: the answer stays valid JSON however long the
-        // names are.
-        let mark = self.j.len();
-        let sep = if mark > OPENING.len() { "," } else { "" };
-        let whole = self
-            .j
-            .raw(sep)
-            .and_then(|j| j.str(key.as_bytes()))
-            .and_then(|j| j.raw(":"))
-            .and_then(|j| j.str(reason.as_bytes()))
-            .is_ok();
-        if !whole || self.j.len() + CLOSING.len() > super::json::ANSWER {
-            self.j.truncate(mark);
+        Errors {
+            list: heapless::Vec::new(),
         }
     }
 
-    fn finish(mut self) -> Option<Json> {
-        if self.n == 0 {
+    /// Names a problem; past [`MAX_ERRORS`] it is dropped.
+    fn add(&mut self, key: Key<'a>, reason: &'static str) {
+        let _ = self.list.push((key, reason));
+    }
+
+    /// The answer, `None` without problems. Entries go in whole, the last
+    /// ones left out where the names are too long for the answer: it stays
+    /// valid JSON however long the posted names are.
+    fn finish(self) -> Option<Json> {
+        if self.list.is_empty() {
             return None;
         }
-        let _ = self.j.raw(CLOSING);
-        Some(self.j)
+        (1..=self.list.len()).rev().find_map(|n| {
+            Json::value(|v| {
+                v.object(|j| {
+                    j.key("ok").bool(false);
+                    j.key("errors").object(|e| {
+                        for (key, reason) in self.list.iter().take(n) {
+                            let mut trig: heapless::String<8> = heapless::String::new();
+                            let name = match key {
+                                Key::Name(n) => n,
+                                Key::Trigger(i) => {
+                                    let _ = write!(trig, "TRIG{i}");
+                                    trig.as_str()
+                                }
+                            };
+                            e.key(name).str(reason.as_bytes());
+                        }
+                    });
+                })
+            })
+            .ok()
+        })
     }
 }
 
@@ -291,12 +297,12 @@ pub(crate) fn read_config(
     };
     let mut errors = Errors::new();
     if doc.format.is_some_and(|f| f != FORMAT && f != FORMAT_1) {
-        errors.add("format", FORMAT);
+        errors.add(Key::Name("format"), FORMAT);
     }
     let mut config = *base;
     for (name, text) in doc.settings.as_ref().map_or(&[][..], |s| &s.0) {
         if let Err(e) = set_named(name, text, &mut config) {
-            errors.add(name, e);
+            errors.add(Key::Name(name), e);
         }
     }
     let mut triggers = None;
@@ -308,11 +314,7 @@ pub(crate) fn read_config(
                 .and_then(|()| core::str::from_utf8(&text).map_err(|_| "not UTF-8"));
             match text.and_then(check_trigger) {
                 Ok(v) => *slot = v,
-                Err(e) => {
-                    let mut key: heapless::String<8> = heapless::String::new();
-                    let _ = write!(key, "TRIG{i}");
-                    errors.add(&key, e);
-                }
+                Err(e) => errors.add(Key::Trigger(i), e),
             }
         }
         triggers = Some(all);
@@ -325,12 +327,14 @@ pub(crate) fn read_config(
 
 /// 429 with the wait: `{"error":…,"retry_after_s":n}`.
 fn too_many(wait: embassy_time::Duration) -> Reply {
-    let mut j = Json::new();
-    let _ = j
-        .raw("{\"error\":\"too many wrong attempts\",")
-        .and_then(|j| j.key("retry_after_s"))
-        .and_then(|j| j.uint(wait.as_secs() + 1))
-        .and_then(|j| j.raw("}"));
+    // A few dozen bytes: always fits.
+    let j = Json::value(|v| {
+        v.object(|j| {
+            j.key("error").str(b"too many wrong attempts");
+            j.key("retry_after_s").uint(wait.as_secs() + 1);
+        })
+    })
+    .unwrap_or_else(|_| Json::new());
     Reply::Json(StatusCode::TOO_MANY_REQUESTS, j)
 }
 

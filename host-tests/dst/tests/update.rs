@@ -23,12 +23,12 @@ use std::collections::HashMap;
 use std::net::Ipv4Addr;
 
 use embassy_time::Duration;
+use hans_fw_image::layout::MPS2_AN386;
+use hans_fw_image::{check, Expect, Version};
 use hans_gateway::registers as r;
 use hans_gateway::testkit::flash::{sign, test_key, version, SimFlash, TEST_KEY_SEED};
 use hans_gateway::testkit::rng::Rng;
 use hans_gateway::testkit::world::{MemStorage, World, WorldConfig, SETUP_CODE};
-use hans_gateway::update::image::{check, Expect, Version};
-use hans_gateway::update::layout::MPS2_AN386;
 
 const PC: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 50);
 const BOARD: &str = "mps2-an386";

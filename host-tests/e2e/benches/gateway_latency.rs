@@ -23,8 +23,8 @@ use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
 use hans_e2e::{code, CannedRobot, Plc, WAIT};
-use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
+use hans_gateway_linux::{HostOptions, RunningGateway};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpListener;
 use tokio::sync::mpsc;

@@ -26,8 +26,8 @@ use std::time::{Duration, Instant};
 
 use hans_e2e::mqtt::{Mosquitto, Payload};
 use hans_gateway::config::HostName;
-use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::MqttOverride;
+use hans_gateway_linux::{HostOptions, RunningGateway};
 use hans_sim::{Config, Sim};
 use prost::Message as _;
 use rumqttc::{AsyncClient, Event, MqttOptions, Packet, QoS};

@@ -7,8 +7,8 @@
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::time::{Duration, Instant};
 
-use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
+use hans_gateway_linux::{HostOptions, RunningGateway};
 use hans_sim::Sim;
 use tokio_modbus::client::{Context, Reader, Writer};
 

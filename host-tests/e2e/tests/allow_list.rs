@@ -13,8 +13,8 @@ use std::time::Duration;
 
 use hans_e2e::Plc;
 use hans_gateway::config::{AllowEntry, AllowList};
-use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
+use hans_gateway_linux::{HostOptions, RunningGateway};
 use hans_sim::{Config, Sim};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpSocket, TcpStream};

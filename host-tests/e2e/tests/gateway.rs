@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 use hans_e2e::{
     code, f32_of, gateway_error, i32_of, text_words, GatewayError, Plc, Rig, SRC_ROBOT_FAIL, WAIT,
 };
-use hans_gateway::host::{HostOptions, RunningGateway};
 use hans_gateway::registers as r;
+use hans_gateway_linux::{HostOptions, RunningGateway};
 use hans_sim::{Config, Fault, FaultRule, Sim};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;

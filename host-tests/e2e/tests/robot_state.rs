@@ -85,7 +85,7 @@ async fn without_a_link_the_robot_status_reads_unknown() {
 async fn a_refused_connect_shows_39504_in_link_last_error() {
     use std::net::{Ipv4Addr, SocketAddrV4};
 
-    use hans_gateway::host::{HostOptions, RunningGateway};
+    use hans_gateway_linux::{HostOptions, RunningGateway};
 
     // Nothing listens on port 1 of the loopback: every connect is refused.
     let gw = RunningGateway::start(HostOptions::new(

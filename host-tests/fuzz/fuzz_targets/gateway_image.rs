@@ -19,7 +19,7 @@ use hans_gateway::config::Config;
 use hans_gateway::registers as r;
 use hans_gateway::registers::config::{decode as from_registers, Words, CONFIG_WORDS};
 use hans_gateway::state::{Text, Triggers};
-use hans_gateway::storage::image::crc32;
+use hans_gateway::crc::crc32;
 use hans_gateway::storage::image::{decode, encode, Entries};
 use hans_gateway::storage::IMAGE_LEN;
 use hans_gateway::testkit::clock::VirtualClock;

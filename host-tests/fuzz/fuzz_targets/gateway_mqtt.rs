@@ -68,7 +68,7 @@ use embassy_time::{Duration, Instant};
 use hans_gateway::error::Outcome;
 use hans_gateway::job::Source;
 use hans_gateway::mqtt::{self, Error, Settings, Stats, Status, RX_BUF};
-use hans_gateway::sparkplug::{Id, NodeConfig};
+use hans_gateway::mqtt::sparkplug::{Id, NodeConfig};
 use hans_gateway::state::history::LogEntry;
 use hans_gateway::state::{
     AccessState, ChannelState, ConfigState, ErrorText, LinkState, LinkStatus, Model, PlcState,

@@ -1,4 +1,4 @@
-//! A firmware image uploaded to the device (`hans_gateway::update::image`):
+//! A firmware image uploaded to the device (`hans_fw_image`):
 //! any bytes as the image, fed in pieces whose sizes come from the input.
 //! Never a panic; judged in pieces exactly as whole; what passes is
 //! exactly a signed body: its length and SHA-256 (computed here with the
@@ -9,7 +9,7 @@
 //! a downgrade; bit 1: the other board), then the image.
 #![no_main]
 
-use hans_gateway::update::image::{check, Expect, Version, Verifier, HEADER_LEN};
+use hans_fw_image::{check, Expect, Verifier, Version, HEADER_LEN};
 use libfuzzer_sys::fuzz_target;
 
 /// `firmware/keys/dev.pub` (the development key: its secret half is in

@@ -5,7 +5,7 @@
 //! the image). Never a panic; an answer always comes and the connection
 //! closes; the upload is installed (200, the boot state "pending", the
 //! download slot holding the image's header) exactly when the whole image
-//! passes the one-shot check (`update::image::check`), so the streamed
+//! passes the one-shot check (`hans_fw_image::check`), so the streamed
 //! path and the one-shot check agree; a refused upload never marks an
 //! update.
 //!
@@ -22,8 +22,8 @@ use core::net::Ipv4Addr;
 use embassy_time::Duration;
 use hans_gateway::testkit::flash::{sign, test_key, version, SimFlash, TEST_KEY_SEED};
 use hans_gateway::testkit::world::{MemStorage, World, WorldConfig, SETUP_CODE};
-use hans_gateway::update::image::{check, Expect};
-use hans_gateway::update::layout::MPS2_AN386;
+use hans_fw_image::layout::MPS2_AN386;
+use hans_fw_image::{check, Expect};
 use libfuzzer_sys::fuzz_target;
 
 const PC: Ipv4Addr = Ipv4Addr::new(10, 0, 0, 60);

@@ -1,6 +1,6 @@
 //! `hans-fw`: makes signing keys, signs firmware images for the gateway and
 //! checks them, with the image format and checks the device itself uses
-//! (`hans_gateway::update::image`).
+//! (`hans_fw_image`).
 //!
 //! ```text
 //! hans-fw keygen --out DIR [--name NAME]        NAME.key (secret, 0600) and NAME.pub
@@ -19,9 +19,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use ed25519_dalek::{Signer, SigningKey};
-use hans_gateway::update::image::{check, key_from_hex, Expect, Header, Version, HEADER_LEN};
-use hans_gateway::update::layout::{Layout, HEADER_PAGE};
+use hans_fw_image::layout::{Layout, HEADER_PAGE};
+use hans_fw_image::{
+    check, field, key_from_hex, public_key, sign, Expect, Header, Version, HEADER_LEN,
+};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -114,7 +115,7 @@ enum Cmd {
 
 /// The layout of `board`.
 fn layout(board: &str) -> Result<&'static Layout, String> {
-    hans_gateway::update::layout::of(board)
+    hans_fw_image::layout::of(board)
         .ok_or_else(|| format!("no layout for board {board:?} (mps2-an386, nucleo-f767zi)"))
 }
 
@@ -208,7 +209,6 @@ fn run(cli: Cli) -> Result<(), String> {
         Cmd::Keygen { out, name } => {
             let mut seed = [0u8; 32];
             getrandom::fill(&mut seed).map_err(|e| format!("the system's random source: {e}"))?;
-            let key = SigningKey::from_bytes(&seed);
             let (secret, public) = (
                 out.join(format!("{name}.key")),
                 out.join(format!("{name}.pub")),
@@ -219,7 +219,7 @@ fn run(cli: Cli) -> Result<(), String> {
             write_file(&secret, format!("{}\n", hex(&seed)).as_bytes(), 0o600)?;
             write_file(
                 &public,
-                format!("{}\n", hex(key.verifying_key().as_bytes())).as_bytes(),
+                format!("{}\n", hex(&public_key(&seed))).as_bytes(),
                 0o644,
             )?;
             println!(
@@ -239,11 +239,10 @@ fn run(cli: Cli) -> Result<(), String> {
             let seed = read_key(&key)?;
             let body =
                 std::fs::read(&firmware).map_err(|e| format!("{}: {e}", firmware.display()))?;
-            let signed = Header::signed_part(&board, version, &body).ok_or_else(|| {
+            let header = sign(&seed, &board, version, &body).ok_or_else(|| {
                 format!("board {board:?}: 1-16 letters, digits or '-' (and a body under 4 GiB)")
             })?;
-            let sig = SigningKey::from_bytes(&seed).sign(&signed).to_bytes();
-            let mut image = Header::write(&signed, &sig).to_vec();
+            let mut image = header.to_vec();
             image.extend_from_slice(&body);
             write_file(&out, &image, 0o644)?;
             println!(
@@ -253,7 +252,7 @@ fn run(cli: Cli) -> Result<(), String> {
                 version.minor,
                 version.patch,
                 body.len(),
-                hex(&image[40..72])
+                hex(&image[field::SHA256])
             );
             Ok(())
         }

@@ -31,7 +31,7 @@ use headless_chrome::protocol::cdp::{Emulation, Page};
 use headless_chrome::{Browser, LaunchOptions, Tab};
 use serde_json::Value;
 
-use hans_gateway::host::{HostOptions, RunningGateway};
+use hans_gateway_linux::{HostOptions, RunningGateway};
 use hans_sim::Sim;
 
 pub use hans_e2e::{Plc, WAIT};

@@ -1,7 +1,7 @@
 //! The field device's firmware slots: the flash file the bootloader
 //! started it from (`semihosting-flash`, the word `flash=PATH` of QEMU's
 //! command line), cut into the three partitions of
-//! [`MPS2_AN386`](hans_gateway::update::layout::MPS2_AN386): embassy-boot's
+//! [`MPS2_AN386`](hans_fw_image::layout::MPS2_AN386): embassy-boot's
 //! boot state, the active slot and the download slot, as
 //! [`BootSlots`]. The gateway writes an upload into the download slot,
 //! marks it, confirms a trial image; the bootloader swaps and reverts at

@@ -39,7 +39,7 @@ use semihosting::fs::File;
 use semihosting::io::{Read as _, Seek as _, SeekFrom, Write as _};
 
 /// The erase unit: a page of the QEMU board's layout
-/// (`hans_gateway::update::layout::MPS2_AN386.page`).
+/// (`hans_fw_image::layout::MPS2_AN386.page`).
 pub const ERASE_SIZE: usize = 4096;
 /// The write unit (a word, as on the boards' flash).
 pub const WRITE_SIZE: usize = 4;

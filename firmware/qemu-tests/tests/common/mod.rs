@@ -10,7 +10,7 @@ use std::process::ExitStatus;
 use std::time::{Duration, Instant};
 
 use hans_sim::{Config as SimConfig, Sim, Timing};
-use qemu_tests::{connect_retry, firmware_elf, request_line, Plc, Ports, Qemu};
+use qemu_tests::{check_stack_budget, connect_retry, firmware_elf, request_line, Plc, Ports, Qemu};
 
 /// The bound of every wait for the firmware (QEMU under load is slow).
 pub const STEP: Duration = Duration::from_secs(60);
@@ -25,20 +25,23 @@ pub struct Rig {
     pub qemu: Qemu,
     /// The test's name, in logs and file names.
     pub name: &'static str,
+    /// The firmware (a binary of the mps2-an386 board): its stack budget
+    /// is checked at the end ([`Rig::check_stack`]).
+    pub firmware: &'static str,
 }
 
 impl Rig {
     /// Starts the simulator and `firmware` (a binary of the mps2-an386
     /// board) with `args` as its command line (`dhcp`: DHCP as the factory
     /// network setting).
-    pub fn start(firmware: &str, name: &'static str, args: &str) -> Rig {
+    pub fn start(firmware: &'static str, name: &'static str, args: &str) -> Rig {
         Rig::start_with_env(firmware, name, args, &[])
     }
 
     /// As [`Rig::start`], with more variables for `scripts/qemu-run.sh`
     /// (`MQTT_PORT`: the broker the firmware publishes to).
     pub fn start_with_env(
-        firmware: &str,
+        firmware: &'static str,
         name: &'static str,
         args: &str,
         env: &[(&str, String)],
@@ -64,6 +67,7 @@ impl Rig {
             sim: Some(sim),
             qemu,
             name,
+            firmware,
         }
     }
 
@@ -87,7 +91,16 @@ impl Rig {
         let (status, log) = self.wait_end();
         assert!(report.starts_with("stack_used="), "report: {report}");
         assert_eq!(status.and_then(|s| s.code()), Some(0), "exit status");
+        self.check_stack(&report);
         log
+    }
+
+    /// Fails the test if the stack high-water mark in the diagnostics
+    /// `report` is over the firmware's budget (`qemu_tests::STACK_BUDGETS`).
+    pub fn check_stack(&self, report: &str) {
+        if let Err(e) = check_stack_budget(self.name, self.firmware, report) {
+            panic!("{e}");
+        }
     }
 
     /// Waits (30 s at most) for QEMU to end after the firmware was told to,

@@ -45,7 +45,7 @@ pub const YIELD_EVERY: usize = 64;
 /// bit 4 selects bank 2).
 pub type Bank2 = Sectors<BASE, SECTOR_SIZE, SECTORS, 0x10>;
 /// The firmware update's boot state: sector 16 (64 KiB, SNB 0x14), at
-/// `hans_gateway::update::layout::NUCLEO_F767ZI.state`.
+/// `hans_fw_image::layout::NUCLEO_F767ZI.state`.
 pub type BootState = Sectors<0x0811_0000, 0x1_0000, 1, 0x14>;
 /// The download slot: sectors 17-23 (128 KiB each, SNB 0x15-0x1B), at
 /// `NUCLEO_F767ZI.dfu`.

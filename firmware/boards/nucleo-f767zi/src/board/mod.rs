@@ -50,7 +50,8 @@ use static_cell::ConstStaticCell;
 
 use hans_gateway::config::NetConfig;
 use hans_gateway::storage::flash::FlashStorage;
-use hans_gateway::storage::{Image, NoStorage, Storage, StorageError};
+use hans_gateway::storage::{AuditStore, ConfigStore, Image, Medium, NoStorage, StorageError};
+use hans_gateway::Storage;
 use hans_gateway::{Config, Options};
 
 bind_interrupts!(struct Irqs {
@@ -251,7 +252,7 @@ enum BoardStorage {
     Ram(NoStorage),
 }
 
-impl Storage for BoardStorage {
+impl ConfigStore for BoardStorage {
     async fn load(&mut self) -> Result<&[u8], StorageError> {
         match self {
             BoardStorage::Flash(f) => f.load().await,
@@ -266,8 +267,36 @@ impl Storage for BoardStorage {
         }
     }
 
-    fn is_persistent(&self) -> bool {
-        matches!(self, BoardStorage::Flash(_))
+    fn medium(&self) -> Medium {
+        match self {
+            BoardStorage::Flash(f) => f.medium(),
+            BoardStorage::Ram(r) => r.medium(),
+        }
+    }
+}
+
+/// The audit records: the flash storage has no ring of its own on this
+/// board (no sector is planned for it), so they stay in the log's RAM.
+impl AuditStore for BoardStorage {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        match self {
+            BoardStorage::Flash(f) => f.read(each).await,
+            BoardStorage::Ram(r) => r.read(each).await,
+        }
+    }
+
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        match self {
+            BoardStorage::Flash(f) => f.append(record).await,
+            BoardStorage::Ram(r) => r.append(record).await,
+        }
+    }
+
+    fn persistent(&self) -> bool {
+        match self {
+            BoardStorage::Flash(f) => f.persistent(),
+            BoardStorage::Ram(r) => r.persistent(),
+        }
     }
 }
 

@@ -4,7 +4,7 @@
 //! flash is in single-bank mode (then the gateway says updates are not
 //! supported here).
 
-use hans_gateway::update::{BootSlots, BootState, Slot, SlotError, Slots};
+use hans_gateway::update::{BootSlots, BootState, Slot, SlotError, SlotStore};
 
 use super::flash_store::{ActiveSlot, BootState as StateSectors, Download};
 
@@ -17,7 +17,7 @@ impl BoardSlots {
     }
 }
 
-impl Slots for BoardSlots {
+impl SlotStore for BoardSlots {
     async fn state(&mut self) -> Result<BootState, SlotError> {
         self.get()?.state().await
     }

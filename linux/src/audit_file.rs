@@ -1,0 +1,369 @@
+//! The audit log's records in a file on Linux (feature `audit`): the
+//! `--config` file's name with `.audit` appended (`gateway.toml.audit`),
+//! beside it.
+//!
+//! The file is the records one after the other, in their stored form
+//! (`audit::record`: a version byte, the fields, a CRC; each record says
+//! its own length). A record is appended and synced (`fdatasync`) before
+//! the next is written, by a writer thread of the file's own (started at
+//! the first record, 64 KiB of stack; the gateway goes on meanwhile, and
+//! tokio's blocking pool is left to the configuration's saves), so a power
+//! cut loses at most the record being written. A
+//! torn record at the end (the cut came during the write) fails its CRC:
+//! at start it is cut off, so that the next record follows the last whole
+//! one. Damaged bytes inside the file are skipped up to the next record
+//! that reads.
+//!
+//! Bounded: when a record would take the file past its limit
+//! ([`DEFAULT_LIMIT`], 1 MiB: ~10,000 records), the file is renamed to
+//! `FILE.1` (replacing the previous one) and a new file begins, so the
+//! newest records are kept: between one and two limits' worth in all.
+//! Both files are created readable and writable by their owner only (mode
+//! 0600): they name accounts and addresses.
+
+extern crate std;
+
+use std::fs;
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::vec::Vec;
+
+use hans_gateway::audit::Record;
+use hans_gateway::storage::{AuditStore, StorageError};
+
+/// The size a file grows to before it is rotated.
+pub const DEFAULT_LIMIT: u64 = 1 << 20;
+
+/// The audit records in a file, rotated at a limit (see the module
+/// documentation).
+#[derive(Debug)]
+pub struct AuditFile {
+    path: PathBuf,
+    limit: u64,
+    /// The file's size, once known.
+    size: Option<u64>,
+    /// The writer thread's queue, once started (it ends when this is
+    /// dropped).
+    writer: Option<mpsc::Sender<Job>>,
+}
+
+/// One append for the writer thread: the record, the file's size before
+/// it, and where the new size (or the error) goes.
+#[derive(Debug)]
+struct Job {
+    record: Vec<u8>,
+    size: u64,
+    done: tokio::sync::oneshot::Sender<io::Result<u64>>,
+}
+
+impl AuditFile {
+    /// Records in `path`, rotated at [`DEFAULT_LIMIT`].
+    pub fn new(path: impl Into<PathBuf>) -> Self {
+        AuditFile::with_limit(path, DEFAULT_LIMIT)
+    }
+
+    /// Records in `path`, rotated when a record would take it past
+    /// `limit` bytes.
+    pub fn with_limit(path: impl Into<PathBuf>, limit: u64) -> Self {
+        AuditFile {
+            path: path.into(),
+            limit,
+            size: None,
+            writer: None,
+        }
+    }
+
+    /// The records of the configuration file `config`: in
+    /// `CONFIG.audit`.
+    pub fn beside(config: &Path) -> Self {
+        AuditFile::new(suffixed(config, ".audit"))
+    }
+
+    /// Where the records go.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Where the records of the previous file are (`FILE.1`).
+    pub fn rotated(&self) -> PathBuf {
+        suffixed(&self.path, ".1")
+    }
+
+    /// The writer thread's queue, the thread started if it is not yet.
+    fn writer(&mut self) -> io::Result<&mpsc::Sender<Job>> {
+        if self.writer.is_none() {
+            let (tx, rx) = mpsc::channel::<Job>();
+            let (path, rotated, limit) = (self.path.clone(), self.rotated(), self.limit);
+            std::thread::Builder::new()
+                .name("audit-file".into())
+                .stack_size(64 << 10)
+                .spawn(move || {
+                    while let Ok(job) = rx.recv() {
+                        let r = append(&path, &rotated, limit, job.size, &job.record);
+                        let _ = job.done.send(r);
+                    }
+                })?;
+            self.writer = Some(tx);
+        }
+        self.writer
+            .as_ref()
+            .ok_or_else(|| io::Error::other("no writer"))
+    }
+}
+
+/// `path` with `suffix` appended to its name.
+fn suffixed(path: &Path, suffix: &str) -> PathBuf {
+    let mut p = path.as_os_str().to_os_string();
+    p.push(suffix);
+    PathBuf::from(p)
+}
+
+/// Calls `each` with every record that reads in `bytes`, in order,
+/// skipping damaged bytes up to the next record that reads. Returns where
+/// the last whole record ends.
+fn records(bytes: &[u8], each: &mut dyn FnMut(&[u8])) -> usize {
+    let (mut at, mut end) = (0, 0);
+    while let Some(rest) = bytes.get(at..).filter(|r| !r.is_empty()) {
+        match Record::parse(rest) {
+            Ok((_, n)) => {
+                each(rest.get(..n).unwrap_or(&[]));
+                at += n;
+                end = at;
+            }
+            Err(_) => at += 1,
+        }
+    }
+    end
+}
+
+/// A file's bytes; none if it does not exist.
+fn read_or_empty(path: &Path) -> io::Result<Vec<u8>> {
+    match fs::read(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(Vec::new()),
+        r => r,
+    }
+}
+
+/// Opens `path` to append, creating it with mode 0600.
+fn open_append(path: &Path) -> io::Result<fs::File> {
+    let mut options = fs::OpenOptions::new();
+    options.append(true).create(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+    options.open(path)
+}
+
+/// Syncs the directory of `path` (a file created or renamed there).
+fn sync_dir(path: &Path) -> io::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    fs::File::open(dir)?.sync_all()
+}
+
+/// Appends `record` to `path` (of `size` bytes), rotating first if it
+/// would pass `limit`; returns the new size.
+fn append(path: &Path, rotated: &Path, limit: u64, size: u64, record: &[u8]) -> io::Result<u64> {
+    let len = record.len() as u64;
+    let mut size = size;
+    if size > 0 && size + len > limit {
+        fs::rename(path, rotated)?;
+        size = 0;
+    }
+    let mut f = open_append(path)?;
+    f.write_all(record)?;
+    f.sync_data()?;
+    if size == 0 {
+        // A new file (or a rotation): its name must survive a cut too.
+        sync_dir(path)?;
+    }
+    Ok(size + len)
+}
+
+impl AuditStore for AuditFile {
+    async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
+        let io = |e: io::Error, path: &Path| {
+            log::warn!("audit: cannot read {}: {e}", path.display());
+            StorageError::Io
+        };
+        let rotated = self.rotated();
+        let old = read_or_empty(&rotated).map_err(|e| io(e, &rotated))?;
+        records(&old, each);
+        let new = read_or_empty(&self.path).map_err(|e| io(e, &self.path))?;
+        let end = records(&new, each);
+        if end < new.len() {
+            // A torn record at the end: cut off, so that the next one
+            // follows the last whole record.
+            log::warn!(
+                "audit: {} ends in {} damaged bytes (a cut write): removed",
+                self.path.display(),
+                new.len() - end
+            );
+            let f = fs::OpenOptions::new()
+                .write(true)
+                .open(&self.path)
+                .map_err(|e| io(e, &self.path))?;
+            f.set_len(end as u64)
+                .and_then(|()| f.sync_all())
+                .map_err(|e| io(e, &self.path))?;
+        }
+        self.size = Some(end as u64);
+        Ok(())
+    }
+
+    async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
+        let size = match self.size {
+            Some(s) => s,
+            None => fs::metadata(&self.path).map_or(0, |m| m.len()),
+        };
+        let (done, answer) = tokio::sync::oneshot::channel();
+        let job = Job {
+            record: record.to_vec(),
+            size,
+            done,
+        };
+        let sent = self.writer().and_then(|w| {
+            w.send(job)
+                .map_err(|_| io::Error::other("the writer ended"))
+        });
+        let result = match sent {
+            Ok(()) => answer
+                .await
+                .unwrap_or_else(|_| Err(io::Error::other("the writer ended"))),
+            Err(e) => Err(e),
+        };
+        match result {
+            Ok(size) => {
+                self.size = Some(size);
+                Ok(())
+            }
+            Err(e) => {
+                log::warn!("audit: cannot write {}: {e}", self.path.display());
+                // Unknown now: asked again at the next append; a writer
+                // that ended is started again.
+                self.size = None;
+                self.writer = None;
+                Err(StorageError::Io)
+            }
+        }
+    }
+
+    fn persistent(&self) -> bool {
+        true
+    }
+}
+
+/// The host's clock: Unix seconds now (`None` if it reads before 1970).
+pub fn unix_now() -> Option<u64> {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .ok()
+        .map(|d| d.as_secs())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hans_gateway::audit::{Kind, Short, RECORD_MAX};
+
+    fn record(seq: u32) -> Vec<u8> {
+        let r = Record {
+            seq,
+            kind: Kind::Config,
+            detail: Short::new(format!("setting {seq:03}").as_bytes()),
+            ..Record::EMPTY
+        };
+        let mut buf = [0u8; RECORD_MAX];
+        let n = r.emit(&mut buf);
+        buf[..n].to_vec()
+    }
+
+    fn seqs(f: &mut AuditFile) -> Vec<u32> {
+        let mut got = Vec::new();
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        rt.block_on(f.read(&mut |b| got.push(Record::parse(b).unwrap().0.seq)))
+            .unwrap();
+        got
+    }
+
+    fn append_all(f: &mut AuditFile, range: core::ops::RangeInclusive<u32>) {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        for s in range {
+            rt.block_on(f.append(&record(s))).unwrap();
+        }
+    }
+
+    fn dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("hgw-audit-{name}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&d);
+        fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn records_survive_a_restart_and_sit_beside_the_configuration() {
+        let d = dir("restart");
+        let config = d.join("gateway.toml");
+        let mut f = AuditFile::beside(&config);
+        assert_eq!(f.path(), d.join("gateway.toml.audit"));
+        assert_eq!(seqs(&mut f), Vec::<u32>::new(), "no file: nothing kept");
+        append_all(&mut f, 1..=5);
+        let mut f = AuditFile::beside(&config);
+        assert_eq!(seqs(&mut f), [1, 2, 3, 4, 5]);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = fs::metadata(f.path()).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o600, "{mode:o}");
+        }
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn the_file_rotates_at_its_limit_and_keeps_the_newest() {
+        let d = dir("rotate");
+        let len = record(1).len() as u64;
+        // Ten records a file (all of one length).
+        let mut f = AuditFile::with_limit(d.join("a.audit"), 10 * len);
+        append_all(&mut f, 1..=35);
+        let size = |p: &Path| fs::metadata(p).unwrap().len();
+        assert!(size(f.path()) <= 10 * len);
+        assert!(size(&f.rotated()) <= 10 * len);
+        let mut f = AuditFile::with_limit(d.join("a.audit"), 10 * len);
+        // 31-35 in the file, 21-30 in the rotated one: the oldest went.
+        assert_eq!(seqs(&mut f), (21..=35).collect::<Vec<_>>());
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_torn_last_record_is_cut_off_and_damage_inside_skipped() {
+        let d = dir("torn");
+        let path = d.join("a.audit");
+        let mut f = AuditFile::new(&path);
+        append_all(&mut f, 1..=4);
+        // Damage record 2, then a cut in the middle of writing record 5.
+        let mut bytes = fs::read(&path).unwrap();
+        let len = record(1).len();
+        bytes[len + 3] ^= 0x40;
+        bytes.extend_from_slice(&record(5)[..len / 2]);
+        fs::write(&path, &bytes).unwrap();
+        let mut f = AuditFile::new(&path);
+        assert_eq!(seqs(&mut f), [1, 3, 4]);
+        assert_eq!(
+            fs::metadata(&path).unwrap().len(),
+            4 * len as u64,
+            "the torn tail is gone"
+        );
+        // The next record follows the last whole one.
+        append_all(&mut f, 6..=6);
+        let mut f = AuditFile::new(&path);
+        assert_eq!(seqs(&mut f), [1, 3, 4, 6]);
+        fs::remove_dir_all(&d).unwrap();
+    }
+}

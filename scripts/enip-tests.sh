@@ -1,0 +1,137 @@
+#!/usr/bin/env bash
+# hans-enip against implementations nobody here wrote, on loopback:
+#   1. pycomm3, cpppo and ethernetip (PyPI) against the crate's loopback
+#      runner (enip/examples/loopback_adapter.rs): explicit messaging, class
+#      3, class 1 I/O at 10 ms RPI, Forward_Close, a scanner that stops
+#      (host-tests/enip/scanners.py);
+#   2. the EDS the crate writes for the runner's device, read by eds_pie
+#      (an EDS parser and semantic checker, PyPI) and compared with what the
+#      adapter serves (host-tests/enip/eds_check.py);
+#   3. the whole exchange captured on lo (tshark, a capture filter on the
+#      runner's ports, bounded in time) and decoded by Wireshark's ENIP, CIP
+#      and CIP I/O dissectors: no malformed packet and no expert error in
+#      anything the adapter sent.
+#
+#   bash scripts/enip-tests.sh            (ENIP_IO_SECONDS=60 for a minute of I/O; default 20)
+#
+# Installs what it needs, idempotently: Debian's tshark (non-interactive,
+# no setuid dumpcap), and the PyPI packages, pinned, into a venv under
+# target/enip-venv. Ports are free ones picked at start (the runner binds
+# port 0), so runs do not collide with each other or with a real 44818/2222.
+# Capturing on lo needs root (as CI runs) or the capture capability.
+# Ends with "N passed, M failed"; exits non-zero on any failure.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+IO_SECONDS=${ENIP_IO_SECONDS:-20}
+OUT=$ROOT/target/enip
+VENV=$ROOT/target/enip-venv
+mkdir -p "$OUT"
+
+if ! command -v tshark >/dev/null; then
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  echo "enip-tests: apt-get install tshark"
+  echo "wireshark-common wireshark-common/install-setuid boolean false" | $SUDO debconf-set-selections
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq tshark >/dev/null
+fi
+if ! "$VENV/bin/python" -c 'import pycomm3, cpppo, ethernetip, eds_pie' 2>/dev/null; then
+  echo "enip-tests: pip install pycomm3 cpppo ethernetip eds_pie into $VENV"
+  python3 -m venv "$VENV"
+  "$VENV/bin/pip" install -q pycomm3==1.2.16 cpppo==5.2.5 ethernetip==1.2.0 eds_pie==1.2.0
+fi
+
+cargo build -q -p hans-enip --example loopback_adapter --locked
+RUNNER=$ROOT/target/debug/examples/loopback_adapter
+
+"$RUNNER" --eds "$OUT/loopback.eds"
+EDS_LOG=$OUT/eds_check.log
+eds_status=0
+"$VENV/bin/python" host-tests/enip/eds_check.py "$OUT/loopback.eds" >"$EDS_LOG" 2>/dev/null || eds_status=$?
+grep -E '^(ok|FAIL)' "$EDS_LOG" || true
+
+rm -f "$OUT/ports" "$OUT/ready" "$OUT/capture.pcapng"
+SCAN_LOG=$OUT/scanners.log
+"$VENV/bin/python" host-tests/enip/scanners.py "$RUNNER" --io-seconds "$IO_SECONDS" \
+  --ports-file "$OUT/ports" --ready-file "$OUT/ready" >"$SCAN_LOG" 2>&1 &
+SCAN_PID=$!
+TSHARK_PID=""
+cleanup() {
+  [ -n "$TSHARK_PID" ] && kill "$TSHARK_PID" 2>/dev/null || true
+  kill "$SCAN_PID" 2>/dev/null || true
+}
+trap cleanup EXIT
+
+for _ in $(seq 100); do
+  [ -s "$OUT/ports" ] && break
+  sleep 0.1
+done
+if [ ! -s "$OUT/ports" ]; then
+  cat "$SCAN_LOG" >&2
+  echo "enip-tests: the runner did not start" >&2
+  exit 1
+fi
+read -r PORT IO_PORT <"$OUT/ports"
+echo "runner: encapsulation on tcp/udp $PORT, I/O on udp $IO_PORT"
+
+# The capture: only the runner's ports, stopped by duration at the latest.
+tshark -i lo -f "host 127.0.0.1 and (port $PORT or port $IO_PORT)" \
+  -a "duration:$((IO_SECONDS + 90))" -w "$OUT/capture.pcapng" >"$OUT/tshark.log" 2>&1 &
+TSHARK_PID=$!
+for _ in $(seq 100); do
+  grep -q "Capturing on" "$OUT/tshark.log" && break
+  sleep 0.1
+done
+grep -q "Capturing on" "$OUT/tshark.log" || { cat "$OUT/tshark.log" >&2; echo "enip-tests: tshark did not start" >&2; exit 1; }
+touch "$OUT/ready"
+
+status=0
+wait "$SCAN_PID" || status=$?
+cat "$SCAN_LOG" | grep -v '^ ' | grep -E '^(ok|FAIL|figures|[0-9]+ passed)' || true
+# Let the last packets reach the capture, then stop it.
+sleep 0.5
+kill -INT "$TSHARK_PID" 2>/dev/null || true
+wait "$TSHARK_PID" 2>/dev/null || true
+TSHARK_PID=""
+
+PASSED=$(grep -Eo '^[0-9]+ passed' "$SCAN_LOG" | awk '{print $1}' || echo 0)
+FAILED=$(grep -Eo '[0-9]+ failed$' "$SCAN_LOG" | awk '{print $1}' || echo 1)
+PASSED=${PASSED:-0}
+FAILED=${FAILED:-1}
+[ "$status" -eq 0 ] || { [ "$FAILED" -gt 0 ] || FAILED=1; }
+EDS_PASSED=$(grep -Eo '^[0-9]+ passed' "$EDS_LOG" | awk '{print $1}' || echo 0)
+EDS_FAILED=$(grep -Eo '[0-9]+ failed$' "$EDS_LOG" | awk '{print $1}' || echo 1)
+PASSED=$((PASSED + ${EDS_PASSED:-0}))
+FAILED=$((FAILED + ${EDS_FAILED:-1}))
+[ "$eds_status" -eq 0 ] || { [ "${EDS_FAILED:-1}" -gt 0 ] || FAILED=$((FAILED + 1)); }
+
+tcheck() {
+  if [ "$2" = ok ]; then
+    echo "ok   $1"
+    PASSED=$((PASSED + 1))
+  else
+    echo "FAIL $1"
+    FAILED=$((FAILED + 1))
+  fi
+}
+DEC=(-d "tcp.port==$PORT,enip" -d "udp.port==$PORT,enip" -d "udp.port==$IO_PORT,cipio")
+count() { tshark -r "$OUT/capture.pcapng" "${DEC[@]}" -Y "$1" 2>/dev/null | wc -l; }
+FROM_ADAPTER="(tcp.srcport==$PORT || udp.srcport==$PORT || udp.srcport==$IO_PORT)"
+total=$(count "$FROM_ADAPTER")
+enip=$(count "(tcp.srcport==$PORT || udp.srcport==$PORT) && enip")
+cip=$(count "$FROM_ADAPTER && cip")
+io=$(count "udp.srcport==$IO_PORT && cipio")
+bad=$(count "$FROM_ADAPTER && (_ws.malformed || _ws.expert.severity == error)")
+bad_any=$(count "_ws.malformed || _ws.expert.severity == error")
+echo "tshark: $total packets from the adapter: $enip ENIP, $cip CIP, $io CIP I/O; malformed or expert errors: $bad (any sender: $bad_any)"
+[ "$enip" -gt 10 ] && tcheck "tshark decodes the adapter's encapsulation replies ($enip)" ok || tcheck "tshark decodes the adapter's encapsulation replies ($enip)" fail
+[ "$io" -ge $((IO_SECONDS * 90)) ] && tcheck "tshark decodes the adapter's class 1 datagrams as CIP I/O ($io)" ok || tcheck "tshark decodes the adapter's class 1 datagrams as CIP I/O ($io)" fail
+[ "$bad" -eq 0 ] && tcheck "no malformed packet or expert error from the adapter" ok || {
+  tshark -r "$OUT/capture.pcapng" "${DEC[@]}" -Y "$FROM_ADAPTER && (_ws.malformed || _ws.expert.severity == error)" 2>/dev/null | head -20
+  tcheck "no malformed packet or expert error from the adapter ($bad)" fail
+}
+tshark -r "$OUT/capture.pcapng" "${DEC[@]}" -q -z expert 2>/dev/null >"$OUT/expert.txt" || true
+echo "(capture: $OUT/capture.pcapng, expert summary: $OUT/expert.txt, scanner log: $SCAN_LOG)"
+echo "$PASSED passed, $FAILED failed"
+[ "$FAILED" -eq 0 ]
