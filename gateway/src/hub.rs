@@ -86,7 +86,7 @@ impl Hub {
             save_request: Signal::new(),
             save_done: Signal::new(),
             config_lock: embassy_sync::mutex::Mutex::new(()),
-            modbus_slots: Slots::new(),
+            modbus_slots: Slots::new(crate::modbus::NAME, &crate::modbus::LIMITS),
             #[cfg(feature = "audit")]
             audit: Log::new(),
             #[cfg(feature = "mqtt")]

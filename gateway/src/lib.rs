@@ -23,6 +23,7 @@
 //! | `hub` | the shared state and the signals between the tasks |
 //! | `link` | robot link: connect or listen, one request in flight, framing, reply timeout |
 //! | `modbus` | Modbus TCP server: sessions, function codes, exceptions (framing by `modbus-core`) |
+//! | `admission` | who a listener serves: slots, per-address caps, idle eviction, the newcomer's wait (the Modbus server's and the page's) |
 //! | `datasheet` | the status from the DataSheet port (feature `datasheet`) |
 //! | [`config`] | the configuration and the table of its settings (network and allow-lists included) |
 //! | `access` | the web password (salted hash), web sessions, the rate limit of wrong passwords |
@@ -111,6 +112,7 @@ extern crate std;
 mod fmt;
 
 pub mod access;
+pub(crate) mod admission;
 #[cfg(feature = "audit")]
 pub mod audit;
 #[cfg(feature = "embassy-net")]

@@ -25,24 +25,26 @@
 //! closes that client's connection only. Unit ids are not checked (the gateway answers all).
 //! A client silent for [`IDLE_TIMEOUT`] is disconnected.
 //!
-//! Sessions ([`Slots`]): at most [`MAX_CLIENTS`] clients are served at
-//! once, at most [`PER_ADDRESS`] of them from one address; one more socket
-//! accepts a newcomer while all are served. A frame must be whole within
-//! [`FRAME_DEADLINE`] of its first byte, else the connection is closed (so
-//! a trickle of partial headers holds a slot for at most that long). A
-//! session that has not completed a request for [`EVICT_IDLE`] (and is not
-//! in the middle of one) is *idle*: when all slots are taken, the newcomer,
-//! once the allow-list admits it, takes the slot of the longest-idle one,
-//! which is closed. With none idle, the newcomer waits at most
-//! [`EVICT_IDLE`] + [`FRAME_DEADLINE`] for a slot (in that time every session
-//! not completing requests became idle or was closed), else it is closed.
-//! When the newcomer's address already has its [`PER_ADDRESS`] sessions,
-//! the newest connection wins: the least recently active of them (not in
-//! the middle of a frame) is closed for it, at once; if all are mid-frame,
-//! the newcomer is closed at once.
+//! Sessions ([`Slots`], by the rules of `crate::admission`): at most
+//! [`MAX_CLIENTS`] clients are served at once, at most [`PER_ADDRESS`] of
+//! them from one address; one more socket accepts a newcomer while all
+//! are served. A frame must be whole within [`FRAME_DEADLINE`] of its
+//! first byte, else the connection is closed (so a trickle of partial
+//! headers holds a slot for at most that long). A session that has not
+//! completed a request for [`EVICT_IDLE`] (and is not in the middle of
+//! one) is *idle*: when all slots are taken, the newcomer, once the
+//! allow-list admits it, takes the slot of the longest-idle one, which is
+//! closed. With none idle, the newcomer waits at most [`CLAIM_WAIT`] for a
+//! slot (in that time every session not completing requests became idle
+//! or was closed), else it is closed. When the newcomer's address already
+//! has its [`PER_ADDRESS`] sessions, the newest connection wins: the least
+//! recently active of them (not in the middle of a frame) is closed for
+//! it, at once; if all are mid-frame, the newcomer is closed at once
+//! ([`LIMITS`]: no newcomer waits for its own address's sessions).
 //! The allow-list is checked at accept and before each request; applying a
 //! configuration closes at once the sessions it no longer permits
-//! ([`Slots::close_unless`]).
+//! (`Slots::close_unless`). A session asked to close, for that or for a
+//! newcomer, is served no further request.
 //!
 //! Authorization by role ([`Grant`]): a client whose socket knows its role
 //! (Modbus/TCP Security on Linux: the role extension of its certificate,
@@ -52,16 +54,10 @@
 //! written, and `WRITES_REFUSED` counts it. A plain connection has no role:
 //! it may write what the write protection lets it.
 
-use core::cell::RefCell;
 use core::convert::Infallible;
-use core::future::poll_fn;
 use core::net::SocketAddrV4;
-use core::task::Poll;
 
 use embassy_futures::select::{select, Either};
-use embassy_sync::blocking_mutex::raw::NoopRawMutex;
-use embassy_sync::blocking_mutex::Mutex;
-use embassy_sync::waitqueue::MultiWakerRegistration;
 use embassy_time::{Duration, Instant};
 use modbus_core::tcp::{server::encode_response, Header, ResponseAdu};
 use modbus_core::{
@@ -69,6 +65,7 @@ use modbus_core::{
 };
 
 use crate::access::accounts::Role;
+use crate::admission::{self, octets, Limits, Refusal, Session};
 use crate::clock::{with_deadline, Clock};
 use crate::net::{PeerClaim, Socket};
 use crate::registers::{self as r, AccessError, WriteError};
@@ -224,325 +221,26 @@ pub(crate) const SOCKETS: usize = crate::limits::MAX_SESSIONS;
 /// away at its second.
 pub(crate) const PER_ADDRESS: usize = MAX_CLIENTS - 1;
 
-/// Why a session is asked to close.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Close {
-    /// A newcomer takes its slot (it was the longest idle).
-    Evicted,
-    /// The allow-list in use no longer permits its address.
-    NotAllowed,
-}
-
-/// Why a newcomer is not served.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Refusal {
-    /// Its address has [`PER_ADDRESS`] sessions, none idle.
-    PerAddress,
-    /// Every slot stayed taken by a session that is not idle.
-    Full,
-    /// The allow-list changed while it waited.
-    NotAllowed,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Phase {
-    /// The socket accepts (or is between connections).
-    Free,
-    /// A newcomer waits for a slot; the ticket says who came first.
-    Waiting(u64),
-    /// A client is served.
-    Serving,
-}
-
-/// One socket's session, as the others see it.
-#[derive(Clone, Copy, Debug)]
-struct Slot {
-    phase: Phase,
-    peer: Option<SocketAddrV4>,
-    /// When it last completed a request (or was accepted).
-    last: Instant,
-    /// A frame (or its answer) in progress, since then.
-    busy: Option<Instant>,
-    /// Asked to close, and why.
-    close: Option<Close>,
-}
-
-impl Slot {
-    const FREE: Slot = Slot {
-        phase: Phase::Free,
-        peer: None,
-        last: Instant::from_ticks(0),
-        busy: None,
-        close: None,
-    };
-
-    fn same_host(&self, peer: Option<SocketAddrV4>) -> bool {
-        matches!((self.peer, peer), (Some(a), Some(b)) if a.ip() == b.ip())
-    }
-
-    /// Served, not asked to close, nothing in progress, and no complete
-    /// request for [`EVICT_IDLE`].
-    fn idle(&self, now: Instant) -> bool {
-        self.phase == Phase::Serving
-            && self.close.is_none()
-            && self.busy.is_none()
-            && now.saturating_duration_since(self.last) >= EVICT_IDLE
-    }
-}
-
-/// What a waiting newcomer does next.
-enum Step {
-    Claimed,
-    Refuse(Refusal),
-    /// Wait for a change, or until then at the latest.
-    Wait(Option<Instant>),
-}
-
-struct Table {
-    slots: [Slot; SOCKETS],
-    tickets: u64,
-    gen: u32,
-    wakers: MultiWakerRegistration<SOCKETS>,
-}
-
-impl Table {
-    fn changed(&mut self) {
-        self.gen = self.gen.wrapping_add(1);
-        self.wakers.wake();
-    }
-
-    /// The longest-idle session among those `which` picks, asked to close.
-    fn evict(&mut self, now: Instant, which: impl Fn(&Slot) -> bool) -> bool {
-        self.evict_where(|s| s.idle(now) && which(s))
-    }
-
-    /// Asks the least recently active session that `which` picks to close.
-    fn evict_where(&mut self, which: impl Fn(&Slot) -> bool) -> bool {
-        let victim = self
-            .slots
-            .iter_mut()
-            .filter(|s| which(s))
-            .min_by_key(|s| s.last);
-        let Some(v) = victim else {
-            return false;
-        };
-        v.close = Some(Close::Evicted);
-        self.changed();
-        true
-    }
-
-    /// Newcomer `i` (waiting): may it take a slot now?
-    fn step(&mut self, i: usize, now: Instant) -> Step {
-        let Some(me) = self.slots.get(i).copied() else {
-            return Step::Refuse(Refusal::Full);
-        };
-        if me.close.is_some() {
-            return Step::Refuse(Refusal::NotAllowed);
-        }
-        let Phase::Waiting(ticket) = me.phase else {
-            return Step::Refuse(Refusal::Full);
-        };
-        let ahead = |s: &Slot| match s.phase {
-            Phase::Serving => true,
-            Phase::Waiting(t) => t < ticket,
-            Phase::Free => false,
-        };
-        // Its address's cap first: the newest connection from an address
-        // wins, so its own least recently active session makes room (a
-        // client that reconnects, or connects for each request, before the
-        // gateway has seen its old connection close), unless every one of
-        // them is in the middle of a frame. One address never holds more
-        // than its cap, and evicts only its own sessions.
-        let mine = self
-            .slots
-            .iter()
-            .filter(|s| ahead(s) && s.close.is_none() && s.same_host(me.peer))
-            .count();
-        if mine >= PER_ADDRESS
-            && !self.evict_where(|s| {
-                s.phase == Phase::Serving
-                    && s.close.is_none()
-                    && s.busy.is_none()
-                    && s.same_host(me.peer)
-            })
-        {
-            return Step::Refuse(Refusal::PerAddress);
-        }
-        // First come, first served.
-        if self
-            .slots
-            .iter()
-            .any(|s| matches!(s.phase, Phase::Waiting(t) if t < ticket))
-        {
-            return Step::Wait(None);
-        }
-        let serving = self
-            .slots
-            .iter()
-            .filter(|s| s.phase == Phase::Serving)
-            .count();
-        if serving < MAX_CLIENTS {
-            if let Some(s) = self.slots.get_mut(i) {
-                s.phase = Phase::Serving;
-                s.last = now;
-            }
-            self.changed();
-            return Step::Claimed;
-        }
-        let closing = self
-            .slots
-            .iter()
-            .any(|s| s.phase == Phase::Serving && s.close.is_some());
-        if closing || self.evict(now, |_| true) {
-            return Step::Wait(None);
-        }
-        // None idle yet: wait until the first may be.
-        let next = self
-            .slots
-            .iter()
-            .filter(|s| s.phase == Phase::Serving && s.busy.is_none())
-            .map(|s| s.last + EVICT_IDLE)
-            .min();
-        Step::Wait(next)
-    }
-}
-
+/// The longest a newcomer waits for a slot: by then every session that
+/// is not completing requests was idle for [`EVICT_IDLE`] or closed at
+/// its [`FRAME_DEADLINE`].
+pub(crate) const CLAIM_WAIT: Duration =
+    Duration::from_millis(EVICT_IDLE.as_millis() + FRAME_DEADLINE.as_millis());
 /// The sessions' table: who is served, since when idle, who is asked to
 /// close. Shared by the session futures (and the hub, which closes the
 /// sessions an allow-list no longer permits).
-pub(crate) struct Slots {
-    table: Mutex<NoopRawMutex, RefCell<Table>>,
-}
-
-impl Slots {
-    /// All free.
-    pub(crate) const fn new() -> Self {
-        Slots {
-            table: Mutex::new(RefCell::new(Table {
-                slots: [Slot::FREE; SOCKETS],
-                tickets: 0,
-                gen: 0,
-                wakers: MultiWakerRegistration::new(),
-            })),
-        }
-    }
-
-    fn with<R>(&self, f: impl FnOnce(&mut Table) -> R) -> R {
-        self.table.lock(|t| f(&mut t.borrow_mut()))
-    }
-
-    /// Socket `i` accepted `peer` (that the allow-list permits): waits
-    /// until it may be served (see the module documentation).
-    pub(crate) async fn claim<C: Clock>(
-        &self,
-        i: usize,
-        peer: Option<SocketAddrV4>,
-        clock: &C,
-    ) -> Result<(), Refusal> {
-        let start = clock.now();
-        self.with(|t| {
-            t.tickets = t.tickets.wrapping_add(1);
-            if let Some(s) = t.slots.get_mut(i) {
-                *s = Slot {
-                    phase: Phase::Waiting(t.tickets),
-                    peer,
-                    last: start,
-                    busy: None,
-                    close: None,
-                };
-            }
-        });
-        let give_up = start + EVICT_IDLE + FRAME_DEADLINE;
-        loop {
-            let now = clock.now();
-            let (step, gen) = self.with(|t| {
-                let step = match t.step(i, now) {
-                    Step::Wait(_) if now >= give_up => Step::Refuse(Refusal::Full),
-                    s => s,
-                };
-                (step, t.gen)
-            });
-            let until = match step {
-                Step::Claimed => return Ok(()),
-                Step::Refuse(r) => {
-                    self.release(i);
-                    return Err(r);
-                }
-                Step::Wait(at) => at.map_or(give_up, |a| a.min(give_up)),
-            };
-            let changed = poll_fn(|cx| {
-                self.with(|t| {
-                    if t.gen == gen {
-                        t.wakers.register(cx.waker());
-                        Poll::Pending
-                    } else {
-                        Poll::Ready(())
-                    }
-                })
-            });
-            select(changed, clock.sleep_until(until)).await;
-        }
-    }
-
-    /// Socket `i`'s client left (or was refused): its slot is free.
-    pub(crate) fn release(&self, i: usize) {
-        self.with(|t| {
-            if let Some(s) = t.slots.get_mut(i) {
-                *s = Slot::FREE;
-            }
-            t.changed();
-        });
-    }
-
-    /// Session `i` started a frame at `at` (`Some`), or completed a
-    /// request (and answered it) at `at` (`None`).
-    fn mark(&self, i: usize, busy: Option<Instant>, at: Instant) {
-        self.with(|t| {
-            if let Some(s) = t.slots.get_mut(i) {
-                s.busy = busy;
-                if busy.is_none() {
-                    s.last = at;
-                }
-            }
-        });
-    }
-
-    /// Resolves when session `i` is asked to close.
-    async fn closing(&self, i: usize) -> Close {
-        poll_fn(|cx| {
-            self.with(|t| match t.slots.get(i).and_then(|s| s.close) {
-                Some(why) => Poll::Ready(why),
-                None => {
-                    t.wakers.register(cx.waker());
-                    Poll::Pending
-                }
-            })
-        })
-        .await
-    }
-
-    /// Asks every session (served or waiting) whose peer `permits` refuses
-    /// to close; they do at once, before serving another request.
-    pub(crate) fn close_unless(&self, permits: impl Fn(Option<SocketAddrV4>) -> bool) {
-        self.with(|t| {
-            let mut any = false;
-            for s in t.slots.iter_mut() {
-                if s.phase != Phase::Free && s.close.is_none() && !permits(s.peer) {
-                    s.close = Some(Close::NotAllowed);
-                    any = true;
-                }
-            }
-            if any {
-                t.changed();
-            }
-        });
-    }
-}
-
-/// A peer's address for logs (0.0.0.0 when unknown).
-fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
-    peer.map_or([0; 4], |p| p.ip().octets())
-}
+pub(crate) type Slots = admission::Slots<SOCKETS, MAX_CLIENTS, PER_ADDRESS>;
+/// The sessions' times. A newcomer whose address has its [`PER_ADDRESS`]
+/// sessions, all in the middle of a frame, is closed at once: none waits
+/// for its own address's sessions (a client that reconnects finds its old
+/// session quiet, and takes its place).
+pub(crate) const LIMITS: Limits = Limits {
+    evict_idle: EVICT_IDLE,
+    claim_wait: CLAIM_WAIT,
+    waiting_per_address: 0,
+};
+/// The server's name in log lines.
+pub(crate) const NAME: &str = "modbus";
 
 /// Serves Modbus clients on `port`, one after the other, forever, as
 /// socket `i` of the [`SOCKETS`] (its entry in [`Registers::slots`]).
@@ -566,28 +264,18 @@ pub(crate) async fn session<S: Socket, C: Clock, R: Registers>(
         if !regs.permits(peer) {
             // Refused: `admit` counts it in MODBUS_REFUSED.
             let _ = regs.admit(peer);
-            refused(peer);
+            slots.refused(Refusal::NotAllowed, peer);
             sock.close().await;
             continue;
         }
         if let Err(why) = slots.claim(i, peer, clock).await {
-            match why {
-                Refusal::PerAddress => warn!(
-                    "modbus: client {}.{}.{}.{} refused: {} sessions from that address, none idle",
-                    a, b, c, d, PER_ADDRESS
-                ),
-                Refusal::Full => warn!(
-                    "modbus: client {}.{}.{}.{} refused: all {} sessions busy, none idle",
-                    a, b, c, d, MAX_CLIENTS
-                ),
-                Refusal::NotAllowed => refused(peer),
-            }
+            slots.refused(why, peer);
             sock.close().await;
             continue;
         }
         let Some(n) = regs.admit(peer) else {
             slots.release(i);
-            refused(peer);
+            slots.refused(Refusal::NotAllowed, peer);
             sock.close().await;
             continue;
         };
@@ -618,7 +306,7 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
     i: usize,
     peer: Option<SocketAddrV4>,
 ) {
-    let slots = regs.slots();
+    let session = regs.slots().session(i);
     let mut buf = [0u8; MAX_ADU];
     let mut out = [0u8; MAX_ADU];
     let mut len = 0usize;
@@ -650,10 +338,12 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
                         else {
                             return;
                         };
-                        if !regs.permits(peer) || !reply(slots, i, sock, out.get(..n)).await {
+                        if !may_serve(regs, session, peer)
+                            || !reply(session, sock, out.get(..n)).await
+                        {
                             return;
                         }
-                        slots.mark(i, None, clock.now());
+                        session.answered(clock.now());
                         len = 0;
                         started = None;
                         continue;
@@ -672,19 +362,19 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
                 Some(t) => t + FRAME_DEADLINE,
                 None => clock.now() + IDLE_TIMEOUT,
             };
-            let read = select(sock.read(free), slots.closing(i));
+            let read = select(sock.read(free), session.closing());
             match with_deadline(clock, deadline, read).await {
                 Ok(Either::First(Ok(0) | Err(_))) => return,
                 Ok(Either::First(Ok(n))) => {
                     if started.is_none() {
                         let now = clock.now();
                         started = Some(now);
-                        slots.mark(i, Some(now), now);
+                        session.started();
                     }
                     len += n;
                 }
                 Ok(Either::Second(why)) => {
-                    closed(why, peer);
+                    regs.slots().closed(why, peer);
                     return;
                 }
                 Err(_) if started.is_some() => {
@@ -704,9 +394,7 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
         let Some(adu) = buf.get(..need) else {
             return;
         };
-        // The allow-list in use, not the one at accept.
-        if !regs.permits(peer) {
-            closed(Close::NotAllowed, peer);
+        if !may_serve(regs, session, peer) {
             return;
         }
         // The role as it is now: known once the TLS handshake ended.
@@ -730,49 +418,39 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
             }
         };
         if let Some(n) = answer {
-            if !reply(slots, i, sock, out.get(..n)).await {
+            if !reply(session, sock, out.get(..n)).await {
                 return;
             }
         }
         buf.copy_within(need..len, 0);
         len -= need;
         let now = clock.now();
+        session.answered(now);
         // What is left is the start of the next frame.
         started = (len > 0).then_some(now);
-        slots.mark(i, started, now);
+        if started.is_some() {
+            session.started();
+        }
     }
 }
 
-/// Writes `bytes` unless session `i` is asked to close first; `false`
+/// The session may be served another request: it was not asked to close
+/// (for a newcomer, or by an allow-list applied since), and the allow-list
+/// in use, not only the one at accept, permits its client. Logs why not.
+fn may_serve<R: Registers>(regs: &R, session: Session<'_>, peer: Option<SocketAddrV4>) -> bool {
+    let Some(why) = session.check(regs.permits(peer)) else {
+        return true;
+    };
+    regs.slots().closed(why, peer);
+    false
+}
+
+/// Writes `bytes` unless the session is asked to close first; `false`
 /// when the session ends.
-async fn reply<S: Socket>(slots: &Slots, i: usize, sock: &mut S, bytes: Option<&[u8]>) -> bool {
-    match select(sock.write_all(bytes.unwrap_or(&[])), slots.closing(i)).await {
+async fn reply<S: Socket>(session: Session<'_>, sock: &mut S, bytes: Option<&[u8]>) -> bool {
+    match select(sock.write_all(bytes.unwrap_or(&[])), session.closing()).await {
         Either::First(r) => r.is_ok(),
         Either::Second(_) => false,
-    }
-}
-
-/// Logs a client the allow-list refuses.
-fn refused(peer: Option<SocketAddrV4>) {
-    let [a, b, c, d] = octets(peer);
-    warn!(
-        "modbus: client {}.{}.{}.{} refused (not in MODBUS_ALLOW)",
-        a, b, c, d
-    );
-}
-
-/// Logs why a session was closed from outside.
-fn closed(why: Close, peer: Option<SocketAddrV4>) {
-    let [a, b, c, d] = octets(peer);
-    match why {
-        Close::Evicted => info!(
-            "modbus: client {}.{}.{}.{} idle, closed for a new client",
-            a, b, c, d
-        ),
-        Close::NotAllowed => warn!(
-            "modbus: client {}.{}.{}.{} no longer in MODBUS_ALLOW, closed",
-            a, b, c, d
-        ),
     }
 }
 
@@ -1181,6 +859,8 @@ mod tests {
             &self.0.modbus_slots
         }
     }
+
+    crate::admission::tests::admission_suite!(Slots::new(NAME, &LIMITS));
 
     fn answer(map: &Map, adu: &[u8]) -> Vec<u8> {
         let mut out = [0u8; MAX_ADU];

@@ -11,7 +11,7 @@
 //!
 //! The halves also keep the connection's [`Exchange`]: a read that brings
 //! the first byte of a request marks the connection busy (in the server's
-//! [`Slots`](super::slots::Slots)); an answer must be written within
+//! [`Slots`](super::Slots)); an answer must be written within
 //! [`ANSWER_DEADLINE`] of its first write (a client that reads slowly
 //! cannot hold a slot longer); and once the connection is asked to close
 //! (a newcomer takes its slot, or the allow-list no longer permits its
@@ -33,8 +33,8 @@ use picoserve::io::embedded_io_async::{self, ErrorKind, ErrorType};
 use picoserve::io::Read;
 use picoserve::mem::{BorrowedBuffer, BorrowedCursor};
 
-use super::slots::{Close, Session};
 use super::ANSWER_DEADLINE;
+use crate::admission::{Close, Session};
 use crate::clock::{with_deadline, Clock};
 use crate::net::{NetError, Socket};
 
@@ -129,7 +129,7 @@ impl<'a, C: Clock> Exchange<'a, C> {
     /// was read before).
     pub(crate) fn started(&self) {
         if !self.busy.replace(true) {
-            self.session.started(self.clock.now());
+            self.session.started();
         }
     }
 
@@ -146,9 +146,11 @@ impl<'a, C: Clock> Exchange<'a, C> {
         self.served.get()
     }
 
-    /// Why the connection was asked to close, if it was.
-    pub(crate) fn asked(&self) -> Option<Close> {
-        self.session.asked()
+    /// Why the connection may not be served another request, if it may
+    /// not: asked to close, or its client not `permitted` by the
+    /// allow-list in use.
+    pub(crate) fn check(&self, permitted: bool) -> Option<Close> {
+        self.session.check(permitted)
     }
 
     /// When the answer in progress must be written by (from its first
@@ -348,7 +350,7 @@ mod tests {
     use picoserve::io::Socket as _;
 
     use crate::testkit::clock::VirtualClock;
-    use crate::web::slots::Slots;
+    use crate::web::{Slots, LIMITS, NAME};
 
     /// A client that takes its answer a write a second: each write ends
     /// well within picoserve's timeout for one write.
@@ -377,7 +379,7 @@ mod tests {
     #[test]
     fn an_answer_taken_slowly_ends_at_the_answer_deadline() {
         let clock = VirtualClock::new();
-        let slots = Slots::new();
+        let slots = Slots::new(NAME, &LIMITS);
         let ex = Exchange::new(&clock, slots.session(0));
         let mut sock = SlowReader(&clock);
         let mut conn = Conn::new(&mut sock, &ex);

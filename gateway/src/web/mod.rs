@@ -17,7 +17,7 @@
 //!   [`HTTP_BUF`]-byte request buffer: a request (line, headers and body)
 //!   longer than that gets 413 (body) or 400 and the connection closes.
 //!   [`WEB_CONNECTIONS`] sockets: the one more accepts a newcomer while
-//!   every slot is taken ([`slots`]).
+//!   every slot is taken ([`Slots`]).
 //! * Limits (see "Connections" below): a request whole within
 //!   [`REQUEST_DEADLINE`] of its first byte, its answer written within
 //!   [`ANSWER_DEADLINE`], [`IDLE_TIMEOUT`] between requests,
@@ -39,8 +39,9 @@
 //! # Connections
 //!
 //! Three keep-alive browsers, or three slow clients, must not take the
-//! page away (issue 16, classes 4 and 5); the rules are those of the
-//! Modbus sessions (`crate::modbus`), with HTTP's times:
+//! page away (issue 16, classes 4 and 5); the rules are those of every
+//! listener (`crate::admission`, as for the Modbus sessions), with HTTP's
+//! times and sizes:
 //! * A request (line, headers and body) must be whole within
 //!   [`REQUEST_DEADLINE`] of its first byte, and its answer written within
 //!   [`ANSWER_DEADLINE`] of its first write, else the connection is closed:
@@ -59,8 +60,9 @@
 //!   has them takes the slot of its own least recently active connection
 //!   not in the middle of a request; if all are, it waits for the first to
 //!   finish (within [`CLAIM_WAIT`]), unless another newcomer of its
-//!   address waits already: then it is closed at once. A newcomer waiting
-//!   for its own address's connections holds up no other client.
+//!   address waits already: then it is closed at once ([`LIMITS`]). A
+//!   newcomer waiting for its own address's connections holds up no other
+//!   client.
 //! * The allow-list is checked at accept, before every request, and when a
 //!   configuration is applied (the engine's `Hub::config_applied`): the
 //!   connections it no longer permits are closed before anything more of
@@ -75,7 +77,6 @@ pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
 pub(crate) mod routes;
-pub(crate) mod slots;
 
 use core::cell::{Cell, RefCell};
 use core::convert::Infallible;
@@ -83,6 +84,9 @@ use core::net::SocketAddrV4;
 use core::pin::pin;
 
 use embassy_futures::join::{join5, join_array};
+use embassy_sync::blocking_mutex::raw::NoopRawMutex;
+use embassy_sync::channel::Channel;
+use embassy_sync::signal::Signal;
 use embassy_time::Duration;
 use picoserve::io::Read;
 use picoserve::request::{Path, Request, RequestParts};
@@ -96,6 +100,7 @@ use crate::access::accounts::{Role, UserName};
 use crate::access::limit::Limiter;
 use crate::access::session::{Sessions, Token, Who};
 use crate::access::setup::SetupCode;
+use crate::admission::{self, octets, Close, Limits, Refusal, Session};
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::Clock;
 use crate::config::AllowList;
@@ -105,7 +110,6 @@ use api::{Doc, Snapshot};
 use io::{ClockTimer, Conn, Exchange};
 use json::Json;
 use routes::Route;
-use slots::{Close, Refusal, Session, Slots};
 
 /// Requests served at once: slots, each with an [`HTTP_BUF`] and a
 /// request handler.
@@ -142,6 +146,20 @@ pub(crate) const EVICT_IDLE: Duration = Duration::from_secs(1);
 pub(crate) const CLAIM_WAIT: Duration = Duration::from_millis(
     EVICT_IDLE.as_millis() + REQUEST_DEADLINE.as_millis() + ANSWER_DEADLINE.as_millis(),
 );
+/// The connections' times. A newcomer whose address has its
+/// [`PER_ADDRESS`] connections, all in the middle of a request, waits for
+/// the first to finish (a browser opens another while its others are
+/// busy), unless another newcomer of its address waits already.
+pub(crate) const LIMITS: Limits = Limits {
+    evict_idle: EVICT_IDLE,
+    claim_wait: CLAIM_WAIT,
+    waiting_per_address: 1,
+};
+/// The server's name in log lines.
+pub(crate) const NAME: &str = "web";
+/// Who the web server serves: its connections' table
+/// ([`crate::admission`]).
+pub(crate) type Slots = admission::Slots<WEB_CONNECTIONS, WEB_SLOTS, PER_ADDRESS>;
 /// Requests served on one connection: the last answer says
 /// `Connection: close` and the connection closes, so that no client keeps
 /// a slot (and its place among the idle) for ever.
@@ -215,29 +233,42 @@ pub(crate) async fn run<N: Net, C: Clock>(
 ) -> Infallible {
     let mut bufs = [const { SocketBufs::new() }; WEB_CONNECTIONS];
     let mut http = [const { [0u8; HTTP_BUF] }; WEB_SLOTS];
-    let slots = Slots::new();
-    let socks = bufs
-        .each_mut()
-        .map(|b| RefCell::new(net.socket(&mut b.rx, &mut b.tx)));
-    let mut next = 0;
-    let accepts = socks.each_ref().map(|sock| {
-        let j = next;
-        next += 1;
-        accept(hub, clock, sock, &slots, port, j)
-    });
+    let conns = Conns {
+        socks: bufs
+            .each_mut()
+            .map(|b| RefCell::new(net.socket(&mut b.rx, &mut b.tx))),
+        slots: Slots::new(NAME, &LIMITS),
+        admitted: Channel::new(),
+        done: [const { Signal::new() }; WEB_CONNECTIONS],
+    };
+    let accepts: [_; WEB_CONNECTIONS] =
+        core::array::from_fn(|j| accept(hub, clock, &conns, port, j));
     // Each slot's future (~14 KiB) is built where it stays, in this
     // future: an array of them built by `map` went through the stack first
     // (54 KiB of the field device's stack). Hence one line per slot. The
     // accepting futures are small.
     const _: () = assert!(WEB_SLOTS == 3, "one line per slot below");
     let [h0, h1, h2] = http.each_mut();
-    let s0 = pin!(slot(hub, clock, web, &socks, &slots, 0, h0));
-    let s1 = pin!(slot(hub, clock, web, &socks, &slots, 1, h1));
-    let s2 = pin!(slot(hub, clock, web, &socks, &slots, 2, h2));
+    let s0 = pin!(slot(hub, clock, web, &conns, 0, h0));
+    let s1 = pin!(slot(hub, clock, web, &conns, 1, h1));
+    let s2 = pin!(slot(hub, clock, web, &conns, 2, h2));
     let accepts = pin!(join_array(accepts));
-    let warden = pin!(warden(hub, &slots));
+    let warden = pin!(warden(hub, &conns.slots));
     let _ = join5(s0, s1, s2, accepts, warden).await;
     core::future::pending().await
+}
+
+/// What the server's futures share: its sockets, who is served
+/// ([`Slots`]), and how an admitted connection reaches a slot's future.
+struct Conns<S> {
+    socks: [RefCell<S>; WEB_CONNECTIONS],
+    slots: Slots,
+    /// Admitted connections (socket, peer) on their way from their
+    /// socket's accepting future to a free slot's. At most [`WEB_SLOTS`]
+    /// are admitted at once: it is never full.
+    admitted: Channel<NoopRawMutex, (usize, Option<SocketAddrV4>), WEB_SLOTS>,
+    /// Per socket: its slot's future is done with it (closed, released).
+    done: [Signal<NoopRawMutex, ()>; WEB_CONNECTIONS],
 }
 
 /// The socket buffers of one web connection.
@@ -264,26 +295,25 @@ fn permits(list: &AllowList, peer: Option<SocketAddrV4>) -> bool {
     }
 }
 
-/// A peer's address for logs (0.0.0.0 when unknown).
-fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
-    peer.map_or([0; 4], |p| p.ip().octets())
-}
-
 /// Socket `j`: accepts a client, has it admitted (`WEB_ALLOW`) and given a
-/// slot ([`Slots::claim`]), and waits until the slot's server is done
-/// with it; forever.
-// The socket's borrow is held while it accepts or closes: the slot's
-// future borrows it only between the claim and the release, while this
+/// slot ([`Slots::claim`]), hands it to a free slot's future and waits
+/// until that is done with it; forever.
+// The socket's borrow is held while it accepts or closes: a slot's
+// future borrows it only between the hand-over and `done`, while this
 // one waits without it (a failed borrow ends that connection, no panic).
 #[allow(clippy::await_holding_refcell_ref)]
 async fn accept<S: Socket, C: Clock>(
     hub: &Hub,
     clock: &C,
-    sock: &RefCell<S>,
-    slots: &Slots,
+    conns: &Conns<S>,
     port: u16,
     j: usize,
 ) -> Infallible {
+    let (Some(sock), Some(done)) = (conns.socks.get(j), conns.done.get(j)) else {
+        // Cannot happen: one accepting future per socket.
+        return core::future::pending().await;
+    };
+    let slots = &conns.slots;
     loop {
         let accepted = match sock.try_borrow_mut() {
             // Nobody else holds the socket while its entry is free.
@@ -294,39 +324,20 @@ async fn accept<S: Socket, C: Clock>(
             clock.sleep(Duration::from_millis(500)).await;
             continue;
         };
-        let [a, b, c, d] = octets(peer);
         let refused = if !hub.admit_web(peer) {
-            warn!(
-                "web: client {}.{}.{}.{} refused (not in WEB_ALLOW)",
-                a, b, c, d
-            );
+            slots.refused(Refusal::NotAllowed, peer);
             true
         } else {
             match slots.claim(j, peer, clock).await {
-                Ok(_) => {
+                Ok(()) => {
                     // A slot's future serves it, closes it and releases it.
-                    slots.released(j).await;
+                    // At most WEB_SLOTS are admitted at once: never full.
+                    let _ = conns.admitted.try_send((j, peer));
+                    done.wait().await;
                     false
                 }
-                Err(Refusal::PerAddress) => {
-                    warn!(
-                        "web: client {}.{}.{}.{} refused: {} connections from that address, all busy",
-                        a, b, c, d, PER_ADDRESS
-                    );
-                    true
-                }
-                Err(Refusal::Full) => {
-                    warn!(
-                        "web: client {}.{}.{}.{} refused: all {} connections busy, none idle",
-                        a, b, c, d, WEB_SLOTS
-                    );
-                    true
-                }
-                Err(Refusal::NotAllowed) => {
-                    warn!(
-                        "web: client {}.{}.{}.{} refused (not in WEB_ALLOW)",
-                        a, b, c, d
-                    );
+                Err(why) => {
+                    slots.refused(why, peer);
                     true
                 }
             }
@@ -339,7 +350,7 @@ async fn accept<S: Socket, C: Clock>(
     }
 }
 
-/// Slot `k`: serves each connection it is given (with its request
+/// Slot `k`: serves each admitted connection it takes (with its request
 /// buffer `http`), then closes and releases it; forever.
 // The socket's borrow is held while serving: see `accept`.
 #[allow(clippy::await_holding_refcell_ref)]
@@ -347,22 +358,28 @@ async fn slot<S: Socket, C: Clock>(
     hub: &Hub,
     clock: &C,
     web: &Web,
-    socks: &[RefCell<S>],
-    slots: &Slots,
+    conns: &Conns<S>,
     k: usize,
     http: &mut [u8],
 ) -> Infallible {
+    let slots = &conns.slots;
     loop {
-        let (j, peer) = slots.assigned(k).await;
+        let (j, peer) = conns.admitted.receive().await;
         // The socket is the slot's until it is released: its accepting
         // future waits meanwhile (a borrow that fails cannot happen).
-        if let Some(Ok(mut sock)) = socks.get(j).map(RefCell::try_borrow_mut) {
+        if let Some(Ok(mut sock)) = conns.socks.get(j).map(RefCell::try_borrow_mut) {
             let [a, b, c, d] = octets(peer);
             debug!("web: client {}.{}.{}.{} served in slot {}", a, b, c, d, k);
-            serve_one(hub, clock, web, peer, &mut *sock, http, slots.session(j)).await;
+            let session = slots.session(j);
+            if let Some(why) = serve_one(hub, clock, web, peer, &mut *sock, http, session).await {
+                slots.closed(why, peer);
+            }
             sock.close().await;
         }
         slots.release(j);
+        if let Some(done) = conns.done.get(j) {
+            done.signal(());
+        }
     }
 }
 
@@ -382,7 +399,7 @@ async fn warden(hub: &Hub, slots: &Slots) -> Infallible {
 
 /// Serves one connection (its requests, kept alive) until it ends: the
 /// client leaves, a limit is reached, or it is asked to close
-/// (`session`).
+/// (`session`: then why).
 async fn serve_one<S: Socket, C: Clock>(
     hub: &Hub,
     clock: &C,
@@ -391,7 +408,7 @@ async fn serve_one<S: Socket, C: Clock>(
     sock: &mut S,
     http: &mut [u8],
     session: Session<'_>,
-) {
+) -> Option<Close> {
     let ex = Exchange::new(clock, session);
     let app = Router::from_service(Served {
         app: App {
@@ -406,22 +423,11 @@ async fn serve_one<S: Socket, C: Clock>(
     });
     let server = picoserve::Server::custom(&app, ClockTimer(clock), &CONFIG, http);
     match server.serve(Conn::new(sock, &ex)).await {
-        Ok(_) => {}
-        Err(picoserve::Error::Read(io::IoError::Asked(why))) => {
-            let [a, b, c, d] = octets(peer);
-            match why {
-                Close::Evicted => info!(
-                    "web: client {}.{}.{}.{} idle, closed for a new client",
-                    a, b, c, d
-                ),
-                Close::NotAllowed => warn!(
-                    "web: client {}.{}.{}.{} no longer in WEB_ALLOW, closed",
-                    a, b, c, d
-                ),
-            }
-        }
+        Ok(_) => None,
+        Err(picoserve::Error::Read(io::IoError::Asked(why))) => Some(why),
         Err(_) => {
-            debug!("web: connection ended on an error (timeout, reset, malformed request)")
+            debug!("web: connection ended on an error (timeout, reset, malformed request)");
+            None
         }
     }
 }
@@ -449,7 +455,7 @@ impl<C: Clock> PathRouterService<()> for Served<'_, C> {
         let allowed = app
             .hub
             .with(|m| permits(&m.config.active.web_allow, app.peer));
-        if self.ex.asked().is_some() || !allowed {
+        if self.ex.check(allowed).is_some() {
             // Closed unanswered, as at accept: the route is never looked
             // at, and the write fails (the connection is closing), which
             // ends it. (The same writer type as the routes': no code of
@@ -1260,6 +1266,8 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
 mod tests {
     use super::*;
     use core::net::Ipv4Addr;
+
+    crate::admission::tests::admission_suite!(Slots::new(NAME, &LIMITS));
 
     #[test]
     fn own_host_names_the_device() {
