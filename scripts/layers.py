@@ -11,8 +11,13 @@ the module that defines it), and fails when a module imports one of its own
 layer or a higher one, or when a module is missing from the table.
 
     python3 scripts/layers.py [--list] [--src gateway/src]
+    python3 scripts/layers.py --self-test
 
---list prints every edge with its layers. Test code (an inline
+--list prints every edge with its layers. --self-test checks the checker: on
+a copy of the crate it adds an upward import (the state using the
+composition root), once by path and once through a name the crate root
+re-exports (the way `crate::MAX_SESSIONS` once hid a cycle through 14
+modules), and expects each to fail. Test code (an inline
 `#[cfg(test)] mod tests {` to the end of its file, `tests.rs` files) and the
 testkit are left out: a test may use whatever it checks. Exit status 1 on a
 violation, 2 when the table cannot be read.
@@ -225,7 +230,34 @@ def edges(src):
     return modules, out, lib_text
 
 
+def self_test():
+    import shutil
+    import subprocess
+    import tempfile
+
+    here = os.path.abspath(__file__)
+    results = []
+    for line in ("use crate::gateway::Options;\n", "use crate::Options;\n"):
+        with tempfile.TemporaryDirectory() as tmp:
+            copy = os.path.join(tmp, "src")
+            shutil.copytree(DEFAULT_SRC, copy)
+            target = os.path.join(copy, "state", "mod.rs")
+            text = open(target, encoding="utf-8").read()
+            # After the module's docs, before its first item.
+            at = text.find("\nuse ")
+            open(target, "w", encoding="utf-8").write(text[: at + 1] + line + text[at + 1 :])
+            run = subprocess.run(
+                [sys.executable, here, "--src", copy], capture_output=True, text=True
+            )
+            caught = run.returncode == 1 and "state (layer" in run.stdout
+            results.append(caught)
+            print(f"{'caught' if caught else 'MISSED'}: {line.strip()} in state/mod.rs")
+    return 0 if all(results) else 1
+
+
 def main(argv):
+    if "--self-test" in argv:
+        return self_test()
     src = DEFAULT_SRC
     if "--src" in argv:
         src = argv[argv.index("--src") + 1]

@@ -1,7 +1,7 @@
 //! The entry point for boards (feature `embassy-net`).
 //!
 //! A board does three things: build its `embassy_net::Stack` (and spawn the
-//! stack's runner), pick a [`Storage`] (flash, or [`NoStorage`] where there
+//! stack's runner), pick a [`Storage`] (flash, or [`crate::NoStorage`] where there
 //! is none), and run [`run`] from one task:
 //!
 //! ```text

@@ -7,13 +7,14 @@ use core::convert::Infallible;
 use core::net::Ipv4Addr;
 use core::pin::pin;
 
-use embassy_futures::join::{join, join5};
+use embassy_futures::join::{join, join3, join5};
 
 use crate::access::setup::SetupCode;
 use crate::clock::Clock;
 use crate::config::{self, Config, HostName};
-use crate::hub::{Hub, PlcPort};
+use crate::hub::Hub;
 use crate::net::Net;
+use crate::plc::PlcPort;
 use crate::state::Model;
 use crate::storage::{image, ConfigStore, Image, Medium, SaveOutcome, StorageError, Stored};
 
@@ -293,7 +294,13 @@ impl Gateway {
         let mut link_bufs = [[0u8; LINK_BUF]; 4];
         let [l0, l1, l2, l3] = link_bufs.each_mut();
         let engine = crate::engine::run(hub, clock, net.socket(l0, l1), net.socket(l2, l3));
-        let plc = PlcPort { hub, clock };
+        let modbus_slots = crate::modbus::Slots::new(crate::modbus::NAME, &crate::modbus::LIMITS);
+        let plc = PlcPort {
+            hub,
+            clock,
+            slots: &modbus_slots,
+        };
+        let warden = crate::plc::warden(&plc);
         let mut bufs = [[[0u8; MODBUS_BUF]; 2]; MAX_SESSIONS];
         // The sessions one by one, each pinned where it stays: built as an
         // array (`map`) and moved into `join_array`, the array (4.4 KiB)
@@ -359,10 +366,10 @@ impl Gateway {
         // built, instead of being moved into the join (through the stack).
         let (engine, sessions) = (pin!(engine), pin!(sessions));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
-        let (telemetry, trial) = (pin!(telemetry), pin!(trial));
+        let (telemetry, trial, warden) = (pin!(telemetry), pin!(trial), pin!(warden));
         let _ = join(
             join5(engine, sessions, datasheet, saver, page),
-            join(telemetry, trial),
+            join3(telemetry, trial, warden),
         )
         .await;
         // The engine, the sessions, the reader and the saver loop forever.

@@ -830,33 +830,54 @@ fn execute<'d, R: Registers>(
 mod tests {
     use super::*;
 
-    /// The register map of a fresh gateway, without its tasks.
-    struct Map(crate::hub::Hub);
+    /// The register map of a fresh gateway, without its tasks: the hub
+    /// behind the PLC's port, at instant 0.
+    struct Map {
+        hub: crate::hub::Hub,
+        clock: crate::testkit::clock::VirtualClock,
+        slots: Slots,
+    }
+
+    impl Map {
+        fn fresh() -> Map {
+            let config = crate::Config::default();
+            Map {
+                hub: crate::hub::Hub::new(crate::state::Model::new(config, config)),
+                clock: crate::testkit::clock::VirtualClock::new(),
+                slots: Slots::new(NAME, &LIMITS),
+            }
+        }
+
+        fn port(&self) -> crate::plc::PlcPort<'_, crate::testkit::clock::VirtualClock> {
+            crate::plc::PlcPort {
+                hub: &self.hub,
+                clock: &self.clock,
+                slots: &self.slots,
+            }
+        }
+    }
 
     impl Registers for Map {
         fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError> {
-            self.0
-                .read_registers(start, out, embassy_time::Instant::from_ticks(0))
+            self.port().read(start, out)
         }
         fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError> {
-            self.0
-                .write_registers(start, values, embassy_time::Instant::from_ticks(0))
-                .map(|c| c.map(Pending))
+            self.port().write(start, values)
         }
         async fn settle(&self, p: Pending) -> Result<(), WriteError> {
-            self.0.config_command(p.0).await
+            self.port().settle(p).await
         }
         fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
-            self.0.admit_modbus(peer)
+            self.port().admit(peer)
         }
         fn leave(&self, peer: Option<SocketAddrV4>) -> u16 {
-            self.0.leave_modbus(peer)
+            self.port().leave(peer)
         }
         fn permits(&self, peer: Option<SocketAddrV4>) -> bool {
-            self.0.permits_modbus(peer)
+            self.port().permits(peer)
         }
         fn slots(&self) -> &Slots {
-            &self.0.modbus_slots
+            &self.slots
         }
     }
 
@@ -873,10 +894,7 @@ mod tests {
 
     #[test]
     fn exceptions_for_bad_requests() {
-        let ctx = Map(crate::hub::Hub::new(crate::state::Model::new(
-            crate::Config::default(),
-            crate::Config::default(),
-        )));
+        let ctx = Map::fresh();
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 2, 1, 0x2B]),
             [0, 1, 0, 0, 0, 3, 1, 0xAB, 1]

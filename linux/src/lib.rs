@@ -7,7 +7,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`net`] | the socket interface over tokio (listeners bound ahead, TLS connections) |
-//! | [`tls`] | the TLS servers (the page over HTTPS, Modbus/TCP Security and its role extension) and the broker's TLS client |
+//! | `tls` | the TLS servers (the page over HTTPS, Modbus/TCP Security and its role extension) and the broker's TLS client |
 //! | [`config_file`] | the configuration as a TOML file people edit (read, checked with line and column, written) |
 //! | [`audit_file`] | the audit log's file beside it, with rotation |
 //! | this page | [`FileStorage`], and [`RunningGateway`]: a gateway on its own thread (the binary, the tests, the benchmarks) |
@@ -25,7 +25,7 @@ pub mod audit_file;
 pub mod config_file;
 pub mod mqtt;
 pub mod net;
-pub mod tls;
+mod tls;
 mod waker;
 
 use core::convert::Infallible;

@@ -6,13 +6,12 @@
 //! [`TokioNet::new`]'s address). Connections beyond the ones being accepted
 //! wait in the kernel's backlog.
 //!
-//! A listener made with a TLS server ([`TokioNet::listen_tls`], feature
-//! `tls-server`) hands its sockets connections whose handshake starts at
+//! A listener made with a TLS server (`TokioNet::listen_tls`) hands its sockets connections whose handshake starts at
 //! their first read or write and must end within
-//! [`crate::tls::HANDSHAKE_DEADLINE`] (see [`crate::tls`]); the address is
+//! `tls::HANDSHAKE_DEADLINE` (see the `tls` module); the address is
 //! known at accept, so the servers' allow-lists and slots apply before
 //! the handshake costs anything. A TLS listener may also serve beside
-//! another port ([`TokioNet::listen_tls_beside`]): the sockets accepting
+//! another port (`TokioNet::listen_tls_beside`): the sockets accepting
 //! on that port take its connections too (Modbus/TCP Security's clients
 //! share the Modbus sessions with the plain ones).
 //!

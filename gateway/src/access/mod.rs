@@ -6,7 +6,7 @@
 //!   counted).
 //! * Who may change the configuration over the web: a password, stored as
 //!   a salted hash ([`password`]); sessions opened with it and the
-//!   rate limit of wrong passwords ([`session`]).
+//!   rate limit of wrong passwords (`session`).
 //! * Who may change it over Modbus: everyone allowed to connect, unless the
 //!   write protection (`CFG_WRITE_PROTECT`) is on; then only an authorized
 //!   web session changes the configuration (and lifts the protection).

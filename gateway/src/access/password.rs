@@ -2,7 +2,7 @@
 //!
 //! The derivation is written here on top of the `hmac` and `sha2` crates
 //! rather than taken from the `pbkdf2` crate, for one reason: it yields to
-//! the executor every [`YIELD_EVERY`] rounds. The [`ITERATIONS`] rounds
+//! the executor every `YIELD_EVERY` rounds. The [`ITERATIONS`] rounds
 //! take some 100 ms on a Cortex-M7 (more under QEMU), and the robot link,
 //! the watchdog and the Modbus sessions share the executor: they must not
 //! wait that long. The tests check it against the RFC 7914 vectors and the

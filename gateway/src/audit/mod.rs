@@ -27,9 +27,9 @@
 //! | `watchdog` | the PLC watchdog tripped | `engine::watchdog::audit_trip` |
 //! | `lost` | records were lost before they could be kept (how many) | the log itself |
 //! | `time` | the wall clock was set by a time server | `Log::set_wall_time` |
-//! | `login`, `login-failed`, `logout`, `account-*`, `restart`, `firmware` | see below | the accounts and the page ([`Event`]) |
+//! | `login`, `login-failed`, `logout`, `account-*`, `restart`, `firmware` | see below | the accounts and the page (`Event`) |
 //!
-//! ## For the accounts and the page: [`Event`]
+//! ## For the accounts and the page: `Event`
 //! `hub.audit(event)` records an event at once, never blocks and never
 //! fails (no clock needed: the storage task stamps it within the same
 //! executor turn):
@@ -52,7 +52,7 @@
 //! no address).
 //!
 //! ## Bounds
-//! * RAM: the newest [`RING`] (64) records, for the page; they are also
+//! * RAM: the newest `RING` (64) records, for the page; they are also
 //!   the queue of records waiting to be kept. A record that would push out
 //!   one not kept yet (the medium slower than the events for 64 records)
 //!   loses that one; once records are kept again a `lost` record says how

@@ -164,7 +164,7 @@ coded! {
 }
 
 /// A short text of printable ASCII, at most `N` bytes: other bytes are
-/// stored as `?`; a longer text is cut and ends in `...` ([`Short::cut`]).
+/// stored as `?`; a longer text is cut and ends in `...` (`Short::cut`).
 /// Writable with `write!`, never failing.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub struct Short<const N: usize> {

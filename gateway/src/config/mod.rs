@@ -210,6 +210,16 @@ impl AllowList {
         self.is_empty() || self.0.iter().any(|e| e.matches(addr))
     }
 
+    /// `true` if a client at `peer` may connect: its address is permitted,
+    /// or its address is not known and the list is empty (everyone). The
+    /// one rule of every listener.
+    pub fn admits(&self, peer: Option<core::net::SocketAddrV4>) -> bool {
+        match peer {
+            Some(p) => self.permits(*p.ip()),
+            None => self.is_empty(),
+        }
+    }
+
     /// Reads up to [`ALLOW_ENTRIES`] entries ([`AllowEntry::parse`])
     /// separated by spaces or commas, into the list's entries in order;
     /// empty text = everyone. The one allow-list grammar of every view.

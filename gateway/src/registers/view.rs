@@ -59,6 +59,9 @@ pub struct PlcEvents {
     pub edges: heapless::Vec<Edge, { r::CHANNELS + 1 + r::TRIGGERS }>,
     /// `CONFIG_COMMAND` 1-3 was written (0 does nothing).
     pub config_command: Option<u16>,
+    /// A trigger entry's text was written (in use at once: the audit log
+    /// records it at once).
+    pub triggers_changed: bool,
 }
 
 fn halves(v: u32, order: WordOrder) -> [u16; 2] {
@@ -417,7 +420,10 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
         );
         return Err(WriteError::Protected);
     }
-    let mut ev = PlcEvents::default();
+    let mut ev = PlcEvents {
+        triggers_changed: usize::from(start) + values.len() > usize::from(r::TRIG_TEXT_BASE),
+        ..PlcEvents::default()
+    };
     if let Some(o) = r::CONTROL_CONFIG_COMMAND.checked_sub(start) {
         if let Some(&cmd) = values.get(usize::from(o)) {
             if cmd > 3 {

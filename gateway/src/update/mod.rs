@@ -1,5 +1,6 @@
-//! Firmware updates (feature `update`): signed images ([`image`]) written
-//! into the download slot of an A/B layout ([`layout`], [`slots`]) while
+//! Firmware updates (feature `update`): signed images (the crate
+//! `hans-fw-image`) written into the download slot of an A/B layout
+//! ([`layout`], [`slots`]) while
 //! the gateway keeps serving, swapped in by the bootloader (embassy-boot)
 //! at the restart an administrator asks for, run on trial, and confirmed
 //! by the new image's own check or rolled back.

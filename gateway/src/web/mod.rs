@@ -103,7 +103,6 @@ use crate::access::setup::SetupCode;
 use crate::admission::{self, octets, Close, Limits, Refusal, Session};
 use crate::audit::{Event, Who as AuditWho};
 use crate::clock::Clock;
-use crate::config::AllowList;
 use crate::hub::Hub;
 use crate::net::{Net, Socket};
 use api::{Doc, Snapshot};
@@ -286,13 +285,19 @@ impl SocketBufs {
     }
 }
 
-/// `list` permits a client at `peer` (an unknown address only when the
-/// list is empty), as `Hub::admit_web` decides, without counting.
-fn permits(list: &AllowList, peer: Option<SocketAddrV4>) -> bool {
-    match peer {
-        Some(p) => list.permits(*p.ip()),
-        None => list.is_empty(),
-    }
+/// A web client at `peer` connected: `true` if `WEB_ALLOW` permits it
+/// ([`crate::config::AllowList::admits`]); a refusal is counted in
+/// `WEB_REFUSED` (and the audit log).
+fn admit(hub: &Hub, peer: Option<SocketAddrV4>) -> bool {
+    hub.with(|m| {
+        let ok = m.config.active.web_allow.admits(peer);
+        if !ok {
+            m.access.web_refused = m.access.web_refused.wrapping_add(1);
+            hub.audit
+                .refused(crate::audit::Interface::Web, peer.map(|p| *p.ip()));
+        }
+        ok
+    })
 }
 
 /// Socket `j`: accepts a client, has it admitted (`WEB_ALLOW`) and given a
@@ -324,7 +329,7 @@ async fn accept<S: Socket, C: Clock>(
             clock.sleep(Duration::from_millis(500)).await;
             continue;
         };
-        let refused = if !hub.admit_web(peer) {
+        let refused = if !admit(hub, peer) {
             slots.refused(Refusal::NotAllowed, peer);
             true
         } else {
@@ -393,7 +398,7 @@ async fn warden(hub: &Hub, slots: &Slots) -> Infallible {
     };
     loop {
         let list = applied.changed().await.web_allow;
-        slots.close_unless(|peer| permits(&list, peer));
+        slots.close_unless(|peer| list.admits(peer));
     }
 }
 
@@ -452,9 +457,7 @@ impl<C: Clock> PathRouterService<()> for Served<'_, C> {
     ) -> Result<ResponseSent, W::Error> {
         self.ex.started();
         let app = &self.app;
-        let allowed = app
-            .hub
-            .with(|m| permits(&m.config.active.web_allow, app.peer));
+        let allowed = app.hub.peek(|m| m.config.active.web_allow.admits(app.peer));
         if self.ex.check(allowed).is_some() {
             // Closed unanswered, as at accept: the route is never looked
             // at, and the write fails (the connection is closing), which

@@ -231,7 +231,7 @@ fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
     let mut status_registers =
         vec![0u16; usize::from(hans_gateway::registers::STATUS_FW_STATE) + 1];
     g.hub()
-        .read_registers(0, &mut status_registers, now)
+        .with(|m| hans_gateway::registers::view::read_into(m, 0, &mut status_registers, now))
         .expect("the status block");
     g.hub().with(|m| {
         let Model {

@@ -1,5 +1,6 @@
 //! What the PLC's writes do: the rules of REGISTERS.md's handshake on the
-//! typed events the register view decodes.
+//! typed events the register view decodes, and the port that binds them to
+//! the Modbus server ([`PlcPort`], in `port.rs`).
 //!
 //! * A rising edge of Execute (or of a trigger bit) fires the source: its
 //!   inputs are read at that moment into a typed job; Busy and Queued are
@@ -13,6 +14,10 @@
 //! * A changed `PLC_HEARTBEAT` feeds the watchdog and clears its trip bit.
 //! * `CONFIG_COMMAND` 1 checks and applies the edit (the save is the
 //!   storage task's), 2 discards it, 3 loads the factory settings into it.
+
+mod port;
+
+pub(crate) use port::{warden, PlcPort};
 
 use embassy_time::Instant;
 

@@ -1,0 +1,164 @@
+//! The PLC's port: the register map the Modbus sessions serve, bound to the
+//! hub. A read encodes the registers from the state (`registers::view`); a
+//! write is decoded into typed events and acted on at once (the rules of
+//! this module's parent), so that the answer to the write comes after Busy
+//! is visible; a configuration command written with it is run before the
+//! write is answered. The port also counts the sessions and refusals the
+//! status shows and closes the sessions a new allow-list refuses.
+
+use core::convert::Infallible;
+use core::net::SocketAddrV4;
+
+#[cfg(feature = "audit")]
+use crate::audit::{Interface, Who};
+use crate::clock::Clock;
+use crate::hub::Hub;
+use crate::modbus::{Pending, Registers, Slots};
+use crate::registers::{view, AccessError, WriteError};
+use crate::storage::SaveOutcome;
+
+use super::ConfigStep;
+
+/// The register map the Modbus sessions serve: the hub's state, read and
+/// written at the clock's time, and the sessions' table.
+pub(crate) struct PlcPort<'a, C: Clock> {
+    /// The state.
+    pub hub: &'a Hub,
+    /// The time.
+    pub clock: &'a C,
+    /// The Modbus sessions' table.
+    pub slots: &'a Slots,
+}
+
+impl<C: Clock> PlcPort<'_, C> {
+    /// Writes registers for a PLC: stores the values (all or nothing) and
+    /// acts on the edges and the heartbeat at once. A configuration command
+    /// written with them is returned: the caller runs it
+    /// ([`Self::config_command`]) before answering.
+    fn write_registers(&self, start: u16, values: &[u16]) -> Result<Option<u16>, WriteError> {
+        let now = self.clock.now();
+        let (queued, command) = self.hub.with(|m| {
+            let ev = view::write(m, start, values)?;
+            // A trigger text written: in use at once, so recorded at once.
+            #[cfg(feature = "audit")]
+            if ev.triggers_changed {
+                self.hub
+                    .audit
+                    .triggers_changed(&m.triggers.entries, &Who::modbus(None));
+            }
+            Ok::<_, WriteError>((super::apply(m, &ev, now), ev.config_command))
+        })?;
+        if queued {
+            self.hub.job_queued.signal(());
+        }
+        Ok(command)
+    }
+
+    /// `CONFIG_COMMAND` `cmd` (1-3): apply (and save, waiting for the
+    /// storage task), discard, or defaults. One change at a time.
+    async fn config_command(&self, cmd: u16) -> Result<(), WriteError> {
+        let hub = self.hub;
+        let _one_at_a_time = hub.one_change().await;
+        let step = hub.with(|m| {
+            #[cfg(feature = "audit")]
+            let before = m.config.active;
+            let step = super::config_command(m, cmd);
+            // The client's address is not known here (the session's):
+            // recorded without one.
+            #[cfg(feature = "audit")]
+            if step == ConfigStep::Save {
+                let who = Who::modbus(None);
+                hub.audit.config_changed(&before, &m.config.active, &who);
+                hub.audit.triggers_changed(&m.triggers.entries, &who);
+            }
+            step
+        });
+        match step {
+            ConfigStep::Done => Ok(()),
+            ConfigStep::Invalid(_) => Err(WriteError::Value),
+            ConfigStep::Locked => Err(WriteError::Protected),
+            ConfigStep::Save => {
+                // The engine follows the new configuration at once.
+                hub.announce_config();
+                match hub.save().await {
+                    SaveOutcome::Failed(_) => Err(WriteError::Device),
+                    _ => Ok(()),
+                }
+            }
+        }
+    }
+}
+
+impl<C: Clock> Registers for PlcPort<'_, C> {
+    fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError> {
+        let now = self.clock.now();
+        self.hub.with(|m| view::read_into(m, start, out, now))
+    }
+
+    fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError> {
+        self.write_registers(start, values).map(|c| c.map(Pending))
+    }
+
+    async fn settle(&self, p: Pending) -> Result<(), WriteError> {
+        self.config_command(p.0).await
+    }
+
+    /// Admitted if `MODBUS_ALLOW` permits the client, and then counted; a
+    /// refusal is counted in `MODBUS_REFUSED` (and the audit log).
+    fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
+        self.hub.with(|m| {
+            if !m.config.active.modbus_allow.admits(peer) {
+                m.access.modbus_refused = m.access.modbus_refused.wrapping_add(1);
+                #[cfg(feature = "audit")]
+                self.hub
+                    .audit
+                    .refused(Interface::Modbus, peer.map(|p| *p.ip()));
+                return None;
+            }
+            m.sessions = m.sessions.saturating_add(1);
+            if let Some(p) = peer {
+                // One slot per session: always room.
+                let _ = m.modbus_peers.push(p);
+            }
+            Some(m.sessions)
+        })
+    }
+
+    fn leave(&self, peer: Option<SocketAddrV4>) -> u16 {
+        self.hub.with(|m| {
+            m.sessions = m.sessions.saturating_sub(1);
+            if let Some(i) = m.modbus_peers.iter().position(|p| Some(*p) == peer) {
+                m.modbus_peers.swap_remove(i);
+            }
+            m.sessions
+        })
+    }
+
+    fn permits(&self, peer: Option<SocketAddrV4>) -> bool {
+        self.hub.peek(|m| m.config.active.modbus_allow.admits(peer))
+    }
+
+    fn slots(&self) -> &Slots {
+        self.slots
+    }
+
+    fn write_refused(&self, _peer: Option<SocketAddrV4>) {
+        self.hub.with(|m| {
+            m.access.writes_refused = m.access.writes_refused.wrapping_add(1);
+        });
+    }
+}
+
+/// Closes, each time a configuration is applied, the Modbus sessions its
+/// allow-list no longer permits (each session also checks the list before
+/// every request, so none is served another one in between).
+pub(crate) async fn warden<C: Clock>(port: &PlcPort<'_, C>) -> Infallible {
+    let Some(mut applied) = port.hub.config_applied.receiver() else {
+        // The watch has a receiver for each of its followers: cannot happen.
+        return core::future::pending().await;
+    };
+    loop {
+        let list = applied.changed().await.modbus_allow;
+        port.slots.close_unless(|peer| list.admits(peer));
+    }
+}
