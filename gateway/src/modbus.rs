@@ -48,7 +48,8 @@
 //!
 //! Authorization by role ([`Grant`]): a client whose socket knows its role
 //! (Modbus/TCP Security on Linux: the role extension of its certificate,
-//! see `net::tls`) may write only as an operator or administrator; a
+//! the Linux platform's TLS hands the server its certificate's claim:
+//! `net::PeerClaim`) may write only as an operator or administrator; a
 //! viewer's write (FC 5, 6, 15, 16, 23) gets exception 01 (Illegal
 //! Function, as the MB/TCP Security specification asks), nothing of it is
 //! written, and `WRITES_REFUSED` counts it. A plain connection has no role:

@@ -21,7 +21,7 @@ use rustls::pki_types::pem::PemObject;
 use rustls::pki_types::{CertificateDer, PrivateKeyDer, ServerName};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
-/// The handshake bound of the gateway (`net::tls::HANDSHAKE_DEADLINE`),
+/// The handshake bound of the gateway (`HANDSHAKE_DEADLINE` of src/tls.rs),
 /// and the slack allowed on a loaded machine: without the bound, the page
 /// closes a silent connection after its 3 s idle timeout and Modbus after
 /// 120 s, both beyond this.

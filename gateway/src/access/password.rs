@@ -1,4 +1,4 @@
-//! The web password, kept as a salted PBKDF2-HMAC-SHA256 hash.
+//! An account's password, kept as a salted PBKDF2-HMAC-SHA256 hash.
 //!
 //! The derivation is written here on top of the `hmac` and `sha2` crates
 //! rather than taken from the `pbkdf2` crate, for one reason: it yields to

@@ -60,7 +60,7 @@
 //!   same way).
 //! * Kept: on a board, a flash ring (`storage::flash`, sequential-storage's
 //!   queue over its own sectors: when full, the oldest sector's records go);
-//!   on Linux, a file beside the configuration file (`host::audit_file`:
+//!   on Linux, a file beside the configuration file (`hans-gateway-linux`'s `audit_file`:
 //!   appended and synced; at its size limit it is rotated, the previous
 //!   file kept). Without persistent storage (the QEMU board, Linux without
 //!   `--config`) only the RAM ring holds them.

@@ -134,7 +134,7 @@ coded! {
         Refused = 12, "refused";
         /// A restart was asked for.
         Restart = 13, "restart";
-        /// A firmware update (reserved for the update release).
+        /// A firmware update: an image installed, or refused and why.
         Firmware = 14, "firmware";
         /// The PLC watchdog tripped.
         Watchdog = 15, "watchdog";
