@@ -481,3 +481,126 @@ impl Net for TokioNet {
             })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! The TLS handshake's deadline in virtual time: tokio's clock paused,
+    //! it moves to the next timer whenever nothing else can run, so the
+    //! instant a connection is closed is exact, whatever the machine's
+    //! load. (The servers' use of it, and a handshake that ends, are tested
+    //! against the `hans-gateway` binary: tests/tls.rs.)
+
+    use super::*;
+    use std::path::{Path, PathBuf};
+    use std::time::Duration;
+
+    /// A directory of its own, removed when dropped.
+    struct TempDir(PathBuf);
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// A self-signed certificate for 127.0.0.1 and its key, made with
+    /// Debian's `openssl` (as tests/tls.rs makes its PKI) in `dir`.
+    fn identity(dir: &Path) -> (PathBuf, PathBuf) {
+        let (cert, key) = (dir.join("server.crt"), dir.join("server.key"));
+        let out = std::process::Command::new("openssl")
+            .args(["req", "-x509", "-newkey", "ec", "-pkeyopt"])
+            .args(["ec_paramgen_curve:P-256", "-nodes", "-days", "2"])
+            .args(["-subj", "/CN=127.0.0.1", "-keyout"])
+            .arg(&key)
+            .arg("-out")
+            .arg(&cert)
+            .output()
+            .expect("openssl (Debian's package) is installed");
+        assert!(
+            out.status.success(),
+            "openssl: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (cert, key)
+    }
+
+    /// A TLS listener's connection whose client sends `hello` and then
+    /// nothing: how long the server's first read (which runs the
+    /// handshake) took to fail, and how long until the client saw the
+    /// connection closed, both from that read's start.
+    fn held(name: &str, hello: &'static [u8]) -> (Duration, Duration) {
+        let dir = TempDir(
+            std::env::temp_dir().join(format!("hans-net-deadline-{}-{name}", std::process::id())),
+        );
+        std::fs::create_dir_all(&dir.0).unwrap();
+        let (cert, key) = identity(&dir.0);
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .start_paused(true)
+            .build()
+            .unwrap();
+        let test = async {
+            let net = TokioNet::new(Ipv4Addr::LOCALHOST);
+            let server = crate::tls::TlsServer::web(&cert, &key).unwrap();
+            let any = SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0);
+            let port = net.listen_tls(any, server).await.unwrap();
+            let client = tokio::spawn(async move {
+                let mut s = TcpStream::connect(("127.0.0.1", port)).await.unwrap();
+                s.write_all(hello).await.unwrap();
+                let mut sink = [0u8; 512];
+                // Until the server closes it (an alert may come first).
+                loop {
+                    match s.read(&mut sink).await {
+                        Ok(0) | Err(_) => return tokio::time::Instant::now(),
+                        Ok(_) => {}
+                    }
+                }
+            });
+            let (mut rx, mut tx) = ([0u8; 0], [0u8; 0]);
+            let mut sock = net.socket(&mut rx, &mut tx);
+            sock.accept(port).await.unwrap();
+            let start = tokio::time::Instant::now();
+            let mut buf = [0u8; 64];
+            assert_eq!(sock.read(&mut buf).await, Err(NetError::Reset));
+            let failed = start.elapsed();
+            let closed = client.await.unwrap() - start;
+            (failed, closed)
+        };
+        // Without a deadline the read would wait for ever: this bound (in
+        // virtual time too) fails the test instead.
+        runtime
+            .block_on(async { tokio::time::timeout(Duration::from_secs(60), test).await })
+            .expect("the connection closed within 60 s")
+    }
+
+    /// The deadline, and tokio's timer resolution (a timer fires at the
+    /// first millisecond tick at or after its deadline).
+    fn deadline() -> (Duration, Duration) {
+        let d = Duration::from_millis(crate::tls::HANDSHAKE_DEADLINE.as_millis());
+        (d, d + Duration::from_millis(1))
+    }
+
+    #[test]
+    fn a_client_that_never_starts_its_handshake_is_closed_at_the_deadline() {
+        let (failed, closed) = held("silent", &[]);
+        let (from, to) = deadline();
+        assert!(
+            failed >= from && failed <= to,
+            "the read failed after {failed:?}"
+        );
+        assert!(closed >= from && closed <= to, "closed after {closed:?}");
+    }
+
+    #[test]
+    fn a_client_that_never_finishes_its_client_hello_is_closed_at_the_deadline() {
+        // A TLS record header for a 512-byte handshake message, and 4 bytes.
+        let partial = &[0x16, 0x03, 0x01, 0x02, 0x00, 0x01, 0x00, 0x01, 0xFC];
+        let (failed, closed) = held("partial", partial);
+        let (from, to) = deadline();
+        assert!(
+            failed >= from && failed <= to,
+            "the read failed after {failed:?}"
+        );
+        assert!(closed >= from && closed <= to, "closed after {closed:?}");
+    }
+}

@@ -1,8 +1,9 @@
 //! An MQTT broker in the virtual world (feature `mqtt`), for the
 //! simulations that check the PLC sees the same gateway whatever the
-//! broker does ([`BrokerMode`]). Its framing is its own (not the client's
-//! `mqtt::packet`): it answers CONNECT, SUBSCRIBE and PINGREQ and counts
-//! what it is sent.
+//! broker does ([`BrokerMode`]), and for the tests of what the gateway
+//! publishes and when. Its framing is its own (not the client's
+//! `mqtt::packet`): it answers CONNECT, SUBSCRIBE and PINGREQ, counts what
+//! it is sent and keeps the last [`PUBLISHED_KEPT`] PUBLISH packets.
 
 use std::collections::VecDeque;
 use std::net::{Ipv4Addr, SocketAddrV4};
@@ -13,6 +14,22 @@ use crate::testkit::net::{SimNet, SimStream};
 
 /// The broker's address in the world.
 pub const BROKER: SocketAddrV4 = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 50), 1883);
+
+/// How many PUBLISH packets [`SimBroker::published`] keeps: the oldest
+/// is dropped for a new one beyond (a long simulation publishes for
+/// hours; a test looks at the last few).
+pub const PUBLISHED_KEPT: usize = 256;
+
+/// A PUBLISH packet the broker received.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Published {
+    /// When it arrived (the network has no delay: when it was sent).
+    pub at: Instant,
+    /// Its topic.
+    pub topic: std::string::String,
+    /// Its payload.
+    pub payload: std::vec::Vec<u8>,
+}
 
 /// What the broker does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +57,8 @@ pub struct SimBroker {
     pub connects: u32,
     /// PUBLISH packets it received.
     pub publishes: u32,
+    /// The last [`PUBLISHED_KEPT`] of them, oldest first.
+    pub published: VecDeque<Published>,
 }
 
 impl SimBroker {
@@ -57,6 +76,7 @@ impl SimBroker {
             inbox: VecDeque::new(),
             connects: 0,
             publishes: 0,
+            published: VecDeque::new(),
         }
     }
 
@@ -96,7 +116,7 @@ impl SimBroker {
             self.inbox.extend(got);
         }
         while let Some((first, len)) = packet(&self.inbox) {
-            self.inbox.drain(..len);
+            let bytes: std::vec::Vec<u8> = self.inbox.drain(..len).collect();
             let answer: &[u8] = match first >> 4 {
                 1 if self.mode == BrokerMode::BadPassword => &[0x20, 2, 0, 5],
                 1 => {
@@ -105,6 +125,16 @@ impl SimBroker {
                 }
                 3 => {
                     self.publishes += 1;
+                    if let Some((topic, payload)) = publish(&bytes) {
+                        if self.published.len() >= PUBLISHED_KEPT {
+                            self.published.pop_front();
+                        }
+                        self.published.push_back(Published {
+                            at: now,
+                            topic,
+                            payload: payload.to_vec(),
+                        });
+                    }
                     &[]
                 }
                 // SUBACK for packet id 1 (the client's), every topic QoS 0.
@@ -118,6 +148,20 @@ impl SimBroker {
         }
         acted
     }
+}
+
+/// The topic and payload of the whole PUBLISH packet `p` (`None`: not
+/// one the broker can read).
+fn publish(p: &[u8]) -> Option<(std::string::String, &[u8])> {
+    let first = *p.first()?;
+    // The remaining length's bytes end at the first without bit 7.
+    let header = 2 + p.iter().skip(1).take(4).position(|b| b & 0x80 == 0)?;
+    let body = p.get(header..)?;
+    let n = usize::from(u16::from_be_bytes([*body.first()?, *body.get(1)?]));
+    let topic = core::str::from_utf8(body.get(2..2 + n)?).ok()?;
+    // QoS 1 and 2 have a packet identifier after the topic.
+    let id = if first & 0x06 == 0 { 0 } else { 2 };
+    Some((topic.into(), body.get(2 + n + id..)?))
 }
 
 /// The first whole packet of `b`: its first byte and its length.

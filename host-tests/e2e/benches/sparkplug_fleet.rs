@@ -9,7 +9,9 @@
 //!    fleet took to be born;
 //! 2. robot change -> DDATA at the consumer, p50/p99 over every node (goal:
 //!    p99 <= 100 ms): a box input of one simulator flips, the consumer
-//!    timestamps the DDATA that carries it;
+//!    timestamps the DDATA that carries it (the bound the gateway keeps,
+//!    one poll period and one publish period, is asserted exactly in
+//!    virtual time: `gateway/tests/mqtt.rs`);
 //! 3. messages/s through the broker with every robot changing an input every
 //!    `CHANGE_EVERY`, and the gateways' CPU per node (their threads' user +
 //!    system time from /proc, over the same window), idle and loaded.
@@ -92,9 +94,18 @@ async fn main() {
         .await
         .unwrap();
     let s = seen.clone();
+    // `subscribe` only queues the request: the births are seen once the
+    // broker acknowledged it.
+    let (subscribed_tx, subscribed) = tokio::sync::oneshot::channel();
+    let mut subscribed_tx = Some(subscribed_tx);
     tokio::spawn(async move {
         loop {
             match events.poll().await {
+                Ok(Event::Incoming(Packet::SubAck(_))) => {
+                    if let Some(tx) = subscribed_tx.take() {
+                        let _ = tx.send(());
+                    }
+                }
                 Ok(Event::Incoming(Packet::Publish(p))) => {
                     let at = Instant::now();
                     let parts: Vec<&str> = p.topic.split('/').collect();
@@ -126,7 +137,10 @@ async fn main() {
             }
         }
     });
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    tokio::time::timeout(Duration::from_secs(20), subscribed)
+        .await
+        .expect("the broker acknowledged the subscription within 20 s")
+        .expect("the consumer runs");
 
     // The cells.
     let start = Instant::now();

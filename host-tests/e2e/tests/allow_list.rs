@@ -73,7 +73,9 @@ async fn web_post(to: SocketAddrV4, path: &str, body: &str) -> String {
     );
     s.write_all(request.as_bytes()).await.expect("send");
     let mut got = Vec::new();
-    let _ = tokio::time::timeout(LIMIT, s.read_to_end(&mut got))
+    // Not LIMIT: a setup hashes a password (10,000 PBKDF2 rounds), which
+    // an unoptimized build on a loaded machine takes seconds for.
+    let _ = tokio::time::timeout(hans_e2e::WAIT, s.read_to_end(&mut got))
         .await
         .expect("an answer in time");
     String::from_utf8_lossy(&got)

@@ -2,6 +2,8 @@
 //! hans-sim, all on 127.0.0.1.
 
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use hans_e2e::{
@@ -146,9 +148,16 @@ async fn robot_dropping_mid_motion_fails_the_command_and_nothing_is_resent() {
         rig.plc.read1(r::STATUS_LINK_LAST_ERROR).await as i32,
         GatewayError::LinkLost.code()
     );
-    tokio::time::sleep(Duration::from_millis(300)).await;
-    assert_eq!(rig.received("WayPoint").len(), 1, "the move was sent again");
-    // New commands work on the new connection.
+    // New commands work on the new connection. Jobs go in order: had the
+    // move been queued again at the reconnection, it would have gone
+    // before this one.
+    let e = rig.plc.run(1, code::SET_BOX_DO, &[2.0, 1.0], 3).await;
+    assert!(e.done(), "{e:?}");
+    assert_eq!(
+        rig.received("WayPoint").len(),
+        1,
+        "the move was not sent again"
+    );
     rig.plc.write(r::channel_base(0), &[0]).await;
     assert!(rig.plc.run(0, code::STOP, &[], 2).await.done());
     rig.stop().await;
@@ -220,34 +229,47 @@ async fn two_modbus_clients_at_once() {
     let mut hmi = Plc::connect(rig.gw.modbus_addr()).await;
     hmi.wait_reg(r::STATUS_SESSIONS, "two sessions", |v| v == 2)
         .await;
+    // The HMI reads without pause until the PLC is done; the PLC waits,
+    // after each of its commands, for the HMI to have been served again.
+    let reads = Arc::new(AtomicU32::new(0));
+    let done = Arc::new(AtomicBool::new(false));
+    let (hmi_reads, plc_done) = (reads.clone(), done.clone());
     let hmi_task = tokio::spawn(async move {
-        let mut reads = 0u32;
-        let start = Instant::now();
-        while start.elapsed() < Duration::from_millis(500) {
+        while !plc_done.load(Ordering::Relaxed) {
             let w = hmi.read(r::STATUS_VERSION, 50).await;
             assert_eq!(w[0], hans_gateway::registers::MAP_VERSION);
-            reads += 1;
+            hmi_reads.fetch_add(1, Ordering::Relaxed);
         }
-        reads
     });
     for seq in 0..10 {
+        let before = reads.load(Ordering::Relaxed);
         let e = rig
             .plc
             .run(0, code::SET_BOX_DO, &[1.0, f32::from(seq % 2)], seq)
             .await;
         assert!(e.done() && e.seq == seq, "{e:?}");
+        let start = Instant::now();
+        while reads.load(Ordering::Relaxed) == before {
+            assert!(start.elapsed() < WAIT, "the HMI was not served");
+            tokio::time::sleep(hans_e2e::POLL_PAUSE).await;
+        }
     }
-    let reads = hmi_task.await.expect("hmi");
-    assert!(reads > 10, "the HMI was served ({reads} reads)");
+    done.store(true, Ordering::Relaxed);
+    hmi_task.await.expect("hmi");
+    let reads = reads.load(Ordering::Relaxed);
+    assert!(reads >= 10, "the HMI was served ({reads} reads)");
     rig.stop().await;
 }
 
 #[tokio::test]
 async fn the_watchdog_stops_a_move_without_heartbeat() {
     let mut rig = Rig::start(Config::ready()).await;
-    rig.plc.configure(&[(r::CONFIG_WATCHDOG_MS, 300)]).await;
-    // With a heartbeat, a move runs to Done.
-    rig.plc.start_move(0, 3.0, 30.0, 100.0, 1).await;
+    // With a heartbeat, a move runs to Done: a move of 3 s, a period of
+    // 2 s (the PLC beats every 50 ms; only a stall of the test of 2 s
+    // could trip it). The exact periods are tested in virtual time
+    // (gateway/tests/behaviour.rs).
+    rig.plc.configure(&[(r::CONFIG_WATCHDOG_MS, 2000)]).await;
+    rig.plc.start_move(0, 30.0, 10.0, 100.0, 1).await;
     let st = Plc::ch_status(0);
     let start = Instant::now();
     let mut beat = 0u16;
@@ -263,7 +285,8 @@ async fn the_watchdog_stops_a_move_without_heartbeat() {
     };
     assert_eq!(e & r::ST_DONE, r::ST_DONE, "with heartbeat: {e:#x}");
     rig.plc.write(r::channel_base(0), &[0]).await;
-    // Without one, the watchdog stops it.
+    // Without one, the watchdog (300 ms now) stops a move of 9 s.
+    rig.plc.configure(&[(r::CONFIG_WATCHDOG_MS, 300)]).await;
     rig.plc.start_move(0, 90.0, 10.0, 100.0, 2).await;
     let e = rig.plc.wait_end(st).await;
     assert_eq!(
@@ -717,18 +740,43 @@ async fn the_datasheet_port_can_replace_status_polling() {
         ])
         .await;
     assert_eq!(rig.plc.read1(r::STATUS_SOURCE).await, 1);
-    // Give a polling round in flight time to end, then watch the command port.
-    tokio::time::sleep(Duration::from_millis(300)).await;
     rig.sim.clear_received();
-    let start = Instant::now();
-    while start.elapsed() < Duration::from_millis(500) {
-        let age = rig.plc.read1(r::STATUS_AGE_MS).await;
-        assert!(age < 500, "DataSheet status is stale: {age} ms");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
+    let ticks = rig.plc.read1(r::STATUS_HEARTBEAT).await;
+    // An input changes: only the DataSheet can bring it now.
+    rig.sim.set_io(|io| io.di[2] = true);
+    rig.plc
+        .wait_reg(r::STATUS_BOX_DI, "the input from the DataSheet", |v| {
+            v & 4 != 0
+        })
+        .await;
+    // Five poll periods by the gateway's own clock (its heartbeat counts
+    // them), in which polling would have made four rounds at least.
+    rig.plc
+        .wait_reg(r::STATUS_HEARTBEAT, "five poll periods", |v| {
+            v.wrapping_sub(ticks) >= 5
+        })
+        .await;
     assert_eq!(rig.plc.read1(r::STATUS_FSM).await, 33);
+    // At most the rest of the round under way when the source changed.
+    let round = [
+        "ReadRobotState",
+        "ReadCurFSM",
+        "ReadActPos",
+        "ReadBoxDI",
+        "ReadBoxDO",
+        "ReadBoxCI",
+        "ReadBoxCO",
+        "ReadEI",
+        "ReadEO",
+    ];
+    let received = rig.sim.received();
+    let reads: Vec<&str> = received
+        .iter()
+        .filter_map(|m| m.split(',').next())
+        .filter(|name| name.starts_with("Read"))
+        .collect();
     assert!(
-        rig.received("ReadCurFSM").is_empty(),
+        round.ends_with(&reads),
         "still polling: {:?}",
         rig.sim.received()
     );

@@ -10,15 +10,13 @@ use hans_sim::{Config, Fault, FaultRule, FsmState};
 
 const ENDED: u16 = r::ST_DONE | r::ST_ERROR | r::ST_ABORTED;
 
-/// Waits until the simulator's FSM is `want`.
-async fn wait_fsm(rig: &Rig, want: FsmState) {
+/// Waits until the simulator has received `n` more messages named `name`
+/// (the gateway's own pace as the clock).
+async fn wait_polls(rig: &Rig, name: &str, n: usize) {
+    let seen = rig.received(name).len();
     let start = Instant::now();
-    while rig.sim.fsm() != want {
-        assert!(
-            start.elapsed() < WAIT,
-            "simulator never reached {want:?} (now {:?})",
-            rig.sim.fsm()
-        );
+    while rig.received(name).len() < seen + n {
+        assert!(start.elapsed() < WAIT, "{n} more {name} never came");
         tokio::time::sleep(hans_e2e::POLL_PAUSE).await;
     }
 }
@@ -34,11 +32,32 @@ async fn after_pause_and_continue_done_waits_for_the_end_of_the_motion() {
     rig.plc
         .wait_reg(st, "active", |v| v & r::ST_ACTIVE != 0)
         .await;
-    tokio::time::sleep(Duration::from_millis(400)).await;
+    // Paused once the move is well under way (10 of its 60 degrees).
+    let from = rig.sim.state().act_joints[0];
+    let start = Instant::now();
+    while (rig.sim.state().act_joints[0] - from).abs() < 10.0 {
+        assert!(start.elapsed() < WAIT, "the move does not go");
+        tokio::time::sleep(hans_e2e::POLL_PAUSE).await;
+    }
     let e = rig.plc.run(1, code::PAUSE, &[], 2).await;
     assert!(e.done(), "pause: {e:?}");
-    wait_fsm(&rig, FsmState::RobotHolding).await;
-    tokio::time::sleep(Duration::from_millis(200)).await;
+    // Held and standing still: the commanded joints the same at two
+    // instants (the controller refuses GrpContinue while it brakes: 40014).
+    let start = Instant::now();
+    let mut before = rig.sim.state();
+    loop {
+        tokio::time::sleep(hans_e2e::POLL_PAUSE).await;
+        let s = rig.sim.state();
+        let still = s.time > before.time && s.cmd_joints == before.cmd_joints;
+        if s.fsm == FsmState::RobotHolding && still {
+            break;
+        }
+        assert!(start.elapsed() < WAIT, "not held: {:?}", s.fsm);
+        before = s;
+    }
+    // Held: the gateway polls the motion (every 10 ms) and must not call
+    // it Done. Three of its polls after the robot stood still.
+    wait_polls(&rig, "ReadRobotState", 3).await;
     assert_eq!(
         rig.plc.read1(st).await & (r::ST_BUSY | ENDED),
         r::ST_BUSY,
@@ -140,7 +159,13 @@ async fn stop_aborts_the_waiting_motions_and_none_is_sent() {
         1 << 1,
         "waiting SetBoxDO"
     );
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    // Jobs go in order: an aborted motion still queued would go before
+    // this one.
+    assert!(rig
+        .plc
+        .run(1, code::SET_BOX_DO, &[2.0, 1.0], 3)
+        .await
+        .done());
     assert!(
         rig.received("MoveRelJ").is_empty(),
         "an aborted motion was sent: {:?}",
@@ -173,7 +198,13 @@ async fn the_watchdog_stop_aborts_the_waiting_motions() {
         .wait_reg(r::TRIG_BUSY, "trigger ended", |v| v == 0)
         .await;
     assert_eq!(rig.plc.read1(r::TRIG_ABORTED).await, 1 << 3);
-    tokio::time::sleep(Duration::from_millis(300)).await;
+    // Jobs go in order: an aborted motion still queued would go before
+    // this one.
+    assert!(rig
+        .plc
+        .run(1, code::SET_BOX_DO, &[2.0, 1.0], 3)
+        .await
+        .done());
     assert!(
         rig.received("MoveRelJ").is_empty(),
         "{:?}",

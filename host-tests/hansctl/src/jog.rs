@@ -215,15 +215,14 @@ fn hold(
 ) -> Result<(), Exit> {
     long_jog(c, axis, true)?;
     let start = Instant::now();
-    let mut next_event = start + EVENT_PERIOD;
+    let mut events = Events::starting(start);
     let mut next_report = start + Duration::from_millis(500);
     let outcome = loop {
         if released() {
             break Ok(());
         }
         let now = Instant::now();
-        if now >= next_event {
-            next_event += EVENT_PERIOD;
+        if events.due(now) {
             match c.call(&rq::LongMoveEvent::default()) {
                 Ok(_) => {}
                 // The controller stopped the jog itself (a limit, a late
@@ -243,7 +242,7 @@ fn hold(
                 break Err(e);
             }
         }
-        let wait = next_event.saturating_duration_since(Instant::now());
+        let wait = events.next().saturating_duration_since(Instant::now());
         std::thread::sleep(wait.min(Duration::from_millis(10)));
     };
     // Always ask for the stop, also after an error (the controller stops
@@ -261,6 +260,37 @@ fn hold(
         std::thread::sleep(Duration::from_millis(20));
     }
     report(json, c, axis, start.elapsed(), true)
+}
+
+/// When the `LongMoveEvent`s of a long jog are due: every
+/// [`EVENT_PERIOD`] from the jog's start, on a fixed schedule (one that
+/// went late does not push the next ones back).
+#[derive(Clone, Copy, Debug)]
+pub struct Events {
+    next: Instant,
+}
+
+impl Events {
+    /// For a jog the robot accepted at `start`.
+    pub fn starting(start: Instant) -> Events {
+        Events {
+            next: start + EVENT_PERIOD,
+        }
+    }
+
+    /// When the next one is due.
+    pub fn next(&self) -> Instant {
+        self.next
+    }
+
+    /// Whether one is due at `now`; if so, it counts as sent.
+    pub fn due(&mut self, now: Instant) -> bool {
+        if now < self.next {
+            return false;
+        }
+        self.next += EVENT_PERIOD;
+        true
+    }
 }
 
 /// Decides from key presses when a held key was released (see the module
@@ -416,6 +446,25 @@ mod tests {
         k.repeat(ms(540));
         assert!(!k.released(ms(680)));
         assert!(k.released(ms(691)), "150 ms without a repeat");
+    }
+
+    #[test]
+    fn the_events_go_every_period_from_the_start() {
+        let t0 = Instant::now();
+        let ms = |v| t0 + Duration::from_millis(v);
+        let mut e = Events::starting(t0);
+        assert!(!e.due(ms(99)));
+        assert!(e.due(ms(100)));
+        assert!(!e.due(ms(100)), "one per period");
+        assert!(!e.due(ms(199)));
+        assert_eq!(e.next(), ms(200));
+        // Sent late (at 230): the next is still due at 300.
+        assert!(e.due(ms(230)));
+        assert!(!e.due(ms(299)));
+        assert!(e.due(ms(300)));
+        // Over 600 ms, looked at every millisecond: six.
+        let mut e = Events::starting(t0);
+        assert_eq!((0..=600).filter(|&t| e.due(ms(t))).count(), 6);
     }
 
     #[test]

@@ -395,86 +395,117 @@ fn named<'a>(received: &'a [String], name: &str) -> Vec<&'a String> {
         .collect()
 }
 
-/// Hold-to-jog from a terminal: hansctl runs on a pseudo-terminal made by
-/// util-linux's `script` (Debian's essential package bsdutils), and the test plays
-/// a held key as a terminal delivers it: one byte, then repeats every
-/// 30 ms; then none (released), then `q`.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn jog_while_a_key_is_held_on_a_terminal() {
-    let sim = Sim::start(Config::ready()).await.unwrap();
-    let robot = sim.command_addr().to_string();
-    let line = format!("{BIN} --robot {robot} --timeout 3000 jog j3-");
-    let mut child = Command::new("script")
-        .args(["--quiet", "--return", "--command", &line, "/dev/null"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run hansctl under script(1) (util-linux)");
-    let mut keys = child.stdin.take().expect("script's stdin");
-    // Bounded: whatever happens below, the child is killed at the end.
-    let result = async {
-        // Up and waiting for a key (no request goes out before one).
-        tokio::time::sleep(Duration::from_millis(1500)).await;
-        if !named(&sim.received(), "LongJogJ").is_empty() {
-            return Err("jogged before any key".to_string());
+/// Longest wait for anything in the terminal tests (generous: a loaded
+/// machine; never a figure hansctl is held to).
+const WAIT: Duration = Duration::from_secs(20);
+
+/// `line` run on a pseudo-terminal made by util-linux's `script`
+/// (Debian's essential package bsdutils): the keys typed into it, what it
+/// printed so far. Killed when dropped.
+struct Terminal {
+    child: std::process::Child,
+    keys: std::process::ChildStdin,
+    printed: std::sync::mpsc::Receiver<Vec<u8>>,
+    output: String,
+}
+
+impl Terminal {
+    fn start(line: &str) -> Terminal {
+        let mut child = Command::new("script")
+            .args(["--quiet", "--return", "--command", line, "/dev/null"])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run hansctl under script(1) (util-linux)");
+        let keys = child.stdin.take().expect("script's stdin");
+        let mut out = child.stdout.take().expect("script's stdout");
+        let (tx, printed) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n @ 1..) = std::io::Read::read(&mut out, &mut buf) {
+                if tx.send(buf[..n].to_vec()).is_err() {
+                    return;
+                }
+            }
+        });
+        Terminal {
+            child,
+            keys,
+            printed,
+            output: String::new(),
         }
-        let mut seen = false;
-        for _ in 0..25 {
-            keys.write_all(b"a").map_err(|e| e.to_string())?;
-            keys.flush().map_err(|e| e.to_string())?;
-            tokio::time::sleep(Duration::from_millis(30)).await;
-            seen |= sim.fsm() == FsmState::LongJogMoving;
+    }
+
+    /// Takes in what was printed so far.
+    fn read_output(&mut self) {
+        while let Ok(bytes) = self.printed.try_recv() {
+            self.output.push_str(&String::from_utf8_lossy(&bytes));
         }
-        let released = std::time::Instant::now();
-        // Released: hansctl stops the jog (150 ms without a repeat).
-        let mut stopped = None;
-        while released.elapsed() < Duration::from_secs(3) {
-            let r = sim.received();
-            if named(&r, "LongJogJ").last().map(|s| s.as_str()) == Some("LongJogJ,0,2,0,0,;") {
-                stopped = Some(released.elapsed());
-                break;
+    }
+
+    /// Waits (at most [`WAIT`]) until hansctl printed `text`.
+    async fn wait_printed(&mut self, text: &str) -> Result<(), String> {
+        let start = std::time::Instant::now();
+        loop {
+            self.read_output();
+            if self.output.contains(text) {
+                return Ok(());
+            }
+            if start.elapsed() > WAIT {
+                return Err(format!(
+                    "not printed within {WAIT:?}: {text:?}; printed {:?}",
+                    self.output
+                ));
             }
             tokio::time::sleep(Duration::from_millis(10)).await;
         }
-        keys.write_all(b"q").map_err(|e| e.to_string())?;
-        keys.flush().map_err(|e| e.to_string())?;
-        Ok((seen, stopped))
     }
-    .await;
-    let deadline = std::time::Instant::now() + Duration::from_secs(10);
-    let status = loop {
-        if let Some(st) = child.try_wait().expect("wait for script") {
-            break Some(st);
+
+    /// Types `key`.
+    fn key(&mut self, key: u8) -> Result<(), String> {
+        let typed = self.keys.write_all(&[key]).and_then(|()| self.keys.flush());
+        typed.map_err(|e| {
+            self.read_output();
+            format!(
+                "typing {:?}: {e} (hansctl ended?); printed {:?}",
+                key as char, self.output
+            )
+        })
+    }
+
+    /// Waits (at most [`WAIT`]) for hansctl to end; its exit status.
+    async fn ended(&mut self) -> Result<std::process::ExitStatus, String> {
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().map_err(|e| e.to_string())? {
+                return Ok(status);
+            }
+            if start.elapsed() > WAIT {
+                self.read_output();
+                return Err(format!(
+                    "still running after {WAIT:?}; printed {:?}",
+                    self.output
+                ));
+            }
+            tokio::time::sleep(Duration::from_millis(20)).await;
         }
-        if std::time::Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        tokio::time::sleep(Duration::from_millis(20)).await;
-    };
-    let (seen, stopped) = result.unwrap_or_else(|e| panic!("{e}"));
-    assert!(seen, "FSM 26 while the key was held");
-    let received = sim.received();
-    assert_eq!(named(&received, "LongJogJ")[0], "LongJogJ,0,2,0,1,;");
-    let stopped = stopped.unwrap_or_else(|| panic!("no stop after the release: {received:?}"));
-    assert!(
-        stopped < Duration::from_millis(1000),
-        "stopped {stopped:?} after the release"
-    );
-    assert!(!named(&received, "LongMoveEvent").is_empty(), "keep-alives");
-    assert!(
-        status.is_some_and(|s| s.success()),
-        "hansctl quits on q: {status:?}"
-    );
+    }
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn jog_for_a_duration_keeps_the_jog_alive_then_releases_it() {
-    // A long keep-alive: a slow machine that delays an event must not stop
-    // the jog early; only hansctl's release (or its death) may.
-    let sim = Sim::start(Config {
+impl Drop for Terminal {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A simulator whose long jogs keep going 3 s after their last
+/// `LongMoveEvent` (the document's 200 ms in hans-sim's default): a loaded
+/// machine that delays an event must not stop the jog (and make hansctl
+/// end with `Fail,20018`); only hansctl's release (or its death) may.
+async fn patient_sim() -> Sim {
+    Sim::start(Config {
         timing: hans_sim::Timing {
             long_move_keepalive: Duration::from_secs(3),
             ..hans_sim::Timing::default()
@@ -482,11 +513,135 @@ async fn jog_for_a_duration_keeps_the_jog_alive_then_releases_it() {
         ..Config::ready()
     })
     .await
-    .unwrap();
+    .unwrap()
+}
+
+/// How one attempt at holding a key went.
+enum Held {
+    /// The jog ran while the key was held and stopped after its release:
+    /// how long after.
+    Stopped(Duration),
+    /// The test could not type as a held key repeats (a gap of this long
+    /// between two repeats: a loaded machine), and hansctl took it for a
+    /// release. Not a result.
+    NotHeld(Duration),
+}
+
+/// Plays a key held on the terminal of `hansctl jog j3-` (one byte, then
+/// repeats every 30 ms, as a keyboard sends them) until the simulator jogs
+/// and has had a keep-alive, then releases it.
+async fn hold_a_key(sim: &Sim) -> Result<Held, String> {
+    let robot = sim.command_addr().to_string();
+    let mut term = Terminal::start(&format!("{BIN} --robot {robot} --timeout 3000 jog j3-"));
+    // Up, its terminal set to hand over keys at once, waiting for a key.
+    term.wait_printed("hold any key to jog J3-").await?;
+    if !named(&sim.received(), "LongJogJ").is_empty() {
+        return Err("jogged before any key".to_string());
+    }
+    let mut last = std::time::Instant::now();
+    let mut gap = Duration::ZERO;
+    let start = last;
+    let stop = "LongJogJ,0,2,0,0,;";
+    loop {
+        let typed = term.key(b'a');
+        let now = std::time::Instant::now();
+        if now > start {
+            gap = gap.max(now - last);
+        }
+        last = now;
+        let r = sim.received();
+        let stopped = named(&r, "LongJogJ").iter().any(|m| m.as_str() == stop);
+        if typed.is_err() || stopped {
+            // Released while the test was typing: by a gap of its own?
+            if gap > Duration::from_millis(100) {
+                return Ok(Held::NotHeld(gap));
+            }
+            return Err(format!("stopped while the key was held: {typed:?}, {r:?}"));
+        }
+        if sim.fsm() == FsmState::LongJogMoving && !named(&r, "LongMoveEvent").is_empty() {
+            break;
+        }
+        if start.elapsed() > WAIT {
+            return Err(format!("no jog within {WAIT:?} of the first key: {r:?}"));
+        }
+        tokio::time::sleep(Duration::from_millis(30)).await;
+    }
+    // Released: no more repeats. hansctl stops the jog, then ends by itself.
+    let released = std::time::Instant::now();
+    let stopped = loop {
+        let r = sim.received();
+        if named(&r, "LongJogJ").last().map(|s| s.as_str()) == Some(stop) {
+            break released.elapsed();
+        }
+        if released.elapsed() > WAIT {
+            return Err(format!("no stop within {WAIT:?} of the release: {r:?}"));
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    };
+    let status = term.ended().await?;
+    if !status.success() {
+        term.read_output();
+        return Err(format!("hansctl ended with {status}: {:?}", term.output));
+    }
+    Ok(Held::Stopped(stopped))
+}
+
+/// Hold-to-jog from a terminal: hansctl runs on a pseudo-terminal, the
+/// test plays a held key, then releases it. The jog runs while the key is
+/// held and stops after the release (the release rule itself, 150 ms
+/// without a repeat, is unit-tested with time the test owns: src/jog.rs).
+/// If the test itself could not type as a held key repeats (its own
+/// thread stalled over 100 ms), hansctl rightly took that for a release:
+/// the attempt is played again, at most three times.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jog_while_a_key_is_held_on_a_terminal() {
+    for attempt in 1..=3 {
+        let sim = patient_sim().await;
+        let held = hold_a_key(&sim).await.unwrap_or_else(|e| panic!("{e}"));
+        let received = sim.received();
+        sim.shutdown().await;
+        let stopped = match held {
+            Held::Stopped(after) => after,
+            Held::NotHeld(gap) => {
+                println!("attempt {attempt}: the test typed a repeat {gap:?} late; again");
+                continue;
+            }
+        };
+        println!("release -> stop at the robot: {stopped:?}");
+        let jogs = named(&received, "LongJogJ");
+        assert_eq!(jogs, ["LongJogJ,0,2,0,1,;", "LongJogJ,0,2,0,0,;"]);
+        assert!(!named(&received, "LongMoveEvent").is_empty(), "keep-alives");
+        return;
+    }
+    panic!("three attempts, each with the test's own typing too late to hold a key");
+}
+
+/// `q` before any key: hansctl ends at once, without jogging.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn q_on_the_terminal_quits_without_jogging() {
+    let sim = Sim::start(Config::ready()).await.unwrap();
+    let robot = sim.command_addr().to_string();
+    let mut term = Terminal::start(&format!("{BIN} --robot {robot} --timeout 3000 jog j3-"));
+    let quit = async {
+        term.wait_printed("hold any key to jog J3-").await?;
+        term.key(b'q')?;
+        term.ended().await
+    };
+    let status = quit.await.unwrap_or_else(|e| panic!("{e}"));
+    assert!(status.success(), "hansctl quits on q: {status}");
+    assert!(named(&sim.received(), "LongJogJ").is_empty());
+    sim.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn jog_for_a_duration_keeps_the_jog_alive_then_releases_it() {
+    let sim = patient_sim().await;
     let robot = sim.command_addr().to_string();
     let before = sim.state().cmd_joints[1];
     let t0 = std::time::Instant::now();
-    let run = tokio::spawn(hansctl(args(&robot, &["jog", "j2+", "--for", "600ms"])));
+    // 2 s: hansctl's first event goes 100 ms after the robot took the
+    // start, so only a stall of most of 2 s could leave none.
+    let run = tokio::spawn(hansctl(args(&robot, &["jog", "j2+", "--for", "2s"])));
     // Seen jogging while it runs.
     let mut seen = false;
     while !run.is_finished() && t0.elapsed() < Duration::from_secs(20) {
@@ -503,13 +658,29 @@ async fn jog_for_a_duration_keeps_the_jog_alive_then_releases_it() {
         "LongJogJ,0,1,1,0,;",
         "released"
     );
+    // Their period (100 ms) is unit-tested with time the test owns
+    // (src/jog.rs): here at least one, and no more than 2 s holds.
     let events = named(&received, "LongMoveEvent").len();
-    assert!((3..=7).contains(&events), "{events} events in 0.6 s");
-    // Released: standing still at once, not 3 s later.
-    tokio::time::sleep(Duration::from_millis(400)).await;
+    println!("{events} events in 2 s");
+    assert!((1..=20).contains(&events), "{events} events in 2 s");
+    // Released: standing still when hansctl ended (it waits for the robot
+    // to stand still; the stop, not the simulator's 3 s, ended the jog).
     assert_eq!(sim.fsm(), FsmState::StandBy);
+    // The robot took the start before hansctl began its events, and the
+    // stop after the last: it jogged at least one event period per event,
+    // at 10°/s after a 0.2 s ramp (50°/s²).
+    let jogged = 0.1 * events as f64;
+    let least = if jogged <= 0.2 {
+        25.0 * jogged * jogged
+    } else {
+        1.0 + 10.0 * (jogged - 0.2)
+    };
     let moved = sim.state().cmd_joints[1] - before;
-    assert!(moved > 3.0 && moved < 12.0, "J2 moved {moved}°");
+    println!("J2 moved {moved:.2}° in 2 s");
+    assert!(
+        moved >= least - 1e-6,
+        "J2 moved {moved}°, at least {least}°"
+    );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("J2+"), "{text}");
 

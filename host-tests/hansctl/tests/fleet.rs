@@ -552,13 +552,17 @@ fn an_unreachable_broker_is_an_error_after_the_timeout() {
     assert!(took < Duration::from_secs(15), "took {took:?}");
 }
 
-/// NCMD messages on `group` that reach a subscriber during `wait`, as
-/// (topic, rebirth requested) pairs, after `act` ran.
-async fn commands_during(
+/// NCMD messages on `group` that reach a subscriber from `act` until
+/// `fleet` ended (its `--for`), as (topic, rebirth requested) pairs, and
+/// how `fleet` ended ([`Running::finish`]). What hansctl published went to
+/// the broker before it ended; the subscriber collects until a marker it
+/// publishes after that comes back through the broker.
+async fn commands_until_it_ends(
     port: u16,
     group: &str,
     act: impl std::future::Future<Output = ()>,
-) -> Vec<(String, bool)> {
+    fleet: Running,
+) -> (Vec<(String, bool)>, (ExitStatus, String, String)) {
     let mut opts = MqttOptions::new(format!("ncmd-watch-{port}"), "127.0.0.1", port);
     opts.set_keep_alive(Duration::from_secs(5));
     let (client, mut events) = AsyncClient::new(opts, 32);
@@ -578,21 +582,49 @@ async fn commands_during(
     }
     act.await;
     let mut got = Vec::new();
-    let until = tokio::time::Instant::now() + Duration::from_secs(3);
-    while let Ok(ev) = tokio::time::timeout_at(until, events.poll()).await {
-        if let Ok(Event::Incoming(Packet::Publish(p))) = ev {
-            let rebirth = SpPayload::decode(&p.payload[..])
-                .map(|pl| {
-                    pl.metrics.iter().any(|m| {
-                        m.name.as_deref() == Some("Node Control/Rebirth")
-                            && m.boolean_value == Some(true)
-                    })
+    let mut record = |ev: Event| -> Option<String> {
+        let Event::Incoming(Packet::Publish(p)) = ev else {
+            return None;
+        };
+        let rebirth = SpPayload::decode(&p.payload[..])
+            .map(|pl| {
+                pl.metrics.iter().any(|m| {
+                    m.name.as_deref() == Some("Node Control/Rebirth")
+                        && m.boolean_value == Some(true)
                 })
-                .unwrap_or(false);
-            got.push((p.topic.clone(), rebirth));
+            })
+            .unwrap_or(false);
+        got.push((p.topic.clone(), rebirth));
+        Some(p.topic.clone())
+    };
+    // Until hansctl ends (bounded by `finish`).
+    let mut finished = tokio::task::spawn_blocking(move || fleet.finish());
+    let ended = loop {
+        tokio::select! {
+            ended = &mut finished => break ended.expect("hansctl's wait"),
+            ev = events.poll() => {
+                record(ev.expect("connected"));
+            }
+        }
+    };
+    // Then the marker.
+    let marker = format!("spBv1.0/{group}/NCMD/zz-marker");
+    client
+        .publish(&marker, QoS::AtMostOnce, false, Vec::new())
+        .await
+        .expect("queue the marker");
+    let until = tokio::time::Instant::now() + WAIT;
+    loop {
+        let ev = tokio::time::timeout_at(until, events.poll())
+            .await
+            .expect("the marker back within the wait")
+            .expect("connected");
+        if record(ev).is_some_and(|t| t == marker) {
+            break;
         }
     }
-    got
+    got.pop();
+    (got, ended)
 }
 
 /// A gateway born before the view started (births are not retained) is
@@ -620,8 +652,8 @@ async fn a_node_seen_without_its_birth_is_asked_once_for_one_unless_told_not_to(
         "20000",
     ]);
     fleet.wait_subscribed();
-    let got = commands_during(broker.port, g, publish(broker.port, data())).await;
-    let (status, _, err) = fleet.finish();
+    let (got, (status, _, err)) =
+        commands_until_it_ends(broker.port, g, publish(broker.port, data()), fleet).await;
     assert_eq!(
         got,
         [(topic(g, "NCMD", "late-1"), true)],
@@ -642,8 +674,8 @@ async fn a_node_seen_without_its_birth_is_asked_once_for_one_unless_told_not_to(
         "--no-rebirth",
     ]);
     fleet.wait_subscribed();
-    let got = commands_during(broker.port, g, publish(broker.port, data())).await;
+    let (got, (status, _, err)) =
+        commands_until_it_ends(broker.port, g, publish(broker.port, data()), fleet).await;
     assert!(got.is_empty(), "--no-rebirth publishes nothing: {got:?}");
-    let (status, _, err) = fleet.finish();
     assert!(status.success(), "{status}: {err}");
 }
