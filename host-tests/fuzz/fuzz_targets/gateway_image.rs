@@ -90,10 +90,10 @@ fn check(data: &[u8]) {
     let mut a = [0u16; r::CONFIG_LEN as usize];
     let mut b = [0u16; r::NET_LEN as usize];
     gw.hub()
-        .read_registers(r::CONFIG_ROBOT_IP, &mut a, now)
+        .with(|m| r::view::read_into(m, r::CONFIG_ROBOT_IP, &mut a, now))
         .expect("the configuration reads");
     gw.hub()
-        .read_registers(r::NET_IP, &mut b, now)
+        .with(|m| r::view::read_into(m, r::NET_IP, &mut b, now))
         .expect("the network settings read");
     for (slot, v) in words.iter_mut().zip(a.into_iter().chain(b)) {
         *slot = v;
