@@ -95,7 +95,7 @@ Exit status:
        an address cannot be bound, the configuration file cannot be read)
   2    bad command line, or a configuration file that is refused (FILE:LINE:COLUMN: reason)
   101  the gateway failed while running (the line before says why): nothing is served any
-       more, start it again (systemd: Restart=on-failure, gateway/dist/hans-gateway.service)";
+       more, start it again (systemd: Restart=on-failure, linux/dist/hans-gateway.service)";
 
 /// The command line.
 #[derive(Parser, Debug)]
@@ -288,7 +288,7 @@ fn mqtt_endpoint(s: &str) -> Result<(bool, Endpoint), String> {
     }
 }
 
-/// `0.1.0 (register map 1.3)`: the gateway's version, and the register
+/// `0.1.0 (register map 1.4)`: the gateway's version, and the register
 /// map's that the VERSION register holds (major × 256 + minor).
 fn version() -> String {
     format!(
