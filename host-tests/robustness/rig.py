@@ -40,6 +40,11 @@ WATCHDOG_MS = 1000
 # ECHO_BURST at once, then one every ECHO_REFILL_MS = 100 ms).
 ECHO_BURST = 5
 ECHO_PPS = 10
+# A technician's ping (6 requests, 0.5 s apart) must get at least this many
+# answers. Not all 6: a cold ping (the device has no neighbor entry for the
+# pinger) loses its first requests for up to ~2 s (smoltcp sends at most one
+# ARP request a second, for any address; README.md, "What it found").
+PING_MIN = 2
 
 # Pass thresholds, the same for every case unless the case says otherwise.
 # A PLC polls every 100 ms or so and times out after about 1 s: p99 within
@@ -62,7 +67,7 @@ def threshold_text(th):
                 f"recovery <= {th['recovery_s']:.0f} s")
     extra = ""
     if th.get("ping"):
-        extra += ", a ping (3 echo requests, 0.3 s apart) answered 3/3"
+        extra += f", a ping (6 echo requests, 0.5 s apart) answered >= {PING_MIN}/6"
     if th.get("echo_max_pps"):
         extra += (f", the flood's echo requests answered at > 0 and <= {th['echo_max_pps']} a second "
                   f"(+ a burst of {ECHO_BURST})")
@@ -214,13 +219,15 @@ def modbus_probe(timeout=1.0):
 
 
 def ping_probe():
-    """A technician's ping: 3 echo requests 0.3 s apart; the replies received."""
+    """A technician's ping: 6 echo requests 0.5 s apart; the replies received."""
     try:
-        out = subprocess.run(["timeout", "10", "ping", "-n", "-q", "-c", "3", "-i", "0.3", "-W", "2", DEVICE],
+        out = subprocess.run(["timeout", "10", "ping", "-n", "-c", "6", "-i", "0.5", "-W", "2", DEVICE],
                              capture_output=True, text=True).stdout
     except OSError:
         return 0, "ping not found"
     line = next((l for l in out.splitlines() if "packets transmitted" in l), "no ping summary")
+    if received(line) < PING_MIN:
+        print("  ping:\n    " + "\n    ".join(out.splitlines()), flush=True)
     return received(line), "ping: " + line.strip()
 
 
@@ -356,8 +363,8 @@ def judge(case, f, recovery, boots_before, boots_after, connects_before, qemu_al
         why.append(f"LINK_CONNECTS {connects_before} -> {f['connects']}")
     if recovery is None or recovery > th["recovery_s"]:
         why.append(f"recovery {recovery} s")
-    if th.get("ping") and f.get("pinged") != 3:
-        why.append(f"ping answered {f.get('pinged')}/3")
+    if th.get("ping") and (f.get("pinged") or 0) < PING_MIN:
+        why.append(f"ping answered {f.get('pinged')}/6")
     if th.get("echo_max_pps") and f.get("echo") is not None:
         bound = ECHO_BURST + th["echo_max_pps"] * (f.get("span_s") or 0) * 1.2 + 2
         if not 0 < f["echo"] <= bound:
