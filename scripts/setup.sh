@@ -30,8 +30,10 @@ command -v chromium >/dev/null || need_apt+=(chromium)
 command -v systemd-analyze >/dev/null || need_apt+=(systemd) # checks linux/dist/hans-gateway.service
 # The robustness rig (host-tests/robustness): a network namespace with a TAP
 # device (ip), floods (hping3), crafted frames (scapy for Debian's python3),
-# a DHCP server for the firmware's DHCP client (dnsmasq).
+# a DHCP server for the firmware's DHCP client (dnsmasq), a technician's
+# ping (iputils-ping).
 command -v ip >/dev/null || need_apt+=(iproute2)
+command -v ping >/dev/null || need_apt+=(iputils-ping)
 command -v hping3 >/dev/null || [ -x /usr/sbin/hping3 ] || need_apt+=(hping3)
 /usr/bin/python3 -c 'import scapy' 2>/dev/null || need_apt+=(python3-scapy)
 command -v dnsmasq >/dev/null || [ -x /usr/sbin/dnsmasq ] || need_apt+=(dnsmasq-base)

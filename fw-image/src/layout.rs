@@ -31,6 +31,11 @@ pub struct Layout {
     /// The download slot: one page larger than the active slot (the swap
     /// needs it).
     pub dfu: Range<u32>,
+    /// The gateway's own store (its configuration, accounts and audit
+    /// records: `hans_gateway::storage::flash::FlashStorage`), apart from
+    /// the slots: neither the bootloader nor an update touches it, so what
+    /// it holds survives restarts and updates.
+    pub store: Range<u32>,
     /// The swap's page: the erase size of the slots' medium.
     pub page: u32,
     /// Where the application's body runs: the address its vector table is
@@ -52,15 +57,18 @@ impl Layout {
 /// The QEMU board (mps2-an386): its "flash" is a file on the host, read
 /// and written through semihosting, with 4 KiB pages. The bootloader sits
 /// at 0x0 (64 KiB of the code memory); it copies the active slot to
-/// 0x0001_0000, so the application is linked at 0x0001_0400.
+/// 0x0001_0000, so the application is linked at 0x0001_0400. The gateway's
+/// store (64 KiB: the configuration, then the audit records) follows the
+/// download slot, at the end of the file.
 pub const MPS2_AN386: Layout = Layout {
     board: "mps2-an386",
     state: 0..0x1000,
     active: 0x1000..0x8_1000,
     dfu: 0x8_1000..0x10_2000,
+    store: 0x10_2000..0x11_2000,
     page: 0x1000,
     entry: 0x0001_0400,
-    size: 0x10_2000,
+    size: 0x11_2000,
 };
 
 /// The NUCLEO-F767ZI in dual-bank mode (firmware/README.md draws it):
@@ -74,6 +82,7 @@ pub const NUCLEO_F767ZI: Layout = Layout {
     state: 0x11_0000..0x12_0000,
     active: 0x2_0000..0x0E_0000,
     dfu: 0x12_0000..0x20_0000,
+    store: 0x10_0000..0x11_0000,
     page: 0x2_0000,
     entry: 0x0802_0400,
     size: 0x20_0000,
@@ -98,7 +107,7 @@ mod tests {
             "{}: the download slot is one page larger",
             l.board
         );
-        for r in [&l.state, &l.active, &l.dfu] {
+        for r in [&l.state, &l.active, &l.dfu, &l.store] {
             assert_eq!(
                 r.start % l.page.min(0x4000),
                 0,
@@ -109,6 +118,13 @@ mod tests {
         }
         let apart = |a: &Range<u32>, b: &Range<u32>| a.end <= b.start || b.end <= a.start;
         assert!(apart(&l.state, &l.active) && apart(&l.state, &l.dfu) && apart(&l.active, &l.dfu));
+        for r in [&l.state, &l.active, &l.dfu] {
+            assert!(
+                apart(r, &l.store),
+                "{}: the store is apart from {r:?}",
+                l.board
+            );
+        }
         assert_eq!(l.entry % HEADER_PAGE, 0);
         assert!(
             l.max_body() >= 384 * 1024,
@@ -123,7 +139,8 @@ mod tests {
         check(&NUCLEO_F767ZI);
         // The NUCLEO's configuration (bank 2, sectors 12-15) stays outside
         // every slot: a board updated from the layout before keeps it.
-        let config = 0x10_0000..0x11_0000;
+        let config = NUCLEO_F767ZI.store.clone();
+        assert_eq!(config, 0x10_0000..0x11_0000);
         // What the running firmware writes (the boot state, the download
         // slot) is in bank 2, away from the program in bank 1.
         let n = &NUCLEO_F767ZI;

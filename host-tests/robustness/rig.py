@@ -36,6 +36,15 @@ PROBE = "10.0.2.11"               # the recovery probe's new clients
 ATTACKERS = ["10.0.2.20", "10.0.2.21", "10.0.2.22"]
 VANISHING = ["10.0.2.40", "10.0.2.41"]  # half-open clients: removed during their case
 WATCHDOG_MS = 1000
+# The firmware's bound on the pings it answers (firmware/drivers/arp-guard:
+# ECHO_BURST at once, then one every ECHO_REFILL_MS = 100 ms).
+ECHO_BURST = 5
+ECHO_PPS = 10
+# A technician's ping (6 requests, 0.5 s apart) must get at least this many
+# answers. Not all 6: a cold ping (the device has no neighbor entry for the
+# pinger) loses its first requests for up to ~2 s (smoltcp sends at most one
+# ARP request a second, for any address; README.md, "What it found").
+PING_MIN = 2
 
 # Pass thresholds, the same for every case unless the case says otherwise.
 # A PLC polls every 100 ms or so and times out after about 1 s: p99 within
@@ -56,9 +65,15 @@ def threshold_text(th):
     if th.get("session_target"):
         return (f"session may be reset, back within {th['outage_s']:.0f} s; motions and watchdog as always; "
                 f"recovery <= {th['recovery_s']:.0f} s")
+    extra = ""
+    if th.get("ping"):
+        extra += f", a ping (6 echo requests, 0.5 s apart) answered >= {PING_MIN}/6"
+    if th.get("echo_max_pps"):
+        extra += (f", the flood's echo requests answered at > 0 and <= {th['echo_max_pps']} a second "
+                  f"(+ a burst of {ECHO_BURST})")
     return (f"0 failed polls, p99 <= {th['p99_ms']:.0f} ms, max <= {th['max_ms']:.0f} ms, "
             f"HEARTBEAT gap <= {th['hb_gap_ms']:.0f} ms, >= {th['motions']} motion, "
-            f">= {th['watchdog']} watchdog stop, link up, recovery <= {th['recovery_s']:.0f} s")
+            f">= {th['watchdog']} watchdog stop, link up, recovery <= {th['recovery_s']:.0f} s{extra}")
 
 
 class Case:
@@ -92,7 +107,7 @@ def hping(rate, *args):
 def cases():
     c71, c72 = "CR 7.1", "CR 7.1, CR 7.2"
     return [
-        Case("baseline", "-", "none (the figures without traffic)", "-", "-", []),
+        Case("baseline", "-", "none (the figures without traffic); a technician's ping", "-", "-", [], ping=True),
         Case("eth-broadcast-storm", "Ethernet", "broadcast frames: ARP requests for others, IPv4 UDP broadcasts, unknown EtherType",
              "2000 fps", c71, [tr("broadcast", 2000)]),
         Case("eth-multicast-storm", "Ethernet", "multicast frames: IPv4 groups, all-hosts, IPv6 all-nodes NS, STP BPDU, LLDP",
@@ -108,7 +123,7 @@ def cases():
         Case("ipv4-fragments", "IPv4", "overlapping, tiny (8 B), never completed, past 65535 B fragments",
              "2000 pps", c72, [tr("ipv4-fragments", 2000)]),
         Case("icmp-ping-flood", "ICMP", "echo requests (hping3 --icmp)", "5000 pps", c72,
-             [hping(5000, "--icmp")]),
+             [hping(5000, "--icmp")], echo_max_pps=ECHO_PPS, ping=True),
         Case("icmp-oversize", "ICMP", "1472 B echoes, 65000 B echoes in fragments, unknown types/codes, bad checksums, frag-needed/redirect quoting the PLC's session",
              "1000 pps", c71, [tr("icmp-oversize", 1000)]),
         Case("tcp-syn-flood-502", "TCP", "SYN flood to Modbus 502 from random sources (hping3 -S --rand-source)", "5000 pps", c72,
@@ -201,6 +216,28 @@ def modbus_probe(timeout=1.0):
         return False
     finally:
         c.close()
+
+
+def ping_probe():
+    """A technician's ping: 6 echo requests 0.5 s apart; the replies received."""
+    try:
+        out = subprocess.run(["timeout", "10", "ping", "-n", "-c", "6", "-i", "0.5", "-W", "2", DEVICE],
+                             capture_output=True, text=True).stdout
+    except OSError:
+        return 0, "ping not found"
+    line = next((l for l in out.splitlines() if "packets transmitted" in l), "no ping summary")
+    if received(line) < PING_MIN:
+        print("  ping:\n    " + "\n    ".join(out.splitlines()), flush=True)
+    return received(line), "ping: " + line.strip()
+
+
+def received(line):
+    """N of a ping or hping3 summary's `N packets received` (0 if absent)."""
+    words = [w for w in line.replace(",", " ").split() if w != "packets"]
+    for i, w in enumerate(words[1:], 1):
+        if w == "received":
+            return int(words[i - 1]) if words[i - 1].isdigit() else 0
+    return 0
 
 
 def web_probe(timeout=1.0):
@@ -326,6 +363,12 @@ def judge(case, f, recovery, boots_before, boots_after, connects_before, qemu_al
         why.append(f"LINK_CONNECTS {connects_before} -> {f['connects']}")
     if recovery is None or recovery > th["recovery_s"]:
         why.append(f"recovery {recovery} s")
+    if th.get("ping") and (f.get("pinged") or 0) < PING_MIN:
+        why.append(f"ping answered {f.get('pinged')}/6")
+    if th.get("echo_max_pps") and f.get("echo") is not None:
+        bound = ECHO_BURST + th["echo_max_pps"] * (f.get("span_s") or 0) * 1.2 + 2
+        if not 0 < f["echo"] <= bound:
+            why.append(f"{f['echo']} echo replies to the flood (want 1..{bound:.0f})")
     return why
 
 
@@ -387,6 +430,9 @@ def run_case(case, args, procs, ev, logdir):
             except FileNotFoundError:
                 pass
     t1 = time.monotonic()
+    echo = None
+    if case.th.get("echo_max_pps"):
+        echo = sum(received(l) for l in sent if "packets transmitted" in l)
     # Recovery: a new Modbus client and a new web client served, and the
     # PLC's poll answered, after the traffic has ended.
     recovery = None
@@ -401,9 +447,15 @@ def run_case(case, args, procs, ev, logdir):
             recovery = round(time.monotonic() - t1, 2)
             break
         time.sleep(0.05)
+    pinged = None
+    if case.th.get("ping"):
+        pinged, line = ping_probe()
+        sent.append(line)
     time.sleep(0.3)
     ev.update()
     f = figures(ev, t0, t1)
+    f["echo"], f["pinged"] = echo, pinged
+    f["span_s"] = t1 - t0
     why = judge(case, f, recovery, boots_before, boots(logdir), connects_before,
                 procs.qemu.poll() is None)
     return {"case": case, "f": f, "recovery": recovery, "why": why, "sent": sent,

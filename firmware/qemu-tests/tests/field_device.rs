@@ -29,8 +29,9 @@ const STATUS_FSM: u16 = 6;
 const CONFIG_COMMAND: u16 = 141;
 const CONFIG_RESULT: u16 = 142;
 const MODBUS_ALLOW: u16 = 170;
-/// CONFIG_RESULT: applied, not saved (this board has no storage).
-const APPLIED_NOT_SAVED: u16 = 3;
+/// CONFIG_RESULT: applied and saved (the field device keeps its
+/// configuration in its flash file).
+const APPLIED_AND_SAVED: u16 = 0;
 
 // Command channel 0 (see gateway.rs).
 const CH0: u16 = 200;
@@ -317,7 +318,7 @@ fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees(
     );
     must(admin.write_single_register(CONFIG_COMMAND, 1), "apply");
     let result = must(admin.read_holding_registers(CONFIG_RESULT, 1), "result")[0];
-    assert_eq!(result, APPLIED_NOT_SAVED, "CONFIG_RESULT");
+    assert_eq!(result, APPLIED_AND_SAVED, "CONFIG_RESULT");
     assert!(served_from(local2, port), "127.0.0.2 (as 10.0.2.2) served");
     assert!(served_from(Ipv4Addr::LOCALHOST, port), "127.0.0.1 served");
 

@@ -136,32 +136,87 @@ impl Device {
     /// Starts the field device (`args`: its command line) and creates the
     /// administrator with the setup code.
     fn start(name: &'static str, args: &str) -> Device {
-        let rig = Rig::start_with_env(
-            "field-device",
-            name,
-            args,
-            &[("SETUP_CODE", SETUP_CODE.to_string())],
-        );
-        let mut dev = Device {
-            rig,
-            cookie: String::new(),
-        };
-        // The page is up before the setup is sent (a POST to a guest not
-        // listening yet is closed unanswered).
-        let fw = dev.firmware();
-        assert_eq!(fw["supported"], true, "{fw}");
+        Device::start_kept(name, args, None)
+    }
+
+    /// As [`Device::start`], on the flash file `flash` if given (made if
+    /// absent, kept after QEMU ends): the administrator is created, and
+    /// the setup's answer says it was saved.
+    fn start_kept(name: &'static str, args: &str, flash: Option<&Path>) -> Device {
+        let mut dev = Device::boot(name, args, flash);
         let body = format!(r#"{{"code":"{SETUP_CODE}","name":"{ADMIN}","password":"{PASSWORD}"}}"#);
         let r = HttpClient::connect(dev.web(), STEP)
             .and_then(|mut c| c.post_json("/api/setup", &body))
             .unwrap_or_else(|e| panic!("POST /api/setup: {e}"));
         assert_eq!(r.status, 200, "POST /api/setup: {}", r.text());
-        dev.cookie = r
+        assert!(
+            r.text().contains(r#""saved":"saved""#),
+            "kept in flash: {}",
+            r.text()
+        );
+        dev.take_cookie(&r);
+        dev
+    }
+
+    /// Starts the field device and waits for its page, without a session.
+    fn boot(name: &'static str, args: &str, flash: Option<&Path>) -> Device {
+        let mut env = vec![("SETUP_CODE", SETUP_CODE.to_string())];
+        if let Some(f) = flash {
+            env.push(("FLASH_FILE", f.display().to_string()));
+        }
+        let rig = Rig::start_with_env("field-device", name, args, &env);
+        let dev = Device {
+            rig,
+            cookie: String::new(),
+        };
+        // The page is up before anything is posted (a POST to a guest not
+        // listening yet is closed unanswered).
+        let fw = dev.firmware();
+        assert_eq!(fw["supported"], true, "{fw}");
+        dev
+    }
+
+    /// The session cookie of a login's or setup's answer.
+    fn take_cookie(&mut self, r: &HttpResponse) {
+        self.cookie = r
             .header("Set-Cookie")
             .and_then(|c| c.split(';').next())
             .filter(|c| c.starts_with("hgw_session="))
             .unwrap_or_else(|| panic!("a session cookie: {:?}", r.headers))
             .to_string();
-        dev
+    }
+
+    /// `POST /api/login` as `name`: the answer (the session is taken when
+    /// it is 200).
+    fn login(&mut self, name: &str, password: &str) -> HttpResponse {
+        let body = format!(r#"{{"name":"{name}","password":"{password}"}}"#);
+        let r = HttpClient::connect(self.web(), STEP)
+            .and_then(|mut c| c.post_json("/api/login", &body))
+            .unwrap_or_else(|e| panic!("POST /api/login: {e}"));
+        if r.status == 200 {
+            self.take_cookie(&r);
+        }
+        r
+    }
+
+    /// `GET path` with the session: the answer as JSON (200 expected).
+    fn get_json(&self, path: &str) -> Value {
+        let cookie = [("Cookie", self.cookie.as_str())];
+        let headers: &[(&str, &str)] = if self.cookie.is_empty() { &[] } else { &cookie };
+        let (r, _) = HttpClient::connect(self.web(), STEP)
+            .and_then(|mut c| c.send("GET", path, headers, b"", STEP))
+            .unwrap_or_else(|e| panic!("GET {path}: {e}"));
+        assert_eq!(r.status, 200, "GET {path}: {}", r.text());
+        serde_json::from_slice(&r.body)
+            .unwrap_or_else(|e| panic!("GET {path} is not JSON ({e}): {}", r.text()))
+    }
+
+    /// The audit log's records (`GET /api/audit`).
+    fn audit(&self) -> Vec<Value> {
+        self.get_json("/api/audit")["records"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default()
     }
 
     fn web(&self) -> u16 {
@@ -626,6 +681,113 @@ fn bad_images_are_refused_and_a_signed_update_is_installed_and_confirms_itself()
         "update: B confirmed itself {:.1} s after the restart's answer (its self-check runs \
          TRIAL_CHECK after its start)",
         confirmed.as_secs_f64()
+    );
+    // The update kept the device's store: the administrator logs in to B
+    // (no setup code needed again), and the audit log still holds A's
+    // records (the account's creation, boot 1).
+    let mut dev = dev;
+    let r = dev.login(ADMIN, PASSWORD);
+    assert_eq!(
+        r.status,
+        200,
+        "the administrator kept across the update: {}",
+        r.text()
+    );
+    let audit = dev.audit();
+    assert!(
+        audit
+            .iter()
+            .any(|r| r["kind"] == "account-created" && r["boot"] == 1),
+        "the audit records of 0.1.0 kept across the update: {audit:?}"
+    );
+    let _ = dev.rig.exit();
+}
+
+/// The configuration, the accounts and the audit log are kept in the flash
+/// file across a restart of QEMU (as on the NUCLEO in its flash): an
+/// account and a setting made on one run are there on the next, which
+/// needs no setup code, and the first run's audit records are still read.
+#[test]
+fn settings_accounts_and_the_audit_log_are_kept_across_restarts() {
+    let images = Images::new("kept");
+    let flash = images.dir.join("flash.bin");
+    let dev = Device::start_kept("kept", "", Some(&flash));
+    let (r, _) = dev.post(
+        "/api/accounts",
+        "application/json",
+        br#"{"op":"add","name":"shift-2","role":"operator","password":"second-shift-26"}"#,
+    );
+    assert_eq!(r.status, 200, "add an account: {}", r.text());
+    assert!(r.text().contains(r#""saved":"saved""#), "{}", r.text());
+    let poll_ms = {
+        let mut plc = dev.rig.modbus();
+        must(plc.read_holding_registers(CFG_POLL_MS, 1), "CFG_POLL_MS")[0]
+    };
+    let new_poll = if poll_ms == 80 { 90 } else { 80 };
+    let body = format!(r#"{{"settings":{{"link.poll_ms":"{new_poll}"}}}}"#);
+    let (r, _) = dev.post("/api/config", "application/json", body.as_bytes());
+    assert_eq!(r.status, 200, "change a setting: {}", r.text());
+    assert!(r.text().contains(r#""saved":"saved""#), "{}", r.text());
+    let change = format!("link.poll_ms: {poll_ms} -> {new_poll}");
+    assert!(
+        dev.audit().iter().any(|r| r["detail"] == change.as_str()),
+        "the change is audited"
+    );
+    // QEMU ends (the firmware exits); the flash file stays.
+    let _ = dev.rig.exit();
+    assert!(flash.exists(), "the flash file is kept");
+
+    let mut dev = Device::boot("kept-again", "", Some(&flash));
+    let session = dev.get_json("/api/session");
+    assert_eq!(session["admin_exists"], true, "{session}");
+    assert_eq!(session["setup"], false, "no setup again: {session}");
+    let body = format!(r#"{{"code":"{SETUP_CODE}","name":"other","password":"{PASSWORD}"}}"#);
+    let r = HttpClient::connect(dev.web(), STEP)
+        .and_then(|mut c| c.post_json("/api/setup", &body))
+        .unwrap_or_else(|e| panic!("POST /api/setup: {e}"));
+    assert_eq!(r.status, 409, "an administrator exists: {}", r.text());
+    let r = dev.login("shift-2", "second-shift-26");
+    assert_eq!(
+        r.status,
+        200,
+        "the account made before the restart: {}",
+        r.text()
+    );
+    let r = dev.login(ADMIN, PASSWORD);
+    assert_eq!(r.status, 200, "the administrator: {}", r.text());
+    let accounts = dev.get_json("/api/accounts");
+    assert!(
+        accounts
+            .to_string()
+            .contains(r#""name":"shift-2","role":"operator""#),
+        "{accounts}"
+    );
+    {
+        let mut plc = dev.rig.modbus();
+        let now = must(plc.read_holding_registers(CFG_POLL_MS, 1), "CFG_POLL_MS")[0];
+        assert_eq!(now, new_poll, "the setting kept");
+    }
+    let config = dev.get_json("/api/config");
+    assert_eq!(
+        config["settings"]["link.poll_ms"],
+        new_poll.to_string(),
+        "{config}"
+    );
+    let audit = dev.audit();
+    let first = |kind: &str| audit.iter().any(|r| r["kind"] == kind && r["boot"] == 1);
+    assert!(
+        first("account-created") && audit.iter().any(|r| r["detail"] == change.as_str()),
+        "the first run's records kept: {audit:?}"
+    );
+    assert!(
+        audit.iter().any(|r| r["kind"] == "start" && r["boot"] == 2),
+        "the second start recorded as boot 2: {audit:?}"
+    );
+    println!(
+        "kept: after a restart of QEMU on the same flash file: 2 accounts, link.poll_ms {new_poll}, \
+         {} audit records ({} from boot 1)",
+        audit.len(),
+        audit.iter().filter(|r| r["boot"] == 1).count()
     );
     let _ = dev.rig.exit();
 }

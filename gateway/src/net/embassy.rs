@@ -7,12 +7,16 @@
 //! took a listening socket must complete its handshake within
 //! [`HANDSHAKE`], else the socket listens again (a SYN flood from forged
 //! addresses holds each socket that long, not for the socket's timeout).
+//! That deadline is the socket's own timeout while it listens: the stack
+//! schedules it and closes the half-open socket itself (and wakes the
+//! waiting task), so a listening socket costs no wake-ups until a client
+//! comes (no polling: the board sleeps).
 
 use core::net::SocketAddrV4;
 
 use embassy_net::tcp::{State, TcpSocket};
 use embassy_net::{IpAddress, IpEndpoint, Stack};
-use embassy_time::{with_timeout, Duration, Instant};
+use embassy_time::Duration;
 
 use super::{Net, NetError, Socket};
 
@@ -26,9 +30,12 @@ use super::{Net, NetError, Socket};
 /// retransmission timeout is 1 s).
 const HANDSHAKE: Duration = Duration::from_millis(1500);
 
-/// How often a listening socket looks whether a SYN took it: the stack
-/// wakes the waiting task when a handshake completes, not when it starts.
-const LISTEN_TICK: Duration = Duration::from_millis(250);
+/// A connection's timeout once established: a peer that vanished without
+/// FIN/RST is found within it (with the keep-alive, [`KEEP_ALIVE`]).
+const TIMEOUT: Duration = Duration::from_secs(20);
+
+/// The keep-alive's period on an established connection.
+const KEEP_ALIVE: Duration = Duration::from_secs(5);
 
 /// An embassy-net stack as the gateway's network.
 #[derive(Clone, Copy)]
@@ -53,6 +60,7 @@ impl Socket for EmbassySocket<'_> {
         if self.socket.state() != State::Closed {
             self.close().await;
         }
+        self.socket.set_timeout(Some(TIMEOUT));
         let ep = IpEndpoint::new(IpAddress::Ipv4(*remote.ip()), remote.port());
         self.socket
             .connect(ep)
@@ -61,38 +69,27 @@ impl Socket for EmbassySocket<'_> {
     }
 
     async fn accept(&mut self, port: u16) -> Result<(), NetError> {
-        // When the handshake of the connection on this socket started (its
-        // SYN arrived), as this call saw it.
-        let mut syn_at: Option<Instant> = None;
         loop {
             match self.socket.state() {
-                State::Established | State::CloseWait => return Ok(()),
-                State::Closed => {
-                    syn_at = None;
-                    // Cancelled at the tick with the socket listening (or in
-                    // its handshake): the arms below go on from there.
-                    if let Ok(accepted) = with_timeout(LISTEN_TICK, self.socket.accept(port)).await
-                    {
-                        return accepted.map_err(|_| NetError::ListenFailed);
-                    }
+                State::Established | State::CloseWait => {
+                    self.socket.set_timeout(Some(TIMEOUT));
+                    return Ok(());
                 }
-                State::Listen => {
-                    syn_at = None;
-                    let _ = with_timeout(LISTEN_TICK, self.socket.wait_write_ready()).await;
+                State::Closed | State::Listen => {
+                    // While listening the socket's timeout is the handshake's
+                    // deadline: a SYN whose sender never completes the
+                    // handshake (a forged source) is reset by the stack
+                    // HANDSHAKE after it came, and `accept` returns with the
+                    // socket closed: it listens again (the next round).
+                    self.socket.set_timeout(Some(HANDSHAKE));
+                    self.socket
+                        .accept(port)
+                        .await
+                        .map_err(|_| NetError::ListenFailed)?;
                 }
-                State::SynReceived => {
-                    let since = *syn_at.get_or_insert_with(Instant::now);
-                    let deadline = since + HANDSHAKE;
-                    let now = Instant::now();
-                    if now >= deadline {
-                        // A SYN whose sender never completed the handshake (a
-                        // forged source): free the socket for the next client.
-                        self.close().await;
-                    } else {
-                        let left = (deadline - now).min(LISTEN_TICK);
-                        let _ = with_timeout(left, self.socket.wait_write_ready()).await;
-                    }
-                }
+                // Only after an earlier `accept` was dropped mid-handshake:
+                // its deadline still runs; look again once it is past.
+                State::SynReceived => embassy_time::Timer::after(HANDSHAKE).await,
                 // Closing states of an earlier connection: end it, listen again.
                 _ => self.close().await,
             }
@@ -143,8 +140,8 @@ impl<'d> Net for EmbassyNet<'d> {
     fn socket<'a>(&'a self, rx: &'a mut [u8], tx: &'a mut [u8]) -> EmbassySocket<'a> {
         let mut socket = TcpSocket::new(self.stack, rx, tx);
         // A peer that vanished without FIN/RST is found within ~20 s.
-        socket.set_keep_alive(Some(Duration::from_secs(5)));
-        socket.set_timeout(Some(Duration::from_secs(20)));
+        socket.set_keep_alive(Some(KEEP_ALIVE));
+        socket.set_timeout(Some(TIMEOUT));
         socket.set_nagle_enabled(false);
         EmbassySocket { socket }
     }

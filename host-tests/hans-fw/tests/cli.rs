@@ -189,9 +189,11 @@ fn install_writes_a_flash_file() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("0.1.0 in the active slot"));
 
     // MPS2_AN386: state 0..0x1000, active 0x1000.., download 0x8_1000..,
-    // 0x10_2000 bytes; the body a 1 KiB header page after the header.
+    // the gateway's store 0x10_2000.. (erased), 0x11_2000 bytes; the body a
+    // 1 KiB header page after the header.
     let f = std::fs::read(&flash).unwrap();
-    assert_eq!(f.len(), 0x10_2000);
+    assert_eq!(f.len(), 0x11_2000);
+    assert!(f[0x10_2000..].iter().all(|b| *b == 0xFF), "store erased");
     let (a_img, b_img) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     let slot = |at: usize, img: &[u8], body: &[u8]| {
         assert_eq!(&f[at..at + 136], &img[..136], "header at {at:#x}");

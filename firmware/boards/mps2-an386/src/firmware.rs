@@ -8,13 +8,17 @@
 //! Modbus TCP on port 502 and (field device) the web page on 80, at
 //! 10.0.2.15 ([`FACTORY_NET`](crate::FACTORY_NET)); the robot is the
 //! simulator at 10.0.2.100:10003 (forwarded by `scripts/qemu-run.sh` to the
-//! host) unless the configuration names another. The configuration is kept
-//! in RAM: this board has no persistent storage for it. The field device
-//! has the flash file the bootloader started it from for its firmware
-//! slots (`slots`): it takes signed updates. Port 5021 serves diagnostics (see [`diag`](crate::diag)).
+//! host) unless the configuration names another. The core gateway keeps
+//! its configuration in RAM (it runs without a flash file). The field
+//! device has the flash file the bootloader started it from (`slots`): its
+//! firmware slots (it takes signed updates) and its store, where the
+//! configuration, the accounts and the audit log are kept across restarts
+//! and updates. Port 5021 serves diagnostics (see [`diag`](crate::diag)).
 
 use embassy_executor::Spawner;
-use hans_gateway::{Config, NoStorage, Options};
+#[cfg(not(feature = "field-device"))]
+use hans_gateway::NoStorage;
+use hans_gateway::{Config, Options};
 
 use crate as board;
 
@@ -51,13 +55,11 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
     #[cfg(not(feature = "field-device"))]
     let storage = NoStorage;
     // The field device updates itself: the firmware slots of the flash file
-    // it was started from, beside the configuration kept in RAM.
+    // it was started from, beside its store (configuration, accounts,
+    // audit records) in the same file.
     #[cfg(feature = "field-device")]
     let storage = match board::slots::open() {
-        Ok(slots) => hans_gateway::WithSlots {
-            storage: NoStorage,
-            slots,
-        },
+        Ok((slots, storage)) => hans_gateway::WithSlots { storage, slots },
         Err(e) => board::fail(e),
     };
     // Only what differs from the library's defaults, so new options need no
@@ -87,9 +89,10 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
         } else {
             None
         },
-        // No button to hold: never a recovery start (and nothing stored to
-        // recover from).
-        recovery: false,
+        // No button to hold: the word `recovery` on QEMU's command line
+        // instead (the field device's stored settings; the core stores
+        // nothing).
+        recovery: cfg!(feature = "field-device") && board::recovery(),
         // Images signed with the key the bootloader trusts, for this board.
         #[cfg(feature = "field-device")]
         update_key: Some(fw_keys::TRUSTED),

@@ -103,6 +103,14 @@ fn find_arg<T>(mut f: impl FnMut(&str) -> Option<T>) -> Option<T> {
     }
 }
 
+/// Whether QEMU's command line holds the word `recovery`: the NUCLEO's
+/// button held at power-up, on this board (`FIRMWARE_ARGS=recovery`): a
+/// start with the factory network and access settings instead of the
+/// stored ones (the stored configuration is kept until the next save).
+pub fn recovery() -> bool {
+    find_arg(|a| (a == "recovery").then_some(())).is_some()
+}
+
 /// Whether QEMU's command line holds the word `selfcheck=fail`: a test's
 /// way to make an image on trial fail its self-check (it then does not
 /// confirm itself and restarts, and the bootloader rolls it back).

@@ -1,5 +1,6 @@
 //! An [`embassy-net-driver`] wrapper that bounds the ARP the network stack
-//! takes from hosts it does not talk to.
+//! takes from hosts it does not talk to, and the ICMP echo requests it
+//! answers. Both boards wrap their Ethernet driver in it.
 //!
 //! smoltcp learns the sender of every ARP request for its address into a
 //! neighbor cache of a few entries, evicting the entry that expires first.
@@ -21,6 +22,16 @@
 //!   it is dropped (counted in [`Stats::arp_dropped`]). So at most 10 new
 //!   neighbors a second enter the cache, slower than a PLC or the robot
 //!   refresh theirs.
+//!
+//! ICMP echo requests (ping) are answered by the stack (smoltcp's
+//! `auto-icmp-echo-reply`, which the boards turn on), at a bounded rate:
+//! each takes a token from a second bucket of [`ECHO_BURST`] tokens
+//! refilled one every [`ECHO_REFILL_MS`] ms, and without a token it is
+//! dropped (counted in [`Stats::echo_dropped`]). A technician's ping (one a
+//! second) is always answered; a ping flood gets at most 10 answers a
+//! second, so it cannot make the device spend its CPU and its link on
+//! replies (an amplifier) instead of the PLC and the robot
+//! (`host-tests/robustness`, case `icmp-ping-flood`).
 //!
 //! The device's address and its peers are learned from the frames it
 //! transmits, so the wrapper needs no configuration and follows a DHCP
@@ -49,11 +60,16 @@ pub const PEERS: usize = 8;
 pub const BURST: u32 = 4;
 /// One more such frame may pass every this many milliseconds.
 pub const REFILL_MS: u64 = 100;
+/// ICMP echo requests answered at once after a quiet time.
+pub const ECHO_BURST: u32 = 5;
+/// One more echo request may be answered every this many milliseconds.
+pub const ECHO_REFILL_MS: u64 = 100;
 
 const ETHERTYPE_IPV4: [u8; 2] = [0x08, 0x00];
 const ETHERTYPE_ARP: [u8; 2] = [0x08, 0x06];
 
 static ARP_DROPPED: AtomicU32 = AtomicU32::new(0);
+static ECHO_DROPPED: AtomicU32 = AtomicU32::new(0);
 
 /// What the guard counted since power-on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -61,12 +77,15 @@ static ARP_DROPPED: AtomicU32 = AtomicU32::new(0);
 pub struct Stats {
     /// ARP frames for this device from non-peers, dropped over the rate.
     pub arp_dropped: u32,
+    /// ICMP echo requests dropped over the rate (not answered).
+    pub echo_dropped: u32,
 }
 
 /// Reads the guard's counters.
 pub fn stats() -> Stats {
     Stats {
         arp_dropped: ARP_DROPPED.load(Ordering::Relaxed),
+        echo_dropped: ECHO_DROPPED.load(Ordering::Relaxed),
     }
 }
 
@@ -82,13 +101,54 @@ fn ethertype(frame: &[u8]) -> Option<[u8; 2]> {
     frame.get(12..14)?.try_into().ok()
 }
 
-/// What the guard knows: the device's address, its peers, the bucket.
+/// A token bucket: `burst` tokens, one more every `refill_ms`.
+struct Bucket {
+    burst: u32,
+    refill_ms: u64,
+    tokens: Cell<u32>,
+    refilled_ms: Cell<u64>,
+}
+
+impl Bucket {
+    const fn new(burst: u32, refill_ms: u64) -> Self {
+        Bucket {
+            burst,
+            refill_ms,
+            tokens: Cell::new(burst),
+            refilled_ms: Cell::new(0),
+        }
+    }
+
+    /// Refills for the time passed, then takes a token: `false` when none
+    /// is left.
+    fn take(&self, now_ms: u64) -> bool {
+        let last = self.refilled_ms.get();
+        let new = now_ms.saturating_sub(last) / self.refill_ms.max(1);
+        if new > 0 {
+            let tokens = self
+                .tokens
+                .get()
+                .saturating_add(new.min(u64::from(self.burst)) as u32);
+            self.tokens.set(tokens.min(self.burst));
+            self.refilled_ms.set(last + new * self.refill_ms);
+        }
+        match self.tokens.get() {
+            0 => false,
+            n => {
+                self.tokens.set(n - 1);
+                true
+            }
+        }
+    }
+}
+
+/// What the guard knows: the device's address, its peers, the buckets.
 struct Gate {
     own: Cell<Ip>,
     peers: Cell<[Ip; PEERS]>,
     next_peer: Cell<usize>,
-    tokens: Cell<u32>,
-    refilled_ms: Cell<u64>,
+    arp: Bucket,
+    echo: Bucket,
 }
 
 impl Gate {
@@ -97,8 +157,8 @@ impl Gate {
             own: Cell::new([0; 4]),
             peers: Cell::new([[0; 4]; PEERS]),
             next_peer: Cell::new(0),
-            tokens: Cell::new(BURST),
-            refilled_ms: Cell::new(0),
+            arp: Bucket::new(BURST, REFILL_MS),
+            echo: Bucket::new(ECHO_BURST, ECHO_REFILL_MS),
         }
     }
 
@@ -150,9 +210,21 @@ impl Gate {
 
     /// Whether a received frame goes to the stack.
     fn admit(&self, frame: &[u8], now_ms: u64) -> bool {
-        if ethertype(frame) != Some(ETHERTYPE_ARP) {
-            return true;
+        match ethertype(frame) {
+            Some(ETHERTYPE_ARP) => self.admit_arp(frame, now_ms),
+            Some(ETHERTYPE_IPV4) if is_echo_request(frame) => {
+                let ok = self.echo.take(now_ms);
+                if !ok {
+                    ECHO_DROPPED.fetch_add(1, Ordering::Relaxed);
+                }
+                ok
+            }
+            _ => true,
         }
+    }
+
+    /// Whether a received ARP frame goes to the stack.
+    fn admit_arp(&self, frame: &[u8], now_ms: u64) -> bool {
         let (Some(sender), Some(target)) = (ip_at(frame, 28), ip_at(frame, 38)) else {
             return true; // too short: the stack drops it
         };
@@ -160,28 +232,24 @@ impl Gate {
         if (own != [0; 4] && target != own) || self.is_peer(sender) {
             return true;
         }
-        // The bucket: refill for the time passed, then take a token.
-        let last = self.refilled_ms.get();
-        let new = now_ms.saturating_sub(last) / REFILL_MS;
-        if new > 0 {
-            let tokens = self
-                .tokens
-                .get()
-                .saturating_add(new.min(u64::from(BURST)) as u32);
-            self.tokens.set(tokens.min(BURST));
-            self.refilled_ms.set(last + new * REFILL_MS);
+        let ok = self.arp.take(now_ms);
+        if !ok {
+            ARP_DROPPED.fetch_add(1, Ordering::Relaxed);
         }
-        match self.tokens.get() {
-            0 => {
-                ARP_DROPPED.fetch_add(1, Ordering::Relaxed);
-                false
-            }
-            n => {
-                self.tokens.set(n - 1);
-                true
-            }
-        }
+        ok
     }
+}
+
+/// Whether an IPv4 frame is an ICMP echo request (its first fragment: the
+/// one with the ICMP header; later fragments carry none).
+fn is_echo_request(frame: &[u8]) -> bool {
+    let frag: Option<[u8; 2]> = frame.get(20..22).and_then(|f| f.try_into().ok());
+    let (Some(&vihl), Some(frag), Some(&proto)) = (frame.get(14), frag, frame.get(23)) else {
+        return false;
+    };
+    let first_fragment = (u16::from_be_bytes(frag) & 0x1FFF) == 0;
+    let icmp_at = 14 + usize::from(vihl & 0x0F) * 4;
+    proto == 1 && first_fragment && frame.get(icmp_at) == Some(&8)
 }
 
 fn now_ms() -> u64 {

@@ -61,7 +61,11 @@ bind_interrupts!(struct Irqs {
 
 include!(concat!(env!("OUT_DIR"), "/factory_net.rs"));
 
-type Device = Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>;
+/// The Ethernet driver behind the guard that bounds the ARP the stack
+/// learns from hosts it does not talk to and the pings it answers (an ARP
+/// flood must not evict the PLC's and the robot's neighbor entries; see
+/// `arp-guard`), as on the QEMU board.
+type Device = arp_guard::Guarded<Ethernet<'static, ETH, GenericPhy<Sma<'static, ETH_SMA>>>>;
 
 /// Sockets: the gateway's (Modbus sessions, robot link, and with
 /// `field-device` the DataSheet, the web page and DHCP); the board has none
@@ -141,7 +145,7 @@ pub async fn run(spawner: Spawner) -> ! {
     // Const-initialised statics: built in place, never copied through the
     // stack (the packet queue is 12 KiB, StackResources about as much).
     static PACKETS: ConstStaticCell<PacketQueue<4, 4>> = ConstStaticCell::new(PacketQueue::new());
-    let device: Device = Ethernet::new(
+    let device = Ethernet::new(
         PACKETS.take(),
         p.ETH,
         Irqs,
@@ -157,6 +161,7 @@ pub async fn run(spawner: Spawner) -> ! {
         p.PA2,
         p.PC1,
     );
+    let device: Device = arp_guard::Guarded::new(device);
 
     // No address yet: the gateway applies the stored (or factory) network
     // settings once it has loaded the configuration.
