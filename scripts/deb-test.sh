@@ -76,8 +76,8 @@ VERSION=$(cargo pkgid -p hans-gateway-linux | sed 's/.*[#@]//')
 ARCH=$(dpkg --print-architecture)
 DEB1=$OUT/hans-gateway_${VERSION}-1_${ARCH}.deb
 DEB2=$OUT/hans-gateway_${VERSION}-2_${ARCH}.deb
-cargo deb -p hans-gateway-linux --locked -o "$DEB1"
-cargo deb -p hans-gateway-linux --locked --no-build --deb-revision 2 -o "$DEB2"
+cargo deb -p hans-gateway-linux --locked --strip -o "$DEB1"
+cargo deb -p hans-gateway-linux --locked --no-build --strip --deb-revision 2 -o "$DEB2"
 [ -f "$DEB1" ] && [ -f "$DEB2" ] || fail "cargo deb made no package"
 ok "built $(basename "$DEB1") and $(basename "$DEB2") in $((SECONDS - start)) s ($(du -k "$DEB1" | cut -f1) KiB)"
 say "contents:"
