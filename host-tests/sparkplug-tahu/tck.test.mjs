@@ -57,7 +57,8 @@ function freePort() {
 }
 
 function start(cmd, args, name) {
-  const child = spawn(cmd, args, { stdio: ["ignore", "pipe", "pipe"] });
+  // In the work directory: the gateway writes its setup-code file there.
+  const child = spawn(cmd, args, { cwd: work, stdio: ["ignore", "pipe", "pipe"] });
   child.name = name;
   child.out = "";
   child.stdout.on("data", (d) => (child.out += d));
