@@ -37,6 +37,14 @@ command -v ping >/dev/null || need_apt+=(iputils-ping)
 command -v hping3 >/dev/null || [ -x /usr/sbin/hping3 ] || need_apt+=(hping3)
 /usr/bin/python3 -c 'import scapy' 2>/dev/null || need_apt+=(python3-scapy)
 command -v dnsmasq >/dev/null || [ -x /usr/sbin/dnsmasq ] || need_apt+=(dnsmasq-base)
+if [ "${SETUP_FUZZ:-1}" = 1 ]; then
+  # test-all.sh only: Debian's package checker for the gateway's package
+  # (scripts/deb-test.sh), and Node.js with npm for Eclipse Tahu's
+  # JavaScript Sparkplug decoder (host-tests/sparkplug-tahu).
+  command -v lintian >/dev/null || need_apt+=(lintian)
+  command -v node >/dev/null || need_apt+=(nodejs)
+  command -v npm >/dev/null || need_apt+=(npm)
+fi
 if ((${#need_apt[@]})); then
   SUDO=""
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
@@ -72,5 +80,10 @@ if [ "${SETUP_FUZZ:-1}" = 1 ]; then
   if ! cargo fuzz --version >/dev/null 2>&1; then
     echo "setup: cargo install cargo-fuzz"
     cargo install --locked --quiet cargo-fuzz
+  fi
+  # cargo-deb makes the gateway's Debian package (scripts/deb-test.sh).
+  if ! cargo deb --version >/dev/null 2>&1; then
+    echo "setup: cargo install cargo-deb"
+    cargo install --locked --quiet cargo-deb
   fi
 fi

@@ -45,12 +45,12 @@ trap cleanup EXIT
 exec_start=$(sed -n 's/^ExecStart=//p' "$UNIT")
 [ "$(printf '%s\n' "$exec_start" | wc -l)" -eq 1 ] || fail "$UNIT: not one ExecStart line"
 case "$exec_start" in
-  /usr/local/bin/hans-gateway\ *) ;;
-  *) fail "$UNIT: ExecStart does not start with /usr/local/bin/hans-gateway: $exec_start" ;;
+  /usr/bin/hans-gateway\ *) ;;
+  *) fail "$UNIT: ExecStart does not start with /usr/bin/hans-gateway (the Debian package's path): $exec_start" ;;
 esac
-args=${exec_start#/usr/local/bin/hans-gateway }
+args=${exec_start#/usr/bin/hans-gateway }
 mkdir "$WORK/a"
-sed "s#^ExecStart=/usr/local/bin/hans-gateway #ExecStart=$BIN #" "$UNIT" >"$WORK/a/hans-gateway.service"
+sed "s#^ExecStart=/usr/bin/hans-gateway #ExecStart=$BIN #" "$UNIT" >"$WORK/a/hans-gateway.service"
 remarks=$(systemd-analyze verify "$WORK/a/hans-gateway.service" 2>&1) ||
   fail "systemd-analyze verify: $remarks"
 [ -z "$remarks" ] || fail "systemd-analyze verify has remarks: $remarks"
@@ -106,21 +106,24 @@ $SUDO install -m 0755 "$BIN" "$RUNDIR/hans-gateway"
 
 run_args=$args
 run_args=${run_args//\/var\/lib\/hans-gateway\//$STATE/}
+run_args=${run_args//\/etc\/hans-gateway\//$STATE/}
 run_args=${run_args//0.0.0.0:502/127.0.0.1:$MODBUS_PORT}
 run_args=${run_args//0.0.0.0:8080/127.0.0.1:$WEB_PORT}
 case "$run_args" in
-  *0.0.0.0* | */var/lib/hans-gateway/*) fail "ExecStart has addresses or paths this script does not replace: $args" ;;
+  *0.0.0.0* | */var/lib/hans-gateway/* | */etc/hans-gateway/*) fail "ExecStart has addresses or paths this script does not replace: $args" ;;
 esac
 
 props=()
 while IFS= read -r line; do
   case "$line" in
     '' | '#'* | '['*) ;;
-    ExecStart=* | StateDirectory=* | WorkingDirectory=*) ;;
+    # The package's user and /etc/hans-gateway (scripts/deb-test.sh checks
+    # them installed): here a user made for the run and the state directory.
+    ExecStart=* | StateDirectory=* | WorkingDirectory=* | User=* | Group=* | ReadWritePaths=*) ;;
     *) props+=(-p "$line") ;;
   esac
 done < <(sed -n '/^\[Service\]/,/^\[/p' "$UNIT")
-props+=(-p "StateDirectory=$NAME" -p "WorkingDirectory=$STATE")
+props+=(-p "StateDirectory=$NAME" -p "WorkingDirectory=$STATE" -p DynamicUser=yes)
 
 cleanups+=("$SUDO systemctl stop '$NAME' 2>/dev/null; $SUDO systemctl reset-failed '$NAME' 2>/dev/null; $SUDO rm -rf '/var/lib/private/$NAME' '$STATE'")
 # shellcheck disable=SC2086 # the options' words, as in the unit

@@ -96,6 +96,11 @@ step "clippy (codec with v6 and defmt)" \
 step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-codec -p hans-host-tests --locked
 step "host tests" cargo test --workspace --exclude hans-host-tests --locked
 step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd-unit-test.sh
+# The Debian package: cargo deb (a release build of hans-gateway, the only
+# release host build here), lintian, install, upgrade, remove and purge on
+# this machine, the installed binary started (as root, as CI runs).
+step "Debian package (cargo deb, lintian, install, upgrade, remove, the installed binary)" \
+  timeout --kill-after=30 1500 bash scripts/deb-test.sh
 # Sparkplug B and its MQTT client are in `default`: the host tests above ran
 # their unit tests (virtual time, fake broker), tests/mqtt.rs (Debian's
 # Mosquitto, hans-gateway killed and frozen) and host-tests/e2e/tests/mqtt.rs
@@ -104,6 +109,12 @@ step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd
 # --- the PLC function-block library (plc/): both ST parsers, the subset
 # check, the SCL file, and the blocks against hans-gateway + hans-sim
 step "PLC library (parsers, subset, SCL, blocks against the gateway)" bash scripts/plc-tests.sh
+# Sparkplug B as a plant's host reads it: every message of hans-gateway
+# (births, data, commands' events, rebirth, DDEATH, the Will after SIGKILL
+# and SIGTERM) decoded by Eclipse Tahu's JavaScript library (npm
+# sparkplug-payload, pinned) and checked against the Sparkplug 3.0 TCK's
+# edge-node assertions (the same debug binaries as the PLC library's step).
+step "Sparkplug B read by Eclipse Tahu's decoder, TCK edge-node assertions" bash host-tests/sparkplug-tahu/run.sh
 
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
@@ -135,6 +146,14 @@ step "fuzz: codec (framer, request, reply, DataSheet) and gateway (Modbus sessio
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
 step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
+
+# --- the first hour as written: README's "The first ten minutes" and
+# REGISTERS.md's example, line by line, against scripts/demo.sh (the
+# firmware step built the field device; the demo's debug hans-sim and
+# hans-fw serve the robustness rig below too). The demo's ports (8080, 5020,
+# 10003, 5021, 18830) must be free.
+step "the README's first ten minutes and REGISTERS.md's example, as written, against the demo" \
+  env FIRST_HOUR_BUILD_WAIT=600 timeout --kill-after=60 1200 python3 host-tests/scripts/first_hour.py
 
 # --- communication robustness (issue 19): the field device under QEMU on a
 # TAP device in a network namespace, storms and malformed traffic at every

@@ -85,6 +85,12 @@ pub struct Options {
     /// and restarts so that the bootloader rolls it back.
     #[cfg(feature = "update")]
     pub self_check_fails: bool,
+    /// The software's version as this platform names it, where no firmware
+    /// image names one: Linux gives its program's (`hans-gateway`'s, which
+    /// is its package's version). Default: this crate's. A field device
+    /// with updates reports its running image's version instead (read from
+    /// its slots). The Sparkplug `Gateway/Version` metric shows it.
+    pub version: &'static str,
 }
 
 /// A broker given at start (see [`Options::mqtt_override`]).
@@ -163,6 +169,7 @@ impl Default for Options {
             board: "",
             #[cfg(feature = "update")]
             self_check_fails: false,
+            version: env!("CARGO_PKG_VERSION"),
         }
     }
 }
@@ -353,6 +360,7 @@ impl Gateway {
             clock,
             net,
             self.opts.node_name.as_str(),
+            self.opts.version,
             utc,
             self.opts.mqtt_login,
         );

@@ -461,6 +461,9 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         update_key: None,
         board: "linux",
         self_check_fails: false,
+        // This program's version (its Debian package's): what Sparkplug's
+        // Gateway/Version shows.
+        version: env!("CARGO_PKG_VERSION"),
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;

@@ -609,14 +609,15 @@ async fn publish_due<C: Clock, S: Socket>(
 /// off or no broker is named; else the broker's address (an address, or a
 /// name the platform resolves: `Net::resolve`, tried again with the
 /// backoff), then [`run`]. `own_id` is the edge node id when the
-/// configuration names none; `utc_at_zero` and `login` as in
-/// [`Settings`]. The
-/// hub's `mqtt` status shows how it goes.
+/// configuration names none; `version` is the software's
+/// ([`NodeConfig::version`]); `utc_at_zero` and `login` as in
+/// [`Settings`]. The hub's `mqtt` status shows how it goes.
 pub async fn serve<C: Clock, N: Net>(
     hub: &Hub,
     clock: &C,
     net: &N,
     own_id: &str,
+    version: &'static str,
     utc_at_zero: Option<u64>,
     login: Option<Login>,
 ) -> Infallible {
@@ -655,6 +656,7 @@ pub async fn serve<C: Clock, N: Net>(
             return core::future::pending().await;
         }
     };
+    settings.node.version = version;
     settings.utc_at_zero = utc_at_zero;
     settings.login = login;
     info!(

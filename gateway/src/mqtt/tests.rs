@@ -181,7 +181,7 @@ impl T {
         let mut m = model();
         m.config.active = config;
         T::build(m, move |h, c, n, _| {
-            Box::pin(async move { serve(&h, &*c, &n, own_id, None, None).await })
+            Box::pin(async move { serve(&h, &*c, &n, own_id, "0.1.0-test", None, None).await })
         })
     }
 

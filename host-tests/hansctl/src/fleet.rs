@@ -616,7 +616,8 @@ mod tests {
         encode(
             Some(0),
             vec![
-                metric("bdSeq", 8, Some(WireValue::Long(bd))),
+                // As the gateway writes it: INT64 (Sparkplug 3.0's rule).
+                metric("bdSeq", 4, Some(WireValue::Long(bd))),
                 metric("Link/State", 12, s(link)),
                 metric("Last Command/Source", 12, None),
                 metric("Last Command/Result", 12, None),
@@ -625,7 +626,7 @@ mod tests {
     }
 
     fn death(bd: Option<u64>) -> Vec<u8> {
-        let m = bd.map(|bd| metric("bdSeq", 8, Some(WireValue::Long(bd))));
+        let m = bd.map(|bd| metric("bdSeq", 4, Some(WireValue::Long(bd))));
         encode(None, m.into_iter().collect())
     }
 
@@ -649,7 +650,8 @@ mod tests {
             metric("Last Command/Result", 12, s(result)),
             metric("Last Command/Error Id", 3, Some(WireValue::Int(id as u32))),
             metric("Last Command/Error Source", 5, Some(WireValue::Int(1))),
-            metric("Last Command/Duration", 7, Some(WireValue::Int(ms))),
+            // Int32, as the gateway writes it (no UInt32: SPARKPLUG.md).
+            metric("Last Command/Duration", 3, Some(WireValue::Int(ms))),
         ]
     }
 

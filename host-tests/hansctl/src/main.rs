@@ -444,23 +444,31 @@ fn error_text(
             .map_err(|Exit(_, m)| m)
             .and_then(|mut c| c.call(&req).map_err(|e| e.to_string())),
     };
-    let controller = asked
+    let answer = asked
         .as_ref()
         .ok()
         .and_then(|r| match response(r, req.expect()) {
             Some(hans_codec::Response::GetErrorCodeStr(t)) => Some(t.text.as_str().to_string()),
             _ => None,
         });
+    // A controller answers every code: one it does not know with the text
+    // it prints for that (`unkown error`, sic), which is not a text for it.
+    let (controller, unknown_to_it) = match answer {
+        Some(t) if controller_knows_none(&t) => (None, Some(t)),
+        other => (other, None),
+    };
     let (text, source) = match (controller, ec.text()) {
         (Some(t), _) => (Some(t), "controller"),
         (None, Some(t)) => (Some(t.to_string()), "codec"),
         (None, None) => (None, "none"),
     };
-    if let Err(why) = &asked {
-        if !cli.json {
+    if !cli.json {
+        if let Err(why) = &asked {
             eprintln!(
                 "hansctl: the controller's text is not available ({why}); the codec's table:"
             );
+        } else if let Some(t) = &unknown_to_it {
+            eprintln!("hansctl: the controller knows no text for {code} (it answers {t:?})");
         }
     }
     let name = ec.name();
@@ -483,6 +491,14 @@ fn error_text(
         Some(_) => Ok(()),
         None => Err(Exit(1, format!("no text known for {code}"))),
     }
+}
+
+/// The controller's answer to `GetErrorCodeStr` for a code it does not know:
+/// the V6 document's controller prints `unkown error` (sic); a corrected
+/// spelling is taken too.
+fn controller_knows_none(text: &str) -> bool {
+    let t = text.trim();
+    t.eq_ignore_ascii_case("unkown error") || t.eq_ignore_ascii_case("unknown error")
 }
 
 fn d(v: f64) -> Decimal {

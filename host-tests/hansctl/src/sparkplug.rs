@@ -517,6 +517,32 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn every_encoding_of_an_integer_reads_the_same() {
+        // The gateway's (gateway/SPARKPLUG.md, "Integers"): bdSeq INT64 in
+        // long_value, counts Int32 in int_value; and other nodes': bdSeq
+        // UInt64 (the specification's example), UInt32 in int_value (its
+        // table) or in long_value (Tahu's encoders).
+        let bytes = encode(
+            Some(0),
+            vec![
+                metric("gateway bdSeq", datatype::INT64, Some(WireValue::Long(7))),
+                metric("old bdSeq", 8, Some(WireValue::Long(7))),
+                metric("Int32", datatype::INT32, Some(WireValue::Int(2990))),
+                metric("UInt32 table", 7, Some(WireValue::Int(2990))),
+                metric("UInt32 tahu", 7, Some(WireValue::Long(2990))),
+                metric("UInt32 top", 7, Some(WireValue::Long(u64::from(u32::MAX)))),
+            ],
+        );
+        let p = Payload::decode(&bytes).unwrap();
+        let n = |name| p.get(name).and_then(Value::as_u64);
+        assert_eq!((n("gateway bdSeq"), n("old bdSeq")), (Some(7), Some(7)));
+        for name in ["Int32", "UInt32 table", "UInt32 tahu"] {
+            assert_eq!(n(name), Some(2990), "{name}");
+        }
+        assert_eq!(n("UInt32 top"), Some(u64::from(u32::MAX)));
+    }
+
+    #[test]
     fn is_null_wins_over_a_value_and_aliases_are_kept() {
         let mut m = metric("x", 3, Some(WireValue::Int(5)));
         m.is_null = Some(true);

@@ -791,6 +791,22 @@ async fn error_prints_the_controllers_text_or_the_codecs() {
     // No text anywhere: exit 1.
     let out = hansctl(args(&old_robot, &["--protocol", "v5", "error", "12345"])).await;
     assert_eq!(out.status.code(), Some(1));
+    // A V6 controller answers every code, one it does not know with
+    // `unkown error` (sic): no text either, exit 1, as the README says.
+    let out = hansctl(args(&robot, &["error", "12345"])).await;
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        "12345 (no name): (no text known)"
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the controller knows no text for 12345"));
+    let out = hansctl(args(&robot, &["--json", "error", "12345"])).await;
+    assert_eq!(out.status.code(), Some(1));
+    let v = json_lines(&out);
+    assert_eq!(
+        (v[0]["text"].is_null(), v[0]["source"].as_str()),
+        (true, Some("none"))
+    );
     old.shutdown().await;
     sim.shutdown().await;
 }

@@ -22,7 +22,15 @@ use crate::state::history::CommandEntry;
 use crate::state::{Io, LinkState, Model, RobotFlags};
 
 /// A Sparkplug B basic datatype (the specification's `DataType` enum; only
-/// the basic types, 1-14).
+/// the basic types, 1-14), with the value field each travels in
+/// ([`DataType::field`]).
+///
+/// The gateway's metrics use only the integer types whose field the
+/// specification's table and Eclipse Tahu's Java and JavaScript decoders
+/// agree on: Int8/16/32, UInt8/16 in `int_value`, Int64/UInt64 in
+/// `long_value`. `UInt32` is the one they do not agree on (the table:
+/// `int_value`; Tahu's JavaScript decoder: `long_value` only; Tahu's Java:
+/// either), so no metric has it (gateway/SPARKPLUG.md, "Integers").
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DataType {
     /// Signed 8-bit integer (`int_value`).
@@ -37,7 +45,8 @@ pub enum DataType {
     UInt8 = 5,
     /// Unsigned 16-bit integer (`int_value`).
     UInt16 = 6,
-    /// Unsigned 32-bit integer (`int_value`).
+    /// Unsigned 32-bit integer (`int_value` in the specification's table;
+    /// read from `long_value` only by Tahu's JavaScript decoder: not used).
     UInt32 = 7,
     /// Unsigned 64-bit integer (`long_value`).
     UInt64 = 8,
@@ -80,7 +89,47 @@ impl DataType {
             DataType::Text => "Text",
         }
     }
+
+    /// The value field of `Payload.Metric` a value of this type travels in:
+    /// the specification's datatype table.
+    pub const fn field(self) -> ValueField {
+        match self {
+            DataType::Int8
+            | DataType::Int16
+            | DataType::Int32
+            | DataType::UInt8
+            | DataType::UInt16
+            | DataType::UInt32 => ValueField::Int,
+            DataType::Int64 | DataType::UInt64 | DataType::DateTime => ValueField::Long,
+            DataType::Float => ValueField::Float,
+            DataType::Double => ValueField::Double,
+            DataType::Boolean => ValueField::Boolean,
+            DataType::String | DataType::Text => ValueField::String,
+        }
+    }
 }
+
+/// The value fields of `Payload.Metric` the basic types use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ValueField {
+    /// `int_value` (10, uint32): Int8/16/32 as their two's complement,
+    /// UInt8/16/32.
+    Int,
+    /// `long_value` (11, uint64): Int64 as its two's complement, UInt64,
+    /// DateTime.
+    Long,
+    /// `float_value` (12).
+    Float,
+    /// `double_value` (13).
+    Double,
+    /// `boolean_value` (14).
+    Boolean,
+    /// `string_value` (15).
+    String,
+}
+
+/// `bdSeq`'s datatype, in the NBIRTH and the NDEATH alike.
+pub const BD_SEQ: DataType = DataType::Int64;
 
 /// Which birth declares a metric, and so which data message updates it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -275,13 +324,17 @@ use Scope::{Device as D, Node as N};
 /// Every metric, in the order of the births.
 #[rustfmt::skip]
 pub const TABLE: &[Def] = &[
-    def("bdSeq", T::UInt64, "", N, R::Birth, Field::BdSeq, "birth/death sequence of this MQTT session (0-255), as in the NDEATH"),
+    // Int64: the datatype the specification's normative rules give bdSeq
+    // (its example shows UInt64; the TCK checks INT64).
+    def("bdSeq", BD_SEQ, "", N, R::Birth, Field::BdSeq, "birth/death sequence of this MQTT session (0-255), as in the NDEATH"),
     def("Node Control/Rebirth", T::Boolean, "", N, R::Birth, Field::Rebirth, "always false; an NCMD writing true asks for new births"),
-    def("Gateway/Version", T::String, "", N, R::Birth, Field::Version, "the gateway's version"),
+    // On change: a board reads its image's version from the update slots
+    // just after the start, possibly after the first birth.
+    def("Gateway/Version", T::String, "", N, R::Change, Field::Version, "the software's version: the running firmware image's on a board with updates, the program's (its package's) on Linux"),
     def("Gateway/Map Version", T::String, "", N, R::Birth, Field::MapVersion, "the Modbus register map's version (major.minor)"),
     // Every 10 s: also what tells a host that subscribed after the births
     // that the node is there (it then asks for a rebirth).
-    def("Gateway/Uptime", T::UInt32, "s", N, R::Band(10.0), Field::Uptime, "time since start"),
+    def("Gateway/Uptime", T::Int32, "s", N, R::Band(10.0), Field::Uptime, "time since start (held at 2147483647)"),
     def("Link/State", T::String, "", N, R::Change, Field::LinkState, "robot link: down, connecting, listening, connected"),
     def("Link/Connects", T::UInt16, "", N, R::Change, Field::LinkConnects, "connections established since start (wraps)"),
     def("Link/Losses", T::UInt16, "", N, R::Change, Field::LinkLosses, "connected links lost since start (wraps)"),
@@ -295,7 +348,7 @@ pub const TABLE: &[Def] = &[
     def("Modbus/Refused", T::UInt16, "", N, R::Change, Field::ModbusRefused, "Modbus connections refused by the allow-list (wraps)"),
     def("Modbus/Writes Refused", T::UInt16, "", N, R::Change, Field::ModbusWritesRefused, "Modbus writes refused by write protection (wraps)"),
     def("Web/Refused", T::UInt16, "", N, R::Change, Field::WebRefused, "web connections refused by the allow-list (wraps)"),
-    def("MQTT/Writes Refused", T::UInt32, "", N, R::Change, Field::MqttRefused, "NCMD/DCMD metric writes refused: MQTT never moves the robot"),
+    def("MQTT/Writes Refused", T::Int32, "", N, R::Change, Field::MqttRefused, "NCMD/DCMD metric writes refused: MQTT never moves the robot (held at 2147483647)"),
     def("Queue/Used", T::UInt16, "", N, R::Change, Field::QueueUsed, "commands waiting in the queue"),
     def("Queue/Active Motion", T::String, "", N, R::Change, Field::ActiveMotion, "whose motion runs: `Channel 0`, `RAW`, `Trigger 3` (null: none)"),
     def("Last Command/Source", T::String, "", N, R::Event, Field::Cmd(Cmd::Source), "who fired it: `Channel 0`, `RAW`, `Trigger 3`"),
@@ -304,7 +357,7 @@ pub const TABLE: &[Def] = &[
     def("Last Command/Result", T::String, "", N, R::Event, Field::Cmd(Cmd::Result), "done, error or aborted"),
     def("Last Command/Error Id", T::Int32, "", N, R::Event, Field::Cmd(Cmd::ErrorId), "ErrorID (0 unless error)"),
     def("Last Command/Error Source", T::UInt8, "", N, R::Event, Field::Cmd(Cmd::ErrorSource), "1 robot refused, 2 robot motion error, 3 gateway (0 unless error)"),
-    def("Last Command/Duration", T::UInt32, "ms", N, R::Event, Field::Cmd(Cmd::Duration), "from the rising edge to the outcome"),
+    def("Last Command/Duration", T::Int32, "ms", N, R::Event, Field::Cmd(Cmd::Duration), "from the rising edge to the outcome (held at 2147483647)"),
     per_source("Phase", T::String, Field::Phase, "idle, queued, running, moving, done, error, aborted"),
     per_source("Last Outcome", T::String, Field::LastOutcome, "outcome of its last finished command: done, error, aborted (null: none yet)"),
     per_source("Last Error Id", T::Int32, Field::LastErrorId, "ErrorID of its last finished command (0 unless error)"),
@@ -447,12 +500,12 @@ pub(crate) enum Val<'a> {
     /// Not known.
     Null,
     Bool(bool),
-    /// Int8/16/32 (sent as their two's complement in `int_value`).
+    /// Int8/16/32.
     I32(i32),
-    /// UInt8/16/32.
+    /// UInt8/16.
     U32(u32),
-    /// UInt64.
-    U64(u64),
+    /// Int64.
+    I64(i64),
     F32(f32),
     Str(&'a str),
     /// A string written on the spot (a protocol level).
@@ -468,7 +521,7 @@ impl Val<'_> {
             Val::Bool(b) => Some(u64::from(*b)),
             Val::I32(v) => Some(u64::from(*v as u32)),
             Val::U32(v) => Some(u64::from(*v)),
-            Val::U64(v) => Some(*v),
+            Val::I64(v) => Some(*v as u64),
             Val::F32(v) => Some(u64::from(v.to_bits())),
             Val::Str(s) => Some(fnv(s.as_bytes())),
             Val::Small(s) => Some(fnv(s.as_bytes())),
@@ -480,7 +533,7 @@ impl Val<'_> {
         match self {
             Val::I32(v) => Some(f64::from(*v)),
             Val::U32(v) => Some(f64::from(*v)),
-            Val::U64(v) => Some(*v as f64),
+            Val::I64(v) => Some(*v as f64),
             Val::F32(v) => Some(f64::from(*v)),
             _ => None,
         }
@@ -511,14 +564,14 @@ pub(crate) struct Ctx<'a> {
     pub now: Instant,
     pub bd_seq: u8,
     pub mqtt_refused: u32,
+    /// The software's version where no firmware image names one
+    /// ([`super::NodeConfig::version`]).
+    pub version: &'a str,
     /// Each source's last finished outcome, as the node saw it.
     pub outcomes: &'a [Option<Outcome>; SOURCES],
     /// The command event being published (or the last one, in a birth).
     pub event: Option<&'a CommandEntry>,
 }
-
-/// The gateway's version.
-const VERSION: &str = env!("CARGO_PKG_VERSION");
 
 fn error_id(o: Outcome) -> i32 {
     match o {
@@ -565,16 +618,25 @@ pub(crate) fn read<'a>(metric: &Metric, ctx: &Ctx<'a>) -> Val<'a> {
     let handshake = m.handshake(source).copied().unwrap_or_default();
     let last = ctx.outcomes.get(source_index(source)).copied().flatten();
     match metric.def.field {
-        Field::BdSeq => Val::U64(ctx.bd_seq.into()),
+        Field::BdSeq => Val::I64(ctx.bd_seq.into()),
         Field::Rebirth => Val::Bool(false),
-        Field::Version => Val::Str(VERSION),
+        Field::Version => match m.firmware.running {
+            Some(v) => {
+                let mut s = heapless::String::new();
+                // 16 characters hold every version up to 9999.9999.99999;
+                // a longer one is cut there (still published).
+                let _ = write!(s, "{v}");
+                Val::Small(s)
+            }
+            None => Val::Str(ctx.version),
+        },
         Field::MapVersion => {
             let [major, minor] = crate::registers::map::MAP_VERSION.to_be_bytes();
             let mut s = heapless::String::new();
             let _ = write!(s, "{major}.{minor}");
             Val::Small(s)
         }
-        Field::Uptime => Val::U32(u32::try_from(ctx.now.as_secs()).unwrap_or(u32::MAX)),
+        Field::Uptime => Val::I32(i32::try_from(ctx.now.as_secs()).unwrap_or(i32::MAX)),
         Field::LinkState => Val::Str(m.link.state.as_str()),
         Field::LinkConnects => Val::U32(m.link.connects.into()),
         Field::LinkLosses => Val::U32(m.link.losses.into()),
@@ -591,7 +653,7 @@ pub(crate) fn read<'a>(metric: &Metric, ctx: &Ctx<'a>) -> Val<'a> {
         Field::ModbusRefused => Val::U32(m.access.modbus_refused.into()),
         Field::ModbusWritesRefused => Val::U32(m.access.writes_refused.into()),
         Field::WebRefused => Val::U32(m.access.web_refused.into()),
-        Field::MqttRefused => Val::U32(ctx.mqtt_refused),
+        Field::MqttRefused => Val::I32(i32::try_from(ctx.mqtt_refused).unwrap_or(i32::MAX)),
         Field::QueueUsed => Val::U32(u32::try_from(m.queue.len()).unwrap_or(u32::MAX)),
         Field::ActiveMotion => m.active_motion.map_or(Val::Null, |s| {
             let folder = source_folder(s);
@@ -617,7 +679,7 @@ pub(crate) fn read<'a>(metric: &Metric, ctx: &Ctx<'a>) -> Val<'a> {
                         Outcome::Error(s, _) => s as u32,
                         _ => 0,
                     }),
-                    Cmd::Duration => Val::U32(c.took_ms),
+                    Cmd::Duration => Val::I32(i32::try_from(c.took_ms).unwrap_or(i32::MAX)),
                 }
             }
         },

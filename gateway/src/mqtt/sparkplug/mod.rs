@@ -77,7 +77,7 @@ use crate::state::history::{CommandEntry, LogEvent};
 use crate::state::{Model, Phase};
 
 pub use command::{CommandSummary, Malformed};
-pub use metrics::{DataType, Def, Family, Report, Scope, TABLE};
+pub use metrics::{DataType, Def, Family, Report, Scope, ValueField, BD_SEQ, TABLE};
 pub use topic::{Id, IdError, MessageType, Topic};
 
 use metrics::{Ctx, Metric, Val, COUNT, SOURCES};
@@ -108,6 +108,11 @@ pub struct NodeConfig {
     pub joint_deadband: f32,
     /// Pose deadband in mm and degrees (default 0.1).
     pub pose_deadband: f32,
+    /// The software's version `Gateway/Version` shows where no firmware
+    /// image names one (Linux, the core firmwares): the platform's program
+    /// (on Linux `hans-gateway`'s, which is its package's). Default: this
+    /// crate's. A board with updates shows its running image's instead.
+    pub version: &'static str,
 }
 
 impl NodeConfig {
@@ -120,6 +125,7 @@ impl NodeConfig {
             period: Duration::from_millis(100),
             joint_deadband: 0.1,
             pose_deadband: 0.1,
+            version: env!("CARGO_PKG_VERSION"),
         })
     }
 }
@@ -342,8 +348,8 @@ impl EdgeNode {
     /// length in `buf`.
     fn write_ndeath(&mut self, now: Instant, buf: &mut [u8]) -> Result<usize, Error> {
         let ts = self.stamp(now);
-        let bd = Val::U64(self.bd_seq.into());
-        let m = payload::metric("bdSeq", DataType::UInt64, ts, &bd);
+        let bd = Val::I64(self.bd_seq.into());
+        let m = payload::metric("bdSeq", BD_SEQ, ts, &bd);
         let needed = HEAD_MAX + Writer::len_of(&m);
         let mut w = Writer::new(buf, ts).ok_or(Error::TooSmall { needed })?;
         if !w.push(&m) {
@@ -459,6 +465,7 @@ impl EdgeNode {
             now,
             bd_seq: self.bd_seq,
             mqtt_refused: self.stats.refused,
+            version: self.cfg.version,
             outcomes: &self.outcomes,
             event: last_finished(m),
         };
@@ -652,6 +659,7 @@ impl EdgeNode {
                 now,
                 bd_seq: self.bd_seq,
                 mqtt_refused: self.stats.refused,
+                version: self.cfg.version,
                 outcomes: &self.outcomes,
                 event: Some(c),
             };
@@ -700,6 +708,7 @@ impl EdgeNode {
             now,
             bd_seq: self.bd_seq,
             mqtt_refused: self.stats.refused,
+            version: self.cfg.version,
             outcomes: &self.outcomes,
             event: None,
         };

@@ -19,7 +19,7 @@
 
 use femtopb::encoding::{encode_key, encode_varint, encoded_len_varint, key_len, WireType};
 
-use super::metrics::{DataType, Val};
+use super::metrics::{DataType, Val, ValueField};
 use super::proto::field;
 
 /// Bytes `seq` takes at most: its key and a varint up to 255.
@@ -226,24 +226,55 @@ impl<'b> Writer<'b> {
     }
 }
 
-/// The metric for a value of datatype `datatype` taken at `ts`.
+/// The metric for a value of datatype `datatype` taken at `ts`. The value
+/// goes in the field the datatype's row of the specification's table names
+/// ([`DataType::field`]), whatever its variant: an Int32 in `int_value` as
+/// its two's complement, an Int64 in `long_value` as its two's complement.
+/// A value that does not fit its datatype (a text for an Int32, a negative
+/// number for a UInt16) is never in the table (a test reads every row);
+/// should one be, it goes out as a null metric, never as a wrong number.
 pub(crate) fn metric<'v>(name: &'v str, datatype: DataType, ts: u64, v: &'v Val<'_>) -> Metric<'v> {
-    let value = match v {
-        Val::Null => Wire::Null,
-        Val::Bool(b) => Wire::Boolean(*b),
-        // Signed integers travel as their two's complement (the
-        // specification's Int8/16/32 in a uint32).
-        Val::I32(x) => Wire::Int(*x as u32),
-        Val::U32(x) => Wire::Int(*x),
-        Val::U64(x) => Wire::Long(*x),
-        Val::F32(x) => Wire::Float(*x),
-        Val::Str(s) => Wire::String(s),
-        Val::Small(s) => Wire::String(s.as_str()),
-    };
     Metric {
         name,
         timestamp: ts,
         datatype: datatype.code(),
-        value,
+        value: wire(datatype, v),
     }
+}
+
+/// `v` in the value field of `datatype`.
+pub(crate) fn wire<'v>(datatype: DataType, v: &'v Val<'_>) -> Wire<'v> {
+    use DataType as T;
+    let int = |x: i64| -> Option<Wire<'v>> {
+        let ok = match datatype {
+            T::Int8 => i8::try_from(x).is_ok(),
+            T::Int16 => i16::try_from(x).is_ok(),
+            T::Int32 => i32::try_from(x).is_ok(),
+            T::UInt8 => u8::try_from(x).is_ok(),
+            T::UInt16 => u16::try_from(x).is_ok(),
+            T::UInt32 => u32::try_from(x).is_ok(),
+            T::Int64 | T::DateTime => true,
+            T::UInt64 => x >= 0,
+            _ => false,
+        };
+        // Signed types are sign-extended to the field's width first (the
+        // two's complement of an Int8 -1 in `int_value` is 0xFFFF_FFFF,
+        // which every reader takes for -1).
+        ok.then(|| match datatype.field() {
+            ValueField::Int => Wire::Int(x as u32),
+            _ => Wire::Long(x as u64),
+        })
+    };
+    let value = match (v, datatype.field()) {
+        (Val::Null, _) => None,
+        (Val::Bool(b), ValueField::Boolean) => Some(Wire::Boolean(*b)),
+        (Val::I32(x), ValueField::Int | ValueField::Long) => int(i64::from(*x)),
+        (Val::U32(x), ValueField::Int | ValueField::Long) => int(i64::from(*x)),
+        (Val::I64(x), ValueField::Int | ValueField::Long) => int(*x),
+        (Val::F32(x), ValueField::Float) => Some(Wire::Float(*x)),
+        (Val::Str(s), ValueField::String) => Some(Wire::String(s)),
+        (Val::Small(s), ValueField::String) => Some(Wire::String(s.as_str())),
+        _ => None,
+    };
+    value.unwrap_or(Wire::Null)
 }

@@ -5,6 +5,7 @@
 use embassy_time::{Duration, Instant};
 use prost::Message as _;
 
+use super::metrics::{Val, ValueField};
 use super::*;
 use crate::config::Config;
 use crate::error::{ErrorSource, GatewayError};
@@ -198,8 +199,10 @@ fn births_carry_every_metric_with_its_datatype_and_value() {
     assert_eq!(will.ty, MessageType::NDeath);
     assert_eq!(will.topic, "spBv1.0/Plant A/NDEATH/cell-7");
     assert_eq!(will.p.seq, None, "NDEATH has no seq");
+    // tck-id-message-flow-edge-node-birth-publish-will-message-payload-bdSeq:
+    // INT64.
     assert_eq!(get(&will, "bdSeq").value, Some(PValue::Long(0)));
-    assert_eq!(get(&will, "bdSeq").datatype, Some(8));
+    assert_eq!(get(&will, "bdSeq").datatype, Some(4));
 
     let msgs = drain(&mut n, t(1000), &m);
     assert_eq!(msgs.len(), 2, "NBIRTH, DBIRTH, nothing else");
@@ -219,6 +222,7 @@ fn births_carry_every_metric_with_its_datatype_and_value() {
     // Values read from the state.
     let v = |msg, name| get(msg, name).value.clone();
     assert_eq!(v(nb, "bdSeq"), Some(PValue::Long(0)));
+    assert_eq!(get(nb, "bdSeq").datatype, Some(4), "INT64, as in the Will");
     assert_eq!(v(nb, "Node Control/Rebirth"), Some(PValue::Boolean(false)));
     assert_eq!(
         v(nb, "Gateway/Version"),
@@ -456,6 +460,146 @@ fn the_robot_is_a_device_alive_while_the_link_is_up() {
     check_birth(&msgs[0], Scope::Device, UTC + 2000);
     assert_eq!(get(&msgs[0], "Joints/J6").value, Some(PValue::Float(9.0)));
     assert_eq!(get(&msgs[0], "Error/Axis").value, Some(PValue::Int(2)));
+}
+
+/// The value field each reader takes an integer datatype from, as their
+/// code reads (checked 2026-11-29): `(specification, Tahu Java, Tahu
+/// JavaScript)`, `true` for `long_value`, `false` for `int_value`, both
+/// where a reader takes either. The specification: its datatype table
+/// (Sparkplug 3.0, "Datatype Details": Int8-Int32, UInt8-UInt32 in uint32,
+/// Int64, UInt64 in uint64, DateTime in uint64). Tahu Java's
+/// `SparkplugBPayloadDecoder.getMetricValue`: UInt32 from `int_value` if
+/// present, else `long_value`. Tahu JavaScript's `getValue` (npm
+/// `sparkplug-payload` 1.0.3, which Node-RED's nodes use): UInt32 from
+/// `longValue` only.
+fn readers(dt: DataType) -> [&'static [bool]; 3] {
+    use DataType as T;
+    const INT: &[bool] = &[false];
+    const LONG: &[bool] = &[true];
+    const EITHER: &[bool] = &[false, true];
+    match dt {
+        T::Int8 | T::Int16 | T::Int32 | T::UInt8 | T::UInt16 => [INT, INT, INT],
+        T::UInt32 => [INT, EITHER, LONG],
+        T::Int64 | T::UInt64 | T::DateTime => [LONG, LONG, LONG],
+        _ => [&[], &[], &[]],
+    }
+}
+
+#[test]
+fn integers_travel_where_the_specification_and_tahus_decoders_agree() {
+    use DataType as T;
+    let ints = [
+        T::Int8,
+        T::Int16,
+        T::Int32,
+        T::Int64,
+        T::UInt8,
+        T::UInt16,
+        T::UInt32,
+        T::UInt64,
+        T::DateTime,
+    ];
+    let agreed = |dt: DataType| {
+        let long = dt.field() == ValueField::Long;
+        readers(dt).iter().all(|r| r.contains(&long))
+    };
+    // The one datatype they read from different fields.
+    assert_eq!(
+        ints.iter().filter(|dt| !agreed(**dt)).collect::<Vec<_>>(),
+        [&T::UInt32]
+    );
+    for def in TABLE {
+        if ints.contains(&def.datatype) {
+            assert!(
+                agreed(def.datatype),
+                "{}: {} is read from different fields by the specification and Tahu",
+                def.name,
+                def.datatype.name()
+            );
+        }
+    }
+    // What goes out for each row is the field of its datatype, with the
+    // value: read every metric of both births from the wire.
+    let mut m = model();
+    m.start(Source::Channel(0), 1, 12, t(10));
+    m.finish(
+        Source::Channel(0),
+        Outcome::Error(ErrorSource::RobotMotion, -7),
+        t(3000),
+    );
+    let msgs = born(&mut node(), t(5_000), &m);
+    for msg in &msgs[..2] {
+        for x in &msg.p.metrics {
+            let name = x.name.clone().unwrap();
+            if let Some(v) = &x.value {
+                let dt = x.datatype.unwrap();
+                assert!(fits(dt, v), "{name}: {v:?}");
+                assert_ne!(dt, 7, "{name}: UInt32");
+            }
+        }
+    }
+    assert_eq!(
+        get(&msgs[0], "Last Command/Duration").value,
+        Some(PValue::Int(2990))
+    );
+    assert_eq!(
+        get(&msgs[0], "Last Command/Error Id").value,
+        Some(PValue::Int(-7i32 as u32))
+    );
+    assert_eq!(get(&msgs[0], "Gateway/Uptime").value, Some(PValue::Int(5)));
+}
+
+#[test]
+fn a_value_outside_its_datatype_goes_out_null_never_wrong() {
+    use payload::{wire, Wire};
+    use DataType as T;
+    assert_eq!(wire(T::Int8, &Val::I32(-1)), Wire::Int(u32::MAX));
+    assert_eq!(wire(T::Int8, &Val::I32(200)), Wire::Null);
+    assert_eq!(wire(T::UInt8, &Val::U32(255)), Wire::Int(255));
+    assert_eq!(wire(T::UInt16, &Val::I32(-1)), Wire::Null);
+    assert_eq!(wire(T::Int32, &Val::I64(1 << 40)), Wire::Null);
+    assert_eq!(wire(T::Int64, &Val::I64(-2)), Wire::Long(-2i64 as u64));
+    assert_eq!(wire(T::UInt64, &Val::I64(-2)), Wire::Null);
+    assert_eq!(wire(T::UInt64, &Val::U32(7)), Wire::Long(7));
+    assert_eq!(wire(T::String, &Val::I32(1)), Wire::Null);
+    assert_eq!(wire(T::Boolean, &Val::Str("true")), Wire::Null);
+    assert_eq!(wire(T::Float, &Val::F32(0.5)), Wire::Float(0.5));
+}
+
+#[test]
+fn the_version_is_the_running_images_else_the_platforms() {
+    let mut m = model();
+    let mut cfg = NodeConfig::new("Plant A", "cell-7").unwrap();
+    cfg.version = "2.5.1";
+    let mut n = EdgeNode::new(cfg);
+    n.set_wall_time(t(0), UTC);
+    let msgs = born(&mut n, t(100), &m);
+    assert_eq!(
+        get(&msgs[0], "Gateway/Version").value,
+        Some(PValue::String("2.5.1".into())),
+        "no image: the platform's program (Linux: its package's version)"
+    );
+    // The slots read after the birth: the image's version follows in NDATA.
+    m.firmware.running = Some(crate::state::firmware::Version {
+        major: 0,
+        minor: 2,
+        patch: 0,
+    });
+    let msgs = drain(&mut n, t(200), &m);
+    assert_eq!(msgs.len(), 1);
+    assert_eq!(msgs[0].ty, MessageType::NData);
+    assert_eq!(names(&msgs[0]), ["Gateway/Version"]);
+    assert_eq!(
+        get(&msgs[0], "Gateway/Version").value,
+        Some(PValue::String("0.2.0".into()))
+    );
+    // And in every later birth.
+    n.disconnect();
+    let msgs = born(&mut n, t(300), &m);
+    assert_eq!(
+        get(&msgs[0], "Gateway/Version").value,
+        Some(PValue::String("0.2.0".into()))
+    );
 }
 
 #[test]
