@@ -4,8 +4,13 @@
 # has):
 #
 #  1. builds it with cargo-deb (`cargo deb -p hans-gateway-linux`: a release
-#     build of hans-gateway, the only one in CI), and a second revision of
-#     the same build for the upgrade;
+#     build of hans-gateway, as a release is made), and a second revision of
+#     the same build for the upgrade. With DEB_PROFILE=dev it packages the
+#     debug binary already in target/debug instead (`--no-build`): what CI
+#     does, where the steps before built it and a release build of the same
+#     sources would cost minutes to test the same package scripts, layout
+#     and lint (cargo-deb 3.8 warns that it is meant for releases; setup.sh
+#     pins that version);
 #  2. lints it with Debian's lintian: an error fails, warnings are printed;
 #  3. installs it (apt) and checks what it put where: the binary on PATH, the
 #     system user, /etc/hans-gateway and the state directory with their
@@ -76,8 +81,15 @@ VERSION=$(cargo pkgid -p hans-gateway-linux | sed 's/.*[#@]//')
 ARCH=$(dpkg --print-architecture)
 DEB1=$OUT/hans-gateway_${VERSION}-1_${ARCH}.deb
 DEB2=$OUT/hans-gateway_${VERSION}-2_${ARCH}.deb
-cargo deb -p hans-gateway-linux --locked --strip -o "$DEB1"
-cargo deb -p hans-gateway-linux --locked --no-build --strip --deb-revision 2 -o "$DEB2"
+PROFILE=${DEB_PROFILE:-release}
+if [ "$PROFILE" = release ]; then
+  cargo deb -p hans-gateway-linux --locked --strip -o "$DEB1"
+else
+  [ -x "$TARGET/debug/hans-gateway" ] ||
+    fail "DEB_PROFILE=$PROFILE packages the binary already built: $TARGET/debug/hans-gateway is missing (cargo build -p hans-gateway-linux)"
+  cargo deb -p hans-gateway-linux --locked --no-build --profile "$PROFILE" --strip -o "$DEB1"
+fi
+cargo deb -p hans-gateway-linux --locked --no-build --profile "$PROFILE" --strip --deb-revision 2 -o "$DEB2"
 [ -f "$DEB1" ] && [ -f "$DEB2" ] || fail "cargo deb made no package"
 ok "built $(basename "$DEB1") and $(basename "$DEB2") in $((SECONDS - start)) s ($(du -k "$DEB1" | cut -f1) KiB)"
 say "contents:"

@@ -81,9 +81,10 @@ if [ "${SETUP_FUZZ:-1}" = 1 ]; then
     echo "setup: cargo install cargo-fuzz"
     cargo install --locked --quiet cargo-fuzz
   fi
-  # cargo-deb makes the gateway's Debian package (scripts/deb-test.sh).
-  if ! cargo deb --version >/dev/null 2>&1; then
-    echo "setup: cargo install cargo-deb"
-    cargo install --locked --quiet cargo-deb
+  # cargo-deb makes the gateway's Debian package (scripts/deb-test.sh);
+  # pinned, as CI packages a dev build with it (see deb-test.sh).
+  if [ "$(cargo deb --version 2>/dev/null)" != "cargo-deb 3.8.0" ]; then
+    echo "setup: cargo install cargo-deb 3.8.0"
+    cargo install --locked --quiet cargo-deb --version 3.8.0
   fi
 fi
