@@ -73,6 +73,8 @@ fn full() -> Contents {
         web_host: hans_gateway::config::HostName::new("gw-cell-7.plant.local").unwrap(),
         read_without_login: false,
         ntp_server: ip(10, 0, 0, 123),
+        modbus_config: true,
+        plc_address: ip(192, 168, 0, 20),
     });
     for (name, role) in [("admin", Role::Admin), ("line.3_op", Role::Operator)] {
         c.stored
