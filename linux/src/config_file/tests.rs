@@ -228,7 +228,7 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
     assert!(
         err[0]
             .reason
-            .ends_with("modbus_allow, web_allow, read_without_login, accounts"),
+            .ends_with("read_without_login, modbus_config, plc_address, accounts"),
         "{err:?}"
     );
 }
