@@ -843,3 +843,43 @@ fn settings_toggled_over_modbus_are_counted_not_recorded_one_by_one() {
         "{got:?}"
     );
 }
+
+/// Issue 25, finding 4: wrong logins for unknown names from rotating
+/// addresses were recorded one by one (the writer kept ~100 a second and
+/// lost the rest, and the flood rotated the evidence away). Now the first
+/// failure of a period is recorded with its name and address, the others
+/// are one record at the period's end: how many, how many for unknown
+/// names, from how many addresses. An account's records are untouched.
+#[test]
+fn failed_logins_are_counted_per_period_not_recorded_one_by_one() {
+    let log = Log::new();
+    log.start(false);
+    log.record(Event::Account {
+        name: b"alice",
+        change: AccountChange::Created { role: "admin" },
+        by: b"alice",
+        from: None,
+    });
+    for k in 0..10_000u32 {
+        let from = Ipv4Addr::new(10, 1, (k >> 8) as u8, k as u8);
+        log.login_failed(b"nobody", false, Some(from));
+    }
+    log.setup_failed(Some(Ipv4Addr::new(10, 2, 0, 1)));
+    log.login_failed(b"alice", true, Some(Ipv4Addr::new(10, 2, 0, 2)));
+    log.stamp(at(5));
+    log.end_refusal_periods(at(65));
+    let got = ring(&log);
+    assert_eq!(got.len(), 3, "{got:?}");
+    assert_eq!(got[0].kind, Kind::AccountCreated);
+    assert_eq!(got[1].kind, Kind::LoginFailed);
+    assert_eq!(got[1].actor_str(), "nobody");
+    assert_eq!(got[1].from, Some(Ipv4Addr::new(10, 1, 0, 0)));
+    assert_eq!(
+        got[2].detail.as_str(),
+        "10001 more failed logins in 60 s (10000 unknown names), more than 16 addresses"
+    );
+    // The next period starts with a record again.
+    log.login_failed(b"bob", false, None);
+    log.stamp(at(70));
+    assert_eq!(ring(&log).len(), 4);
+}
