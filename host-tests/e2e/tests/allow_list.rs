@@ -84,11 +84,7 @@ async fn web_post_full(to: SocketAddrV4, path: &str, body: &str, cookie: Option<
     let _ = tokio::time::timeout(LIMIT, s.read_to_end(&mut got))
         .await
         .expect("an answer in time");
-    String::from_utf8_lossy(&got)
-        .lines()
-        .next()
-        .unwrap_or("")
-        .to_string()
+    String::from_utf8_lossy(&got).to_string()
 }
 
 /// The setup code handed to the gateway, as `hans-gateway` prints one.
@@ -166,9 +162,11 @@ async fn a_client_from_127_0_0_2_is_refused_until_allowed() {
         .is_err());
     let cookie = answer
         .lines()
-        .find_map(|l| l.strip_prefix("Set-Cookie: "))
+        .find(|l| l.to_ascii_lowercase().starts_with("set-cookie:"))
+        .and_then(|l| l.split_once(':'))
+        .map(|(_, v)| v.trim())
         .and_then(|c| c.split(';').next())
-        .expect("a session cookie")
+        .unwrap_or_else(|| panic!("a session cookie: {answer}"))
         .to_string();
     let allow = r#"{"settings":{"access.modbus_config":"true"}}"#;
     let answer = web_post_as(web, "/api/config", allow, Some(&cookie)).await;
