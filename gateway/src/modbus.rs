@@ -66,7 +66,7 @@ use modbus_core::{
 };
 
 use crate::access::accounts::Role;
-use crate::admission::{self, octets, Limits, Refusal, Session};
+use crate::admission::{self, octets, Guard, Limits, Refusal, Session};
 use crate::clock::{with_deadline, Clock};
 use crate::net::{PeerClaim, Socket};
 use crate::registers::{self as r, AccessError, WriteError};
@@ -83,11 +83,19 @@ use crate::registers::{self as r, AccessError, WriteError};
 pub(crate) trait Registers {
     /// Reads `out.len()` registers from `start`.
     fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError>;
-    /// Writes `values` from `start`: all or nothing. `Ok(Some(p))`: stored,
-    /// but the answer waits for [`Self::settle`]`(p)`.
-    fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError>;
-    /// Waits for what a write started, and gives the write's result.
-    async fn settle(&self, pending: Pending) -> Result<(), WriteError>;
+    /// Writes `values` from `start` for the client at `peer` (its address
+    /// goes into the audit records the write causes): all or nothing.
+    /// `Ok(Some(p))`: stored, but the answer waits for
+    /// [`Self::settle`]`(p)`.
+    fn write(
+        &self,
+        start: u16,
+        values: &[u16],
+        peer: Option<SocketAddrV4>,
+    ) -> Result<Option<Pending>, WriteError>;
+    /// Waits for what a write of the client at `peer` started, and gives
+    /// the write's result.
+    async fn settle(&self, pending: Pending, peer: Option<SocketAddrV4>) -> Result<(), WriteError>;
     /// A client at `peer` connected: `Some(n)` when it is admitted (`n`
     /// clients connected now), `None` when the allow-list refuses it (the
     /// server closes the connection at once, without a reply; the refusal
@@ -100,6 +108,13 @@ pub(crate) trait Registers {
     fn permits(&self, peer: Option<SocketAddrV4>) -> bool;
     /// The session table the sessions share (and whoever closes them).
     fn slots(&self) -> &Slots;
+    /// Whether a slot is reserved for the PLC, and whether the client at
+    /// `peer` is the PLC (asked at accept; `crate::admission`). None by
+    /// default.
+    fn guard(&self, peer: Option<SocketAddrV4>) -> Guard {
+        let _ = peer;
+        Guard::NONE
+    }
     /// A write of the client at `peer` was refused by its role
     /// ([`Grant::ReadOnly`]): counted (`WRITES_REFUSED`).
     fn write_refused(&self, peer: Option<SocketAddrV4>) {
@@ -269,7 +284,7 @@ pub(crate) async fn session<S: Socket, C: Clock, R: Registers>(
             sock.close().await;
             continue;
         }
-        if let Err(why) = slots.claim(i, peer, clock).await {
+        if let Err(why) = slots.claim(i, peer, regs.guard(peer), clock).await {
             slots.refused(why, peer);
             sock.close().await;
             continue;
@@ -412,9 +427,9 @@ pub(crate) async fn serve<S: Socket, C: Clock, R: Registers>(
             );
             Some(n)
         } else {
-            match handle(regs, adu, &mut out) {
+            match handle(regs, adu, &mut out, peer) {
                 Some(Answer::Now(n)) => Some(n),
-                Some(Answer::After(p, d)) => finish(regs, p, d, &mut out).await,
+                Some(Answer::After(p, d)) => finish(regs, p, d, &mut out, peer).await,
                 None => None,
             }
         };
@@ -534,8 +549,14 @@ fn exception(e: WriteError) -> Exception {
     }
 }
 
-/// Answers one complete ADU; `None` if nothing can be answered.
-pub(crate) fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Option<Answer> {
+/// Answers one complete ADU of the client at `peer`; `None` if nothing can
+/// be answered.
+pub(crate) fn handle<R: Registers>(
+    regs: &R,
+    adu: &[u8],
+    out: &mut [u8],
+    peer: Option<SocketAddrV4>,
+) -> Option<Answer> {
     let pdu_len = adu.len().checked_sub(7)?;
     let frame = modbus_core::tcp::extract_frame(adu, pdu_len).ok()??;
     let hdr = Header {
@@ -550,7 +571,7 @@ pub(crate) fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Opti
             Err(Exception::IllegalFunction)
         }
         Err(_) => Err(Exception::IllegalDataValue),
-        Ok(req) => execute(regs, req, pdu, &mut data),
+        Ok(req) => execute(regs, req, pdu, &mut data, peer),
     };
     match result {
         Ok(Executed::Done(resp)) => encode_response(
@@ -567,14 +588,16 @@ pub(crate) fn handle<R: Registers>(regs: &R, adu: &[u8], out: &mut [u8]) -> Opti
     }
 }
 
-/// Waits for a write's pending work, then writes its answer into `out`.
+/// Waits for a write's pending work (of the client at `peer`), then
+/// writes its answer into `out`.
 pub(crate) async fn finish<R: Registers>(
     regs: &R,
     p: Pending,
     d: Deferred,
     out: &mut [u8],
+    peer: Option<SocketAddrV4>,
 ) -> Option<usize> {
-    if let Err(e) = regs.settle(p).await {
+    if let Err(e) = regs.settle(p, peer).await {
         return exception_reply(d.hdr, d.fc, exception(e), out);
     }
     let mut data = [0u8; 252];
@@ -668,12 +691,14 @@ fn read_bits<R: Registers>(
     Ok(bytes)
 }
 
-/// Writes `qty` bits from `addr`, taking bit `i` from `bit(i)`.
+/// Writes `qty` bits from `addr`, taking bit `i` from `bit(i)`, for the
+/// client at `peer`.
 fn write_bits<R: Registers>(
     regs: &R,
     addr: u16,
     qty: u16,
     bit: impl Fn(usize) -> bool,
+    peer: Option<SocketAddrV4>,
 ) -> Result<Option<Pending>, Exception> {
     let last = u32::from(addr) + u32::from(qty) - 1;
     if last > 0xFFFF {
@@ -698,7 +723,7 @@ fn write_bits<R: Registers>(
             }
         }
     }
-    regs.write(first_reg, w).map_err(exception)
+    regs.write(first_reg, w, peer).map_err(exception)
 }
 
 fn execute<'d, R: Registers>(
@@ -706,6 +731,7 @@ fn execute<'d, R: Registers>(
     req: Request<'_>,
     pdu: &[u8],
     data: &'d mut [u8; 252],
+    peer: Option<SocketAddrV4>,
 ) -> Result<Executed<'d>, Exception> {
     use Executed::Done;
     let mut words = [0u16; 125];
@@ -741,7 +767,7 @@ fn execute<'d, R: Registers>(
             }))
         }
         Request::WriteSingleCoil(addr, on) => {
-            let pending = write_bits(regs, addr, 1, |_| on)?;
+            let pending = write_bits(regs, addr, 1, |_| on, peer)?;
             // modbus-core 0.2 encodes this response without the value; the
             // standard answer echoes the request.
             let echo = pdu.get(1..5).ok_or(Exception::IllegalDataValue)?;
@@ -755,7 +781,7 @@ fn execute<'d, R: Registers>(
             Ok(Done(Response::Custom(FunctionCode::WriteSingleCoil, d)))
         }
         Request::WriteSingleRegister(addr, value) => {
-            if let Some(p) = regs.write(addr, &[value]).map_err(exception)? {
+            if let Some(p) = regs.write(addr, &[value], peer).map_err(exception)? {
                 let [a, b] = addr.to_be_bytes();
                 let [c, d] = value.to_be_bytes();
                 return Ok(Executed::Pending(p, DeferredOk::Echo([a, b, c, d])));
@@ -771,7 +797,7 @@ fn execute<'d, R: Registers>(
             {
                 return Err(Exception::IllegalDataValue);
             }
-            if let Some(p) = write_bits(regs, addr, qty, |i| coils.get(i).unwrap_or(false))? {
+            if let Some(p) = write_bits(regs, addr, qty, |i| coils.get(i).unwrap_or(false), peer)? {
                 return Ok(Executed::Pending(p, DeferredOk::Count(addr, qty)));
             }
             Ok(Done(Response::WriteMultipleCoils(addr, qty)))
@@ -789,7 +815,7 @@ fn execute<'d, R: Registers>(
             for (i, slot) in w.iter_mut().enumerate() {
                 *slot = values.get(i).ok_or(Exception::IllegalDataValue)?;
             }
-            if let Some(p) = regs.write(addr, w).map_err(exception)? {
+            if let Some(p) = regs.write(addr, w, peer).map_err(exception)? {
                 return Ok(Executed::Pending(p, DeferredOk::Count(addr, qty)));
             }
             Ok(Done(Response::WriteMultipleRegisters(addr, qty)))
@@ -812,7 +838,7 @@ fn execute<'d, R: Registers>(
             for (i, slot) in wv.iter_mut().enumerate() {
                 *slot = values.get(i).ok_or(Exception::IllegalDataValue)?;
             }
-            if let Some(p) = regs.write(waddr, wv).map_err(exception)? {
+            if let Some(p) = regs.write(waddr, wv, peer).map_err(exception)? {
                 return Ok(Executed::Pending(p, DeferredOk::ReadBack(raddr, rqty)));
             }
             let w = words
@@ -862,11 +888,16 @@ mod tests {
         fn read(&self, start: u16, out: &mut [u16]) -> Result<(), AccessError> {
             self.port().read(start, out)
         }
-        fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError> {
-            self.port().write(start, values)
+        fn write(
+            &self,
+            start: u16,
+            values: &[u16],
+            peer: Option<SocketAddrV4>,
+        ) -> Result<Option<Pending>, WriteError> {
+            self.port().write(start, values, peer)
         }
-        async fn settle(&self, p: Pending) -> Result<(), WriteError> {
-            self.port().settle(p).await
+        async fn settle(&self, p: Pending, peer: Option<SocketAddrV4>) -> Result<(), WriteError> {
+            self.port().settle(p, peer).await
         }
         fn admit(&self, peer: Option<SocketAddrV4>) -> Option<u16> {
             self.port().admit(peer)
@@ -886,7 +917,7 @@ mod tests {
 
     fn answer(map: &Map, adu: &[u8]) -> Vec<u8> {
         let mut out = [0u8; MAX_ADU];
-        let n = match handle(map, adu, &mut out).expect("an answer") {
+        let n = match handle(map, adu, &mut out, None).expect("an answer") {
             Answer::Now(n) => n,
             Answer::After(..) => panic!("no configuration command here"),
         };
@@ -910,13 +941,13 @@ mod tests {
         );
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1]),
-            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 4]
+            [0, 1, 0, 0, 0, 5, 1, 3, 2, 1, 5]
         );
-        // FC 1: bits 0-11 of register 0 (version 0x0104: bits 2 and 8),
-        // packed.
+        // FC 1: bits 0-11 of register 0 (version 0x0105: bits 0, 2 and
+        // 8), packed.
         assert_eq!(
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
-            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x04, 0x01]
+            [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x05, 0x01]
         );
         // FC 2 from bit 4, 940 bits (up to register 58): 118 bytes; bit 4
         // of the reply is bit 8 of register 0.

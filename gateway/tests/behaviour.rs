@@ -738,6 +738,7 @@ fn the_modbus_allow_list_refuses_other_clients_at_once_and_counts_them() {
     let mut w = world();
     // A commissioned device (access settings are locked before one).
     w.add_admin();
+    w.allow_modbus_config();
     // PLC 0 connects from 10.0.0.10; allow that address only.
     let [a, b] = ip_words(Ipv4Addr::new(10, 0, 0, 10));
     w.set(r::MODBUS_ALLOW, &[a, b, 32]);
@@ -770,6 +771,7 @@ fn the_modbus_allow_list_refuses_other_clients_at_once_and_counts_them() {
 fn write_protection_refuses_configuration_writes_but_not_commands() {
     let mut w = world();
     w.add_admin();
+    w.allow_modbus_config();
     w.set(r::CONFIG_WRITE_PROTECT, &[1]);
     w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
     assert_eq!(

@@ -218,6 +218,8 @@ fn the_same_controller_reconnecting_replaces_its_old_link() {
 fn a_configured_address_applied_while_its_controller_is_connected_keeps_the_link() {
     let mut w = listen_world(Ipv4Addr::UNSPECIFIED, Config::default());
     w.run_for(ms(300));
+    // The robot endpoint is protected: configuration over Modbus allowed.
+    w.allow_modbus_config();
     // CFG_ROBOT_IP = 10.0.0.2, applied (CONFIG_COMMAND 1).
     let [a, b, c, d] = ROBOT_IP.octets();
     w.set(

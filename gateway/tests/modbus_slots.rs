@@ -229,7 +229,8 @@ fn a_new_client_takes_the_slot_of_the_longest_idle_session() {
 #[test]
 fn applying_an_allow_list_closes_the_sessions_it_no_longer_permits() {
     let mut w = world(2);
-    w.add_admin(); // a commissioned device: access settings may change
+    w.add_admin(); // a commissioned device
+    w.allow_modbus_config(); // whose access settings may change over Modbus
     let before = w.reg(r::CONFIG_POLL_MS);
     // PLC 0 (10.0.0.10) allows only itself and applies.
     w.set(r::MODBUS_ALLOW, &[0x0A00, 0x000A, 32]);

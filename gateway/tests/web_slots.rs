@@ -359,7 +359,8 @@ fn applying_an_allow_list_closes_the_connections_it_no_longer_permits() {
     let mut other = Client::connect(&mut w, ip(51));
     assert!(pc.ok(&mut w, "/api/status") && other.ok(&mut w, "/api/status"));
     // The PLC allows only 10.0.0.50 on the page, and applies.
-    w.add_admin(); // a commissioned device: access settings may change
+    w.add_admin(); // a commissioned device
+    w.allow_modbus_config(); // whose access settings may change over Modbus
     w.set(r::WEB_ALLOW, &[0x0A00, 50, 32]);
     w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
     w.run_for(ms(10));

@@ -99,7 +99,9 @@
 //! | `mqtt.period_ms` | (none) | integer |
 //! | `mqtt.joint_deadband` | (none) | integer, 0.01 degree |
 //! | `mqtt.pose_deadband` | (none) | integer, 0.01 mm or degree |
-//! | `access.accounts` | (the web page's accounts) | `[{ name = "...", role = "admin", password = "pbkdf2-sha256$ROUNDS$SALT$HASH" }, ...]` |
+//! | `access.modbus_config` | (none) | `true` / `false`: configuration over Modbus (the protected settings) |
+//! | `access.plc_address` | (none) | `"a.b.c.d"`, `"0.0.0.0"` = none: the PLC's reserved Modbus slot |
+//! | `access.accounts` | (the web page's accounts) | `[{ name = "...", role = "admin", password = "pbkdf2-sha256$ROUNDS$SALT$HASH", trusted = ["a.b.c.d", ...] }, ...]` (`trusted`: the addresses the account last logged in from, up to 4, kept by the gateway) |
 //! | `access.password` | (the previous version's one password: read as the administrator `admin`, never written) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |
 

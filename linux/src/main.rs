@@ -69,10 +69,9 @@ for this run (a warning in the log says so); the other saved settings are kept. 
 --robot, --robot-listen or --config FILE is needed.
 
 The setup code: at each start the gateway makes a new one-time code from the operating
-system's random source, prints it on stderr
-  hans-gateway: setup code for the first administrator: ABCD-EFGH-JKMN (also in FILE)
-and writes it to the --setup-code-file FILE (readable by its owner only, replaced at each
-start). Creating the first administrator account asks for it: it proves that whoever
+system's random source and writes it to the --setup-code-file FILE only (readable by its
+owner only, replaced at each start); stderr (the journal) says where, never the code:
+  hans-gateway: setup code for the first administrator: in FILE (readable by its owner only) Creating the first administrator account asks for it: it proves that whoever
 creates it can read the machine's log or files. It is never served on the network.
 
 TLS (PEM files): --web-tls serves the page over HTTPS only (TLS 1.2 and 1.3). Modbus/TCP
@@ -355,17 +354,18 @@ fn new_setup_code() -> Option<SetupCode> {
 }
 
 /// Writes `code` to `path` (readable by its owner only, replacing the code
-/// of the run before) and prints it on stderr, whatever the log level.
-/// A file that cannot be written is said in the same line: the code is
-/// still shown there.
+/// of the run before) and says on stderr, whatever the log level, where
+/// it is: the code itself never goes to stderr (the journal, which more
+/// than root may read), only to its file. A file that cannot be written is
+/// said in the same line: no administrator can be created in this run.
 fn publish_setup_code(code: &SetupCode, path: &Path) {
     let line = match FileStorage::write_durably(path, format!("{code}\n").as_bytes()) {
         Ok(()) => format!(
-            "setup code for the first administrator: {code} (also in {})",
+            "setup code for the first administrator: in {} (readable by its owner only)",
             path.display()
         ),
         Err(e) => format!(
-            "setup code for the first administrator: {code} (not written to {}: {e})",
+            "no setup code in this run: {} could not be written ({e}); no administrator can be created until it can",
             path.display()
         ),
     };

@@ -356,6 +356,28 @@ fn the_page_is_served_over_https_and_not_over_plain_http_on_that_port() {
     gw.log_says("web: TLS handshake with 127.0.0.1:");
 }
 
+/// Issue 25, finding 5: HTTPS sent no `Strict-Transport-Security`, so a
+/// browser could be sent to the plain-HTTP address of the device by
+/// whoever sits on the way. Every answer over HTTPS (the page, the API,
+/// an error) now carries it for a year.
+#[test]
+fn answers_over_https_carry_strict_transport_security() {
+    let dir = TempDir::new("https-hsts");
+    pki(&dir.0);
+    let gw = Gateway::start(&dir.0);
+    let host = format!("127.0.0.1:{}", gw.web);
+    for path in ["/", "/api/status", "/api/nope"] {
+        let request = format!("GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n");
+        let (out, err) = s_client(&dir.0, &host, request.as_bytes());
+        let head = out.split("\r\n\r\n").next().unwrap_or("");
+        assert!(
+            head.lines()
+                .any(|l| l.eq_ignore_ascii_case("strict-transport-security: max-age=31536000")),
+            "{path}: {head}\nstderr: {err}"
+        );
+    }
+}
+
 /// A session opened over HTTPS has its cookie marked `Secure`: a browser
 /// never sends it over plain HTTP (where it could be read on the wire).
 #[test]

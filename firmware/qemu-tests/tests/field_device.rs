@@ -65,6 +65,34 @@ impl Rig {
         assert_eq!(r.status, 200, "POST /api/setup: {}", r.text());
     }
 
+    /// The administrator (created with [`Self::create_admin`], logged in
+    /// again here) allows configuration over Modbus: the protected
+    /// settings (the allow-lists among them) change over Modbus only then
+    /// (issue 25, register map 1.5).
+    fn allow_modbus_config(&self) {
+        let login = r#"{"name":"admin","password":"commission-2026"}"#;
+        let r = qemu_tests::HttpClient::connect(self.web(), STEP)
+            .and_then(|mut c| c.post_json("/api/login", login))
+            .unwrap_or_else(|e| panic!("POST /api/login: {e}"));
+        assert_eq!(r.status, 200, "POST /api/login: {}", r.text());
+        let cookie = r
+            .header("Set-Cookie")
+            .and_then(|c| c.split(';').next())
+            .unwrap_or_else(|| panic!("a session cookie: {:?}", r.headers))
+            .to_string();
+        let origin = format!("http://127.0.0.1:{}", self.web());
+        let headers = [
+            ("Origin", origin.as_str()),
+            ("Content-Type", "application/json"),
+            ("Cookie", cookie.as_str()),
+        ];
+        let body = br#"{"settings":{"access.modbus_config":"true"}}"#;
+        let r = qemu_tests::HttpClient::connect(self.web(), STEP)
+            .and_then(|mut c| c.send("POST", "/api/config", &headers, body, STEP))
+            .unwrap_or_else(|e| panic!("POST /api/config: {e}"));
+        assert_eq!(r.status, 200, "POST /api/config: {}", r.text());
+    }
+
     fn web(&self) -> u16 {
         self.qemu.ports.web
     }
@@ -266,7 +294,8 @@ fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees(
     let rig = Rig::field_device("field-device-allow");
     let port = rig.qemu.ports.modbus;
     // A fresh device refuses access-setting changes over Modbus
-    // (CONFIG_RESULT 4) until an administrator exists.
+    // (CONFIG_RESULT 4): they are protected settings, changed over Modbus
+    // only once an administrator allows configuration over Modbus.
     {
         let mut plc = rig.modbus();
         must(
@@ -285,6 +314,7 @@ fn the_modbus_allow_list_on_the_board_refuses_and_serves_by_the_address_it_sees(
         );
     }
     rig.create_admin();
+    rig.allow_modbus_config();
     let local2 = Ipv4Addr::new(127, 0, 0, 2);
 
     // The address the firmware sees for forwarded clients: 10.0.2.2, from

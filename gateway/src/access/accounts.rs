@@ -26,6 +26,12 @@ use crate::access::password::{PasswordHash, STORED_LEN};
 pub const ACCOUNTS: usize = if cfg!(feature = "web") { 8 } else { 0 };
 /// Bytes of a name at most.
 pub const NAME_MAX: usize = 16;
+/// Addresses remembered per account as its own: those it last logged in
+/// from (the rate limit of guesses treats them apart, see
+/// `access::limit`), kept with the accounts.
+pub const TRUSTED: usize = 4;
+/// An account's own addresses, the most recent first (see [`TRUSTED`]).
+pub type Trusted = [Option<core::net::Ipv4Addr>; TRUSTED];
 
 /// What an account may do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -186,17 +192,59 @@ impl AccountError {
     }
 }
 
-/// The accounts.
+/// The accounts, and the addresses each last logged in from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct Accounts {
     list: [Option<Account>; ACCOUNTS],
+    /// Per account (by index): its own addresses ([`TRUSTED`]).
+    trusted: [Trusted; ACCOUNTS],
 }
 
 impl Accounts {
     /// No account.
     pub const NONE: Accounts = Accounts {
         list: [None; ACCOUNTS],
+        trusted: [[None; TRUSTED]; ACCOUNTS],
     };
+
+    /// The own addresses of account `index` (the most recent first; none
+    /// for an index without an account).
+    pub fn trusted(&self, index: usize) -> Trusted {
+        match self.at(index) {
+            Some(_) => self.trusted.get(index).copied().unwrap_or([None; TRUSTED]),
+            None => [None; TRUSTED],
+        }
+    }
+
+    /// Which of account `index`'s own addresses `ip` is, if it is one.
+    pub fn own_address(&self, index: usize, ip: Option<core::net::Ipv4Addr>) -> Option<usize> {
+        let ip = ip?;
+        self.trusted(index).iter().position(|t| *t == Some(ip))
+    }
+
+    /// Account `index` logged in from `ip`: one of its own addresses from
+    /// now on (the oldest of [`TRUSTED`] goes). `true` if that changed the
+    /// accounts (they are then saved).
+    pub fn trust(&mut self, index: usize, ip: core::net::Ipv4Addr) -> bool {
+        if self.at(index).is_none() || self.own_address(index, Some(ip)).is_some() {
+            return false;
+        }
+        let Some(list) = self.trusted.get_mut(index) else {
+            return false;
+        };
+        list.rotate_right(1);
+        if let Some(first) = list.first_mut() {
+            *first = Some(ip);
+        }
+        true
+    }
+
+    /// Sets the own addresses of account `index` (a stored image, a file).
+    pub fn set_trusted(&mut self, index: usize, trusted: Trusted) {
+        if let Some(t) = self.trusted.get_mut(index) {
+            *t = trusted;
+        }
+    }
 
     /// The accounts, in the order they were created.
     pub fn iter(&self) -> impl Iterator<Item = &Account> {
@@ -249,6 +297,7 @@ impl Accounts {
         if let Some(slot) = self.list.get_mut(i) {
             *slot = Some(account);
         }
+        self.set_trusted(i, [None; TRUSTED]);
         Ok(i)
     }
 
@@ -256,6 +305,7 @@ impl Accounts {
     pub fn remove(&mut self, name: &[u8]) -> Result<Account, AccountError> {
         let i = self.index_of(name).ok_or(AccountError::Unknown)?;
         self.check_admin_left(i, None)?;
+        self.set_trusted(i, [None; TRUSTED]);
         self.list
             .get_mut(i)
             .and_then(Option::take)
@@ -275,7 +325,10 @@ impl Accounts {
         Ok(())
     }
 
-    /// Gives the account named `name` a new password hash.
+    /// Gives the account named `name` a new password hash. Its own
+    /// addresses are forgotten (someone who knew the old password may have
+    /// logged in from theirs): the caller trusts the address the change
+    /// came from again, if it is the account's owner's.
     pub fn set_hash(&mut self, name: &[u8], hash: PasswordHash) -> Result<(), AccountError> {
         let i = self.index_of(name).ok_or(AccountError::Unknown)?;
         let a = self
@@ -284,6 +337,7 @@ impl Accounts {
             .and_then(Option::as_mut)
             .ok_or(AccountError::Unknown)?;
         a.hash = hash;
+        self.set_trusted(i, [None; TRUSTED]);
         Ok(())
     }
 

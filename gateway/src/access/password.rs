@@ -46,6 +46,13 @@ pub(crate) enum PasswordError {
     TooLong,
     /// A character outside printable ASCII (space to `~`).
     NotPrintable,
+    /// One character repeated (ten spaces, `aaaaaaaaaa`).
+    Repeated,
+    /// One of the most common passwords (a short deny-list: the first
+    /// guesses of every attacker).
+    Common,
+    /// The account's own name is in it.
+    Name,
 }
 
 #[cfg(feature = "web")]
@@ -56,13 +63,51 @@ impl PasswordError {
             PasswordError::TooShort => "at least 10 characters",
             PasswordError::TooLong => "at most 64 characters",
             PasswordError::NotPrintable => "printable ASCII characters only",
+            PasswordError::Repeated => "not one character repeated",
+            PasswordError::Common => "one of the most common passwords: choose another",
+            PasswordError::Name => "the account's name may not be in it",
         }
     }
 }
 
-/// Checks a new password against the rules.
+/// The most common passwords of 10 characters and more (from the public
+/// lists of leaked passwords: the first guesses of any attacker), compared
+/// ignoring case. Short on purpose: the policy's length, and the rate
+/// limit of guesses, do the rest.
 #[cfg(feature = "web")]
-pub(crate) fn check_new(password: &[u8]) -> Result<(), PasswordError> {
+const COMMON: [&[u8]; 24] = [
+    b"1234567890",
+    b"0123456789",
+    b"0987654321",
+    b"12345678910",
+    b"123456789a",
+    b"1q2w3e4r5t",
+    b"1qaz2wsx3edc",
+    b"qwertyuiop",
+    b"qwerty1234",
+    b"qwerty123456",
+    b"asdfghjkl;",
+    b"password12",
+    b"password123",
+    b"password1!",
+    b"password1234",
+    b"passw0rd123",
+    b"iloveyou12",
+    b"letmein123",
+    b"welcome123",
+    b"changeme123",
+    b"administrator",
+    b"admin12345",
+    b"adminadmin",
+    b"abcdefghij",
+];
+
+/// Checks a new password of the account named `name` against the rules:
+/// 10 to 64 printable ASCII characters, not one character repeated (which
+/// also refuses spaces only), not one of the most common passwords, and
+/// not holding the account's name (ignoring case).
+#[cfg(feature = "web")]
+pub(crate) fn check_new(password: &[u8], name: &[u8]) -> Result<(), PasswordError> {
     if password.len() < MIN_LEN {
         return Err(PasswordError::TooShort);
     }
@@ -71,6 +116,19 @@ pub(crate) fn check_new(password: &[u8]) -> Result<(), PasswordError> {
     }
     if !password.iter().all(|b| (b' '..=b'~').contains(b)) {
         return Err(PasswordError::NotPrintable);
+    }
+    if password.iter().all(|b| Some(b) == password.first()) {
+        return Err(PasswordError::Repeated);
+    }
+    if COMMON.iter().any(|c| c.eq_ignore_ascii_case(password)) {
+        return Err(PasswordError::Common);
+    }
+    let holds_name = !name.is_empty()
+        && password
+            .windows(name.len())
+            .any(|w| w.eq_ignore_ascii_case(name));
+    if holds_name {
+        return Err(PasswordError::Name);
     }
     Ok(())
 }
@@ -222,13 +280,42 @@ mod tests {
 
     #[test]
     fn new_passwords_follow_the_rules() {
-        assert_eq!(check_new(b"short"), Err(PasswordError::TooShort));
-        assert_eq!(check_new(&[b'a'; 65]), Err(PasswordError::TooLong));
+        let check = |p: &[u8]| check_new(p, b"op");
+        assert_eq!(check(b"short"), Err(PasswordError::TooShort));
+        assert_eq!(check(&[b'x'; 65]), Err(PasswordError::TooLong));
         assert_eq!(
-            check_new("pässwörd!".as_bytes()),
+            check("pässwörd!".as_bytes()),
             Err(PasswordError::NotPrintable)
         );
-        assert_eq!(check_new(b"nine char"), Err(PasswordError::TooShort));
-        assert_eq!(check_new(b"ten chars!"), Ok(()));
+        assert_eq!(check(b"nine char"), Err(PasswordError::TooShort));
+        assert_eq!(check(b"ten chars!"), Ok(()));
+    }
+
+    /// Issue 25: `aaaaaaaaaa` and ten spaces were accepted.
+    #[test]
+    fn trivial_passwords_are_refused() {
+        for (pw, why) in [
+            (&b"aaaaaaaaaa"[..], PasswordError::Repeated),
+            (b"          ", PasswordError::Repeated),
+            (b"0000000000000", PasswordError::Repeated),
+            (b"1234567890", PasswordError::Common),
+            (b"Password123", PasswordError::Common),
+            (b"QWERTYUIOP", PasswordError::Common),
+            (b"alice-2026-x", PasswordError::Name),
+            (b"my ALICE pass", PasswordError::Name),
+        ] {
+            assert_eq!(
+                check_new(pw, b"alice"),
+                Err(why),
+                "{}",
+                std::string::String::from_utf8_lossy(pw)
+            );
+        }
+        assert_eq!(check_new(b"aaaaaaaaab", b"alice"), Ok(()));
+        assert_eq!(check_new(b"correct horse", b"alice"), Ok(()));
+        // Every entry of the deny-list is one the length alone lets through.
+        for c in COMMON {
+            assert!(c.len() >= MIN_LEN && c.len() <= MAX_LEN);
+        }
     }
 }

@@ -3,8 +3,10 @@
 //! A correct name and password opens a session of that account: a random
 //! 128-bit token the page keeps in a cookie (`HttpOnly`,
 //! `SameSite=Strict`: page scripts never see it); other clients may send
-//! it as `Authorization: Bearer TOKEN`. At most [`SESSIONS`] are open (a
-//! new one replaces the least recently used); one unused for [`IDLE`]
+//! it as `Authorization: Bearer TOKEN`. Each account has at most
+//! [`PER_ACCOUNT`] open (its new one replaces its own least recently
+//! used): the table has room for every account's, so no account ends
+//! another's session by logging in; one unused for [`IDLE`]
 //! ends, and every one ends [`LIFETIME`] after it opened, used or not
 //! (IEC 62443-4-2 CR 2.5/2.6). Changing an account's password or role, or
 //! removing it, ends its sessions. The rate limit of wrong passwords is
@@ -17,8 +19,11 @@ use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha20Rng;
 use subtle::ConstantTimeEq;
 
-/// Sessions open at once.
-pub(crate) const SESSIONS: usize = 4;
+/// Sessions one account may have open at once (a browser or two and a
+/// script).
+pub(crate) const PER_ACCOUNT: usize = 3;
+/// Sessions open at once: every account's share.
+pub(crate) const SESSIONS: usize = super::accounts::ACCOUNTS * PER_ACCOUNT;
 /// A session unused this long ends.
 pub(crate) const IDLE: Duration = Duration::from_secs(15 * 60);
 /// A session ends this long after it opened, however used.
@@ -108,25 +113,29 @@ impl Sessions {
         b
     }
 
-    /// Opens a session of `who` at `now` (replacing the least recently
-    /// used one if all are open).
+    /// Opens a session of `who` at `now`: if its account has
+    /// [`PER_ACCOUNT`] open, the least recently used of them ends; no other
+    /// account's does.
     pub(crate) fn open(&mut self, who: Who, now: Instant) -> Token {
         let token = Token(self.random());
         self.expire(now);
-        let slot = self
-            .open
-            .iter()
-            .position(Option::is_none)
-            .or_else(|| {
-                (0..SESSIONS).min_by_key(|&i| {
+        let mine = |o: &Option<Open>| o.is_some_and(|o| o.who.account == who.account);
+        let own = self.open.iter().filter(|o| mine(o)).count();
+        let slot = if own >= PER_ACCOUNT {
+            (0..SESSIONS)
+                .filter(|&i| self.open.get(i).is_some_and(mine))
+                .min_by_key(|&i| {
                     self.open
                         .get(i)
                         .copied()
                         .flatten()
                         .map_or(Instant::from_ticks(0), |o| o.used)
                 })
-            })
-            .unwrap_or(0);
+        } else {
+            // Room for every account's share: a free one is there.
+            self.open.iter().position(Option::is_none)
+        }
+        .unwrap_or(0);
         if let Some(s) = self.open.get_mut(slot) {
             *s = Some(Open {
                 token,
@@ -246,22 +255,52 @@ mod tests {
     }
 
     #[test]
-    fn a_new_session_replaces_the_least_recently_used_and_accounts_close_theirs() {
+    fn a_new_session_replaces_its_accounts_least_recently_used_and_accounts_close_theirs() {
         let mut s = Sessions::new([2; 32]);
-        let t: [Token; SESSIONS] = core::array::from_fn(|i| s.open(ADMIN, at(i as u64)));
+        let t: [Token; PER_ACCOUNT] = core::array::from_fn(|i| s.open(ADMIN, at(i as u64)));
         assert!(s.check(&t[0], at(100)).is_some());
-        let extra = s.open(VIEWER, at(101));
+        let extra = s.open(ADMIN, at(101));
         assert!(
             s.check(&t[1], at(102)).is_none(),
             "the least recently used went"
         );
-        for k in [0, 2, 3] {
+        for k in [0, 2] {
             assert!(s.check(&t[k], at(102)).is_some());
         }
+        let viewer = s.open(VIEWER, at(103));
         s.close_account(0);
-        assert_eq!(s.count(at(102)), 1);
-        assert_eq!(s.check(&extra, at(102)), Some(VIEWER));
-        s.close(&extra);
-        assert_eq!(s.count(at(102)), 0);
+        assert_eq!(s.count(at(103)), 1);
+        assert_eq!(s.check(&viewer, at(103)), Some(VIEWER));
+        assert_eq!(s.check(&extra, at(103)), None);
+        s.close(&viewer);
+        assert_eq!(s.count(at(103)), 0);
+    }
+
+    /// Issue 25: one viewer logging in four times ended the
+    /// administrator's session (four sessions shared by all accounts).
+    #[test]
+    fn no_account_ends_another_accounts_session() {
+        let mut s = Sessions::new([3; 32]);
+        let admin = s.open(ADMIN, at(0));
+        for k in 0..4 * SESSIONS as u64 {
+            s.open(VIEWER, at(1 + k));
+        }
+        assert_eq!(s.check(&admin, at(100)), Some(ADMIN));
+        // Every account its full share at once.
+        let mut s = Sessions::new([4; 32]);
+        let all: std::vec::Vec<(Token, Who)> = (0..super::super::accounts::ACCOUNTS)
+            .flat_map(|a| (0..PER_ACCOUNT).map(move |_| a))
+            .enumerate()
+            .map(|(k, account)| {
+                let who = Who {
+                    account,
+                    role: Role::Viewer,
+                };
+                (s.open(who, at(k as u64)), who)
+            })
+            .collect();
+        for (t, who) in &all {
+            assert_eq!(s.check(t, at(500)), Some(*who));
+        }
     }
 }

@@ -37,6 +37,19 @@
 //!   ([`Refusal::PerAddress`]). An address never holds more than its cap,
 //!   and evicts only its own sessions for it. A peer whose address is
 //!   unknown (`None`) counts for no address.
+//! * A listener may reserve a slot for *protected* peers (the Modbus
+//!   server: the PLC, [`Guard`]): while it does, the others hold at most
+//!   `SLOTS - 1` slots, so one is always there for a protected newcomer;
+//!   a protected session is never asked to close for a newcomer of
+//!   another address (idle eviction is only among the others; a
+//!   protected session idle that long gives way to its own address's
+//!   newcomer: the PLC reconnecting while its old connection lingers); a
+//!   protected newcomer waits behind no unprotected one, and takes the
+//!   slot of the least recently active quiet unprotected session at once
+//!   if the others hold more than their share (the reservation was just
+//!   switched on). So a busy client, from however many addresses, cannot
+//!   keep a reconnecting PLC out, nor have its slow session closed.
+//!   [`Slots::protect`] follows a new configuration.
 //! * Allow-lists: the listener checks its list at accept (and counts the
 //!   refusals: the list and the counters are its own), and
 //!   [`Slots::close_unless`] asks every session and newcomer that a new
@@ -119,6 +132,26 @@ pub(crate) fn octets(peer: Option<SocketAddrV4>) -> [u8; 4] {
     peer.map_or([0; 4], |p| p.ip().octets())
 }
 
+/// What a listener says of a newcomer ([`Slots::claim`]) and of its
+/// table: whether a slot is reserved for protected peers, and whether
+/// this one is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub(crate) struct Guard {
+    /// A slot is reserved for protected peers (the listener's
+    /// configuration names some).
+    pub reserving: bool,
+    /// This peer is protected.
+    pub protected: bool,
+}
+
+impl Guard {
+    /// No reservation: every peer alike (the page).
+    pub(crate) const NONE: Guard = Guard {
+        reserving: false,
+        protected: false,
+    };
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
     /// The socket accepts (or is between connections).
@@ -143,6 +176,9 @@ struct Entry {
     busy: bool,
     /// Asked to close, and why.
     close: Option<Close>,
+    /// A protected peer (the listener's reserved slot is for it; it is
+    /// never closed for another address's newcomer).
+    protected: bool,
 }
 
 impl Entry {
@@ -153,6 +189,7 @@ impl Entry {
         last: Instant::from_ticks(0),
         busy: false,
         close: None,
+        protected: false,
     };
 
     fn serving(&self) -> bool {
@@ -176,9 +213,17 @@ impl Entry {
         self.serving() && self.close.is_none() && !self.busy
     }
 
-    /// Quiet for `evict_idle` at `now`: a newcomer may take its slot.
-    fn idle(&self, now: Instant, evict_idle: Duration) -> bool {
-        self.quiet() && now.saturating_duration_since(self.last) >= evict_idle
+    /// Quiet for `evict_idle` at `now`: the newcomer from `peer` may take
+    /// its slot, unless it is protected and of another address (a
+    /// protected session gives way only to its own address's newcomer: a
+    /// PLC reconnecting while its old connection, half-open, lingers).
+    fn idle(&self, now: Instant, evict_idle: Duration, peer: Option<SocketAddrV4>) -> bool {
+        self.evictable_for(peer) && now.saturating_duration_since(self.last) >= evict_idle
+    }
+
+    /// Quiet, and not protected unless of the same address as `peer`.
+    fn evictable_for(&self, peer: Option<SocketAddrV4>) -> bool {
+        self.quiet() && (!self.protected || self.same_host(peer))
     }
 }
 
@@ -201,8 +246,12 @@ enum Among {
     /// A session of its own address (at its cap): the newest connection
     /// wins.
     Host(Option<SocketAddrV4>),
-    /// A session idle at that instant.
-    IdleAt(Instant),
+    /// A session idle at that instant, for a newcomer from that address
+    /// (a protected one only for its own address's).
+    IdleAt(Instant, Option<SocketAddrV4>),
+    /// An unprotected session (quiet, however briefly): for a protected
+    /// newcomer while the others hold the reserved slot.
+    Unprotected,
 }
 
 /// What a session's server reports.
@@ -244,6 +293,8 @@ struct Rules {
 /// seen as a slice by everything but [`Slots`]).
 struct Core<S: ?Sized> {
     rules: Rules,
+    /// A slot is reserved for protected peers ([`Guard::reserving`]).
+    reserving: bool,
     tickets: u32,
     /// Changed since the waiting futures were last woken.
     changed: bool,
@@ -263,9 +314,11 @@ impl Core<[Seat]> {
         self.seats.get_mut(j).map(|s| &mut s.entry)
     }
 
-    /// Socket `j` accepted `peer`: it waits for a slot from `now`.
-    fn arrive(&mut self, j: usize, peer: Option<SocketAddrV4>, now: Instant) {
+    /// Socket `j` accepted `peer`, which the listener says `guard` of: it
+    /// waits for a slot from `now`.
+    fn arrive(&mut self, j: usize, peer: Option<SocketAddrV4>, guard: Guard, now: Instant) {
         self.tickets = self.tickets.wrapping_add(1);
+        self.reserving = guard.reserving;
         let ticket = self.tickets;
         if let Some(e) = self.entry_mut(j) {
             *e = Entry {
@@ -275,7 +328,25 @@ impl Core<[Seat]> {
                 last: now,
                 busy: false,
                 close: None,
+                protected: guard.protected,
             };
+        }
+    }
+
+    /// Slots the unprotected sessions hold (those asked to close too:
+    /// they hold theirs until they are released).
+    fn unprotected_serving(&self) -> usize {
+        self.entries()
+            .filter(|e| e.serving() && !e.protected)
+            .count()
+    }
+
+    /// Slots the unprotected may hold: all but one while a slot is
+    /// reserved.
+    fn unprotected_share(&self) -> usize {
+        match self.reserving {
+            true => self.rules.slots.saturating_sub(1),
+            false => self.rules.slots,
         }
     }
 
@@ -292,7 +363,8 @@ impl Core<[Seat]> {
                 e.quiet()
                     && match among {
                         Among::Host(peer) => e.same_host(peer),
-                        Among::IdleAt(now) => e.idle(now, evict_idle),
+                        Among::IdleAt(now, peer) => e.idle(now, evict_idle, peer),
+                        Among::Unprotected => !e.protected,
                     }
             })
             .min_by_key(|e| e.last);
@@ -354,14 +426,20 @@ impl Core<[Seat]> {
             };
         }
         // First come, first served (a newcomer waiting for its own
-        // address's sessions does not hold up the others).
+        // address's sessions does not hold up the others; a protected one
+        // waits behind protected ones only: the reserved slot is not the
+        // others').
         let before = (0..self.seats.len()).any(|i| {
-            self.entry(i).is_some_and(|e| e.waiting_before(ticket)) && self.mine(i) < per_address
+            self.entry(i)
+                .is_some_and(|e| e.waiting_before(ticket) && (e.protected || !me.protected))
+                && self.mine(i) < per_address
         });
         if before {
             return Step::Wait(None);
         }
-        if self.entries().filter(|e| e.serving()).count() < slots {
+        let serving = self.entries().filter(|e| e.serving()).count();
+        let within_share = me.protected || self.unprotected_serving() < self.unprotected_share();
+        if serving < slots && within_share {
             if let Some(e) = self.entry_mut(j) {
                 e.phase = Phase::Serving;
                 e.last = now;
@@ -369,17 +447,44 @@ impl Core<[Seat]> {
             self.changed = true;
             return Step::Claimed;
         }
-        let closing = self.entries().any(|e| e.serving() && e.close.is_some());
-        if closing || (may_evict && self.evict(Among::IdleAt(now))) {
+        let closing = self
+            .entries()
+            .any(|e| e.serving() && e.close.is_some() && (me.protected || !e.protected));
+        if closing {
             return Step::Wait(None);
         }
-        // None idle yet: wait until the first may be.
+        // A protected newcomer while the others hold more than their
+        // share (the reservation was just switched on): the least recently
+        // active quiet one of them gives way at once.
+        let over_share = self.unprotected_serving() > self.unprotected_share();
+        if me.protected && over_share && may_evict && self.evict(Among::Unprotected) {
+            return Step::Wait(None);
+        }
+        if may_evict && self.evict(Among::IdleAt(now, me.peer)) {
+            return Step::Wait(None);
+        }
+        // None idle yet: wait until the first may be (a protected session
+        // only for its own address).
         let next = self
             .entries()
-            .filter(|e| e.quiet())
+            .filter(|e| e.evictable_for(me.peer))
             .map(|e| e.last + limits.evict_idle)
             .min();
         Step::Wait(next)
+    }
+
+    /// A slot is reserved for protected peers (`reserving`), and which are
+    /// (`protected`): for every session and newcomer, as a new
+    /// configuration says.
+    fn protect(&mut self, reserving: bool, protected: &dyn Fn(Option<SocketAddrV4>) -> bool) {
+        self.reserving = reserving;
+        for s in self.seats.iter_mut() {
+            let e = &mut s.entry;
+            if !matches!(e.phase, Phase::Free) {
+                e.protected = protected(e.peer);
+            }
+        }
+        self.changed = true;
     }
 
     fn close_unless(&mut self, permits: &dyn Fn(Option<SocketAddrV4>) -> bool) {
@@ -459,6 +564,7 @@ impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize>
                     per_address: PER_ADDRESS,
                     limits,
                 },
+                reserving: false,
                 tickets: 0,
                 changed: false,
                 seats: [Seat::FREE; SOCKETS],
@@ -472,15 +578,27 @@ impl<const SOCKETS: usize, const SLOTS: usize, const PER_ADDRESS: usize>
         Table { core: &self.core }
     }
 
-    /// Socket `j` accepted `peer` (that the allow-list permits): waits
+    /// Socket `j` accepted `peer` (that the allow-list permits; `guard`:
+    /// whether a slot is reserved, and whether it is protected): waits
     /// until it is given a slot, at most [`Limits::claim_wait`].
     pub(crate) fn claim<'a, C: Clock>(
         &'a self,
         j: usize,
         peer: Option<SocketAddrV4>,
+        guard: Guard,
         clock: &'a C,
     ) -> impl Future<Output = Result<(), Refusal>> + 'a {
-        self.table().claim(j, peer, clock)
+        self.table().claim(j, peer, guard, clock)
+    }
+
+    /// A new configuration: whether a slot is reserved for protected
+    /// peers, and which peers are (for the sessions served and waiting).
+    pub(crate) fn protect(
+        &self,
+        reserving: bool,
+        protected: impl Fn(Option<SocketAddrV4>) -> bool,
+    ) {
+        let _ = self.table().with(|t| t.protect(reserving, &protected));
     }
 
     /// Socket `j`'s session ended (or its newcomer was refused): its slot,
@@ -541,9 +659,10 @@ impl Table<'_> {
         self,
         j: usize,
         peer: Option<SocketAddrV4>,
+        guard: Guard,
         clock: &C,
     ) -> Result<(), Refusal> {
-        let give_up = self.arrive(j, peer, clock.now());
+        let give_up = self.arrive(j, peer, guard, clock.now());
         loop {
             let until = match self.next(j, clock.now(), give_up) {
                 Next::Done(r) => return r,
@@ -557,11 +676,11 @@ impl Table<'_> {
         }
     }
 
-    /// Newcomer `j` arrives at `now`, from `peer`; returns when it gives
-    /// up.
-    fn arrive(self, j: usize, peer: Option<SocketAddrV4>, now: Instant) -> Instant {
+    /// Newcomer `j` arrives at `now`, from `peer` (`guard` of it);
+    /// returns when it gives up.
+    fn arrive(self, j: usize, peer: Option<SocketAddrV4>, guard: Guard, now: Instant) -> Instant {
         let wait = self.with(|t| {
-            t.arrive(j, peer, now);
+            t.arrive(j, peer, guard, now);
             t.rules.limits.claim_wait
         });
         now + wait.unwrap_or(Duration::from_ticks(0))

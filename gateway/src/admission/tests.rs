@@ -19,7 +19,7 @@ use std::vec::Vec;
 
 use embassy_time::{Duration, Instant};
 
-use super::{Close, Limits, Refusal, Slots};
+use super::{Close, Guard, Limits, Refusal, Slots};
 use crate::clock::Clock;
 use crate::testkit::clock::VirtualClock;
 use crate::testkit::world::Flag;
@@ -39,7 +39,12 @@ macro_rules! admission_suite {
             an_address_at_its_cap_with_every_session_busy,
             newcomers_are_served_first_come_first_served,
             a_new_allow_list_closes_whom_it_refuses,
-            an_unknown_address_counts_for_no_address
+            an_unknown_address_counts_for_no_address,
+            the_reserved_slot_is_kept_for_a_protected_newcomer,
+            a_protected_session_is_never_closed_for_another_address,
+            a_protected_newcomer_waits_behind_no_unprotected_one,
+            a_reservation_switched_on_makes_room_at_once,
+            a_busy_flood_from_several_addresses_cannot_keep_the_plc_out
         );
     };
     (@tests $slots:expr; $($name:ident),*) => {
@@ -183,10 +188,20 @@ impl<'a, const S: usize, const N: usize, const P: usize> Rig<'a, S, N, P> {
     /// Socket `j` accepts `peer`, which claims a slot: how it ended, if it
     /// did at once.
     fn arrive(&mut self, j: usize, peer: Option<SocketAddrV4>) -> Option<Result<(), Refusal>> {
+        self.arrive_as(j, peer, Guard::NONE)
+    }
+
+    /// As [`Self::arrive`], the listener saying `guard` of the newcomer.
+    fn arrive_as(
+        &mut self,
+        j: usize,
+        peer: Option<SocketAddrV4>,
+        guard: Guard,
+    ) -> Option<Result<(), Refusal>> {
         let flag = Arc::new(Flag(AtomicBool::new(true)));
         self.waiting.push(Newcomer {
             socket: j,
-            claim: Box::pin(self.slots.claim(j, peer, self.clock)),
+            claim: Box::pin(self.slots.claim(j, peer, guard, self.clock)),
             waker: Waker::from(flag.clone()),
             flag,
         });
@@ -464,4 +479,204 @@ impl<const S: usize, const N: usize, const P: usize> Rig<'_, S, N, P> {
         }
         assert_eq!(self.asked_of(S), []);
     }
+
+    /// A slot is reserved: the unprotected hold at most all but one, even
+    /// with that one free (a newcomer of theirs waits, and is refused at
+    /// the end of its wait); a protected newcomer takes it at once.
+    pub(crate) fn the_reserved_slot_is_kept_for_a_protected_newcomer(&mut self) {
+        assert!(N < S, "a socket for the newcomers");
+        for k in 0..N - 1 {
+            self.arrive_as(k, peer(host(k), 1), RESERVING);
+            self.started(k);
+        }
+        assert_eq!(
+            self.arrive_as(N - 1, peer(60, 1), RESERVING),
+            None,
+            "the free slot is the reserved one: it waits"
+        );
+        self.run_until(at(0) + self.limits().claim_wait);
+        assert_eq!(self.outcome(N - 1), Some(Err(Refusal::Full)));
+        assert_eq!(
+            self.arrive_as(N - 1, peer(PLC, 1), PLC_GUARD),
+            Some(Ok(())),
+            "the PLC takes it at once"
+        );
+        assert_eq!(self.asked_of(S), []);
+    }
+
+    /// The PLC's session, quiet far longer than the idle time, is never
+    /// closed for another address's newcomer; an idle unprotected one is.
+    pub(crate) fn a_protected_session_is_never_closed_for_another_address(&mut self) {
+        assert!(N < S, "a socket for the newcomer");
+        self.arrive_as(0, peer(PLC, 1), PLC_GUARD);
+        for k in 1..N {
+            self.arrive_as(k, peer(host(k), 1), RESERVING);
+        }
+        // All quiet since 0; the others answer at 100 ms.
+        self.run_until(at(100));
+        for k in 1..N {
+            self.answered(k);
+        }
+        let idle = self.limits().evict_idle;
+        self.run_until(at(100) + idle * 4);
+        assert_eq!(self.arrive_as(N, peer(61, 1), RESERVING), None);
+        assert_eq!(
+            self.asked_of(N),
+            [(1, Close::Evicted)],
+            "the longest-idle unprotected session, not the PLC's"
+        );
+        // With every unprotected one busy, the newcomer is refused: the
+        // PLC, idle longest, keeps its slot.
+        self.release(1);
+        assert_eq!(self.outcome(N), Some(Ok(())));
+        for k in 2..=N {
+            self.started(k);
+        }
+        assert_eq!(self.arrive_as(1, peer(62, 1), RESERVING), None);
+        let end = self.now() + self.limits().claim_wait;
+        self.run_until(end);
+        assert_eq!(self.outcome(1), Some(Err(Refusal::Full)));
+        assert_eq!(self.asked(0), None, "the PLC's session stays");
+    }
+
+    /// Unprotected newcomers wait for a slot; a protected one that comes
+    /// after them takes the reserved slot first.
+    pub(crate) fn a_protected_newcomer_waits_behind_no_unprotected_one(&mut self) {
+        assert!(N + 1 < S || N >= 2, "sockets for two newcomers");
+        // The unprotected hold their share, busy; one of them waits.
+        for k in 0..N - 1 {
+            self.arrive_as(k, peer(host(k), 1), RESERVING);
+            self.started(k);
+        }
+        let waiting = N - 1;
+        assert_eq!(self.arrive_as(waiting, peer(60, 1), RESERVING), None);
+        let plc = if N < S { N } else { return };
+        assert_eq!(
+            self.arrive_as(plc, peer(PLC, 1), PLC_GUARD),
+            Some(Ok(())),
+            "not held up by the unprotected newcomer"
+        );
+        assert_eq!(self.outcome(waiting), None, "which waits on");
+    }
+
+    /// The reservation switched on while the unprotected hold every slot:
+    /// a protected newcomer takes the slot of the least recently active
+    /// quiet one at once, idle or not.
+    pub(crate) fn a_reservation_switched_on_makes_room_at_once(&mut self) {
+        assert!(N < S, "a socket for the newcomer");
+        for k in 0..N {
+            self.serve(k, peer(host(k), 1));
+        }
+        // Answered one after another, N - 1 first.
+        for k in (0..N).rev() {
+            self.run_until(at(50 + 10 * (N - k) as u64));
+            self.answered(k);
+        }
+        self.slots
+            .protect(true, |p| p.is_some_and(|p| p.ip().octets()[3] == PLC));
+        self.poll();
+        assert_eq!(self.asked_of(N), [], "nobody asked before the PLC comes");
+        assert_eq!(self.arrive_as(N, peer(PLC, 1), PLC_GUARD), None);
+        assert_eq!(
+            self.asked_of(N),
+            [(N - 1, Close::Evicted)],
+            "the least recently active unprotected session, at once"
+        );
+        self.release(N - 1);
+        assert_eq!(self.outcome(N), Some(Ok(())));
+    }
+
+    /// Issue 25, finding 2, the attack: every slot but the PLC's held by
+    /// busy sessions from two addresses (which the per-address cap
+    /// allows), and one more connection of theirs always waiting. The PLC
+    /// polls at 1.5 times the idle time. Before the reserved slot the
+    /// waiting attacker took the PLC's slot at its first idle moment, and
+    /// when the PLC reconnected (its session closed: a reboot) the waiting
+    /// attacker took the freed slot and the PLC got none. Now the PLC is
+    /// never asked to close, every poll is served, and each reconnect is
+    /// served at once.
+    pub(crate) fn a_busy_flood_from_several_addresses_cannot_keep_the_plc_out(&mut self) {
+        assert!(N < S, "a socket for the attackers' newcomer");
+        let Limits { evict_idle, .. } = self.limits();
+        let poll = evict_idle * 3 / 2;
+        // The attackers: from two addresses, every slot but one.
+        let attackers: Vec<usize> = (1..N).collect();
+        for &k in &attackers {
+            let from = peer(70 + (k % 2) as u8, k);
+            assert_eq!(self.arrive_as(k, from, RESERVING), Some(Ok(())));
+        }
+        let plc = 0;
+        assert_eq!(self.arrive_as(plc, peer(PLC, 1), PLC_GUARD), Some(Ok(())));
+        // Their newcomer, on the spare socket, tries again whenever refused.
+        let spare = N;
+        let mut tries = 1;
+        assert_eq!(self.arrive_as(spare, peer(70, 100), RESERVING), None);
+        let mut polls = 0;
+        let mut reconnects = 0;
+        for round in 0..12u64 {
+            let t0 = self.now();
+            let mut t = t0;
+            while t < t0 + poll {
+                for &k in &attackers {
+                    self.started(k);
+                }
+                t += ms(10);
+                self.run_until(t);
+                for &k in &attackers {
+                    self.answered(k);
+                }
+                match self.outcome(spare) {
+                    None => {}
+                    Some(Ok(())) => panic!("round {round}: the attackers' newcomer got a slot"),
+                    Some(Err(_)) => {
+                        self.release(spare);
+                        tries += 1;
+                        let again = self.arrive_as(spare, peer(70, 100 + tries), RESERVING);
+                        assert!(again.is_none_or(|r| r.is_err()), "round {round}: {again:?}");
+                        if again.is_some() {
+                            self.release(spare);
+                        }
+                    }
+                }
+                assert_eq!(
+                    self.asked(plc),
+                    None,
+                    "round {round}: the PLC is asked to close"
+                );
+            }
+            // The PLC polls: served by its session.
+            self.started(plc);
+            self.answered(plc);
+            polls += 1;
+            // Every third round it reconnects (its session closed: a
+            // reboot) while the attackers' newcomer waits: served at once.
+            if round % 3 == 2 {
+                self.release(plc);
+                let got = self.arrive_as(plc, peer(PLC, 2 + round as usize), PLC_GUARD);
+                assert_eq!(
+                    got,
+                    Some(Ok(())),
+                    "round {round}: the reconnecting PLC is served"
+                );
+                reconnects += 1;
+            }
+        }
+        assert_eq!((polls, reconnects), (12, 4));
+        assert!(tries > 1, "the attackers' newcomer kept trying");
+    }
 }
+
+/// The PLC's host in the protection scenarios.
+const PLC: u8 = 20;
+
+/// A newcomer that is not the PLC, with a slot reserved.
+const RESERVING: Guard = Guard {
+    reserving: true,
+    protected: false,
+};
+
+/// The PLC, with a slot reserved.
+const PLC_GUARD: Guard = Guard {
+    reserving: true,
+    protected: true,
+};

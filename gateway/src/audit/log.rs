@@ -10,6 +10,18 @@
 //! than the events, for [`RING`] records), that one is lost and counted;
 //! once a record is kept again, a [`Kind::Lost`] record says how many.
 //!
+//! Repeated failures are counted, not recorded one by one (a flood of them
+//! must not push the evidence out of the medium, nor keep the medium
+//! busy): per class ([`Class`]: refused connections per interface, failed
+//! logins and setup codes, setting changes over Modbus, refused changes of
+//! protected settings), over a period of [`REFUSED_PERIOD`] that doubles
+//! while they go on, up to [`REFUSED_PERIOD_MAX`], one record at its end
+//! says how many, from how many addresses. Of the failed logins, the
+//! changes over Modbus and the refused changes, the first of a period is
+//! recorded as it happens (with its name or setting and its address); of
+//! refused connections none is. Each class thus writes at most two records
+//! a period: a storm of any length writes a few a day per class.
+//!
 //! Time: a record is made without its time, and the storage task's
 //! stamper (which has the clock, see `keep`) stamps it with the uptime and
 //! the wall time at once (it runs on the same executor, woken by the
@@ -37,13 +49,55 @@ pub(crate) const RING: usize = 64;
 /// Bytes of each value (old, new) in a configuration change's detail: a
 /// longer one is cut and ends in `...` (allow-lists, host names).
 pub(crate) const VALUE_MAX: usize = 24;
-/// The first period refused connections are counted over, per interface.
+/// The first period repeated failures are counted over, per class.
 pub(crate) const REFUSED_PERIOD: Duration = Duration::from_secs(60);
-/// The longest period: while refusals go on, each period is twice the one
-/// before, up to this (a storm of refused connections writes at most one
-/// record an hour per interface, and cannot push the other records out of
-/// the flash ring).
+/// The longest period: while the failures go on, each period is twice the
+/// one before, up to this (a storm writes at most two records an hour per
+/// class, and cannot push the other records out of the medium).
 pub(crate) const REFUSED_PERIOD_MAX: Duration = Duration::from_secs(3600);
+/// Distinct addresses a period's count tells apart; beyond, the record
+/// says "more than" this many.
+pub(crate) const TALLY_ADDRESSES: usize = 16;
+
+/// The classes of repeated events counted over periods (see the module
+/// documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Class {
+    /// Connections refused by the Modbus allow-list.
+    RefusedModbus = 0,
+    /// Connections refused by the web allow-list.
+    RefusedWeb = 1,
+    /// Connections to the robot link's listen port not from the
+    /// controller.
+    RefusedRobot = 2,
+    /// Failed logins (any name) and wrong setup codes.
+    LoginFailed = 3,
+    /// Settings and trigger texts changed over Modbus (but the protected
+    /// ones, each always recorded).
+    ModbusConfig = 4,
+    /// Changes of protected settings refused.
+    ConfigRefused = 5,
+}
+
+/// The classes, in the order of [`Inner::tallies`].
+const CLASSES: [Class; 6] = [
+    Class::RefusedModbus,
+    Class::RefusedWeb,
+    Class::RefusedRobot,
+    Class::LoginFailed,
+    Class::ModbusConfig,
+    Class::ConfigRefused,
+];
+
+impl Class {
+    /// The first event of a period is recorded as it happens.
+    fn first_recorded(self) -> bool {
+        matches!(
+            self,
+            Class::LoginFailed | Class::ModbusConfig | Class::ConfigRefused
+        )
+    }
+}
 
 /// Where wall time comes from.
 #[derive(Clone, Copy)]
@@ -57,15 +111,25 @@ enum Wall {
     Set { unix: u64, at: Instant },
 }
 
-/// Refused connections of one interface, counted over a period.
+/// Repeated events of one class, counted over a period.
 #[derive(Clone, Copy)]
-struct Refusals {
-    /// Refused in this period.
+struct Tally {
+    /// A period runs (or starts at the next stamp).
+    open: bool,
+    /// Events counted in this period (not recorded one by one).
     count: u32,
-    /// The last refused address.
+    /// Of them, failed logins for a name no account has.
+    unknown: u32,
+    /// Their distinct addresses (the first [`TALLY_ADDRESSES`]).
+    addrs: [Option<Ipv4Addr>; TALLY_ADDRESSES],
+    /// More distinct addresses than that.
+    more: bool,
+    /// The last event's address.
     last: Option<Ipv4Addr>,
-    /// When the period started (the first refusal's stamp); `None`:
-    /// not started (or its first refusal not stamped yet).
+    /// What the last event was about (a setting's key), or empty.
+    about: &'static str,
+    /// When the period started (the first event's stamp); `None`: not
+    /// started (or its first event not stamped yet).
     since: Option<Instant>,
     /// Its length.
     period: Duration,
@@ -73,14 +137,38 @@ struct Refusals {
     ended: Option<Instant>,
 }
 
-impl Refusals {
-    const NONE: Refusals = Refusals {
+impl Tally {
+    const NONE: Tally = Tally {
+        open: false,
         count: 0,
+        unknown: 0,
+        addrs: [None; TALLY_ADDRESSES],
+        more: false,
         last: None,
+        about: "",
         since: None,
         period: REFUSED_PERIOD,
         ended: None,
     };
+
+    /// Counts one event from `from`.
+    fn count(&mut self, from: Option<Ipv4Addr>) {
+        self.count = self.count.saturating_add(1);
+        self.last = from.or(self.last);
+        let Some(ip) = from else { return };
+        if self.addrs.contains(&Some(ip)) {
+            return;
+        }
+        match self.addrs.iter_mut().find(|a| a.is_none()) {
+            Some(slot) => *slot = Some(ip),
+            None => self.more = true,
+        }
+    }
+
+    /// Its distinct addresses.
+    fn addresses(&self) -> usize {
+        self.addrs.iter().flatten().count()
+    }
 }
 
 struct Inner {
@@ -96,8 +184,8 @@ struct Inner {
     /// The storage keeps records (else nothing waits, nothing is lost).
     keeping: bool,
     wall: Wall,
-    /// Modbus, web.
-    refused: [Refusals; 3],
+    /// The repeated events of each [`Class`], counted.
+    tallies: [Tally; CLASSES.len()],
     /// CRC of each trigger entry as last recorded.
     triggers: [u32; TRIGGERS],
 }
@@ -138,7 +226,7 @@ impl Log {
                 lost: 0,
                 keeping: false,
                 wall: Wall::Unknown,
-                refused: [Refusals::NONE; 3],
+                tallies: [Tally::NONE; CLASSES.len()],
                 triggers: [0; TRIGGERS],
             })),
             fresh: Signal::new(),
@@ -213,9 +301,32 @@ impl Log {
             return;
         }
         for s in SETTINGS.iter().filter(|s| s.get(before) != s.get(after)) {
-            let (old, new) = (value(s, before), value(s, after));
-            self.add(Kind::Config, who, |d| {
-                let _ = write!(d, "{}: {} -> {}", s.key, old.as_str(), new.as_str());
+            self.setting_changed(s, before, after, who);
+        }
+    }
+
+    /// Records that `s` changed from its value in `before` to that in
+    /// `after`.
+    fn setting_changed(
+        &self,
+        s: &crate::config::Setting,
+        before: &Config,
+        after: &Config,
+        who: &Who<'_>,
+    ) {
+        let (old, new) = (value(s, before), value(s, after));
+        self.add(Kind::Config, who, |d| {
+            let _ = write!(d, "{}: {} -> {}", s.key, old.as_str(), new.as_str());
+        });
+    }
+
+    /// A change of the protected setting `s` by `who` was refused
+    /// (configuration over Modbus is off): the first of a period is
+    /// recorded, the rest counted.
+    pub(crate) fn config_refused(&self, s: &crate::config::Setting, who: &Who<'_>) {
+        if self.repeated(Class::ConfigRefused, who.from, s.key, false) {
+            self.add(Kind::ConfigRefused, who, |d| {
+                let _ = write!(d, "{}: protected (configuration over Modbus is off)", s.key);
             });
         }
     }
@@ -234,37 +345,163 @@ impl Log {
     /// (`triggers.N = new text`, cut; the old text is not kept).
     pub(crate) fn triggers_changed(&self, entries: &[Text<TRIGGER_TEXT>; TRIGGERS], who: &Who<'_>) {
         for (n, e) in entries.iter().enumerate() {
-            let crc = crc32(e.bytes());
-            let changed = self.with(|i| match i.triggers.get_mut(n) {
-                Some(c) if *c != crc => {
-                    *c = crc;
-                    true
-                }
-                _ => false,
-            });
-            if changed {
-                self.add(Kind::Config, who, |d| {
-                    let _ = write!(d, "triggers.{n} = ");
-                    d.push(e.bytes());
-                });
+            if self.trigger_moved(n, e) {
+                self.trigger_recorded(n, e, who);
             }
         }
     }
 
-    /// A connection through `interface` (Modbus or web) from `peer` was
-    /// refused: counted, recorded once per period ([`REFUSED_PERIOD`]).
-    pub(crate) fn refused(&self, interface: Interface, peer: Option<Ipv4Addr>) {
-        let first = self.with(|i| {
-            let Some(r) = i.refused.get_mut(refusal_index(interface)) else {
-                return false;
-            };
-            r.count = r.count.saturating_add(1);
-            r.last = peer.or(r.last);
-            r.count == 1
+    /// `true` if trigger entry `n` is not `e` as last seen (and takes `e`).
+    fn trigger_moved(&self, n: usize, e: &Text<TRIGGER_TEXT>) -> bool {
+        let crc = crc32(e.bytes());
+        self.with(|i| match i.triggers.get_mut(n) {
+            Some(c) if *c != crc => {
+                *c = crc;
+                true
+            }
+            _ => false,
+        })
+    }
+
+    /// Records trigger entry `n`'s new text `e`.
+    fn trigger_recorded(&self, n: usize, e: &Text<TRIGGER_TEXT>, who: &Who<'_>) {
+        self.add(Kind::Config, who, |d| {
+            let _ = write!(d, "triggers.{n} = ");
+            d.push(e.bytes());
         });
-        if first {
+    }
+
+    /// A connection through `interface` (Modbus, web, the robot link's
+    /// listen port) from `peer` was refused: counted, recorded once per
+    /// period ([`REFUSED_PERIOD`]).
+    pub(crate) fn refused(&self, interface: Interface, peer: Option<Ipv4Addr>) {
+        let class = match interface {
+            Interface::Web => Class::RefusedWeb,
+            Interface::Robot => Class::RefusedRobot,
+            _ => Class::RefusedModbus,
+        };
+        self.repeated(class, peer, "", false);
+    }
+
+    /// An event of `class` from `from` (about `about`: a setting's key;
+    /// `unknown`: a failed login for a name no account has): counted in
+    /// its period. `true` if it is the first of its period and its class
+    /// records that one as it happens: the caller records it.
+    fn repeated(
+        &self,
+        class: Class,
+        from: Option<Ipv4Addr>,
+        about: &'static str,
+        unknown: bool,
+    ) -> bool {
+        let (first, start) = self.with(|i| {
+            let Some(t) = i.tallies.get_mut(class as usize) else {
+                return (false, false);
+            };
+            let start = !t.open;
+            t.open = true;
+            if start && class.first_recorded() {
+                return (true, true);
+            }
+            t.count(from);
+            t.about = about;
+            if unknown {
+                t.unknown = t.unknown.saturating_add(1);
+            }
+            (false, start)
+        });
+        if start {
             // The stamper starts the period.
             self.fresh.signal(());
+        }
+        first
+    }
+
+    /// A login (or a current password, or the setup code) was refused for
+    /// `name` (as typed; `known`: an account of that name exists) from
+    /// `from`: the first of a period is recorded, the rest counted.
+    pub(crate) fn login_failed(&self, name: &[u8], known: bool, from: Option<Ipv4Addr>) {
+        if self.repeated(Class::LoginFailed, from, "", !known) {
+            self.add(Kind::LoginFailed, &Who::web(name, from), |_| {});
+        }
+    }
+
+    /// A wrong setup code from `from`: as a failed login for a name no
+    /// account has.
+    pub(crate) fn setup_failed(&self, from: Option<Ipv4Addr>) {
+        if self.repeated(Class::LoginFailed, from, "", true) {
+            self.add(Kind::LoginFailed, &Who::web(b"", from), |d| {
+                d.push(b"wrong setup code")
+            });
+        }
+    }
+
+    /// A configuration applied over Modbus by `who` (trigger texts too:
+    /// `triggers` is the table in use): each protected setting it changed
+    /// is recorded; its other changes are recorded setting by setting if
+    /// it is the first apply of its period, else the apply is counted (a
+    /// PLC toggling a setting cannot flood the log).
+    pub(crate) fn modbus_config_changed(
+        &self,
+        before: &Config,
+        after: &Config,
+        triggers: &[Text<TRIGGER_TEXT>; TRIGGERS],
+        who: &Who<'_>,
+    ) {
+        let changed = || SETTINGS.iter().filter(|s| s.get(before) != s.get(after));
+        for s in changed().filter(|s| s.protected()) {
+            self.setting_changed(s, before, after, who);
+        }
+        let moved = self.triggers_moved(triggers);
+        let about = changed()
+            .find(|s| !s.protected())
+            .map(|s| s.key)
+            .or((moved != 0).then_some("triggers"));
+        let Some(about) = about else { return };
+        if self.repeated(Class::ModbusConfig, who.from, about, false) {
+            for s in changed().filter(|s| !s.protected()) {
+                self.setting_changed(s, before, after, who);
+            }
+            self.triggers_recorded(triggers, moved, who);
+        }
+    }
+
+    /// Trigger texts written over Modbus by `who`: recorded if the first
+    /// change of their period, else counted.
+    pub(crate) fn modbus_triggers_changed(
+        &self,
+        entries: &[Text<TRIGGER_TEXT>; TRIGGERS],
+        who: &Who<'_>,
+    ) {
+        let moved = self.triggers_moved(entries);
+        if moved != 0 && self.repeated(Class::ModbusConfig, who.from, "triggers", false) {
+            self.triggers_recorded(entries, moved, who);
+        }
+    }
+
+    /// The trigger entries that are not as last seen (bit `n`: entry `n`),
+    /// which are taken as seen.
+    fn triggers_moved(&self, entries: &[Text<TRIGGER_TEXT>; TRIGGERS]) -> u32 {
+        let mut moved = 0;
+        for (n, e) in entries.iter().enumerate() {
+            if self.trigger_moved(n, e) {
+                moved |= 1 << n;
+            }
+        }
+        moved
+    }
+
+    /// Records the trigger entries of `moved` (bit `n`: entry `n`).
+    fn triggers_recorded(
+        &self,
+        entries: &[Text<TRIGGER_TEXT>; TRIGGERS],
+        moved: u32,
+        who: &Who<'_>,
+    ) {
+        for (n, e) in entries.iter().enumerate() {
+            if moved & (1 << n) != 0 {
+                self.trigger_recorded(n, e, who);
+            }
         }
     }
 
@@ -309,14 +546,12 @@ impl Log {
                 r.wall = wall;
             }
             i.stamp_from = i.next_seq;
-            for r in i.refused.iter_mut().filter(|r| r.count > 0) {
-                if r.since.is_none() {
-                    // Quiet for a whole period: back to the first period.
-                    if r.ended.is_none_or(|e| now >= e + r.period) {
-                        r.period = REFUSED_PERIOD;
-                    }
-                    r.since = Some(now);
+            for t in i.tallies.iter_mut().filter(|t| t.open && t.since.is_none()) {
+                // Quiet for a whole period: back to the first period.
+                if t.ended.is_none_or(|e| now >= e + t.period) {
+                    t.period = REFUSED_PERIOD;
                 }
+                t.since = Some(now);
             }
         });
         self.stamped.signal(());
@@ -333,50 +568,91 @@ impl Log {
         self.stamped.wait().await
     }
 
-    /// When the next refusal period ends.
+    /// When the next counting period ends.
     pub(crate) fn refusals_due(&self) -> Option<Instant> {
         self.with(|i| {
-            i.refused
+            i.tallies
                 .iter()
-                .filter_map(|r| r.since.map(|s| s + r.period))
+                .filter_map(|t| t.since.map(|s| s + t.period))
                 .min()
         })
     }
 
-    /// Ends the refusal periods due at `now`, with a record each (stamped
-    /// `now`).
+    /// Ends the counting periods due at `now`, with a record each that
+    /// counted something (stamped `now`).
     pub(crate) fn end_refusal_periods(&self, now: Instant) {
-        for interface in [Interface::Modbus, Interface::Web, Interface::Robot] {
+        for (n, class) in CLASSES.iter().enumerate() {
             let ended = self.with(|i| {
-                let r = i.refused.get_mut(refusal_index(interface))?;
-                let since = r.since.filter(|s| *s + r.period <= now)?;
-                let counted = (r.count, r.last, now - since);
-                r.count = 0;
-                r.since = None;
-                r.ended = Some(now);
-                r.period = (r.period * 2).min(REFUSED_PERIOD_MAX);
-                Some(counted)
+                let t = i.tallies.get_mut(n)?;
+                let since = t.since.filter(|s| *s + t.period <= now)?;
+                let ended = *t;
+                *t = Tally {
+                    ended: Some(now),
+                    // Only a period that counted something makes the next
+                    // one longer.
+                    period: if ended.count > 0 {
+                        (t.period * 2).min(REFUSED_PERIOD_MAX)
+                    } else {
+                        t.period
+                    },
+                    ..Tally::NONE
+                };
+                (ended.count > 0).then_some((ended, now - since))
             });
-            if let Some((count, last, over)) = ended {
-                let who = Who {
-                    actor: b"",
-                    interface,
-                    from: last,
-                };
-                let why = match interface {
-                    Interface::Robot => "not the controller",
-                    _ => "allow-list",
-                };
-                self.add(Kind::Refused, &who, |d| {
-                    let _ = write!(
-                        d,
-                        "{count} connections refused in {} s ({why})",
-                        over.as_secs()
-                    );
-                });
+            if let Some((t, over)) = ended {
+                self.tally_recorded(*class, &t, over);
             }
         }
         self.stamp(now);
+    }
+
+    /// Records what the period of `class` counted (`t`, over `over`).
+    fn tally_recorded(&self, class: Class, t: &Tally, over: Duration) {
+        let interface = match class {
+            Class::RefusedWeb | Class::LoginFailed => Interface::Web,
+            Class::RefusedRobot => Interface::Robot,
+            _ => Interface::Modbus,
+        };
+        let who = Who {
+            actor: b"",
+            interface,
+            from: t.last,
+        };
+        let (count, secs, addrs) = (t.count, over.as_secs(), t.addresses());
+        let more = if t.more { "more than " } else { "" };
+        let kind = match class {
+            Class::LoginFailed => Kind::LoginFailed,
+            Class::ModbusConfig => Kind::Config,
+            Class::ConfigRefused => Kind::ConfigRefused,
+            _ => Kind::Refused,
+        };
+        self.add(kind, &who, |d| {
+            let _ = match class {
+                Class::RefusedModbus | Class::RefusedWeb => write!(
+                    d,
+                    "{count} connections refused in {secs} s (allow-list)"
+                ),
+                Class::RefusedRobot => write!(
+                    d,
+                    "{count} connections refused in {secs} s (not the controller)"
+                ),
+                Class::LoginFailed => write!(
+                    d,
+                    "{count} more failed logins in {secs} s ({} unknown names), {more}{addrs} addresses",
+                    t.unknown
+                ),
+                Class::ModbusConfig => write!(
+                    d,
+                    "{count} more applied in {secs} s from {more}{addrs} addresses, last {}",
+                    t.about
+                ),
+                Class::ConfigRefused => write!(
+                    d,
+                    "{count} more refused in {secs} s from {more}{addrs} addresses, last {}",
+                    t.about
+                ),
+            };
+        });
     }
 
     /// The oldest stamped record not kept yet, written into `out`: its
@@ -471,15 +747,6 @@ impl Log {
     /// Wall time at `now` (Unix seconds), if known.
     pub(crate) fn wall_at(&self, now: Instant) -> Option<u32> {
         self.with(|i| i.wall_at(now))
-    }
-}
-
-/// Which counter of [`Inner::refused`] an interface has (web: 1, else 0).
-fn refusal_index(interface: Interface) -> usize {
-    match interface {
-        Interface::Web => 1,
-        Interface::Robot => 2,
-        _ => 0,
     }
 }
 

@@ -142,6 +142,10 @@ coded! {
         Lost = 16, "lost";
         /// The wall clock was set (detail: from where).
         Time = 17, "time";
+        /// A change of a protected setting was refused (detail: the
+        /// setting, and why): Modbus while configuration over Modbus is
+        /// off.
+        ConfigRefused = 18, "config-refused";
     }
 }
 

@@ -493,7 +493,15 @@ fn refused_modbus_clients_are_counted_over_a_period_not_recorded_one_by_one() {
 
 #[test]
 fn a_recovery_start_is_recorded_with_the_settings_it_changed() {
-    let mut w = world(WorldConfig::default());
+    // Configuration over Modbus allowed (the network settings are
+    // protected).
+    let mut w = world(WorldConfig {
+        config: crate::config::Config {
+            modbus_config: true,
+            ..crate::config::Config::default()
+        },
+        ..WorldConfig::default()
+    });
     // A network address stored over Modbus ...
     w.set(r::NET_IP, &[0x0A01, 0x0203]);
     w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
@@ -569,7 +577,9 @@ fn records_a_failing_medium_loses_are_counted_and_reported_once_it_works() {
         w.set(r::CONFIG_POLL_MS, &[poll]);
         // Applied, not saved: exception 04.
         assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Err(4));
-        w.run_for(Duration::from_millis(10));
+        // Past the period in which changes over Modbus after the first
+        // are only counted.
+        w.run_for(secs(61));
     }
     assert_eq!(kept(&w.config.storage).len(), 2, "only the start's");
     w.config.storage.fail.set(false);
@@ -717,4 +727,159 @@ fn a_change_from_the_page_is_recorded_with_its_client() {
         kept(&w.config.storage).last().unwrap().detail,
         change.detail
     );
+}
+
+/// Issue 25, finding 1: any Modbus client re-pointed the robot link (the
+/// robot's address and port, the link mode and the listen port were not
+/// protected, and write protection is off by default, also with an
+/// administrator), and the record had no address. Now refused on a fresh
+/// device and on a commissioned one alike, recorded with the client's
+/// address; the PLC's own writes (heartbeat, other settings) go on; once
+/// an administrator allows configuration over Modbus, the change is made
+/// and recorded with the address.
+#[test]
+fn modbus_cannot_re_point_the_robot_link_unless_configuration_over_modbus_is_allowed() {
+    let plc = Some(Ipv4Addr::new(10, 0, 0, 10));
+    for admin in [false, true] {
+        let mut w = world(WorldConfig::default());
+        if admin {
+            w.add_admin();
+        }
+        let before = w.gateway.hub().peek(|m| m.config.active);
+        let attacks: [(u16, &[u16]); 4] = [
+            (r::CONFIG_ROBOT_IP, &[0x7F00, 0x0063]),
+            (r::CONFIG_ROBOT_PORT, &[15003]),
+            (r::CONFIG_LINK_MODE, &[1]),
+            (r::CONFIG_LISTEN_PORT, &[15099]),
+        ];
+        for (reg, v) in attacks {
+            w.set(reg, v);
+            assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Err(1), "{reg}");
+            assert_eq!(w.reg(r::CONTROL_CONFIG_RESULT), 4);
+            w.set(r::CONTROL_CONFIG_COMMAND, &[2]);
+        }
+        let after = w.gateway.hub().peek(|m| m.config.active);
+        assert_eq!(
+            (
+                after.robot_ip,
+                after.robot_port,
+                after.link_mode,
+                after.listen_port
+            ),
+            (
+                before.robot_ip,
+                before.robot_port,
+                before.link_mode,
+                before.listen_port
+            ),
+            "admin {admin}"
+        );
+        // Defaults (3) leave the protected settings as they are.
+        w.set(r::CONTROL_CONFIG_COMMAND, &[3]);
+        assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Ok(()));
+        let after = w.gateway.hub().peek(|m| m.config.active);
+        assert_eq!(after.robot_ip, before.robot_ip);
+        // The PLC's own registers stay writable.
+        w.set(r::CONTROL_HEARTBEAT, &[7]);
+        w.set(r::CONFIG_POLL_MS, &[40]);
+        assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Ok(()));
+        w.run_for(Duration::from_millis(10));
+        let got = log_of(&w);
+        let refused: Vec<_> = got
+            .iter()
+            .filter(|r| r.kind == Kind::ConfigRefused)
+            .collect();
+        assert_eq!(refused.len(), 1, "the first of a period recorded: {got:?}");
+        assert_eq!(refused[0].from, plc);
+        assert!(
+            refused[0].detail.as_str().starts_with("robot.address"),
+            "{:?}",
+            refused[0]
+        );
+        let poll = got
+            .iter()
+            .find(|r| r.kind == Kind::Config && r.detail.as_str().starts_with("link.poll_ms"))
+            .expect("the PLC's change recorded");
+        assert_eq!(poll.from, plc, "with the client's address");
+        // The period's end says how many more were refused.
+        w.run_for(secs(61));
+        let got = log_of(&w);
+        let counted: Vec<_> = details(&got, Kind::ConfigRefused);
+        assert_eq!(counted.len(), 2, "{counted:?}");
+        assert!(counted[1].starts_with("3 more refused in "), "{counted:?}");
+    }
+    // Allowed by an administrator: made, and recorded with the address.
+    let mut w = world(WorldConfig::default());
+    w.add_admin();
+    w.allow_modbus_config();
+    w.set(r::CONFIG_ROBOT_PORT, &[15003]);
+    assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[1]), Ok(()));
+    w.run_for(Duration::from_millis(10));
+    assert_eq!(w.gateway.hub().peek(|m| m.config.active.robot_port), 15003);
+    let got = log_of(&w);
+    let port = got
+        .iter()
+        .find(|r| r.kind == Kind::Config && r.detail.as_str().starts_with("robot.port"))
+        .expect("recorded");
+    assert_eq!(port.from, plc);
+}
+
+/// Issue 25, finding 4: a PLC toggling a setting wrote some 100 records
+/// a second. Now the first apply of a period is recorded setting by
+/// setting, the others are counted into one record at its end.
+#[test]
+fn settings_toggled_over_modbus_are_counted_not_recorded_one_by_one() {
+    let mut w = world(WorldConfig::default());
+    for k in 0..200u16 {
+        w.set(r::CONFIG_POLL_MS, &[40 + k % 2]);
+        w.set(r::CONTROL_CONFIG_COMMAND, &[1]);
+    }
+    w.run_for(secs(61));
+    let got = details(&log_of(&w), Kind::Config);
+    assert_eq!(got.len(), 2, "{got:?}");
+    assert_eq!(got[0], "link.poll_ms: 100 -> 40");
+    assert!(
+        got[1] == "199 more applied in 60 s from 1 addresses, last link.poll_ms",
+        "{got:?}"
+    );
+}
+
+/// Issue 25, finding 4: wrong logins for unknown names from rotating
+/// addresses were recorded one by one (the writer kept ~100 a second and
+/// lost the rest, and the flood rotated the evidence away). Now the first
+/// failure of a period is recorded with its name and address, the others
+/// are one record at the period's end: how many, how many for unknown
+/// names, from how many addresses. An account's records are untouched.
+#[test]
+fn failed_logins_are_counted_per_period_not_recorded_one_by_one() {
+    let log = Log::new();
+    log.start(false);
+    log.record(Event::Account {
+        name: b"alice",
+        change: AccountChange::Created { role: "admin" },
+        by: b"alice",
+        from: None,
+    });
+    for k in 0..10_000u32 {
+        let from = Ipv4Addr::new(10, 1, (k >> 8) as u8, k as u8);
+        log.login_failed(b"nobody", false, Some(from));
+    }
+    log.setup_failed(Some(Ipv4Addr::new(10, 2, 0, 1)));
+    log.login_failed(b"alice", true, Some(Ipv4Addr::new(10, 2, 0, 2)));
+    log.stamp(at(5));
+    log.end_refusal_periods(at(65));
+    let got = ring(&log);
+    assert_eq!(got.len(), 3, "{got:?}");
+    assert_eq!(got[0].kind, Kind::AccountCreated);
+    assert_eq!(got[1].kind, Kind::LoginFailed);
+    assert_eq!(got[1].actor_str(), "nobody");
+    assert_eq!(got[1].from, Some(Ipv4Addr::new(10, 1, 0, 0)));
+    assert_eq!(
+        got[2].detail.as_str(),
+        "10001 more failed logins in 60 s (10000 unknown names), more than 16 addresses"
+    );
+    // The next period starts with a record again.
+    log.login_failed(b"bob", false, None);
+    log.stamp(at(70));
+    assert_eq!(ring(&log).len(), 4);
 }

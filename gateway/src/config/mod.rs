@@ -455,6 +455,14 @@ pub struct Config {
     /// The NTP server whose time the audit log's records carry (boards);
     /// `0.0.0.0` = none.
     pub ntp_server: Ipv4Addr,
+    /// Configuration over Modbus: the PLC may change the protected
+    /// settings ([`schema::PROTECTED`]). Off in the factory state; only the
+    /// page and the file set it.
+    pub modbus_config: bool,
+    /// The PLC's address: its Modbus sessions hold a reserved slot;
+    /// `0.0.0.0` = none (then the Modbus allow-list's entries are the
+    /// PLC's).
+    pub plc_address: Ipv4Addr,
 }
 
 impl Config {
@@ -512,6 +520,8 @@ impl Config {
         web_host: HostName::EMPTY,
         read_without_login: true,
         ntp_server: Ipv4Addr::UNSPECIFIED,
+        modbus_config: false,
+        plc_address: Ipv4Addr::UNSPECIFIED,
     };
 
     /// This configuration with the network and access settings of `other`
@@ -524,18 +534,50 @@ impl Config {
         self.web_allow = other.web_allow;
         self.web_host = other.web_host;
         self.read_without_login = other.read_without_login;
+        self.modbus_config = other.modbus_config;
+        self.plc_address = other.plc_address;
         self
     }
 
-    /// `true` if the access settings (write protection, allow-lists, the
-    /// page's host name and reading without login) are those of `other`.
-    /// Until an administrator exists they are not changed over Modbus.
-    pub fn same_access(&self, other: &Config) -> bool {
-        self.write_protect == other.write_protect
-            && self.modbus_allow == other.modbus_allow
-            && self.web_allow == other.web_allow
-            && self.web_host == other.web_host
-            && self.read_without_login == other.read_without_login
+    /// The first protected setting ([`schema::PROTECTED`]: the robot
+    /// endpoint, the link mode, the network and access settings) whose
+    /// value differs between this configuration and `other`; `None` if
+    /// they agree on all of them.
+    pub fn protected_change(&self, other: &Config) -> Option<&'static Setting> {
+        schema::PROTECTED
+            .iter()
+            .copied()
+            .find(|s| s.get(self) != s.get(other))
+    }
+
+    /// This configuration with the protected settings of `other` (what
+    /// `CONFIG_COMMAND` 3 loads while configuration over Modbus is off:
+    /// the factory settings, the protected ones as they are).
+    pub fn with_protected_of(mut self, other: &Config) -> Config {
+        for s in schema::PROTECTED {
+            // A value read from a configuration is of its setting's kind.
+            let _ = s.set(&mut self, s.get(other));
+        }
+        self
+    }
+
+    /// `true` if a Modbus client at `peer` is the PLC: the configured PLC
+    /// address, or, without one, inside a Modbus allow-list entry. Its
+    /// sessions hold the reserved slot (`crate::admission`).
+    pub fn is_plc(&self, peer: Option<core::net::SocketAddrV4>) -> bool {
+        let Some(ip) = peer.map(|p| *p.ip()) else {
+            return false;
+        };
+        if !self.plc_address.is_unspecified() {
+            return ip == self.plc_address;
+        }
+        !self.modbus_allow.is_empty() && self.modbus_allow.permits(ip)
+    }
+
+    /// `true` if a slot is reserved for the PLC: a PLC address is
+    /// configured, or a Modbus allow-list names who may connect.
+    pub fn reserves_plc_slot(&self) -> bool {
+        !self.plc_address.is_unspecified() || !self.modbus_allow.is_empty()
     }
 }
 
@@ -553,12 +595,13 @@ pub enum ConfigResult {
     SaveFailed = 2,
     /// Applied, not saved: the gateway has no persistent storage.
     NotSaved = 3,
-    /// Not applied: the edit changes an access setting (write protection,
-    /// an allow-list, the page's host name or reading without login), and
-    /// no administrator exists yet (exception 01). Create the first
-    /// administrator on the web page with the setup code, or start in
-    /// recovery (the board's button).
-    AccessLocked = 4,
+    /// Not applied: the edit changes a protected setting (the robot
+    /// endpoint, the link mode, a network or access setting:
+    /// [`schema::PROTECTED`]) and configuration over Modbus is off
+    /// (exception 01). An administrator allows it on the web page
+    /// (`access.modbus_config`), or the device is started in recovery (the
+    /// board's button).
+    Protected = 4,
 }
 
 #[cfg(test)]

@@ -255,6 +255,15 @@ impl PartialEq for Setting {
     }
 }
 
+impl Eq for Setting {}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for Setting {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "{=str}", self.key)
+    }
+}
+
 impl Setting {
     /// The setting's value in `c`.
     pub fn get(&self, c: &Config) -> Value {
@@ -789,9 +798,54 @@ setting!(
     |c, v| c.ntp_server = address(v)
 );
 
+// ---- Protected settings and the PLC's slot (issue 25).
+
+setting!(ACCESS_MODBUS_CONFIG, "access.modbus_config", 60, Kind::Flag, "",
+    "configuration over Modbus: the PLC may change the protected settings (robot endpoint, link mode, network and access settings) with CONFIG_COMMAND 1; off (the factory state) = only the page and the file change them", false,
+    |c| Value::Flag(c.modbus_config), |c, v| c.modbus_config = flag(v));
+
+setting!(ACCESS_PLC_ADDRESS, "access.plc_address", 61, Kind::Address, "",
+    "the PLC's address: its Modbus sessions hold a reserved slot no other client takes, and are never closed for a newcomer; 0.0.0.0 = none (then the Modbus allow-list's entries are the PLC's)", false,
+    |c| Value::Address(c.plc_address), |c, v| c.plc_address = address(v));
+
+/// The protected settings: where the robot link goes (the robot endpoint
+/// and the link mode), the gateway's own network settings and every
+/// access setting. Modbus changes none of them unless configuration over
+/// Modbus is allowed ([`ACCESS_MODBUS_CONFIG`], set on the page or in the
+/// file) or the device was started in recovery (someone at the device):
+/// a client without an account cannot re-point the robot link, move or
+/// close the gateway's ports, or open the allow-lists.
+pub const PROTECTED: [&Setting; 18] = [
+    &ROBOT_ADDRESS,
+    &ROBOT_PORT,
+    &LINK_MODE,
+    &LINK_LISTEN_PORT,
+    &NETWORK_ADDRESS,
+    &NETWORK_MASK,
+    &NETWORK_GATEWAY,
+    &NETWORK_DHCP,
+    &NETWORK_MODBUS_PORT,
+    &NETWORK_WEB_PORT,
+    &NETWORK_NTP_SERVER,
+    &ACCESS_WRITE_PROTECT,
+    &ACCESS_MODBUS_ALLOW,
+    &ACCESS_WEB_ALLOW,
+    &ACCESS_READ_WITHOUT_LOGIN,
+    &ACCESS_MODBUS_CONFIG,
+    &ACCESS_PLC_ADDRESS,
+    &WEB_HOST_NAME,
+];
+
+impl Setting {
+    /// A protected setting ([`PROTECTED`]).
+    pub fn protected(&self) -> bool {
+        PROTECTED.iter().any(|p| p.id == self.id)
+    }
+}
+
 /// The settings every build has, in the order the views list them (a
 /// group's settings together).
-const BASE: [&Setting; 30] = [
+const BASE: [&Setting; 32] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &ROBOT_ID,
@@ -821,6 +875,8 @@ const BASE: [&Setting; 30] = [
     &ACCESS_MODBUS_ALLOW,
     &ACCESS_WEB_ALLOW,
     &ACCESS_READ_WITHOUT_LOGIN,
+    &ACCESS_MODBUS_CONFIG,
+    &ACCESS_PLC_ADDRESS,
     &WEB_HOST_NAME,
 ];
 
@@ -848,8 +904,8 @@ const MQTT: [&Setting; 11] = [
 // index out of range; nothing runs on the device.
 #[cfg(feature = "mqtt")]
 #[allow(clippy::indexing_slicing)]
-pub const SETTINGS: [&Setting; 41] = {
-    let mut out = [BASE[0]; 41];
+pub const SETTINGS: [&Setting; 43] = {
+    let mut out = [BASE[0]; 43];
     let mut i = 0;
     while i < out.len() {
         out[i] = if i < BASE.len() {
@@ -864,7 +920,7 @@ pub const SETTINGS: [&Setting; 41] = {
 
 /// Every setting of this build, in the order the views list them.
 #[cfg(not(feature = "mqtt"))]
-pub const SETTINGS: [&Setting; 30] = BASE;
+pub const SETTINGS: [&Setting; 32] = BASE;
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a
 /// host name).

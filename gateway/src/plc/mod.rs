@@ -21,7 +21,7 @@ pub(crate) use port::{warden, PlcPort};
 
 use embassy_time::Instant;
 
-use crate::config::ConfigResult;
+use crate::config::{ConfigResult, Setting};
 use crate::error::{GatewayError, Outcome};
 use crate::job::{command, text, Job, JobKind, Source};
 use crate::registers::config::{self as reg_config, InvalidValue};
@@ -133,41 +133,47 @@ pub(crate) enum ConfigStep {
     Invalid(InvalidValue),
     /// Applied: now save it (the storage task), then report.
     Save,
-    /// The edit changes an access setting, which Modbus may not do before
-    /// an administrator exists: nothing applied (exception 01,
-    /// `CONFIG_RESULT` 4).
-    Locked,
+    /// The edit changes this protected setting (the first), which Modbus
+    /// may not while configuration over Modbus is off: nothing applied
+    /// (exception 01, `CONFIG_RESULT` 4).
+    Locked(&'static Setting),
 }
 
 /// `CONFIG_COMMAND` `cmd` (1-3).
 ///
 /// A refused apply leaves the edit as it is (`CONFIG_BAD_ADDR` names the
 /// register to fix); every later apply is refused until it is fixed or
-/// discarded (2).
+/// discarded (2). While configuration over Modbus is off, an apply that
+/// changes a protected setting is refused whole, and defaults (3) leave
+/// the protected settings as they are.
 pub(crate) fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
-    let may_change_access = m.access.modbus_may_change_access();
+    let may_change_protected = m.access.modbus_may_change_protected(&m.config.active);
     let c = &mut m.config;
     match cmd {
-        1 => match c
-            .edit
-            .map_or(Ok(c.active), |w| reg_config::decode(&w, &c.active))
-        {
-            Err(bad) => {
-                c.result = ConfigResult::Invalid;
-                c.bad_addr = bad.addr;
-                warn!("config: register {} invalid, not applied", bad.addr);
-                ConfigStep::Invalid(bad)
+        1 => {
+            match c
+                .edit
+                .map_or(Ok(c.active), |w| reg_config::decode(&w, &c.active))
+            {
+                Err(bad) => {
+                    c.result = ConfigResult::Invalid;
+                    c.bad_addr = bad.addr;
+                    warn!("config: register {} invalid, not applied", bad.addr);
+                    ConfigStep::Invalid(bad)
+                }
+                Ok(new) => match new.protected_change(&c.active) {
+                    Some(s) if !may_change_protected => {
+                        c.result = ConfigResult::Protected;
+                        warn!("config: {} is protected (configuration over Modbus is off), not applied", s.key);
+                        ConfigStep::Locked(s)
+                    }
+                    _ => {
+                        c.apply(new);
+                        ConfigStep::Save
+                    }
+                },
             }
-            Ok(new) if !may_change_access && !new.same_access(&c.active) => {
-                c.result = ConfigResult::AccessLocked;
-                warn!("config: access settings locked until an administrator exists, not applied");
-                ConfigStep::Locked
-            }
-            Ok(new) => {
-                c.apply(new);
-                ConfigStep::Save
-            }
-        },
+        }
         2 => {
             c.edit = None;
             c.result = ConfigResult::Ok;
@@ -177,7 +183,11 @@ pub(crate) fn config_command(m: &mut Model, cmd: u16) -> ConfigStep {
             // Registers only: the settings without registers keep their
             // values when the edit is applied (it is read over the active
             // configuration).
-            c.edit = Some(reg_config::encode(&c.factory));
+            let defaults = match may_change_protected {
+                true => c.factory,
+                false => c.factory.with_protected_of(&c.active),
+            };
+            c.edit = Some(reg_config::encode(&defaults));
             c.result = ConfigResult::Ok;
             ConfigStep::Done
         }

@@ -9,6 +9,7 @@
 use core::convert::Infallible;
 use core::net::SocketAddrV4;
 
+use crate::admission::Guard;
 #[cfg(feature = "audit")]
 use crate::audit::{Interface, Who};
 use crate::clock::Clock;
@@ -31,20 +32,28 @@ pub(crate) struct PlcPort<'a, C: Clock> {
 }
 
 impl<C: Clock> PlcPort<'_, C> {
-    /// Writes registers for a PLC: stores the values (all or nothing) and
-    /// acts on the edges and the heartbeat at once. A configuration command
-    /// written with them is returned: the caller runs it
-    /// ([`Self::config_command`]) before answering.
-    fn write_registers(&self, start: u16, values: &[u16]) -> Result<Option<u16>, WriteError> {
+    /// Writes registers for the PLC at `peer`: stores the values (all or
+    /// nothing) and acts on the edges and the heartbeat at once. A
+    /// configuration command written with them is returned: the caller
+    /// runs it ([`Self::config_command`]) before answering.
+    fn write_registers(
+        &self,
+        start: u16,
+        values: &[u16],
+        peer: Option<SocketAddrV4>,
+    ) -> Result<Option<u16>, WriteError> {
         let now = self.clock.now();
+        #[cfg(not(feature = "audit"))]
+        let _ = peer;
         let (queued, command) = self.hub.with(|m| {
             let ev = view::write(m, start, values)?;
             // A trigger text written: in use at once, so recorded at once.
             #[cfg(feature = "audit")]
             if ev.triggers_changed {
-                self.hub
-                    .audit
-                    .triggers_changed(&m.triggers.entries, &Who::modbus(None));
+                self.hub.audit.modbus_triggers_changed(
+                    &m.triggers.entries,
+                    &Who::modbus(peer.map(|p| *p.ip())),
+                );
             }
             Ok::<_, WriteError>((super::apply(m, &ev, now), ev.config_command))
         })?;
@@ -54,29 +63,44 @@ impl<C: Clock> PlcPort<'_, C> {
         Ok(command)
     }
 
-    /// `CONFIG_COMMAND` `cmd` (1-3): apply (and save, waiting for the
-    /// storage task), discard, or defaults. One change at a time.
-    async fn config_command(&self, cmd: u16) -> Result<(), WriteError> {
+    /// `CONFIG_COMMAND` `cmd` (1-3) of the client at `peer`: apply (and
+    /// save, waiting for the storage task), discard, or defaults. One
+    /// change at a time. What it changes, or the protected setting it was
+    /// refused, goes into the audit log with the client's address.
+    async fn config_command(&self, cmd: u16, peer: Option<SocketAddrV4>) -> Result<(), WriteError> {
         let hub = self.hub;
         let _one_at_a_time = hub.one_change().await;
+        #[cfg(not(feature = "audit"))]
+        let _ = peer;
         let step = hub.with(|m| {
             #[cfg(feature = "audit")]
             let before = m.config.active;
             let step = super::config_command(m, cmd);
-            // The client's address is not known here (the session's):
-            // recorded without one.
             #[cfg(feature = "audit")]
-            if step == ConfigStep::Save {
-                let who = Who::modbus(None);
-                hub.audit.config_changed(&before, &m.config.active, &who);
-                hub.audit.triggers_changed(&m.triggers.entries, &who);
+            {
+                let who = Who::modbus(peer.map(|p| *p.ip()));
+                match step {
+                    ConfigStep::Save => hub.audit.modbus_config_changed(
+                        &before,
+                        &m.config.active,
+                        &m.triggers.entries,
+                        &who,
+                    ),
+                    ConfigStep::Locked(s) => hub.audit.config_refused(s, &who),
+                    _ => {}
+                }
             }
             step
         });
         match step {
             ConfigStep::Done => Ok(()),
             ConfigStep::Invalid(_) => Err(WriteError::Value),
-            ConfigStep::Locked => Err(WriteError::Protected),
+            ConfigStep::Locked(_) => {
+                hub.with(|m| {
+                    m.access.writes_refused = m.access.writes_refused.wrapping_add(1);
+                });
+                Err(WriteError::Protected)
+            }
             ConfigStep::Save => {
                 // The engine follows the new configuration at once.
                 hub.announce_config();
@@ -95,12 +119,18 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
         self.hub.with(|m| view::read_into(m, start, out, now))
     }
 
-    fn write(&self, start: u16, values: &[u16]) -> Result<Option<Pending>, WriteError> {
-        self.write_registers(start, values).map(|c| c.map(Pending))
+    fn write(
+        &self,
+        start: u16,
+        values: &[u16],
+        peer: Option<SocketAddrV4>,
+    ) -> Result<Option<Pending>, WriteError> {
+        self.write_registers(start, values, peer)
+            .map(|c| c.map(Pending))
     }
 
-    async fn settle(&self, p: Pending) -> Result<(), WriteError> {
-        self.config_command(p.0).await
+    async fn settle(&self, p: Pending, peer: Option<SocketAddrV4>) -> Result<(), WriteError> {
+        self.config_command(p.0, peer).await
     }
 
     /// Admitted if `MODBUS_ALLOW` permits the client, and then counted; a
@@ -142,6 +172,18 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
         self.slots
     }
 
+    /// The PLC (its configured address, or the allow-list's entries)
+    /// holds a reserved slot.
+    fn guard(&self, peer: Option<SocketAddrV4>) -> Guard {
+        self.hub.peek(|m| {
+            let c = &m.config.active;
+            Guard {
+                reserving: c.reserves_plc_slot(),
+                protected: c.is_plc(peer),
+            }
+        })
+    }
+
     fn write_refused(&self, _peer: Option<SocketAddrV4>) {
         self.hub.with(|m| {
             m.access.writes_refused = m.access.writes_refused.wrapping_add(1);
@@ -149,16 +191,21 @@ impl<C: Clock> Registers for PlcPort<'_, C> {
     }
 }
 
-/// Closes, each time a configuration is applied, the Modbus sessions its
+/// Follows each configuration applied: closes the Modbus sessions its
 /// allow-list no longer permits (each session also checks the list before
-/// every request, so none is served another one in between).
+/// every request, so none is served another one in between), and tells
+/// the sessions' table who the PLC is now (its reserved slot).
 pub(crate) async fn warden<C: Clock>(port: &PlcPort<'_, C>) -> Infallible {
     let Some(mut applied) = port.hub.config_applied.receiver() else {
         // The watch has a receiver for each of its followers: cannot happen.
         return core::future::pending().await;
     };
+    let mut config = port.hub.peek(|m| m.config.active);
     loop {
-        let list = applied.changed().await.modbus_allow;
+        port.slots
+            .protect(config.reserves_plc_slot(), |peer| config.is_plc(peer));
+        config = applied.changed().await;
+        let list = config.modbus_allow;
         port.slots.close_unless(|peer| list.admits(peer));
     }
 }

@@ -84,9 +84,11 @@ pub struct Area {
 /// access settings at 160-193, the access status at 50-53; 1.3: the
 /// firmware's version and update state at 55-58; 1.4: the number format
 /// at 117, real numbers as thousandths in 32-bit integers for PLCs that
-/// cannot pack floats); the major number when a PLC program written for
-/// the old map would break.
-pub const MAP_VERSION: u16 = 0x0104;
+/// cannot pack floats; 1.5: the protected settings, which Modbus changes
+/// only where an administrator allowed configuration over Modbus, and
+/// `ACCESS` bit 5); the major number when a PLC program written for the
+/// old map would break.
+pub const MAP_VERSION: u16 = 0x0105;
 
 // ----------------------------------------------------------------- status
 /// The register map's version ([`MAP_VERSION`]).
@@ -170,9 +172,7 @@ pub const STATUS_FW_STATE: u16 = 58;
 /// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
 /// write-protected ([`CONFIG_WRITE_PROTECT`]).
 pub const ACCESS_WRITE_PROTECTED: u16 = 1 << 0;
-/// `STATUS_ACCESS` bit: an administrator account exists (until one does,
-/// the access settings cannot be changed over Modbus, except after a
-/// recovery start).
+/// `STATUS_ACCESS` bit: an administrator account exists.
 pub const ACCESS_ADMIN: u16 = 1 << 1;
 /// `STATUS_ACCESS` bit: the network settings applied differ from the ones
 /// running (they take effect at the next start).
@@ -182,6 +182,10 @@ pub const ACCESS_RESTART_PENDING: u16 = 1 << 2;
 pub const ACCESS_RECOVERY: u16 = 1 << 3;
 /// `STATUS_ACCESS` bit: the web page is served.
 pub const ACCESS_WEB_ON: u16 = 1 << 4;
+/// `STATUS_ACCESS` bit: the protected settings (robot endpoint, link mode,
+/// network and access settings) may be changed over Modbus: an
+/// administrator allowed configuration over Modbus, or a recovery start.
+pub const ACCESS_MODBUS_CONFIG: u16 = 1 << 5;
 
 /// `STATUS_FLAGS` bit: moving.
 pub const FLAG_MOVING: u16 = 1 << 0;

@@ -206,6 +206,7 @@ fn access_bits(m: &Model) -> u16 {
         | b(a.restart_pending(&c.net), r::ACCESS_RESTART_PENDING)
         | b(a.recovery, r::ACCESS_RECOVERY)
         | b(a.web_on, r::ACCESS_WEB_ON)
+        | b(a.modbus_may_change_protected(c), r::ACCESS_MODBUS_CONFIG)
 }
 
 // The map has room for every channel and trigger entry of the state: the

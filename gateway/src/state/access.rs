@@ -2,7 +2,7 @@
 //! network settings it runs with, the refusals it counted.
 
 use crate::access::accounts::Accounts;
-use crate::config::NetConfig;
+use crate::config::{Config, NetConfig};
 
 /// Access state (register `ACCESS` and the refusal counters; the web
 /// page's access section).
@@ -46,14 +46,16 @@ impl AccessState {
         }
     }
 
-    /// May the access settings (allow-lists, write protection, the web
-    /// page's host name and open reading) be changed over Modbus? Not
-    /// before an administrator exists (a device fresh from the factory is
-    /// not open to the first Modbus client), except after a recovery start
-    /// (the board's button: someone is at the device). With an
-    /// administrator, the write protection decides (`CFG_WRITE_PROTECT`).
-    pub fn modbus_may_change_access(&self) -> bool {
-        self.recovery || self.accounts.admin_exists()
+    /// May the protected settings (the robot endpoint, the link mode, the
+    /// network and access settings: `config::schema::PROTECTED`) be changed
+    /// over Modbus, with `config` in use? Only where an administrator
+    /// allowed configuration over Modbus (`access.modbus_config`, on the
+    /// page or in the file: off in the factory state, and off for a device
+    /// commissioned before the setting existed), or after a recovery start
+    /// (the board's button: someone is at the device; the core firmware,
+    /// which has no page, changes them only then).
+    pub fn modbus_may_change_protected(&self, config: &Config) -> bool {
+        self.recovery || config.modbus_config
     }
 
     /// The configured network settings differ from the running ones (on

@@ -1,19 +1,24 @@
 //! The stored image: the configuration, the trigger table and the web
 //! page's accounts.
 //!
-//! Format 4 (written since accounts; format 3 the same up to the
-//! triggers, then one password instead of the accounts):
+//! Format 5 (written since the accounts' own addresses; format 4 the same
+//! without them; format 3 the same up to the triggers, then one password
+//! instead of the accounts):
 //!
 //! | offset | bytes | content |
 //! |---|---|---|
 //! | 0 | 4 | magic `HGW1` |
-//! | 4 | 2 | format version 3 |
+//! | 4 | 2 | format version 5 |
 //! | 6 | 2 | S, the bytes of the settings that follow |
 //! | 8 | S | each setting: its stable id (2), the value's length L (1), the value (L) |
 //! | 8 + S | 3072 | the 16 trigger entries, 96 registers each |
 //! | 3080 + S | 1 | N, the accounts that follow (at most 8) |
 //! | 3081 + S | 70 N | each account: name length (1), name (16, zero-padded), role (1: 1 viewer, 2 operator, 3 admin), password: PBKDF2 rounds, salt, hash (52) |
-//! | 3081 + S + 70 N | 4 | CRC-32 (IEEE) of everything before |
+//! | 3081 + S + 70 N | 16 N | each account's own addresses (`access::accounts::TRUSTED`: 4 of 4 octets, the most recent first; 0.0.0.0 = none), in the accounts' order |
+//! | 3081 + S + 86 N | 4 | CRC-32 (IEEE) of everything before |
+//!
+//! Format 4 (the previous version's) is read: its accounts have no own
+//! addresses yet.
 //!
 //! A value is stored by its kind: a number as 2 bytes, a flag or a choice
 //! (its index) as 1, an address or mask as its 4 octets, an allow-list as
@@ -28,7 +33,7 @@
 //! Formats 2 (register map 1.2: settings as register address and value
 //! pairs) and 1 (register map 1.1: the 16 registers 100-115 in order, no
 //! password) are read through the register view and migrated: the next
-//! save writes format 4.
+//! save writes format 5.
 //!
 //! Numbers little-endian; a trigger entry's register holds two characters,
 //! the first in its high byte (as the PLC sees them). An image that fails
@@ -37,7 +42,7 @@
 
 use super::StorageError;
 use crate::access::accounts::{
-    Account, AccountError, Accounts, Role, UserName, ACCOUNTS, ACCOUNT_STORED,
+    Account, AccountError, Accounts, Role, UserName, ACCOUNTS, ACCOUNT_STORED, TRUSTED,
 };
 use crate::access::password::{PasswordHash, STORED_LEN};
 use crate::config::schema::{self, stored_len, Kind, Value};
@@ -47,7 +52,9 @@ use crate::registers::config::{self as reg, Layout};
 use crate::state::inputs::{Text, TRIGGERS, TRIGGER_TEXT};
 
 const MAGIC: &[u8; 4] = b"HGW1";
-const FORMAT: u16 = 4;
+const FORMAT: u16 = 5;
+/// Bytes of one account's own addresses (format 5).
+const TRUSTED_STORED: usize = 4 * TRUSTED;
 /// The name of the administrator a format-3 password becomes.
 pub const MIGRATED_ADMIN: &str = "admin";
 const TRIGGER_WORDS: usize = TRIGGERS * TRIGGER_TEXT / 2;
@@ -66,7 +73,8 @@ const SETTINGS_MAX: usize = {
     n
 };
 /// The longest image this version writes (with the longest host names).
-pub const IMAGE_LEN: usize = 8 + SETTINGS_MAX + TRIGGER_BYTES + 1 + ACCOUNTS * ACCOUNT_STORED + 4;
+pub const IMAGE_LEN: usize =
+    8 + SETTINGS_MAX + TRIGGER_BYTES + 1 + ACCOUNTS * (ACCOUNT_STORED + TRUSTED_STORED) + 4;
 /// The longest image read (a newer version's, with more settings).
 pub const IMAGE_MAX: usize = IMAGE_LEN + 1024;
 /// Settings registers of a format-1 image (100-115).
@@ -106,6 +114,11 @@ pub fn encode(stored: &Stored, entries: &Entries, out: &mut [u8]) -> Result<usiz
     w.put(&[stored.accounts.len() as u8]);
     for a in stored.accounts.iter() {
         w.put(&a.to_bytes());
+    }
+    for i in (0..ACCOUNTS).filter(|&i| stored.accounts.at(i).is_some()) {
+        for t in stored.accounts.trusted(i) {
+            w.put(&t.unwrap_or(core::net::Ipv4Addr::UNSPECIFIED).octets());
+        }
     }
     let body = w.at;
     w.at = 0;
@@ -241,15 +254,16 @@ pub fn decode(
         1 if n == V1_WORDS => (8 + 2 * V1_CONFIG, V1_LEN),
         2 => (8 + 4 * n, 8 + 4 * n + TRIGGER_BYTES + STORED_LEN + 4),
         3 => (8 + n, 8 + n + TRIGGER_BYTES + STORED_LEN + 4),
-        4 => {
+        4 | 5 => {
             let count = usize::from(image.get(8 + n + TRIGGER_BYTES).copied().unwrap_or(0));
             if count > ACCOUNTS {
                 return Err(ImageError::Format);
             }
-            (
-                8 + n,
-                8 + n + TRIGGER_BYTES + 1 + count * ACCOUNT_STORED + 4,
-            )
+            let each = match format {
+                4 => ACCOUNT_STORED,
+                _ => ACCOUNT_STORED + TRUSTED_STORED,
+            };
+            (8 + n, 8 + n + TRIGGER_BYTES + 1 + count * each + 4)
         }
         _ => return Err(ImageError::Format),
     };
@@ -261,12 +275,12 @@ pub fn decode(
     }
     let settings = image.get(8..settings_end).unwrap_or(&[]);
     let config = match format {
-        3 | 4 => read_settings(settings, defaults)?,
+        3..=5 => read_settings(settings, defaults)?,
         _ => migrate(format, settings, defaults)?,
     };
     let at = settings_end + TRIGGER_BYTES;
     let accounts = match format {
-        4 => read_accounts(image.get(at..body.len()).unwrap_or(&[]))?,
+        4 | 5 => read_accounts(image.get(at..body.len()).unwrap_or(&[]), format == 5)?,
         2 | 3 => migrate_password(image.get(at..at + STORED_LEN)),
         _ => Accounts::NONE,
     };
@@ -278,14 +292,33 @@ pub fn decode(
     Ok(Stored { config, accounts })
 }
 
-/// Format 4's accounts (count, then each); an invalid one refuses the
+/// The accounts of formats 4 and 5 (count, then each; in format 5
+/// `trusted`, then each one's own addresses); an invalid one refuses the
 /// image.
-fn read_accounts(b: &[u8]) -> Result<Accounts, ImageError> {
+fn read_accounts(b: &[u8], trusted: bool) -> Result<Accounts, ImageError> {
     let mut accounts = Accounts::NONE;
-    let records = b.get(1..).unwrap_or(&[]);
-    for record in records.chunks(ACCOUNT_STORED) {
+    let count = usize::from(b.first().copied().unwrap_or(0));
+    let records = b.get(1..1 + count * ACCOUNT_STORED).unwrap_or(&[]);
+    let addresses = b.get(1 + count * ACCOUNT_STORED..).unwrap_or(&[]);
+    for (k, record) in records.chunks(ACCOUNT_STORED).enumerate() {
         let a = Account::from_bytes(record).ok_or(ImageError::Accounts)?;
-        accounts.add(a).map_err(|_| ImageError::Accounts)?;
+        let i = accounts.add(a).map_err(|_| ImageError::Accounts)?;
+        if trusted {
+            let own = addresses
+                .get(k * TRUSTED_STORED..(k + 1) * TRUSTED_STORED)
+                .ok_or(ImageError::Format)?;
+            let mut list = [None; TRUSTED];
+            for (slot, o) in list.iter_mut().zip(own.chunks(4)) {
+                let ip = core::net::Ipv4Addr::new(
+                    o.first().copied().unwrap_or(0),
+                    o.get(1).copied().unwrap_or(0),
+                    o.get(2).copied().unwrap_or(0),
+                    o.get(3).copied().unwrap_or(0),
+                );
+                *slot = (!ip.is_unspecified()).then_some(ip);
+            }
+            accounts.set_trusted(i, list);
+        }
     }
     if !accounts.is_empty() && !accounts.admin_exists() {
         return Err(ImageError::Accounts);
@@ -418,7 +451,7 @@ mod tests {
             .unwrap();
         let img = image(&stored, &entries);
         assert!(img.len() <= IMAGE_LEN);
-        assert_eq!(word(&img, 4), 4);
+        assert_eq!(word(&img, 4), 5);
         assert_eq!(
             encode(&stored, &entries, &mut [0u8; 100]),
             Err(StorageError::TooLarge)
@@ -448,7 +481,7 @@ mod tests {
         no_admin.accounts.set_role(b"cell-op", Role::Admin).unwrap();
         no_admin.accounts.set_role(b"root", Role::Viewer).unwrap();
         let mut img2 = image(&no_admin, &entries);
-        let role_at = img2.len() - 4 - ACCOUNT_STORED + 1 + NAME_MAX;
+        let role_at = img2.len() - 4 - 2 * TRUSTED_STORED - ACCOUNT_STORED + 1 + NAME_MAX;
         assert_eq!(img2[role_at], Role::Admin as u8);
         img2[role_at] = Role::Viewer as u8;
         reseal(&mut img2);
@@ -479,6 +512,46 @@ mod tests {
             s.parse_into(&name, &mut longest.config).unwrap();
         }
         assert_eq!(image(&longest, &entries).len(), IMAGE_LEN);
+    }
+
+    /// Issue 25: the addresses an account logged in from are kept with it
+    /// (format 5), and the previous version's format 4 (without them)
+    /// still reads.
+    #[test]
+    fn the_accounts_own_addresses_are_kept_and_format_4_still_reads() {
+        let (mut stored, entries) = sample();
+        let root = stored.accounts.index_of(b"root").unwrap();
+        let op = stored.accounts.index_of(b"cell-op").unwrap();
+        assert!(stored.accounts.trust(root, Ipv4Addr::new(10, 0, 0, 50)));
+        assert!(stored.accounts.trust(root, Ipv4Addr::new(10, 0, 0, 51)));
+        assert!(!stored.accounts.trust(root, Ipv4Addr::new(10, 0, 0, 50)));
+        assert!(stored.accounts.trust(op, Ipv4Addr::new(192, 168, 1, 7)));
+        let img = image(&stored, &entries);
+        let mut back: Entries = [Text::EMPTY; TRIGGERS];
+        let got = decode(&img, &Config::DEFAULT, &mut back).unwrap();
+        assert_eq!(got, stored);
+        assert_eq!(
+            got.accounts
+                .own_address(root, Some(Ipv4Addr::new(10, 0, 0, 50))),
+            Some(1)
+        );
+        // The same image as format 4 wrote it: the own addresses left out.
+        let mut v4 = img[..img.len() - 4 - 2 * TRUSTED_STORED].to_vec();
+        v4[4..6].copy_from_slice(&4u16.to_le_bytes());
+        v4.extend_from_slice(&[0; 4]);
+        reseal(&mut v4);
+        let got = decode(&v4, &Config::DEFAULT, &mut back).unwrap();
+        assert_eq!(got.config, stored.config);
+        assert_eq!(got.accounts.get(b"root"), stored.accounts.get(b"root"));
+        assert_eq!(got.accounts.trusted(root), [None; TRUSTED]);
+        // A format-5 image cut short of its addresses is refused.
+        let mut short = img[..img.len() - 8].to_vec();
+        short.extend_from_slice(&[0; 4]);
+        reseal(&mut short);
+        assert_eq!(
+            decode(&short, &Config::DEFAULT, &mut back),
+            Err(ImageError::Format)
+        );
     }
 
     #[test]
@@ -600,9 +673,9 @@ mod tests {
         assert_eq!(back[7].bytes(), b"SetBoxDO,0,3,1,;");
         assert_eq!(back[15].bytes(), b"SetOverride,0,0.5,;");
         assert!(back[1].is_empty());
-        // Saved again, it is format 4 and reads back the same.
+        // Saved again, it is format 5 and reads back the same.
         let again = image(&got, &back);
-        assert_eq!(word(&again, 4), 4);
+        assert_eq!(word(&again, 4), 5);
         let mut back2: Entries = [Text::EMPTY; TRIGGERS];
         assert_eq!(decode(&again, &Config::DEFAULT, &mut back2), Ok(got));
         assert_eq!(back2, back);

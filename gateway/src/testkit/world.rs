@@ -393,10 +393,9 @@ impl World {
         Box::pin(async move { g.run(&n, &*c, storage).await })
     }
 
-    /// The gateway powered off and on again: a new gateway on the same
     /// Gives the gateway an administrator account (`admin`), as a
-    /// commissioned device has: the access settings may then change over
-    /// Modbus (unless write-protected). In memory only (not saved).
+    /// commissioned device has (configuration over Modbus stays off: see
+    /// [`Self::allow_modbus_config`]). In memory only (not saved).
     pub fn add_admin(&mut self) {
         let hash = crate::PasswordHash {
             iterations: 1,
@@ -416,6 +415,17 @@ impl World {
         assert!(added.is_some(), "an administrator added");
     }
 
+    /// Configuration over Modbus allowed (`access.modbus_config`, as an
+    /// administrator allows it on the page): the protected settings (the
+    /// robot endpoint, the link mode, the network and access settings) may
+    /// then change over Modbus. In memory only (not saved).
+    pub fn allow_modbus_config(&mut self) {
+        self.gateway
+            .hub()
+            .with(|m| m.config.active.modbus_config = true);
+    }
+
+    /// The gateway powered off and on again: a new gateway on the same
     /// storage (a power cut). PLCs connect again.
     pub fn restart(&mut self) {
         let opts = Options {

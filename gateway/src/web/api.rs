@@ -82,6 +82,7 @@ pub(crate) struct StatusSnapshot {
     robot_port: u16,
     watchdog_ms: u16,
     write_protect: bool,
+    modbus_config: bool,
     age_ms: Option<u64>,
     robot: RobotStatus,
     error_text: ErrorText,
@@ -229,6 +230,7 @@ impl StatusSnapshot {
             robot_port: 0,
             watchdog_ms: 0,
             write_protect: false,
+            modbus_config: false,
             age_ms: None,
             robot: RobotStatus::UNKNOWN,
             error_text: ErrorText::default(),
@@ -273,6 +275,7 @@ impl StatusSnapshot {
         self.robot_port = c.robot_port;
         self.watchdog_ms = c.watchdog_ms;
         self.write_protect = c.write_protect;
+        self.modbus_config = a.modbus_may_change_protected(c);
         self.age_ms = m.status_age_ms(now);
         self.robot.clone_from(&m.robot);
         self.error_text.clone_from(&m.error_text);
@@ -406,6 +409,7 @@ impl StatusSnapshot {
             });
             j.key("access").object(|j| {
                 j.key("write_protect").bool(self.write_protect);
+                j.key("modbus_config").bool(self.modbus_config);
                 j.key("admin_exists").bool(self.admin_exists);
                 j.key("restart_pending").bool(self.restart_pending);
                 j.key("recovery").bool(self.recovery);

@@ -17,6 +17,11 @@
 //! (a newcomer takes its slot, or the allow-list no longer permits its
 //! client) nothing more is read ([`IoError::Asked`]).
 //!
+//! Every byte the read half hands on has passed the request grammar
+//! ([`super::grammar`]): at a byte that breaks it, the bytes before it are
+//! handed on and then the stream ends, so picoserve answers 400 and closes
+//! the connection without a route seeing the request.
+//!
 //! An answer can close the connection (a request whose body cannot be
 //! delimited, the last request a connection serves): the server sets the
 //! exchange's `closing` flag, after which the read half sees the end of
@@ -33,6 +38,7 @@ use picoserve::io::embedded_io_async::{self, ErrorKind, ErrorType};
 use picoserve::io::Read;
 use picoserve::mem::{BorrowedBuffer, BorrowedCursor};
 
+use super::grammar::Grammar;
 use super::ANSWER_DEADLINE;
 use crate::admission::{Close, Session};
 use crate::clock::{with_deadline, Clock};
@@ -110,6 +116,8 @@ pub(crate) struct Exchange<'a, C: Clock> {
     answer_by: Cell<Option<Instant>>,
     /// Requests served on the connection.
     served: Cell<u32>,
+    /// The request grammar's checker of the bytes read.
+    grammar: Cell<Grammar>,
 }
 
 impl<'a, C: Clock> Exchange<'a, C> {
@@ -122,6 +130,7 @@ impl<'a, C: Clock> Exchange<'a, C> {
             busy: Cell::new(false),
             answer_by: Cell::new(None),
             served: Cell::new(0),
+            grammar: Cell::new(Grammar::NEW),
         }
     }
 
@@ -210,7 +219,9 @@ impl<S: Socket, C: Clock> Read for ReadHalf<'_, '_, S, C> {
     // documentation for why the other half cannot want it meanwhile.
     #[allow(clippy::await_holding_refcell_ref)]
     async fn read(&mut self, buf: &mut [u8]) -> Result<usize, IoError> {
-        if self.ex.closing.get() {
+        // Closing, or the grammar broken: the stream ends here (at once,
+        // not when the client sends more).
+        if self.ex.closing.get() || self.ex.grammar.get().broken() {
             return Ok(0);
         }
         let mut sock = self.sock.try_borrow_mut().map_err(|_| IoError::Busy)?;
@@ -218,6 +229,17 @@ impl<S: Socket, C: Clock> Read for ReadHalf<'_, '_, S, C> {
         match select(self.ex.session.closing(), sock.read(buf)).await {
             Either::First(why) => Err(IoError::Asked(why)),
             Either::Second(Ok(n)) => {
+                // The grammar first: what breaks it is not handed on, and
+                // the stream ends there (picoserve answers 400).
+                let mut g = self.ex.grammar.get();
+                let n = match g.feed(buf.get(..n).unwrap_or(&[])) {
+                    Ok(()) => n,
+                    Err(good) => {
+                        warn!("web: a request breaks the HTTP grammar: refused, connection closed");
+                        good
+                    }
+                };
+                self.ex.grammar.set(g);
                 if n > 0 {
                     self.ex.started();
                 }

@@ -73,6 +73,7 @@ pub(crate) mod assets;
 pub(crate) mod audit;
 #[cfg(feature = "update")]
 pub(crate) mod firmware;
+pub(crate) mod grammar;
 pub(crate) mod io;
 pub(crate) mod json;
 pub(crate) mod post;
@@ -333,7 +334,7 @@ async fn accept<S: Socket, C: Clock>(
             slots.refused(Refusal::NotAllowed, peer);
             true
         } else {
-            match slots.claim(j, peer, clock).await {
+            match slots.claim(j, peer, admission::Guard::NONE, clock).await {
                 Ok(()) => {
                     // A slot's future serves it, closes it and releases it.
                     // At most WEB_SLOTS are admitted at once: never full.
@@ -593,22 +594,40 @@ fn doc_body(snap: &Snapshot) -> Option<DocBody<'_>> {
     Some(DocBody { snap, len })
 }
 
+/// More than one session token in a request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Duplicate;
+
 /// The session token a request carries (cookie or `Authorization:
-/// Bearer`).
-fn token(parts: &RequestParts<'_>) -> Option<Token> {
-    let h = parts.headers();
-    if let Some(a) = h.get("Authorization") {
-        if let Some(t) = a.as_raw().strip_prefix(b"Bearer ") {
-            return Token::from_hex(t.trim_ascii());
+/// Bearer`); `Err` if it carries more than one: two session cookies (in
+/// one `Cookie` header or in two), two `Authorization` headers, or a
+/// cookie and a bearer token. Which one counts would depend on who reads
+/// the request (a proxy, a browser's cookie jar with a cookie planted for
+/// a wider path or domain): the request is refused, not guessed at.
+fn token(parts: &RequestParts<'_>) -> Result<Option<Token>, Duplicate> {
+    let mut found: Option<Option<Token>> = None;
+    let mut one = |t: Option<Token>| match found.replace(t) {
+        Some(_) => Err(Duplicate),
+        None => Ok(()),
+    };
+    for (name, value) in parts.headers().iter() {
+        let (name, value) = (name.as_raw(), value.as_raw());
+        if named(name, "Authorization") {
+            let bearer = value.strip_prefix(b"Bearer ");
+            one(bearer.and_then(|t| Token::from_hex(t.trim_ascii())))?;
+        } else if named(name, "Cookie") {
+            for c in value.split(|&b| b == b';') {
+                let c = c.trim_ascii();
+                if let Some(t) = c
+                    .strip_prefix(COOKIE.as_bytes())
+                    .and_then(|rest| rest.strip_prefix(b"="))
+                {
+                    one(Token::from_hex(t.trim_ascii()))?;
+                }
+            }
         }
     }
-    let cookies = h.get("Cookie")?;
-    cookies.as_raw().split(|&b| b == b';').find_map(|c| {
-        let c = c.trim_ascii();
-        c.strip_prefix(COOKIE.as_bytes())
-            .and_then(|rest| rest.strip_prefix(b"="))
-            .and_then(Token::from_hex)
-    })
+    Ok(found.flatten())
 }
 
 /// `name` (a header's name) is `want`, ignoring case.
@@ -743,13 +762,15 @@ impl<C: Clock> App<'_, C> {
     /// Who sends the request (its session), counting as a use.
     fn who(&self, parts: &RequestParts<'_>) -> Option<Who> {
         let now = self.clock.now();
-        token(parts).and_then(|t| self.web.sessions.borrow_mut().check(&t, now))
+        let t = token(parts).ok().flatten()?;
+        self.web.sessions.borrow_mut().check(&t, now)
     }
 
     /// As [`Self::who`], without counting as a use of the session.
     fn peek_who(&self, parts: &RequestParts<'_>) -> Option<Who> {
         let now = self.clock.now();
-        token(parts).and_then(|t| self.web.sessions.borrow().peek(&t, now))
+        let t = token(parts).ok().flatten()?;
+        self.web.sessions.borrow().peek(&t, now)
     }
 
     /// The session of the request if its role is `role` or above; else
@@ -880,7 +901,7 @@ impl<C: Clock> App<'_, C> {
             .web
             .limiter
             .borrow()
-            .wait(ip, None, now)
+            .wait(ip, now)
             .map_or(0, |d| d.as_secs() + 1);
         let (admin, recovery, open, name) = self.hub.with(|m| {
             let name = who
@@ -947,6 +968,12 @@ impl<C: Clock> App<'_, C> {
                 "this device does not answer to that host name: use its address",
             );
         }
+        if token(&request.parts).is_err() {
+            return error(
+                StatusCode::BAD_REQUEST,
+                "more than one session token: send one session cookie (or one bearer token)",
+            );
+        }
         let method = request.parts.method();
         let get = method == "GET" || method == "HEAD";
         let post = method == "POST";
@@ -998,7 +1025,7 @@ impl<C: Clock> App<'_, C> {
                         from,
                     });
                 }
-                if let Some(t) = token(&request.parts) {
+                if let Ok(Some(t)) = token(&request.parts) {
                     self.web.sessions.borrow_mut().close(&t);
                 }
                 Reply::Logout(post::ok_json())
@@ -1096,6 +1123,17 @@ const SECURITY_HEADERS: [(&str, &str); 3] = [
     ("X-Content-Type-Options", "nosniff"),
 ];
 
+/// The header of every answer over HTTPS: the browser uses HTTPS only for
+/// this device from now on, for a year (RFC 6797), so that nobody on the
+/// way can turn a later visit into plain HTTP and read the session.
+const HSTS: (&str, &str) = ("Strict-Transport-Security", "max-age=31536000");
+
+/// [`HSTS`] on a connection over TLS (`secure`), nothing on plain HTTP
+/// (where a browser ignores it anyway).
+pub(crate) fn hsts(secure: bool) -> Option<(&'static str, &'static str)> {
+    secure.then_some(HSTS)
+}
+
 /// A body, or for `HEAD` only its type and length (RFC 9110 § 9.3.2: the
 /// same header fields as `GET`, no content).
 struct Head<B: Content> {
@@ -1151,6 +1189,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 Response::new(StatusCode::OK, Head { body: page, head })
                     .with_headers([("Content-Encoding", "gzip"), ("Cache-Control", "no-cache")])
                     .with_headers(SECURITY_HEADERS)
+                    .with_headers(hsts(self.secure))
                     .write_to(c, w)
                     .await
             }
@@ -1167,6 +1206,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                         Response::new(StatusCode::OK, Head { body, head })
                             .with_header("Cache-Control", "no-store")
                             .with_headers(SECURITY_HEADERS)
+                            .with_headers(hsts(self.secure))
                             .write_to(c, w)
                             .await
                     }
@@ -1177,6 +1217,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                         Response::new(StatusCode::INTERNAL_SERVER_ERROR, Head { body, head })
                             .with_header("Cache-Control", "no-store")
                             .with_headers(SECURITY_HEADERS)
+                            .with_headers(hsts(self.secure))
                             .write_to(c, w)
                             .await
                     }
@@ -1193,6 +1234,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 .with_header("Allow", allow)
                 .with_header("Cache-Control", "no-store")
                 .with_headers(SECURITY_HEADERS)
+                .with_headers(hsts(self.secure))
                 .write_to(c, w)
                 .await
             }
@@ -1206,6 +1248,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 )
                 .with_header("Cache-Control", "no-store")
                 .with_headers(SECURITY_HEADERS)
+                .with_headers(hsts(self.secure))
                 .write_to(c, w)
                 .await
             }
@@ -1221,6 +1264,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 .with_header("Cache-Control", "no-store")
                 .with_header("Connection", "close")
                 .with_headers(SECURITY_HEADERS)
+                .with_headers(hsts(self.secure))
                 .write_to(c, w)
                 .await?;
                 self.closing.set(true);
@@ -1233,6 +1277,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     .with_header("Set-Cookie", session_cookie(&t, self.secure))
                     .with_header("Cache-Control", "no-store")
                     .with_headers(SECURITY_HEADERS)
+                    .with_headers(hsts(self.secure))
                     .write_to(c, w)
                     .await
             }
@@ -1244,6 +1289,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     )
                     .with_header("Cache-Control", "no-store")
                     .with_headers(SECURITY_HEADERS)
+                    .with_headers(hsts(self.secure))
                     .write_to(c, w)
                     .await
             }
@@ -1251,6 +1297,7 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
             Reply::Restart(j) => {
                 let sent = Response::new(StatusCode::ACCEPTED, json_body(&j))
                     .with_headers(SECURITY_HEADERS)
+                    .with_headers(hsts(self.secure))
                     .write_to(c, w)
                     .await?;
                 warn!("web: restart requested");

@@ -13,6 +13,7 @@ use serde::Deserialize;
 use super::json::Json;
 use super::{error, error_json, App, Reply};
 use crate::access::accounts::{Account, AccountError, Role, UserName, ACCOUNTS, NAME_MAX};
+use crate::access::limit::Guess;
 use crate::access::password::{self, PasswordHash, SALT_LEN};
 use crate::access::session::Who;
 use crate::access::setup::SetupCode;
@@ -396,11 +397,16 @@ fn account_doc(body: &[u8]) -> Result<AccountDoc, Reply> {
         .map_err(|_| error(StatusCode::BAD_REQUEST, "not the expected JSON object"))
 }
 
-/// A new password checked against the policy, hashed with a fresh salt.
+/// A new password of the account named `name`, checked against the
+/// policy, hashed with a fresh salt.
 // The error is the answer (built once, written by the caller).
 #[allow(clippy::result_large_err)]
-async fn new_hash<C: Clock>(app: &App<'_, C>, pw: &[u8]) -> Result<PasswordHash, Reply> {
-    password::check_new(pw).map_err(|e| error(StatusCode::BAD_REQUEST, e.as_str()))?;
+async fn new_hash<C: Clock>(
+    app: &App<'_, C>,
+    pw: &[u8],
+    name: &[u8],
+) -> Result<PasswordHash, Reply> {
+    password::check_new(pw, name).map_err(|e| error(StatusCode::BAD_REQUEST, e.as_str()))?;
     let salt: [u8; SALT_LEN] = app.web.sessions.borrow_mut().random();
     Ok(PasswordHash::new(pw, salt).await)
 }
@@ -418,10 +424,42 @@ impl<C: Clock> App<'_, C> {
         self.peer.map(|p| *p.ip())
     }
 
-    /// A login (or a wrong current password) for the audit log.
-    fn audit_login(&self, name: &[u8], ok: bool) {
+    /// Account `account` (named `name`) logged in from this client: its
+    /// address is one of the account's own from now on, kept with the
+    /// accounts (saved if it is new: a restart forgets nothing).
+    async fn trust(&self, account: usize, name: &[u8]) {
+        let Some(ip) = self.ip() else {
+            return;
+        };
+        let who = AuditWho::web(name, Some(ip));
+        let new = self
+            .hub
+            .change_by(who, |m| match m.access.accounts.trust(account, ip) {
+                true => Ok(false),
+                false => Err(()),
+            })
+            .await;
+        if new.is_ok() {
+            self.web.limiter.borrow_mut().own_changed(account);
+        }
+    }
+
+    /// A login for the audit log.
+    fn audit_login(&self, name: &[u8]) {
         let from = self.ip();
-        self.hub.audit(Event::Login { name, ok, from });
+        self.hub.audit(Event::Login {
+            name,
+            ok: true,
+            from,
+        });
+    }
+
+    /// A failed login (or a wrong current password) for `name` (`known`:
+    /// an account of that name exists), for the audit log: the first of a
+    /// period is recorded, the rest counted (`crate::audit::log`: a flood
+    /// of guesses from rotating addresses writes two records a period).
+    fn audit_login_failed(&self, name: &[u8], known: bool) {
+        self.hub.audit.login_failed(name, known, self.ip());
     }
 
     /// A change of account `name` by account `by`, for the audit log.
@@ -451,9 +489,12 @@ impl<C: Clock> App<'_, C> {
             Err(r) => return r,
         };
         let (name, pw) = (bytes(&doc.name), bytes(&doc.password));
+        let ip = self.ip();
         let found = self.hub.with(|m| {
             let a = &m.access.accounts;
-            a.index_of(name).zip(a.get(name).map(|a| (a.hash, a.role)))
+            let i = a.index_of(name)?;
+            let acc = a.at(i)?;
+            Some((i, (acc.hash, acc.role), a.own_address(i, ip)))
         });
         if !self.admin_exists() {
             return error(
@@ -461,20 +502,27 @@ impl<C: Clock> App<'_, C> {
                 "no account exists yet: create the administrator with the setup code",
             );
         }
+        let guess = match found {
+            Some((account, _, Some(own))) => Guess::Own { account, own },
+            Some((account, _, None)) => Guess::Account(account),
+            None => Guess::Nobody,
+        };
         // Counted before the hash is computed: parallel guesses see each other.
-        let ticket = match self.web.limiter.borrow_mut().reserve(
-            self.ip(),
-            found.map(|f| f.0),
-            self.clock.now(),
-        ) {
+        let ticket = match self
+            .web
+            .limiter
+            .borrow_mut()
+            .reserve(ip, guess, self.clock.now())
+        {
             Ok(t) => t,
             Err(wait) => return too_many(wait),
         };
         let hash = found.map_or(NOBODY, |f| f.1 .0);
         let right = hash.verify(pw).await && found.is_some();
         match found.filter(|_| right) {
-            Some((account, (_, role))) => {
+            Some((account, (_, role), _)) => {
                 self.web.limiter.borrow_mut().succeeded(ticket);
+                self.trust(account, name).await;
                 let t = self
                     .web
                     .sessions
@@ -484,12 +532,12 @@ impl<C: Clock> App<'_, C> {
                     "web: {} logged in",
                     core::str::from_utf8(name).unwrap_or("?")
                 );
-                self.audit_login(name, true);
+                self.audit_login(name);
                 Reply::Session(StatusCode::OK, ok_json(), t)
             }
             None => {
                 warn!("web: wrong name or password");
-                self.audit_login(name, false);
+                self.audit_login_failed(name, found.is_some());
                 error(StatusCode::UNAUTHORIZED, "wrong name or password")
             }
         }
@@ -511,15 +559,16 @@ impl<C: Clock> App<'_, C> {
         if self.admin_exists() && !recovery {
             return error(StatusCode::CONFLICT, "an administrator exists: log in");
         }
-        let ticket = match self
-            .web
-            .limiter
-            .borrow_mut()
-            .reserve(self.ip(), None, self.clock.now())
-        {
-            Ok(t) => t,
-            Err(wait) => return too_many(wait),
-        };
+        let ticket =
+            match self
+                .web
+                .limiter
+                .borrow_mut()
+                .reserve(self.ip(), Guess::Nobody, self.clock.now())
+            {
+                Ok(t) => t,
+                Err(wait) => return too_many(wait),
+            };
         match (&self.web.setup_code, SetupCode::parse(bytes(&doc.code))) {
             (Some(code), Some(given)) if code.matches(&given) => {}
             // Without a code (a board that has none), a recovery start is
@@ -530,13 +579,14 @@ impl<C: Clock> App<'_, C> {
             }
             _ => {
                 warn!("web: wrong setup code");
+                self.hub.audit.setup_failed(self.ip());
                 return error(StatusCode::FORBIDDEN, "wrong setup code");
             }
         }
         let Some(name) = UserName::new(bytes(&doc.name)) else {
             return error(StatusCode::BAD_REQUEST, NAME_RULE);
         };
-        let hash = match new_hash(self, bytes(&doc.password)).await {
+        let hash = match new_hash(self, bytes(&doc.password), name.as_bytes()).await {
             Ok(h) => h,
             Err(r) => return r,
         };
@@ -544,19 +594,25 @@ impl<C: Clock> App<'_, C> {
         let existed = self
             .hub
             .with(|m| m.access.accounts.get(name.as_bytes()).is_some());
+        let ip = self.ip();
         let saved = self
             .hub
-            .change_by(AuditWho::web(name.as_bytes(), self.ip()), |m| {
+            .change_by(AuditWho::web(name.as_bytes(), ip), |m| {
                 let a = &mut m.access.accounts;
-                if a.get(name.as_bytes()).is_some() {
+                let i = if a.get(name.as_bytes()).is_some() {
                     a.set_hash(name.as_bytes(), hash)?;
                     a.set_role(name.as_bytes(), Role::Admin)?;
+                    a.index_of(name.as_bytes()).ok_or(AccountError::Unknown)?
                 } else {
                     a.add(Account {
                         name,
                         role: Role::Admin,
                         hash,
-                    })?;
+                    })?
+                };
+                // Created from here: the administrator's own address.
+                if let Some(ip) = ip {
+                    a.trust(i, ip);
                 }
                 Ok::<_, AccountError>(false)
             })
@@ -608,39 +664,53 @@ impl<C: Clock> App<'_, C> {
             Ok(d) => d,
             Err(r) => return r,
         };
-        let Some(acc) = self
-            .hub
-            .with(|m| m.access.accounts.at(who.account).copied())
-        else {
+        let ip = self.ip();
+        let Some((acc, own)) = self.hub.with(|m| {
+            let a = &m.access.accounts;
+            Some((*a.at(who.account)?, a.own_address(who.account, ip)))
+        }) else {
             return error(StatusCode::UNAUTHORIZED, "log in first");
         };
-        let ticket = match self.web.limiter.borrow_mut().reserve(
-            self.ip(),
-            Some(who.account),
-            self.clock.now(),
-        ) {
+        let guess = match own {
+            Some(own) => Guess::Own {
+                account: who.account,
+                own,
+            },
+            None => Guess::Account(who.account),
+        };
+        let ticket = match self
+            .web
+            .limiter
+            .borrow_mut()
+            .reserve(ip, guess, self.clock.now())
+        {
             Ok(t) => t,
             Err(wait) => return too_many(wait),
         };
         if !acc.hash.verify(bytes(&doc.current)).await {
             warn!("web: wrong password");
-            self.audit_login(acc.name.as_bytes(), false);
+            self.audit_login_failed(acc.name.as_bytes(), true);
             return error(StatusCode::UNAUTHORIZED, "wrong password");
         }
         self.web.limiter.borrow_mut().succeeded(ticket);
-        let hash = match new_hash(self, bytes(&doc.password)).await {
+        let hash = match new_hash(self, bytes(&doc.password), acc.name.as_bytes()).await {
             Ok(h) => h,
             Err(r) => return r,
         };
         let saved = self
             .hub
-            .change_by(AuditWho::web(acc.name.as_bytes(), self.ip()), |m| {
-                m.access
-                    .accounts
-                    .set_hash(acc.name.as_bytes(), hash)
-                    .map(|()| false)
+            .change_by(AuditWho::web(acc.name.as_bytes(), ip), |m| {
+                let a = &mut m.access.accounts;
+                a.set_hash(acc.name.as_bytes(), hash)?;
+                // Its own addresses are forgotten with the old password,
+                // but for this one: the owner changed it from here.
+                if let Some(ip) = ip {
+                    a.trust(who.account, ip);
+                }
+                Ok::<_, AccountError>(false)
             })
             .await;
+        self.web.limiter.borrow_mut().own_changed(who.account);
         let t = {
             let mut s = self.web.sessions.borrow_mut();
             s.close_account(who.account);
@@ -701,7 +771,7 @@ impl<C: Clock> App<'_, C> {
             .and_then(Role::parse);
         let op = bytes(&doc.op);
         let hash = match op {
-            b"add" | b"password" => match new_hash(self, bytes(&doc.password)).await {
+            b"add" | b"password" => match new_hash(self, bytes(&doc.password), name).await {
                 Ok(h) => Some(h),
                 Err(r) => return r,
             },
@@ -740,7 +810,7 @@ impl<C: Clock> App<'_, C> {
                     if i != who.account || op != b"role" {
                         self.web.sessions.borrow_mut().close_account(i);
                     }
-                    if op == b"remove" || op == b"add" {
+                    if op == b"remove" || op == b"add" || op == b"password" {
                         self.web.limiter.borrow_mut().forget_account(i);
                     }
                 }

@@ -55,19 +55,27 @@ async fn web_answer(from: Ipv4Addr, to: SocketAddrV4) -> String {
     let _ = tokio::time::timeout(LIMIT, s.read_to_end(&mut got))
         .await
         .expect("an answer or a close in time");
-    String::from_utf8_lossy(&got)
+    String::from_utf8_lossy(&got).to_string()
+}
+
+/// `POST path` with a JSON body from 127.0.0.1, as the device's page
+/// sends it, with a session cookie (`hgw_session=...`) if given: the
+/// answer's status line.
+async fn web_post_as(to: SocketAddrV4, path: &str, body: &str, cookie: Option<&str>) -> String {
+    web_post_full(to, path, body, cookie)
+        .await
         .lines()
         .next()
         .unwrap_or("")
         .to_string()
 }
 
-/// `POST path` with a JSON body from 127.0.0.1, as the device's page
-/// sends it: the answer's first line.
-async fn web_post(to: SocketAddrV4, path: &str, body: &str) -> String {
+/// The whole answer to a POST (head and body).
+async fn web_post_full(to: SocketAddrV4, path: &str, body: &str, cookie: Option<&str>) -> String {
     let mut s = connect_from(Ipv4Addr::LOCALHOST, to).await;
+    let cookie = cookie.map_or(String::new(), |c| format!("Cookie: {c}\r\n"));
     let request = format!(
-        "POST {path} HTTP/1.1\r\nHost: {to}\r\nOrigin: http://{to}\r\n\
+        "POST {path} HTTP/1.1\r\nHost: {to}\r\nOrigin: http://{to}\r\n{cookie}\
          Content-Type: application/json\r\nConnection: close\r\nContent-Length: {}\r\n\r\n{body}",
         body.len()
     );
@@ -78,11 +86,7 @@ async fn web_post(to: SocketAddrV4, path: &str, body: &str) -> String {
     let _ = tokio::time::timeout(hans_e2e::WAIT, s.read_to_end(&mut got))
         .await
         .expect("an answer in time");
-    String::from_utf8_lossy(&got)
-        .lines()
-        .next()
-        .unwrap_or("")
-        .to_string()
+    String::from_utf8_lossy(&got).to_string()
 }
 
 /// The setup code handed to the gateway, as `hans-gateway` prints one.
@@ -150,8 +154,28 @@ async fn a_client_from_127_0_0_2_is_refused_until_allowed() {
         .is_err());
     assert_eq!(plc.read1(r::CONTROL_CONFIG_RESULT).await, 4, "locked");
     let setup = format!(r#"{{"code":"{SETUP_CODE}","name":"admin","password":"commission-2026"}}"#);
-    let answer = web_post(web, "/api/setup", &setup).await;
+    let answer = web_post_full(web, "/api/setup", &setup, None).await;
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    // Still locked with an administrator (the allow-lists are protected
+    // settings), until it allows configuration over Modbus.
+    assert!(plc
+        .try_write(r::CONTROL_CONFIG_COMMAND, &[1])
+        .await
+        .is_err());
+    let cookie = answer
+        .lines()
+        .find(|l| l.to_ascii_lowercase().starts_with("set-cookie:"))
+        .and_then(|l| l.split_once(':'))
+        .map(|(_, v)| v.trim())
+        .and_then(|c| c.split(';').next())
+        .unwrap_or_else(|| panic!("a session cookie: {answer}"))
+        .to_string();
+    let allow = r#"{"settings":{"access.modbus_config":"true"}}"#;
+    let answer = web_post_as(web, "/api/config", allow, Some(&cookie)).await;
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    // (The page's apply ended the Modbus edit: written again.)
+    plc.write(r::MODBUS_ALLOW, &both).await;
+    plc.write(r::WEB_ALLOW, &both).await;
     plc.write(r::CONTROL_CONFIG_COMMAND, &[1]).await;
     assert_eq!(plc.read1(r::CONTROL_CONFIG_RESULT).await, 3, "applied");
     assert!(modbus_served(SECOND, modbus).await, "Modbus from 127.0.0.2");

@@ -16,7 +16,7 @@ use toml::Spanned;
 use super::{
     quoted, register_name, setting_of, tables, takes, Contents, Problem, ACCOUNTS, PASSWORD, SCHEME,
 };
-use hans_gateway::access::accounts::{Account, Role, UserName};
+use hans_gateway::access::accounts::{Account, Role, Trusted, UserName, TRUSTED};
 use hans_gateway::access::password::{PasswordHash, HASH_LEN, ITERATIONS, SALT_LEN};
 use hans_gateway::config::{
     AllowEntry, AllowList, Config, HostName, Kind, Setting, Value, ALLOW_ENTRIES, SETTINGS,
@@ -400,11 +400,10 @@ impl Reader<'_> {
         for item in list.iter() {
             let at = item.span();
             match account(item.get_ref()) {
-                Ok(a) => {
-                    if let Err(e) = self.contents.stored.accounts.add(a) {
-                        self.refuse(&at, format!("access.accounts: {}", e.as_str()));
-                    }
-                }
+                Ok((a, trusted)) => match self.contents.stored.accounts.add(a) {
+                    Ok(i) => self.contents.stored.accounts.set_trusted(i, trusted),
+                    Err(e) => self.refuse(&at, format!("access.accounts: {}", e.as_str())),
+                },
                 Err(why) => self.refuse(&at, format!("access.accounts: {why}; expected {form}")),
             }
         }
@@ -415,12 +414,13 @@ impl Reader<'_> {
     }
 }
 
-/// One account of `access.accounts`, or why not.
-fn account(v: &DeValue<'_>) -> Result<Account, String> {
+/// One account of `access.accounts` and its own addresses, or why not.
+fn account(v: &DeValue<'_>) -> Result<(Account, Trusted), String> {
     let t = v.as_table().ok_or("an account is a table")?;
     let mut name = None;
     let mut role = None;
     let mut hash = None;
+    let mut trusted: Trusted = [None; TRUSTED];
     for (k, v) in t.iter() {
         let text = v.get_ref().as_str();
         match k.get_ref().as_ref() {
@@ -436,11 +436,29 @@ fn account(v: &DeValue<'_>) -> Result<Account, String> {
                     "the password is a salted hash (the file never holds the password itself)",
                 )?)
             }
+            "trusted" => {
+                let why = format!(
+                    "trusted is an array of up to {TRUSTED} addresses \"a.b.c.d\" (the addresses the account last logged in from; the gateway keeps it)"
+                );
+                let list = v.get_ref().as_array().ok_or(why.clone())?;
+                if list.len() > TRUSTED {
+                    return Err(why);
+                }
+                for (slot, ip) in trusted.iter_mut().zip(list.iter()) {
+                    let ip = ip
+                        .get_ref()
+                        .as_str()
+                        .and_then(|s| s.parse::<std::net::Ipv4Addr>().ok())
+                        .filter(|ip| !ip.is_unspecified())
+                        .ok_or(why.clone())?;
+                    *slot = Some(ip);
+                }
+            }
             other => return Err(format!("unknown key \"{other}\"")),
         }
     }
     match (name, role, hash) {
-        (Some(name), Some(role), Some(hash)) => Ok(Account { name, role, hash }),
+        (Some(name), Some(role), Some(hash)) => Ok((Account { name, role, hash }, trusted)),
         _ => Err("name, role and password are needed".to_owned()),
     }
 }

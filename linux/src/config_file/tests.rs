@@ -73,6 +73,8 @@ fn full() -> Contents {
         web_host: hans_gateway::config::HostName::new("gw-cell-7.plant.local").unwrap(),
         read_without_login: false,
         ntp_server: ip(10, 0, 0, 123),
+        modbus_config: true,
+        plc_address: ip(192, 168, 0, 20),
     });
     for (name, role) in [("admin", Role::Admin), ("line.3_op", Role::Operator)] {
         c.stored
@@ -226,7 +228,7 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
     assert!(
         err[0]
             .reason
-            .ends_with("modbus_allow, web_allow, read_without_login, accounts"),
+            .ends_with("read_without_login, modbus_config, plc_address, accounts"),
         "{err:?}"
     );
 }

@@ -110,8 +110,9 @@ fn password(contents: &Contents, out: &mut String) {
     out.push_str(&format!(
         "# The web page's accounts (at most 8): name, role (viewer, operator, admin) and the\n\
          # password as a salted hash, never the password itself: \"{SCHEME}$ROUNDS$SALT$HASH\"\n\
-         # (PBKDF2-HMAC-SHA256; salt and hash in hex). Manage them on the web page; the first\n\
-         # administrator is created there with the setup code the gateway prints at start.\n"
+         # (PBKDF2-HMAC-SHA256; salt and hash in hex), and the addresses each last logged in\n\
+         # from (trusted: the rate limit of guesses never makes the owner wait there). Manage\n\
+         # them on the web page; the first administrator is created there with the setup code.\n"
     ));
     let accounts = &contents.stored.accounts;
     if accounts.is_empty() {
@@ -119,9 +120,21 @@ fn password(contents: &Contents, out: &mut String) {
         return;
     }
     out.push_str(&format!("{ACCOUNTS} = [\n"));
-    for a in accounts.iter() {
+    for (i, a) in
+        (0..hans_gateway::access::accounts::ACCOUNTS).filter_map(|i| accounts.at(i).map(|a| (i, a)))
+    {
+        let trusted: Vec<String> = accounts
+            .trusted(i)
+            .iter()
+            .flatten()
+            .map(|ip| format!("\"{ip}\""))
+            .collect();
+        let trusted = match trusted.is_empty() {
+            true => String::new(),
+            false => format!(", trusted = [{}]", trusted.join(", ")),
+        };
         out.push_str(&format!(
-            "  {{ name = \"{}\", role = \"{}\", password = \"{SCHEME}${}${}${}\" }},\n",
+            "  {{ name = \"{}\", role = \"{}\", password = \"{SCHEME}${}${}${}\"{trusted} }},\n",
             a.name.as_str(),
             a.role.as_str(),
             a.hash.iterations,

@@ -206,8 +206,19 @@ pub struct EdgeNode {
     round: Option<Round>,
     /// A round may begin from then on.
     next_round: Instant,
+    /// When the last NBIRTH was published.
+    born_at: Option<Instant>,
+    /// A rebirth was asked within [`REBIRTH_MIN`] of the last births: they
+    /// go again once that has passed.
+    rebirth_due: bool,
     stats: Stats,
 }
+
+/// The shortest time between two births of a session: rebirth requests
+/// that come faster are answered together, one birth a second at most (a
+/// host, or anyone who may publish NCMD, asking 25 times a second had the
+/// gateway publish 25 birth pairs a second, issue 25).
+pub const REBIRTH_MIN: Duration = Duration::from_secs(1);
 
 /// The entries of the command log, each with its serial number (the
 /// count of entries logged before it, wrapping).
@@ -253,6 +264,8 @@ impl EdgeNode {
             scanned: 0,
             round: None,
             next_round: Instant::from_ticks(0),
+            born_at: None,
+            rebirth_due: false,
             stats: Stats::default(),
         }
     }
@@ -318,6 +331,7 @@ impl EdgeNode {
         self.session = Session::Birth;
         self.device_born = false;
         self.round = None;
+        self.rebirth_due = false;
         Ok(Publish {
             ty: MessageType::NDeath,
             topic: self.topic(MessageType::NDeath),
@@ -331,6 +345,7 @@ impl EdgeNode {
         self.session = Session::Offline;
         self.device_born = false;
         self.round = None;
+        self.rebirth_due = false;
     }
 
     /// The current session's NDEATH, to publish before an intentional
@@ -360,8 +375,10 @@ impl EdgeNode {
     }
 
     /// Applies a received command of type `ty` (see [`command::decode`]):
-    /// a rebirth request makes the births next; refusals and malformed
-    /// payloads are counted. Returns what it asked.
+    /// a rebirth request makes the births next (at most one birth each
+    /// [`REBIRTH_MIN`]: requests within it are answered together, when it
+    /// has passed); refusals and malformed payloads are counted. Returns
+    /// what it asked.
     pub fn command(
         &mut self,
         ty: MessageType,
@@ -378,19 +395,33 @@ impl EdgeNode {
         if summary.refused > 0 {
             warn!("sparkplug: {} metric writes refused", summary.refused);
         }
-        if summary.rebirth && self.session != Session::Offline {
+        if summary.rebirth && self.session == Session::Online {
+            self.rebirth_due = true;
+        }
+        Ok(summary)
+    }
+
+    /// A rebirth asked, once [`REBIRTH_MIN`] has passed since the last
+    /// births: the births are next.
+    fn rebirth(&mut self, now: Instant) {
+        let due = self.born_at.is_none_or(|t| now >= t + REBIRTH_MIN);
+        if self.rebirth_due && self.session == Session::Online && due {
+            self.rebirth_due = false;
             self.session = Session::Birth;
             self.device_born = false;
             self.round = None;
             self.stats.rebirths = self.stats.rebirths.wrapping_add(1);
         }
-        Ok(summary)
     }
 
-    /// When a data round may next publish (the caller polls at this time at
-    /// the latest after a change; polling earlier does no harm).
+    /// When a data round may next publish, or a rebirth asked is due (the
+    /// caller polls at this time at the latest after a change; polling
+    /// earlier does no harm).
     pub fn next_round(&self) -> Instant {
-        self.next_round
+        match (self.rebirth_due, self.born_at) {
+            (true, Some(t)) => self.next_round.min(t + REBIRTH_MIN),
+            _ => self.next_round,
+        }
     }
 
     /// The next message to publish at `now` for state `m`, written in
@@ -402,6 +433,7 @@ impl EdgeNode {
         m: &Model,
         buf: &'b mut [u8],
     ) -> Result<Option<Publish<'b>>, Error> {
+        self.rebirth(now);
         match self.session {
             Session::Offline => return Ok(None),
             Session::Birth => return self.nbirth(now, m, buf).map(Some),
@@ -521,6 +553,7 @@ impl EdgeNode {
         }
         self.follow_outcomes(m);
         let len = self.birth(now, m, buf, Scope::Node, 0)?;
+        self.born_at = Some(now);
         self.scanned = m.log.total;
         self.seq = 1;
         self.session = Session::Online;

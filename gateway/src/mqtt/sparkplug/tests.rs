@@ -230,7 +230,7 @@ fn births_carry_every_metric_with_its_datatype_and_value() {
     );
     assert_eq!(
         v(nb, "Gateway/Map Version"),
-        Some(PValue::String("1.4".into()))
+        Some(PValue::String("1.5".into()))
     );
     assert_eq!(v(nb, "Gateway/Uptime"), Some(PValue::Int(1)));
     assert_eq!(
@@ -664,7 +664,11 @@ fn a_rebirth_request_republishes_the_births_in_the_same_session() {
             refused: 0
         }
     );
-    let msgs = drain(&mut n, t(200), &m);
+    // Within a second of the session's births: answered once it has
+    // passed (the node asks to be polled then).
+    assert!(drain(&mut n, t(200), &m).is_empty());
+    assert!(n.next_round() <= t(0) + REBIRTH_MIN);
+    let msgs = drain(&mut n, t(1000), &m);
     let tys: Vec<_> = msgs.iter().map(|x| (x.ty, x.p.seq)).collect();
     assert_eq!(
         tys,
@@ -684,6 +688,47 @@ fn a_rebirth_request_republishes_the_births_in_the_same_session() {
     n.disconnect();
     n.command(MessageType::NCmd, &payload).unwrap();
     assert!(drain(&mut n, t(300), &m).is_empty());
+}
+
+/// Issue 25: an NCMD rebirth flood made the gateway publish ~25 birth
+/// pairs a second. At most one birth a second, whatever comes; none is
+/// lost (the last request of a second is answered).
+#[test]
+fn rebirth_requests_make_one_birth_a_second_at_most() {
+    let mut m = model();
+    m.sessions = 1;
+    let mut n = node();
+    born(&mut n, t(0), &m);
+    let payload = ncmd(vec![write("Node Control/Rebirth", PValue::Boolean(true))]);
+    let mut births = Vec::new();
+    // 25 requests a second for 5 s, the node polled after each.
+    for k in 1..=125u64 {
+        let now = t(40 * k);
+        n.command(MessageType::NCmd, &payload).unwrap();
+        for msg in drain(&mut n, now, &m) {
+            if msg.ty == MessageType::NBirth {
+                births.push(now);
+            }
+        }
+    }
+    assert!(
+        births.len() <= 5,
+        "{} births in 5 s: {births:?}",
+        births.len()
+    );
+    for w in births.windows(2) {
+        assert!(w[1] - w[0] >= REBIRTH_MIN, "{births:?}");
+    }
+    // One more request right after the last birth: answered a second
+    // after it, not lost.
+    let last = *births.last().unwrap();
+    n.command(MessageType::NCmd, &payload).unwrap();
+    let due = last + REBIRTH_MIN;
+    assert!(n.next_round() <= due, "polled in time");
+    assert!(drain(&mut n, due - Duration::from_millis(1), &m).is_empty());
+    let msgs = drain(&mut n, due, &m);
+    assert_eq!(msgs.first().map(|x| x.ty), Some(MessageType::NBirth));
+    assert_eq!(u64::from(n.stats().rebirths), births.len() as u64 + 1);
 }
 
 #[test]
