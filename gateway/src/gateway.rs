@@ -7,7 +7,7 @@ use core::convert::Infallible;
 use core::net::Ipv4Addr;
 use core::pin::pin;
 
-use embassy_futures::join::{join, join3, join5};
+use embassy_futures::join::{join, join4, join5};
 
 use crate::access::setup::SetupCode;
 use crate::clock::Clock;
@@ -85,6 +85,9 @@ pub struct Options {
     /// and restarts so that the bootloader rolls it back.
     #[cfg(feature = "update")]
     pub self_check_fails: bool,
+    /// The EtherNet/IP adapter's ports and identity (feature `enip`).
+    #[cfg(feature = "enip")]
+    pub enip: crate::enip::EnipOptions,
 }
 
 /// A broker given at start (see [`Options::mqtt_override`]).
@@ -163,6 +166,8 @@ impl Default for Options {
             board: "",
             #[cfg(feature = "update")]
             self_check_fails: false,
+            #[cfg(feature = "enip")]
+            enip: crate::enip::EnipOptions::default(),
         }
     }
 }
@@ -362,14 +367,29 @@ impl Gateway {
         let trial = trial(hub, clock, &self.opts, web_port);
         #[cfg(not(feature = "update"))]
         let trial = core::future::pending::<Infallible>();
+        #[cfg(feature = "enip")]
+        let enip = {
+            let [s0, s1, s2, s3, ..] = self.opts.seed;
+            crate::enip::serve(
+                hub,
+                clock,
+                net,
+                &self.opts.enip,
+                self.opts.node_name.as_str(),
+                u32::from_le_bytes([s0, s1, s2, s3]),
+            )
+        };
+        #[cfg(not(feature = "enip"))]
+        let enip = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
         // built, instead of being moved into the join (through the stack).
         let (engine, sessions) = (pin!(engine), pin!(sessions));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
         let (telemetry, trial, warden) = (pin!(telemetry), pin!(trial), pin!(warden));
+        let enip = pin!(enip);
         let _ = join(
             join5(engine, sessions, datasheet, saver, page),
-            join3(telemetry, trial, warden),
+            join4(telemetry, trial, warden, enip),
         )
         .await;
         // The engine, the sessions, the reader and the saver loop forever.

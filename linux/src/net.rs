@@ -518,7 +518,11 @@ impl Net for TokioNet {
     /// Binds `port` on the address of [`TokioNet::new`] (or the address a
     /// caller bound ahead with [`TokioNet::listen_udp`]).
     fn udp<'a>(&'a self, port: u16, _bufs: UdpBuffers<'a>) -> Result<TokioUdp, NetError> {
-        let bound = self.udp_bound.borrow_mut().iter().position(|(p, _)| *p == port);
+        let bound = self
+            .udp_bound
+            .borrow_mut()
+            .iter()
+            .position(|(p, _)| *p == port);
         let std_socket = match bound {
             Some(i) => self.udp_bound.borrow_mut().swap_remove(i).1,
             None => std::net::UdpSocket::bind(SocketAddrV4::new(self.bind_ip, port))

@@ -455,6 +455,11 @@ pub struct Config {
     /// The NTP server whose time the audit log's records carry (boards);
     /// `0.0.0.0` = none.
     pub ntp_server: Ipv4Addr,
+    /// The EtherNet/IP adapter is served (builds with the feature `enip`;
+    /// off in the factory state; at the next start).
+    pub enip_enabled: bool,
+    /// Who may talk EtherNet/IP (sessions, discovery, I/O datagrams).
+    pub enip_allow: AllowList,
 }
 
 impl Config {
@@ -512,6 +517,8 @@ impl Config {
         web_host: HostName::EMPTY,
         read_without_login: true,
         ntp_server: Ipv4Addr::UNSPECIFIED,
+        enip_enabled: false,
+        enip_allow: AllowList::EVERYONE,
     };
 
     /// This configuration with the network and access settings of `other`
@@ -524,18 +531,23 @@ impl Config {
         self.web_allow = other.web_allow;
         self.web_host = other.web_host;
         self.read_without_login = other.read_without_login;
+        self.enip_enabled = other.enip_enabled;
+        self.enip_allow = other.enip_allow;
         self
     }
 
     /// `true` if the access settings (write protection, allow-lists, the
-    /// page's host name and reading without login) are those of `other`.
-    /// Until an administrator exists they are not changed over Modbus.
+    /// page's host name and reading without login, the EtherNet/IP
+    /// listener being on) are those of `other`. Until an administrator
+    /// exists they are not changed over Modbus.
     pub fn same_access(&self, other: &Config) -> bool {
         self.write_protect == other.write_protect
             && self.modbus_allow == other.modbus_allow
             && self.web_allow == other.web_allow
             && self.web_host == other.web_host
             && self.read_without_login == other.read_without_login
+            && self.enip_enabled == other.enip_enabled
+            && self.enip_allow == other.enip_allow
     }
 }
 

@@ -789,6 +789,21 @@ setting!(
     |c, v| c.ntp_server = address(v)
 );
 
+setting!(ENIP_ENABLED, "enip.enabled", 50, Kind::Flag, "",
+    "serve the EtherNet/IP adapter (a Logix PLC drives the robot through I/O assemblies: gateway/ENIP.md) on TCP/UDP 44818 and UDP 2222; at the next start", true,
+    |c| Value::Flag(c.enip_enabled), |c, v| c.enip_enabled = flag(v));
+setting!(
+    ACCESS_ENIP_ALLOW,
+    "access.enip_allow",
+    51,
+    Kind::AllowList,
+    "",
+    "EtherNet/IP scanners allowed (sessions, discovery, I/O): up to 4 entries a.b.c.d or a.b.c.d/prefix (1-32); none = everyone",
+    false,
+    |c| Value::AllowList(c.enip_allow),
+    |c, v| c.enip_allow = allow_list(v)
+);
+
 /// The settings every build has, in the order the views list them (a
 /// group's settings together).
 const BASE: [&Setting; 30] = [
@@ -843,28 +858,35 @@ const MQTT: [&Setting; 11] = [
     &MQTT_POSE_DEADBAND,
 ];
 
+#[cfg(not(feature = "mqtt"))]
+const MQTT: [&Setting; 0] = [];
+
+/// The EtherNet/IP adapter's settings (builds with the feature `enip`),
+/// kept like the telemetry's in builds without it.
+#[cfg(feature = "enip")]
+const ENIP: [&Setting; 2] = [&ENIP_ENABLED, &ACCESS_ENIP_ALLOW];
+#[cfg(not(feature = "enip"))]
+const ENIP: [&Setting; 0] = [];
+
 /// Every setting of this build, in the order the views list them.
 // Indexing in a constant: evaluated by the compiler, which refuses an
 // index out of range; nothing runs on the device.
-#[cfg(feature = "mqtt")]
 #[allow(clippy::indexing_slicing)]
-pub const SETTINGS: [&Setting; 41] = {
-    let mut out = [BASE[0]; 41];
+pub const SETTINGS: [&Setting; BASE.len() + MQTT.len() + ENIP.len()] = {
+    let mut out = [BASE[0]; BASE.len() + MQTT.len() + ENIP.len()];
     let mut i = 0;
     while i < out.len() {
         out[i] = if i < BASE.len() {
             BASE[i]
-        } else {
+        } else if i < BASE.len() + MQTT.len() {
             MQTT[i - BASE.len()]
+        } else {
+            ENIP[i - BASE.len() - MQTT.len()]
         };
         i += 1;
     }
     out
 };
-
-/// Every setting of this build, in the order the views list them.
-#[cfg(not(feature = "mqtt"))]
-pub const SETTINGS: [&Setting; 30] = BASE;
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a
 /// host name).

@@ -520,11 +520,7 @@ impl Net for SimNet {
     type Udp<'a> = SimUdp;
 
     #[cfg(feature = "udp")]
-    fn udp<'a>(
-        &'a self,
-        port: u16,
-        bufs: crate::net::UdpBuffers<'a>,
-    ) -> Result<SimUdp, NetError> {
+    fn udp<'a>(&'a self, port: u16, bufs: crate::net::UdpBuffers<'a>) -> Result<SimUdp, NetError> {
         self.with(|s| {
             if s.udp_bound.contains_key(&port) {
                 return Err(NetError::ListenFailed);
