@@ -85,9 +85,11 @@ pub struct Options {
     /// and restarts so that the bootloader rolls it back.
     #[cfg(feature = "update")]
     pub self_check_fails: bool,
-    /// The EtherNet/IP adapter's ports and identity (feature `enip`).
+    /// The EtherNet/IP adapter's ports and identity (feature `enip`);
+    /// `None`: not served whatever `enip.enabled` says (Linux without
+    /// `--enip-listen`). Served only while `enip.enabled` is on.
     #[cfg(feature = "enip")]
-    pub enip: crate::enip::EnipOptions,
+    pub enip: Option<crate::enip::EnipOptions>,
 }
 
 /// A broker given at start (see [`Options::mqtt_override`]).
@@ -167,7 +169,7 @@ impl Default for Options {
             #[cfg(feature = "update")]
             self_check_fails: false,
             #[cfg(feature = "enip")]
-            enip: crate::enip::EnipOptions::default(),
+            enip: Some(crate::enip::EnipOptions::default()),
         }
     }
 }
@@ -368,16 +370,16 @@ impl Gateway {
         #[cfg(not(feature = "update"))]
         let trial = core::future::pending::<Infallible>();
         #[cfg(feature = "enip")]
-        let enip = {
+        let enip = async {
             let [s0, s1, s2, s3, ..] = self.opts.seed;
-            crate::enip::serve(
-                hub,
-                clock,
-                net,
-                &self.opts.enip,
-                self.opts.node_name.as_str(),
-                u32::from_le_bytes([s0, s1, s2, s3]),
-            )
+            match &self.opts.enip {
+                Some(o) => {
+                    let name = self.opts.node_name.as_str();
+                    let seed = u32::from_le_bytes([s0, s1, s2, s3]);
+                    crate::enip::serve(hub, clock, net, o, name, seed).await
+                }
+                None => core::future::pending().await,
+            }
         };
         #[cfg(not(feature = "enip"))]
         let enip = core::future::pending::<Infallible>();

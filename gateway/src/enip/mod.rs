@@ -14,8 +14,8 @@
 //! | here | the listener: TCP 44818 sessions through `crate::admission`, UDP 44818 discovery, UDP 2222 class 1 I/O and the adapter's clock |
 //!
 //! ## Rules
-//! * Off until `enip.enabled` is set (page, TOML file; at the next start),
-//!   or Linux's `--enip-listen` turns it on for the run.
+//! * Off until `enip.enabled` is set (page, TOML file; at the next start);
+//!   Linux serves it only where `--enip-listen` says.
 //! * Who may talk: `access.enip_allow`, checked before anything is read:
 //!   at accept for TCP, per datagram for UDP (a refused datagram is
 //!   dropped unparsed and counted in `ENIP_REFUSED`). Applying a new list
@@ -70,8 +70,6 @@ pub struct EnipOptions {
     pub port: u16,
     /// The class 1 I/O port, UDP (2222).
     pub io_port: u16,
-    /// Serve it whatever `enip.enabled` says (Linux `--enip-listen`).
-    pub force: bool,
     /// The Identity object's serial number: unique per device (boards:
     /// the last four bytes of the MAC address).
     pub serial: u32,
@@ -88,7 +86,6 @@ impl Default for EnipOptions {
         EnipOptions {
             port: 44818,
             io_port: 2222,
-            force: false,
             serial: 1,
             mac: [0x02, 0, 0, 0, 0, 1],
             ip: Ipv4Addr::UNSPECIFIED,
@@ -223,7 +220,7 @@ pub(crate) async fn serve<N: Net, C: Clock>(
     seed: u32,
 ) -> Infallible {
     let enabled = hub.peek(|m| m.config.active.enip_enabled);
-    if !enabled && !opts.force {
+    if !enabled {
         info!("enip: off (enip.enabled)");
         return core::future::pending().await;
     }
