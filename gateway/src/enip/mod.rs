@@ -541,3 +541,5 @@ async fn io<N: Net, C: Clock>(ctx: &Ctx<'_, '_, C>, net: &N) -> Infallible {
         }
     }
 }
+#[cfg(test)]
+mod tests;
