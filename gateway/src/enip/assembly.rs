@@ -7,7 +7,7 @@
 //!
 //! The layout is declared once, as data ([`INPUT_FIELDS`], [`OUTPUT_FIELDS`]:
 //! name, offset, type, count); the encoder and decoder take their offsets
-//! from it, ENIP.md's tables are checked against it (gateway/tests/enip.rs)
+//! from it, ENIP.md's tables are checked against it (`enip::tests`)
 //! and the EDS file is written from the assemblies' sizes.
 //!
 //! CIP's own types, little-endian: `UINT` (u16), `DINT` (i32), `REAL`

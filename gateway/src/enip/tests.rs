@@ -494,3 +494,60 @@ fn off_in_the_factory_state() {
         .connect(SocketAddrV4::new(LOGIX, 40_000), 44818)
         .is_none());
 }
+
+/// An assembly's fields as ENIP.md's table rows.
+fn table(fields: &[super::assembly::Field]) -> std::string::String {
+    use std::fmt::Write;
+    let mut t = std::string::String::from("| byte | tag | type |\n|---|---|---|\n");
+    for f in fields {
+        let ty = match (f.ty, f.count) {
+            (super::assembly::Ty::Text, n) => std::format!("STRING ({n} chars)"),
+            (ty, 1) => std::format!("{}", ty.name()),
+            (ty, n) => std::format!("{}[{n}]", ty.name()),
+        };
+        let _ = writeln!(t, "| {} | {} | {} |", f.offset, f.name, ty);
+    }
+    t
+}
+
+/// `gateway/NAME` holds `want` (with `HANS_BLESS=1`: is made to).
+fn generated(name: &str, text: &str, want: &str, whole: bool) {
+    let path = std::format!("{}/{name}", env!("CARGO_MANIFEST_DIR"));
+    let holds = if whole {
+        text == want
+    } else {
+        text.contains(want)
+    };
+    if !holds && std::env::var_os("HANS_BLESS").is_some() && whole {
+        std::fs::write(&path, want).unwrap();
+        return;
+    }
+    assert!(
+        holds,
+        "{path} is not what the definitions give; it should hold:\n{want}"
+    );
+}
+
+#[test]
+fn enip_md_tables_are_the_assemblies_layout() {
+    let doc = include_str!("../../ENIP.md");
+    generated("ENIP.md", doc, &table(super::assembly::INPUT_FIELDS), false);
+    generated(
+        "ENIP.md",
+        doc,
+        &table(super::assembly::OUTPUT_FIELDS),
+        false,
+    );
+}
+
+#[test]
+fn the_eds_file_is_written_from_the_definitions() {
+    let mut eds = std::string::String::new();
+    super::write_eds(&mut eds).unwrap();
+    let file = std::fs::read_to_string(std::format!(
+        "{}/hans-gateway.eds",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap_or_default();
+    generated("hans-gateway.eds", &file, &eds, true);
+}

@@ -4,7 +4,7 @@
 //! reports of itself (registers `COMMAND_OWNER`, `ENIP_CONNECTIONS`,
 //! `ENIP_REFUSED`).
 //!
-//! The rule (REGISTERS.md and ENIP.md, "Who owns the command channels"):
+//! The rule (ENIP.md, "Who owns the command channels"):
 //! an EtherNet/IP exclusive-owner connection owns the command inputs for as
 //! long as it is open; otherwise Modbus does. While EtherNet/IP owns them,
 //! a Modbus write that touches them is refused whole (exception 01,
