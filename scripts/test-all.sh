@@ -105,6 +105,12 @@ step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd
 # check, the SCL file, and the blocks against hans-gateway + hans-sim
 step "PLC library (parsers, subset, SCL, blocks against the gateway)" bash scripts/plc-tests.sh
 
+# --- EtherNet/IP: hans-enip's runner, then hans-gateway + hans-sim, against
+# pycomm3, cpppo, ethernetip (PyPI) and tshark's dissectors; 10 s of class 1
+# I/O each (bounded; the binaries are the host tests step's)
+step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gateway)" \
+  env ENIP_IO_SECONDS=10 ENIP_GW_SECONDS=10 bash scripts/enip-tests.sh
+
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
