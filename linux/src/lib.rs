@@ -498,13 +498,15 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         update_key: None,
         board: "linux",
         self_check_fails: false,
-        enip: bound.enip.map(|(at, io_port)| hans_gateway::enip::EnipOptions {
-            port: at.port(),
-            io_port,
-            serial: machine_serial(),
-            ip: *at.ip(),
-            ..hans_gateway::enip::EnipOptions::default()
-        }),
+        enip: bound
+            .enip
+            .map(|(at, io_port)| hans_gateway::enip::EnipOptions {
+                port: at.port(),
+                io_port,
+                serial: machine_serial(),
+                ip: *at.ip(),
+                ..hans_gateway::enip::EnipOptions::default()
+            }),
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;

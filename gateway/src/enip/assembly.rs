@@ -85,7 +85,7 @@ pub struct Field {
 
 impl Field {
     /// Bytes it takes.
-    pub const fn len(&self) -> usize {
+    pub const fn bytes(&self) -> usize {
         self.ty.size() * self.count
     }
 }
@@ -322,7 +322,8 @@ impl Bytes<'_> {
     /// A REAL the gateway reports: zero as +0.0, unknown as NaN.
     fn real(&mut self, at: usize, v: Option<f32>) {
         let bits = match v {
-            Some(x) if x == 0.0 => 0,
+            // -0.0 too: a float pattern compares by value.
+            Some(0.0) => 0,
             Some(x) => x.to_bits(),
             None => f32::NAN.to_bits(),
         };
@@ -517,14 +518,14 @@ mod tests {
             let mut at = 0;
             for fl in fields {
                 assert_eq!(fl.offset, at, "{} starts where the last ended", fl.name);
-                at += fl.len();
+                at += fl.bytes();
             }
             assert_eq!(at, SIZE);
         }
         assert_eq!(SIZE % 4, 0, "whole DINTs");
         // A Forward_Open (not Large) carries up to 511 bytes: the data, the
         // sequence count and (O->T) the run/idle header.
-        assert!(SIZE + 6 <= 511);
+        const { assert!(SIZE + 6 <= 511) };
     }
 
     #[test]

@@ -502,7 +502,7 @@ fn table(fields: &[super::assembly::Field]) -> std::string::String {
     for f in fields {
         let ty = match (f.ty, f.count) {
             (super::assembly::Ty::Text, n) => std::format!("STRING ({n} chars)"),
-            (ty, 1) => std::format!("{}", ty.name()),
+            (ty, 1) => std::string::String::from(ty.name()),
             (ty, n) => std::format!("{}[{n}]", ty.name()),
         };
         let _ = writeln!(t, "| {} | {} | {} |", f.offset, f.name, ty);

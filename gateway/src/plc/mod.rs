@@ -68,6 +68,7 @@ pub(crate) fn modbus_may_write(m: &Model, start: u16, count: usize) -> bool {
 /// another address) is Busy: the PLC that fired it keeps the inputs until
 /// it has ended, then the Forward_Open (which a Logix PLC repeats on its
 /// own) succeeds.
+#[cfg(feature = "enip")]
 pub(crate) fn enip_may_own(m: &Model, ip: core::net::Ipv4Addr) -> bool {
     let busy = m.channels.iter().any(|c| c.handshake.is_busy())
         || m.raw.handshake.is_busy()

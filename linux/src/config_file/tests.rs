@@ -73,6 +73,13 @@ fn full() -> Contents {
         web_host: hans_gateway::config::HostName::new("gw-cell-7.plant.local").unwrap(),
         read_without_login: false,
         ntp_server: ip(10, 0, 0, 123),
+        enip_enabled: true,
+        enip_allow: AllowList([
+            net(ip(192, 168, 1, 20), 32),
+            AllowEntry::UNUSED,
+            AllowEntry::UNUSED,
+            AllowEntry::UNUSED,
+        ]),
     });
     for (name, role) in [("admin", Role::Admin), ("line.3_op", Role::Operator)] {
         c.stored
