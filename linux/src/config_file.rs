@@ -100,7 +100,7 @@
 //! | `mqtt.joint_deadband` | (none) | integer, 0.01 degree |
 //! | `mqtt.pose_deadband` | (none) | integer, 0.01 mm or degree |
 //! | `enip.enabled` | (none) | `true` / `false` (the EtherNet/IP adapter, gateway/ENIP.md; Linux: where `--enip-listen` says) |
-//! | `access.enip_allow` | (none) | `["a.b.c.d/prefix", ...]` |
+//! | `enip.allow` | (none) | `["a.b.c.d/prefix", ...]` |
 //! | `access.accounts` | (the web page's accounts) | `[{ name = "...", role = "admin", password = "pbkdf2-sha256$ROUNDS$SALT$HASH" }, ...]` |
 //! | `access.password` | (the previous version's one password: read as the administrator `admin`, never written) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |

@@ -793,8 +793,8 @@ setting!(ENIP_ENABLED, "enip.enabled", 50, Kind::Flag, "",
     "serve the EtherNet/IP adapter (a Logix PLC drives the robot through I/O assemblies: gateway/ENIP.md) on TCP/UDP 44818 and UDP 2222; at the next start", true,
     |c| Value::Flag(c.enip_enabled), |c, v| c.enip_enabled = flag(v));
 setting!(
-    ACCESS_ENIP_ALLOW,
-    "access.enip_allow",
+    ENIP_ALLOW,
+    "enip.allow",
     51,
     Kind::AllowList,
     "",
@@ -864,7 +864,7 @@ const MQTT: [&Setting; 0] = [];
 /// The EtherNet/IP adapter's settings (builds with the feature `enip`),
 /// kept like the telemetry's in builds without it.
 #[cfg(feature = "enip")]
-const ENIP: [&Setting; 2] = [&ENIP_ENABLED, &ACCESS_ENIP_ALLOW];
+const ENIP: [&Setting; 2] = [&ENIP_ENABLED, &ENIP_ALLOW];
 #[cfg(not(feature = "enip"))]
 const ENIP: [&Setting; 0] = [];
 

@@ -16,7 +16,7 @@
 //! ## Rules
 //! * Off until `enip.enabled` is set (page, TOML file; at the next start);
 //!   Linux serves it only where `--enip-listen` says.
-//! * Who may talk: `access.enip_allow`, checked before anything is read:
+//! * Who may talk: `enip.allow`, checked before anything is read:
 //!   at accept for TCP, per datagram for UDP (a refused datagram is
 //!   dropped unparsed and counted in `ENIP_REFUSED`). Applying a new list
 //!   closes the TCP sessions it no longer permits; a class 1 connection
@@ -283,7 +283,7 @@ impl<C: Clock> Ctx<'_, '_, C> {
         }
     }
 
-    /// `access.enip_allow` permits `peer` (nothing counted).
+    /// `enip.allow` permits `peer` (nothing counted).
     fn permits(&self, peer: Option<SocketAddrV4>) -> bool {
         self.hub.peek(|m| m.config.active.enip_allow.admits(peer))
     }
@@ -421,7 +421,7 @@ fn handle<C: Clock>(
 }
 
 /// Closes, each time a configuration is applied, the sessions the new
-/// `access.enip_allow` no longer permits.
+/// `enip.allow` no longer permits.
 async fn warden<C: Clock>(ctx: &Ctx<'_, '_, C>) -> Infallible {
     let Some(mut applied) = ctx.hub.config_applied.receiver() else {
         return core::future::pending().await;

@@ -176,7 +176,7 @@ pub const STATUS_COMMAND_OWNER: u16 = 59;
 /// EtherNet/IP connections open (class 1 and class 3).
 pub const STATUS_ENIP_CONNECTIONS: u16 = 60;
 /// EtherNet/IP sessions and datagrams refused by the allow-list
-/// (`access.enip_allow`) and Forward_Opens refused by the ownership rule,
+/// (`enip.allow`) and Forward_Opens refused by the ownership rule,
 /// since start (wraps).
 pub const STATUS_ENIP_REFUSED: u16 = 61;
 

@@ -52,7 +52,7 @@ pub struct Ownership {
     pub commander: Commander,
     /// EtherNet/IP connections (class 1 and class 3) open now.
     pub enip_connections: u16,
-    /// EtherNet/IP sessions and datagrams refused by `access.enip_allow`,
+    /// EtherNet/IP sessions and datagrams refused by `enip.allow`,
     /// and Forward_Opens refused by the ownership rule (wraps).
     pub enip_refused: u16,
 }
