@@ -63,7 +63,7 @@ fn last_sent(w: &World, name: &str) -> String {
 #[test]
 fn the_default_is_f32_and_the_register_says_so() {
     let mut w = world(NumberFormat::F32, WordOrder::HighFirst);
-    assert_eq!(w.reg(r::STATUS_VERSION), 0x0104);
+    assert_eq!(w.reg(r::STATUS_VERSION), 0x0105);
     assert_eq!(w.reg(r::CONFIG_NUMBER_FORMAT), 0);
     // J3 = 90.0 as f32, the pose's X = 420.0.
     assert_eq!(

@@ -683,7 +683,7 @@ fn web_listen_serves_the_page_and_the_api() {
     );
     let status = get("/api/status");
     assert!(status.starts_with("HTTP/1.1 200"), "{status}");
-    assert!(status.contains("\"map\":\"1.4\""), "{status}");
+    assert!(status.contains("\"map\":\"1.5\""), "{status}");
     // The access bit "web page on" shows over Modbus too.
     let regs = read_registers(&modbus_addr(&log), 50, 1);
     assert_eq!(regs[0] & (1 << 4), 1 << 4);

@@ -226,7 +226,7 @@ fn births_carry_every_metric_with_its_datatype_and_value() {
     );
     assert_eq!(
         v(nb, "Gateway/Map Version"),
-        Some(PValue::String("1.4".into()))
+        Some(PValue::String("1.5".into()))
     );
     assert_eq!(v(nb, "Gateway/Uptime"), Some(PValue::Int(1)));
     assert_eq!(
