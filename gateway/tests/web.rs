@@ -184,7 +184,7 @@ fn the_page_is_served_compressed_and_the_status_is_the_state() {
         .starts_with("text/html"));
     assert_eq!(&page.body[..2], &[0x1f, 0x8b], "gzip magic");
     let s = get(&mut w, "/api/status").json();
-    assert_eq!(s["map"], "1.4");
+    assert_eq!(s["map"], "1.5");
     assert_eq!(s["link"]["state"], "connected");
     assert_eq!(s["robot"]["fsm"]["code"], w.reg(r::STATUS_FSM));
     assert_eq!(s["channels"].as_array().unwrap().len(), 2);
