@@ -10,9 +10,17 @@
 #   3. the whole exchange captured on lo (tshark, a capture filter on the
 #      runner's ports, bounded in time) and decoded by Wireshark's ENIP, CIP
 #      and CIP I/O dissectors: no malformed packet and no expert error in
-#      anything the adapter sent.
+#      anything the adapter sent;
+#   4. the real gateway (`hans-gateway` with enip.enabled, hans-sim as the
+#      robot) against the same scanners (host-tests/enip/gateway_scanners.py):
+#      discovery, class 1 at 10 ms RPI for ENIP_GW_SECONDS (missed datagrams
+#      counted), a move Done through the assemblies (Execute-to-Done timed),
+#      Forward_Close, the connection dropped during a motion -> the
+#      watchdog's stop; captured and decoded by tshark as in 3.
 #
-#   bash scripts/enip-tests.sh            (ENIP_IO_SECONDS=60 for a minute of I/O; default 20)
+#   bash scripts/enip-tests.sh   (ENIP_IO_SECONDS / ENIP_GW_SECONDS: seconds of
+#                                 class 1 I/O against the runner / the gateway;
+#                                 defaults 20 / 15; 60 for the issue's minute)
 #
 # Installs what it needs, idempotently: Debian's tshark (non-interactive,
 # no setuid dumpcap), and the PyPI packages, pinned, into a venv under
@@ -24,6 +32,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 IO_SECONDS=${ENIP_IO_SECONDS:-20}
+GW_SECONDS=${ENIP_GW_SECONDS:-15}
 OUT=$ROOT/target/enip
 VENV=$ROOT/target/enip-venv
 mkdir -p "$OUT"
@@ -44,6 +53,9 @@ fi
 
 cargo build -q -p hans-enip --example loopback_adapter --locked
 RUNNER=$ROOT/target/debug/examples/loopback_adapter
+# Built by the host tests step already in scripts/test-all.sh.
+cargo build -q --locked -p hans-gateway-linux --bin hans-gateway
+cargo build -q --locked -p hans-sim --bin hans-sim
 
 "$RUNNER" --eds "$OUT/loopback.eds"
 EDS_LOG=$OUT/eds_check.log
@@ -133,5 +145,48 @@ echo "tshark: $total packets from the adapter: $enip ENIP, $cip CIP, $io CIP I/O
 }
 tshark -r "$OUT/capture.pcapng" "${DEC[@]}" -q -z expert 2>/dev/null >"$OUT/expert.txt" || true
 echo "(capture: $OUT/capture.pcapng, expert summary: $OUT/expert.txt, scanner log: $SCAN_LOG)"
+
+# 4. The real gateway, on free ports of its own, captured as above.
+free_port() { "$VENV/bin/python" -c 'import socket,sys; s=socket.socket(socket.AF_INET, getattr(socket, sys.argv[1])); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])' "$1"; }
+GW_PORT=$(free_port SOCK_STREAM)
+GW_IO=$(free_port SOCK_DGRAM)
+rm -f "$OUT/gw-ready" "$OUT/gateway.pcapng"
+GW_LOG=$OUT/gateway-scanners.log
+tshark -i lo -f "host 127.0.0.1 and (port $GW_PORT or port $GW_IO)" \
+  -a "duration:$((GW_SECONDS + 90))" -w "$OUT/gateway.pcapng" >"$OUT/tshark-gw.log" 2>&1 &
+TSHARK_PID=$!
+for _ in $(seq 100); do
+  grep -q "Capturing on" "$OUT/tshark-gw.log" && break
+  sleep 0.1
+done
+touch "$OUT/gw-ready"
+gw_status=0
+timeout $((GW_SECONDS + 120)) "$VENV/bin/python" host-tests/enip/gateway_scanners.py \
+  target/debug/hans-gateway target/debug/hans-sim --enip-port "$GW_PORT" --io-port "$GW_IO" \
+  --io-seconds "$GW_SECONDS" --ready-file "$OUT/gw-ready" >"$GW_LOG" 2>&1 || gw_status=$?
+grep -E '^(ok|FAIL|figures|[0-9]+ passed)' "$GW_LOG" || true
+sleep 0.5
+kill -INT "$TSHARK_PID" 2>/dev/null || true
+wait "$TSHARK_PID" 2>/dev/null || true
+TSHARK_PID=""
+GW_PASSED=$(grep -Eo '^[0-9]+ passed' "$GW_LOG" | awk '{print $1}' || echo 0)
+GW_FAILED=$(grep -Eo '[0-9]+ failed$' "$GW_LOG" | awk '{print $1}' || echo 1)
+PASSED=$((PASSED + ${GW_PASSED:-0}))
+FAILED=$((FAILED + ${GW_FAILED:-1}))
+[ "$gw_status" -eq 0 ] || { [ "${GW_FAILED:-1}" -gt 0 ] || FAILED=$((FAILED + 1)); }
+DEC=(-d "tcp.port==$GW_PORT,enip" -d "udp.port==$GW_PORT,enip" -d "udp.port==$GW_IO,cipio")
+gcount() { tshark -r "$OUT/gateway.pcapng" "${DEC[@]}" -Y "$1" 2>/dev/null | wc -l; }
+FROM_GW="(tcp.srcport==$GW_PORT || udp.srcport==$GW_PORT || udp.srcport==$GW_IO)"
+gw_total=$(gcount "$FROM_GW")
+gw_io=$(gcount "udp.srcport==$GW_IO && cipio")
+gw_bad=$(gcount "$FROM_GW && (_ws.malformed || _ws.expert.severity == error)")
+echo "tshark (gateway): $gw_total packets from the gateway, $gw_io CIP I/O; malformed or expert errors: $gw_bad"
+[ "$gw_io" -ge $((GW_SECONDS * 80)) ] && tcheck "tshark decodes the gateway's class 1 datagrams as CIP I/O ($gw_io)" ok \
+  || tcheck "tshark decodes the gateway's class 1 datagrams as CIP I/O ($gw_io)" fail
+[ "$gw_bad" -eq 0 ] && tcheck "no malformed packet or expert error from the gateway" ok || {
+  tshark -r "$OUT/gateway.pcapng" "${DEC[@]}" -Y "$FROM_GW && (_ws.malformed || _ws.expert.severity == error)" 2>/dev/null | head -20
+  tcheck "no malformed packet or expert error from the gateway ($gw_bad)" fail
+}
+echo "(gateway capture: $OUT/gateway.pcapng, log: $GW_LOG)"
 echo "$PASSED passed, $FAILED failed"
 [ "$FAILED" -eq 0 ]

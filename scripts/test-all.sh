@@ -118,6 +118,12 @@ step "Debian package (cargo deb, lintian, install, upgrade, remove, the installe
 # edge-node assertions (the same debug binaries as the PLC library's step).
 step "Sparkplug B read by Eclipse Tahu's decoder, TCK edge-node assertions" bash host-tests/sparkplug-tahu/run.sh
 
+# --- EtherNet/IP: hans-enip's runner, then hans-gateway + hans-sim, against
+# pycomm3, cpppo, ethernetip (PyPI) and tshark's dissectors; 10 s of class 1
+# I/O each (bounded; the binaries are the host tests step's)
+step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gateway)" \
+  env ENIP_IO_SECONDS=10 ENIP_GW_SECONDS=10 bash scripts/enip-tests.sh
+
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked

@@ -6,6 +6,7 @@ use core::net::Ipv4Addr;
 
 use crate::device::{ConnectionKind, EthernetLinkInfo, Identity, TcpIpInfo};
 use crate::wire::cip::GeneralStatus;
+use crate::wire::conn_mgr::ExtendedStatus;
 
 /// A class 1 or class 3 connection, named by its O->T connection id (unique
 /// among open connections).
@@ -109,6 +110,23 @@ pub trait Application {
 
     /// Told what happened.
     fn event(&mut self, event: Event);
+
+    /// Asked before a Forward_Open that passed every check of the adapter
+    /// is accepted (its configuration data, if any, is written by then):
+    /// the application's own rules, such as who may own the
+    /// outputs now or how many connections one originator may hold.
+    /// `held` is how many connections `originator` has open already.
+    /// `Err(status)` refuses the Forward_Open with that extended status.
+    /// The default accepts.
+    fn admit_open(
+        &mut self,
+        kind: ConnectionKind,
+        originator: Ipv4Addr,
+        held: usize,
+    ) -> Result<(), ExtendedStatus> {
+        let _ = (kind, originator, held);
+        Ok(())
+    }
 
     /// The Identity object's Reset service (0: like a power cycle, 1: back
     /// to the factory defaults, then like a power cycle). Return `true` to

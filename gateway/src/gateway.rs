@@ -7,7 +7,7 @@ use core::convert::Infallible;
 use core::net::Ipv4Addr;
 use core::pin::pin;
 
-use embassy_futures::join::{join, join3, join5};
+use embassy_futures::join::{join, join4, join5};
 
 use crate::access::setup::SetupCode;
 use crate::clock::Clock;
@@ -91,6 +91,11 @@ pub struct Options {
     /// with updates reports its running image's version instead (read from
     /// its slots). The Sparkplug `Gateway/Version` metric shows it.
     pub version: &'static str,
+    /// The EtherNet/IP adapter's ports and identity (feature `enip`);
+    /// `None`: not served whatever `enip.enabled` says (Linux without
+    /// `--enip-listen`). Served only while `enip.enabled` is on.
+    #[cfg(feature = "enip")]
+    pub enip: Option<crate::enip::EnipOptions>,
 }
 
 /// A broker given at start (see [`Options::mqtt_override`]).
@@ -170,6 +175,8 @@ impl Default for Options {
             #[cfg(feature = "update")]
             self_check_fails: false,
             version: env!("CARGO_PKG_VERSION"),
+            #[cfg(feature = "enip")]
+            enip: Some(crate::enip::EnipOptions::default()),
         }
     }
 }
@@ -370,14 +377,29 @@ impl Gateway {
         let trial = trial(hub, clock, &self.opts, web_port);
         #[cfg(not(feature = "update"))]
         let trial = core::future::pending::<Infallible>();
+        #[cfg(feature = "enip")]
+        let enip = async {
+            let [s0, s1, s2, s3, ..] = self.opts.seed;
+            match &self.opts.enip {
+                Some(o) => {
+                    let name = self.opts.node_name.as_str();
+                    let seed = u32::from_le_bytes([s0, s1, s2, s3]);
+                    crate::enip::serve(hub, clock, net, o, name, seed).await
+                }
+                None => core::future::pending().await,
+            }
+        };
+        #[cfg(not(feature = "enip"))]
+        let enip = core::future::pending::<Infallible>();
         // Joined through pinned references: each part stays where it was
         // built, instead of being moved into the join (through the stack).
         let (engine, sessions) = (pin!(engine), pin!(sessions));
         let (datasheet, saver, page) = (pin!(datasheet), pin!(saver), pin!(page));
         let (telemetry, trial, warden) = (pin!(telemetry), pin!(trial), pin!(warden));
+        let enip = pin!(enip);
         let _ = join(
             join5(engine, sessions, datasheet, saver, page),
-            join3(telemetry, trial, warden),
+            join4(telemetry, trial, warden, enip),
         )
         .await;
         // The engine, the sessions, the reader and the saver loop forever.

@@ -35,9 +35,9 @@ use crate::storage::SaveOutcome;
 /// The engine's end of [`Hub::config_applied`].
 pub(crate) type ConfigReceiver<'a> = Receiver<'a, NoopRawMutex, Config, FOLLOWERS>;
 
-/// Who follows [`Hub::config_applied`]: the engine, the web server's and
-/// the Modbus server's allow-list wardens.
-const FOLLOWERS: usize = 3;
+/// Who follows [`Hub::config_applied`]: the engine, the web server's, the
+/// Modbus server's and the EtherNet/IP adapter's allow-list wardens.
+const FOLLOWERS: usize = 4;
 
 /// Shared state and signals (see the module documentation).
 pub struct Hub {

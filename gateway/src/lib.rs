@@ -41,6 +41,7 @@
 //! | `web` | the web page and its JSON API (feature `web`) |
 //! | [`mqtt`] | the MQTT client and the Sparkplug B edge node (feature `mqtt`) |
 //! | `sntp` | the audit log's wall time from a time server on boards (feature `sntp`) |
+//! | [`enip`] | the EtherNet/IP adapter: the I/O assemblies as a view of the state, its listeners (feature `enip`; `ENIP.md`) |
 //! | [`limits`], [`crc`], [`hex`], [`error`] | leaves: shared sizes and deadlines, the CRC-32, hex text, the error codes |
 //! | `gateway` | the composition root: [`Options`], [`Gateway`], [`run`], the storage task |
 //! | [`board`] | the entry point for boards (feature `embassy-net`) |
@@ -64,8 +65,9 @@
 //! | 6 | `hub` | the shared state and the signals |
 //! | 7 | `modbus` | the Modbus server, over any register map |
 //! | 8 | `plc`, `engine`, `datasheet`, `mqtt`, `sntp`, `web` | the services that run on the hub |
-//! | 9 | `gateway` | the composition root |
-//! | 10 | `board` | the boards' entry point |
+//! | 9 | `enip` | a second PLC protocol: a service over the PLC rules of `plc` |
+//! | 10 | `gateway` | the composition root |
+//! | 11 | `board` | the boards' entry point |
 //!
 //! ## Bounds
 //! Every buffer and queue is fixed: 4 Modbus clients at once, 3 from one
@@ -107,6 +109,9 @@
 //!   (`sntp`, run by [`board::run`]).
 //! * `mqtt`: [`mqtt`], the MQTT client and Sparkplug B edge node.
 //! * `update` (with `web`): [`update`], signed A/B updates.
+//! * `udp`: UDP sockets in the platform API ([`net::Net::udp`]).
+//! * `enip` (with `udp`): [`enip`], the EtherNet/IP adapter, off until
+//!   `enip.enabled` is set.
 //! * `log` / `defmt`: log lines through `log` (Linux) or `defmt` (boards);
 //!   without either, logging is off.
 //! * `testkit`: [`testkit`], the virtual world of the tests, simulations
@@ -154,6 +159,8 @@ pub mod crc;
 #[cfg(feature = "datasheet")]
 pub(crate) mod datasheet;
 pub(crate) mod engine;
+#[cfg(feature = "enip")]
+pub mod enip;
 pub mod error;
 mod gateway;
 pub mod hex;

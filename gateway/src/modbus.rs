@@ -936,7 +936,7 @@ mod tests {
             [0, 1, 0, 0, 0, 3, 1, 0x90, 1]
         );
         assert_eq!(
-            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 59, 0, 1]),
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 62, 0, 1]),
             [0, 1, 0, 0, 0, 3, 1, 0x83, 2]
         );
         assert_eq!(
@@ -949,13 +949,13 @@ mod tests {
             answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 1, 0, 0, 0, 12]),
             [0, 1, 0, 0, 0, 5, 1, 1, 2, 0x05, 0x01]
         );
-        // FC 2 from bit 4, 940 bits (up to register 58): 118 bytes; bit 4
+        // FC 2 from bit 4, 988 bits (up to register 61): 124 bytes; bit 4
         // of the reply is bit 8 of register 0.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xAC]);
-        assert_eq!((r[7], r[8], r.len()), (2, 118, 9 + 118));
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xDC]);
+        assert_eq!((r[7], r[8], r.len()), (2, 124, 9 + 124));
         assert_eq!(r[9], 1 << 4);
-        // One bit more reaches register 59, unmapped: 02.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xAD]);
+        // One bit more reaches register 62, unmapped: 02.
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xDD]);
         assert_eq!(&r[7..], [0x82, 2]);
         // FC 16 shorter than its header says -> 03, never a panic.
         assert_eq!(

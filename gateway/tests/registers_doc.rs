@@ -178,42 +178,60 @@ fn the_documented_blocks_are_the_gap_free_runs_of_the_map() {
 }
 
 /// Finding: the example's "Write 200-227" covered P0-P11 while its values
-/// were Execute, code, sequence, reserved and P0-P8. The range must hold
-/// exactly the values listed.
+/// were Execute, code, sequence, reserved and P0-P8. Every range the example
+/// writes must hold exactly the values it lists: `A-B = `[v, ...]`` (or
+/// "write A-B with FC 16: `[...]`") one register a value, starting at
+/// channel 0's block; `A-B = Pm-Pn as f32 pairs (K registers` two a value.
 #[test]
 fn the_example_write_range_holds_exactly_its_values() {
     let doc = doc();
-    let line = doc
-        .lines()
-        .find(|l| l.starts_with("1. Write ") && l.contains("with FC 16"))
-        .expect("the example's first step");
-    let range = line
-        .trim_start_matches("1. Write ")
-        .split(' ')
-        .next()
-        .expect("range");
-    let (a, b) = range.split_once('-').expect("A-B");
-    let (a, b): (u16, u16) = (a.parse().expect("A"), b.parse().expect("B"));
-    // `[0, 12, 7, 0, P0..P8 as f32 pairs]`: four words, then floats.
-    let values = line
-        .split('[')
-        .nth(1)
-        .and_then(|t| t.split(']').next())
-        .expect("the values");
-    let mut words = 0u16;
-    for item in values.split(", ") {
-        if let Some(ps) = item.strip_prefix('P') {
-            let (first, last) = ps.split_once("..P").expect("Pm..Pn");
-            let last = last.split(' ').next().expect("n");
-            let n = last.parse::<u16>().expect("n") - first.parse::<u16>().expect("m") + 1;
-            words += 2 * n;
-        } else {
-            item.parse::<u16>().expect("a register value");
-            words += 1;
+    let start = doc
+        .find("## Example: from power-off to a linear move")
+        .expect("the example");
+    let example = &doc[start..];
+    let example = &example[..example.find("\n## ").unwrap_or(example.len())];
+    // "A-B" just before `at`, if the text there ends with one.
+    let range_before = |at: usize| -> Option<(u16, u16)> {
+        let head = example[..at].trim_end();
+        let word = head.rsplit(' ').next()?;
+        let (a, b) = word.split_once('-')?;
+        Some((a.parse().ok()?, b.parse().ok()?))
+    };
+    let (mut lists, mut pairs) = (0, 0);
+    for marker in [" = `[", " with FC 16: `["] {
+        for (at, _) in example.match_indices(marker) {
+            let Some((a, b)) = range_before(at) else {
+                continue;
+            };
+            let values = &example[at + marker.len()..];
+            let values = &values[..values.find(']').expect("the list's end")];
+            let n = values.split(", ").count() as u16;
+            assert_eq!(b - a + 1, n, "{a}-{b} = [{values}]");
+            assert_eq!(a, hans_gateway::registers::channel_base(0));
+            lists += 1;
         }
     }
-    assert_eq!(b - a + 1, words, "{line}");
-    assert_eq!(a, hans_gateway::registers::channel_base(0));
+    for (at, _) in example.match_indices(" as f32 pairs (") {
+        let head = &example[..at];
+        let ps = head.rsplit(' ').next().expect("Pm-Pn");
+        let (m, n) = ps.trim_start_matches('P').split_once("-P").expect("Pm-Pn");
+        let values = n.parse::<u16>().expect("n") - m.parse::<u16>().expect("m") + 1;
+        let eq = head[..head.len() - ps.len()].trim_end();
+        let eq = eq.strip_suffix('=').expect("A-B = Pm-Pn").trim_end();
+        let (a, b) = range_before(eq.len()).expect("A-B");
+        let k: u16 = example[at + " as f32 pairs (".len()..]
+            .split(' ')
+            .next()
+            .and_then(|k| k.parse().ok())
+            .expect("(K registers");
+        assert_eq!(b - a + 1, 2 * values, "{a}-{b} = {ps}");
+        assert_eq!(k, 2 * values, "{a}-{b} = {ps} ({k} registers");
+        pairs += 1;
+    }
+    assert!(
+        lists >= 3 && pairs >= 1,
+        "the example's writes not found ({lists}, {pairs})"
+    );
 }
 
 /// Finding: VERSION said "gateway version (0x0100 = 1.0)" while

@@ -102,6 +102,8 @@
 //! | `access.modbus_config` | (none) | `true` / `false`: configuration over Modbus (the protected settings) |
 //! | `access.plc_address` | (none) | `"a.b.c.d"`, `"0.0.0.0"` = none: the PLC's reserved Modbus slot |
 //! | `access.accounts` | (the web page's accounts) | `[{ name = "...", role = "admin", password = "pbkdf2-sha256$ROUNDS$SALT$HASH", trusted = ["a.b.c.d", ...] }, ...]` (`trusted`: the addresses the account last logged in from, up to 4, kept by the gateway) |
+//! | `enip.enabled` | (none) | `true` / `false` (the EtherNet/IP adapter, gateway/ENIP.md; Linux: where `--enip-listen` says) |
+//! | `enip.allow` | (none) | `["a.b.c.d/prefix", ...]` |
 //! | `access.password` | (the previous version's one password: read as the administrator `admin`, never written) | `"pbkdf2-sha256$ROUNDS$SALT$HASH"` |
 //! | `triggers.N` | TRIGN_TEXT (N = 0-15) | string |
 

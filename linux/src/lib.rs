@@ -217,6 +217,21 @@ pub struct HostOptions {
     /// Serve Modbus/TCP Security too (`--modbus-tls-listen`); `None`:
     /// plain Modbus TCP only.
     pub modbus_tls: Option<ModbusTls>,
+    /// Where the EtherNet/IP adapter listens (`--enip-listen`), served
+    /// while `enip.enabled` is on; `None`: not served.
+    pub enip: Option<EnipListen>,
+}
+
+/// Where the EtherNet/IP adapter listens: the encapsulation protocol on
+/// TCP and UDP `listen` (44818 is the standard; port 0 picks a free one,
+/// the same for both), class 1 I/O on UDP `io_port` of the same address
+/// (2222 is the standard, and what a Logix scanner sends to; 0 picks one).
+#[derive(Clone, Copy, Debug)]
+pub struct EnipListen {
+    /// The encapsulation address (TCP and UDP).
+    pub listen: SocketAddrV4,
+    /// The class 1 I/O port (UDP).
+    pub io_port: u16,
 }
 
 /// A TLS server's certificate (chain) and private key, PEM files.
@@ -258,6 +273,7 @@ impl HostOptions {
             mqtt_login: None,
             web_tls: None,
             modbus_tls: None,
+            enip: None,
         }
     }
 }
@@ -270,6 +286,8 @@ struct Bound {
     web: Option<SocketAddrV4>,
     /// Modbus/TCP Security's listener.
     modbus_tls: Option<SocketAddrV4>,
+    /// The EtherNet/IP adapter's encapsulation address and I/O port.
+    enip: Option<(SocketAddrV4, u16)>,
 }
 
 /// A gateway running on its own thread. Dropping it stops it (sockets
@@ -343,6 +361,13 @@ impl RunningGateway {
     /// Where Modbus/TCP Security is served.
     pub fn modbus_tls_addr(&self) -> Option<SocketAddrV4> {
         self.bound.modbus_tls
+    }
+
+    /// Where the EtherNet/IP adapter listens (TCP and UDP), and its class 1
+    /// I/O port (UDP, same address), if `--enip-listen` was given (it
+    /// answers only while `enip.enabled` is on).
+    pub fn enip_addr(&self) -> Option<(SocketAddrV4, u16)> {
+        self.bound.enip
     }
 
     /// Blocks until the gateway ends, which it does only when it fails:
@@ -424,11 +449,23 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             }
             None => None,
         };
+        let enip = match opts.enip {
+            Some(e) => {
+                // TCP first (port 0 picks one), then UDP on the same port.
+                let port = net.listen(e.listen).await?;
+                let at = SocketAddrV4::new(*e.listen.ip(), port);
+                net.listen_udp(at)?;
+                let io = net.listen_udp(SocketAddrV4::new(*e.listen.ip(), e.io_port))?;
+                Some((at, io))
+            }
+            None => None,
+        };
         io::Result::Ok(Bound {
             modbus: SocketAddrV4::new(*opts.modbus_listen.ip(), mport),
             robot_listen: robot,
             web,
             modbus_tls,
+            enip,
         })
     }
     .await;
@@ -464,6 +501,15 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         // This program's version (its Debian package's): what Sparkplug's
         // Gateway/Version shows.
         version: env!("CARGO_PKG_VERSION"),
+        enip: bound
+            .enip
+            .map(|(at, io_port)| hans_gateway::enip::EnipOptions {
+                port: at.port(),
+                io_port,
+                serial: machine_serial(),
+                ip: *at.ip(),
+                ..hans_gateway::enip::EnipOptions::default()
+            }),
     };
     let _ = ready.send(Ok(bound));
     let clock = SystemClock;
@@ -550,6 +596,17 @@ async fn listen_web(net: &TokioNet, addr: SocketAddrV4, opts: &HostOptions) -> i
 pub fn os_random(buf: &mut [u8]) -> io::Result<()> {
     use std::io::Read;
     std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(buf))
+}
+
+/// The EtherNet/IP Identity's serial number on Linux: stable for the
+/// machine (FNV-1a of `/etc/machine-id`), 1 where there is none.
+fn machine_serial() -> u32 {
+    match std::fs::read("/etc/machine-id") {
+        Ok(id) => id.iter().fold(0x811c_9dc5u32, |h, &b| {
+            (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+        }),
+        Err(_) => 1,
+    }
 }
 
 /// 32 bytes from the operating system's random source ([`os_random`]),

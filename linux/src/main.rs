@@ -147,6 +147,18 @@ struct Cli {
     #[arg(long, value_name = "CA", requires = "modbus_tls_listen")]
     #[arg(verbatim_doc_comment)]
     modbus_tls_ca: Option<PathBuf>,
+    /// Serve the EtherNet/IP adapter (gateway/ENIP.md) here: the
+    /// encapsulation protocol on TCP and UDP (the standard port is
+    /// 44818), while enip.enabled is on (off in the factory state).
+    /// Off unless given.
+    #[arg(long, value_name = "HOST:PORT", value_parser = listen_endpoint)]
+    #[arg(verbatim_doc_comment)]
+    enip_listen: Option<Endpoint>,
+    /// The EtherNet/IP class 1 I/O port (UDP, on the --enip-listen
+    /// address): 2222 is what Logix scanners send to.
+    #[arg(long, value_name = "PORT", default_value_t = 2222)]
+    #[arg(requires = "enip_listen", verbatim_doc_comment)]
+    enip_io_port: u16,
     /// Publish the cell's state as a Sparkplug B edge node to the MQTT
     /// broker at HOST:PORT (gateway/SPARKPLUG.md), for this run: turns
     /// mqtt.enabled on and overrides mqtt.broker, mqtt.port and mqtt.tls.
@@ -436,6 +448,13 @@ fn host_options(cli: Cli) -> Result<HostOptions, String> {
                 client_ca: ca.clone(),
             }),
             _ => None,
+        },
+        enip: match &cli.enip_listen {
+            Some(e) => Some(hans_gateway_linux::EnipListen {
+                listen: resolve("enip-listen", e)?,
+                io_port: cli.enip_io_port,
+            }),
+            None => None,
         },
     })
 }

@@ -29,7 +29,7 @@ use std::vec::Vec;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 
-use hans_gateway::net::{Net, NetError, PeerClaim, Socket};
+use hans_gateway::net::{Net, NetError, PeerClaim, Socket, UdpBuffers, UdpSocket};
 
 /// A bound listener: sockets accepting on `port` take its connections.
 struct Listener {
@@ -44,6 +44,9 @@ struct Listener {
 pub struct TokioNet {
     bind_ip: core::net::Ipv4Addr,
     listeners: RefCell<Vec<Listener>>,
+    /// UDP ports bound ahead ([`TokioNet::listen_udp`]), by the port the
+    /// gateway asks for, until it takes them.
+    udp_bound: RefCell<Vec<(u16, std::net::UdpSocket)>>,
     /// The PEM file of the CAs a TLS server must be signed by
     /// ([`Socket::connect_tls`]); read at each TLS connect.
     tls_ca: Option<std::path::PathBuf>,
@@ -56,6 +59,7 @@ impl TokioNet {
         TokioNet {
             bind_ip,
             listeners: RefCell::new(Vec::new()),
+            udp_bound: RefCell::new(Vec::new()),
             tls_ca: None,
         }
     }
@@ -70,6 +74,15 @@ impl TokioNet {
     /// Sockets then accept on that port.
     pub async fn listen(&self, addr: SocketAddrV4) -> io::Result<u16> {
         self.bind(addr, None, None).await
+    }
+
+    /// Binds the UDP port `addr` now and returns the port bound (useful
+    /// with port 0); the gateway's `udp(port)` then takes this socket.
+    pub fn listen_udp(&self, addr: SocketAddrV4) -> io::Result<u16> {
+        let s = std::net::UdpSocket::bind(addr)?;
+        let port = s.local_addr()?.port();
+        self.udp_bound.borrow_mut().push((port, s));
+        Ok(port)
     }
 
     /// Binds `addr` now for TLS as `server`; returns the port bound.
@@ -459,8 +472,72 @@ impl Socket for TokioSocket<'_> {
     }
 }
 
+/// A tokio UDP socket. Its receive queue is the kernel's socket buffer
+/// (what a flood brings beyond it is dropped by the kernel); datagrams are
+/// read one at a time into a buffer of the largest UDP payload, so that
+/// one longer than the caller's buffer is recognized and dropped whole.
+pub struct TokioUdp {
+    socket: tokio::net::UdpSocket,
+    scratch: Vec<u8>,
+}
+
+/// The largest UDP payload over IPv4.
+const UDP_MAX: usize = 65_507;
+
+impl UdpSocket for TokioUdp {
+    async fn recv_from(&mut self, buf: &mut [u8]) -> Result<(usize, SocketAddrV4), NetError> {
+        loop {
+            let (n, from) = self
+                .socket
+                .recv_from(&mut self.scratch)
+                .await
+                .map_err(|_| NetError::Reset)?;
+            let (Some(from), Some(dst), Some(src)) =
+                (v4(from), buf.get_mut(..n), self.scratch.get(..n))
+            else {
+                // IPv6, or longer than `buf`: dropped.
+                continue;
+            };
+            dst.copy_from_slice(src);
+            return Ok((n, from));
+        }
+    }
+
+    async fn send_to(&mut self, buf: &[u8], to: SocketAddrV4) -> Result<(), NetError> {
+        match self.socket.send_to(buf, to).await {
+            Ok(n) if n == buf.len() => Ok(()),
+            _ => Err(NetError::Reset),
+        }
+    }
+}
+
 impl Net for TokioNet {
     type Socket<'a> = TokioSocket<'a>;
+    type Udp<'a> = TokioUdp;
+
+    /// Binds `port` on the address of [`TokioNet::new`] (or the address a
+    /// caller bound ahead with [`TokioNet::listen_udp`]).
+    fn udp<'a>(&'a self, port: u16, _bufs: UdpBuffers<'a>) -> Result<TokioUdp, NetError> {
+        let bound = self
+            .udp_bound
+            .borrow_mut()
+            .iter()
+            .position(|(p, _)| *p == port);
+        let std_socket = match bound {
+            Some(i) => self.udp_bound.borrow_mut().swap_remove(i).1,
+            None => std::net::UdpSocket::bind(SocketAddrV4::new(self.bind_ip, port))
+                .map_err(|_| NetError::ListenFailed)?,
+        };
+        std_socket
+            .set_nonblocking(true)
+            .map_err(|_| NetError::ListenFailed)?;
+        let socket =
+            tokio::net::UdpSocket::from_std(std_socket).map_err(|_| NetError::ListenFailed)?;
+        Ok(TokioUdp {
+            socket,
+            scratch: std::vec![0; UDP_MAX],
+        })
+    }
 
     fn socket<'a>(&'a self, _rx: &'a mut [u8], _tx: &'a mut [u8]) -> TokioSocket<'a> {
         TokioSocket {

@@ -238,8 +238,8 @@ async fn mosquitto_passes_the_nbirth_and_then_the_will_as_ndeath_to_an_independe
         .expect("bdSeq in the NBIRTH");
     assert_eq!(
         (bd.long, bd.datatype),
-        (Some(0), Some(8)),
-        "bdSeq 0, UInt64"
+        (Some(0), Some(4)),
+        "bdSeq 0, Int64 (Sparkplug 3.0's bdSeq rule; SPARKPLUG.md)"
     );
     assert!(
         p.metrics.len() > 20,

@@ -341,6 +341,12 @@ impl<const SESSIONS: usize, const CONNECTIONS: usize> Adapter<'_, SESSIONS, CONN
         if self.conns.is_full() {
             return Err(no(ExtendedStatus::OutOfConnections));
         }
+        let held = self
+            .conns
+            .iter()
+            .filter(|c| c.originator == ctx.peer)
+            .count();
+        app.admit_open(kind, ctx.peer, held).map_err(no)?;
 
         let o_t_id = self.fresh_id();
         // Point to point T->O: the originator consumes, so its proposed id

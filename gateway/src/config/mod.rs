@@ -463,6 +463,11 @@ pub struct Config {
     /// `0.0.0.0` = none (then the Modbus allow-list's entries are the
     /// PLC's).
     pub plc_address: Ipv4Addr,
+    /// The EtherNet/IP adapter is served (builds with the feature `enip`;
+    /// off in the factory state; at the next start).
+    pub enip_enabled: bool,
+    /// Who may talk EtherNet/IP (sessions, discovery, I/O datagrams).
+    pub enip_allow: AllowList,
 }
 
 impl Config {
@@ -522,6 +527,8 @@ impl Config {
         ntp_server: Ipv4Addr::UNSPECIFIED,
         modbus_config: false,
         plc_address: Ipv4Addr::UNSPECIFIED,
+        enip_enabled: false,
+        enip_allow: AllowList::EVERYONE,
     };
 
     /// This configuration with the network and access settings of `other`
@@ -536,6 +543,8 @@ impl Config {
         self.read_without_login = other.read_without_login;
         self.modbus_config = other.modbus_config;
         self.plc_address = other.plc_address;
+        self.enip_enabled = other.enip_enabled;
+        self.enip_allow = other.enip_allow;
         self
     }
 

@@ -814,8 +814,27 @@ setting!(ACCESS_PLC_ADDRESS, "access.plc_address", 61, Kind::Address, "",
 /// Modbus is allowed ([`ACCESS_MODBUS_CONFIG`], set on the page or in the
 /// file) or the device was started in recovery (someone at the device):
 /// a client without an account cannot re-point the robot link, move or
-/// close the gateway's ports, or open the allow-lists.
-pub const PROTECTED: [&Setting; 18] = [
+/// close the gateway's ports, or open the allow-lists. The EtherNet/IP
+/// adapter's settings ([`ENIP_ENABLED`], [`ENIP_ALLOW`]) are access
+/// settings too, in builds that have them.
+// Indexing in a constant: evaluated by the compiler, as for SETTINGS.
+#[allow(clippy::indexing_slicing)]
+pub const PROTECTED: [&Setting; PROTECTED_BASE.len() + ENIP.len()] = {
+    let mut out = [PROTECTED_BASE[0]; PROTECTED_BASE.len() + ENIP.len()];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = if i < PROTECTED_BASE.len() {
+            PROTECTED_BASE[i]
+        } else {
+            ENIP[i - PROTECTED_BASE.len()]
+        };
+        i += 1;
+    }
+    out
+};
+
+/// The protected settings every build has.
+const PROTECTED_BASE: [&Setting; 18] = [
     &ROBOT_ADDRESS,
     &ROBOT_PORT,
     &LINK_MODE,
@@ -842,6 +861,21 @@ impl Setting {
         PROTECTED.iter().any(|p| p.id == self.id)
     }
 }
+
+setting!(ENIP_ENABLED, "enip.enabled", 50, Kind::Flag, "",
+    "serve the EtherNet/IP adapter (a Logix PLC drives the robot through I/O assemblies: gateway/ENIP.md) on TCP/UDP 44818 and UDP 2222; at the next start", true,
+    |c| Value::Flag(c.enip_enabled), |c, v| c.enip_enabled = flag(v));
+setting!(
+    ENIP_ALLOW,
+    "enip.allow",
+    51,
+    Kind::AllowList,
+    "",
+    "EtherNet/IP scanners allowed (sessions, discovery, I/O): up to 4 entries a.b.c.d or a.b.c.d/prefix (1-32); none = everyone",
+    false,
+    |c| Value::AllowList(c.enip_allow),
+    |c, v| c.enip_allow = allow_list(v)
+);
 
 /// The settings every build has, in the order the views list them (a
 /// group's settings together).
@@ -899,28 +933,35 @@ const MQTT: [&Setting; 11] = [
     &MQTT_POSE_DEADBAND,
 ];
 
+#[cfg(not(feature = "mqtt"))]
+const MQTT: [&Setting; 0] = [];
+
+/// The EtherNet/IP adapter's settings (builds with the feature `enip`),
+/// kept like the telemetry's in builds without it.
+#[cfg(feature = "enip")]
+const ENIP: [&Setting; 2] = [&ENIP_ENABLED, &ENIP_ALLOW];
+#[cfg(not(feature = "enip"))]
+const ENIP: [&Setting; 0] = [];
+
 /// Every setting of this build, in the order the views list them.
 // Indexing in a constant: evaluated by the compiler, which refuses an
 // index out of range; nothing runs on the device.
-#[cfg(feature = "mqtt")]
 #[allow(clippy::indexing_slicing)]
-pub const SETTINGS: [&Setting; 43] = {
-    let mut out = [BASE[0]; 43];
+pub const SETTINGS: [&Setting; BASE.len() + MQTT.len() + ENIP.len()] = {
+    let mut out = [BASE[0]; BASE.len() + MQTT.len() + ENIP.len()];
     let mut i = 0;
     while i < out.len() {
         out[i] = if i < BASE.len() {
             BASE[i]
-        } else {
+        } else if i < BASE.len() + MQTT.len() {
             MQTT[i - BASE.len()]
+        } else {
+            ENIP[i - BASE.len() - MQTT.len()]
         };
         i += 1;
     }
     out
 };
-
-/// Every setting of this build, in the order the views list them.
-#[cfg(not(feature = "mqtt"))]
-pub const SETTINGS: [&Setting; 32] = BASE;
 
 /// Bytes of a value of `kind` in the stored image (the longest, for a
 /// host name).

@@ -264,7 +264,15 @@ impl<'a, C: Clock> Engine<'a, C> {
             return Step::BringUp;
         }
         let period = self.watch_period();
-        let last_beat = self.hub.with(|m| m.plc.last_beat);
+        let motion = self.motion.is_some();
+        let last_beat = self.hub.with(|m| {
+            // A lost heartbeat is for the motion that ran when it was lost.
+            m.plc.lost &= motion;
+            watchdog::Beat {
+                last: m.plc.last_beat,
+                lost: m.plc.lost,
+            }
+        });
         if let Some(mo) = &self.motion {
             if watchdog::expired(mo, last_beat, period, now) {
                 return Step::Watchdog;
@@ -1079,6 +1087,7 @@ impl<'a, C: Clock> Engine<'a, C> {
         );
         self.hub.with(|m| {
             m.plc.watchdog_tripped = true;
+            m.plc.lost = false;
             m.plc.watchdog_trips = m.plc.watchdog_trips.wrapping_add(1);
         });
         watchdog::audit_trip(self.hub, &self.config, mo.jog.is_some());

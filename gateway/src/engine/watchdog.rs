@@ -19,19 +19,33 @@ use super::motion::Motion;
 use crate::clock::millis;
 use crate::hub::Hub;
 
+/// The PLC's heartbeat as the watchdog sees it: when it last changed, and
+/// whether the PLC that owned the command inputs is gone (an EtherNet/IP
+/// owner's connection closed: `PlcState::lost`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Beat {
+    pub(crate) last: Instant,
+    pub(crate) lost: bool,
+}
+
 /// The instant the watchdog expires for `motion`, if it watches it
-/// (`period_ms` > 0 and it has not acted on it yet).
-pub(crate) fn deadline(motion: &Motion, last_beat: Instant, period_ms: u16) -> Option<Instant> {
+/// (`period_ms` > 0 and it has not acted on it yet): the period after the
+/// later of the last heartbeat and the motion's start, or at once when the
+/// heartbeat is lost.
+pub(crate) fn deadline(motion: &Motion, beat: Beat, period_ms: u16) -> Option<Instant> {
     if period_ms == 0 || motion.watchdog_fired {
         return None;
     }
+    if beat.lost {
+        return Some(motion.since);
+    }
     // Strictly more than the period must pass.
-    Some(last_beat.max(motion.since) + millis(period_ms) + Duration::from_ticks(1))
+    Some(beat.last.max(motion.since) + millis(period_ms) + Duration::from_ticks(1))
 }
 
 /// `true` when the watchdog expired at `now`.
-pub(crate) fn expired(motion: &Motion, last_beat: Instant, period_ms: u16, now: Instant) -> bool {
-    deadline(motion, last_beat, period_ms).is_some_and(|d| now >= d)
+pub(crate) fn expired(motion: &Motion, beat: Beat, period_ms: u16, now: Instant) -> bool {
+    deadline(motion, beat, period_ms).is_some_and(|d| now >= d)
 }
 
 /// Records a trip in the audit log (feature `audit`; else nothing): the
@@ -73,15 +87,26 @@ mod tests {
     #[test]
     fn the_period_counts_from_the_later_of_beat_and_start() {
         let at = Instant::from_millis;
+        let b = |t| Beat {
+            last: at(t),
+            lost: false,
+        };
         let mut m = Motion::new(Source::Channel(0), at(1000));
         // A beat long before the motion: counted from the start.
-        assert!(!expired(&m, at(0), 500, at(1500)));
-        assert!(expired(&m, at(0), 500, at(1501)));
+        assert!(!expired(&m, b(0), 500, at(1500)));
+        assert!(expired(&m, b(0), 500, at(1501)));
         // A beat during the motion moves it.
-        assert!(!expired(&m, at(1400), 500, at(1800)));
+        assert!(!expired(&m, b(1400), 500, at(1800)));
+        // A lost heartbeat (the owning PLC's connection closed): at once.
+        let lost = Beat {
+            last: at(1400),
+            lost: true,
+        };
+        assert!(expired(&m, lost, 500, at(1401)));
         // Off, or already acted: never.
-        assert!(!expired(&m, at(0), 0, at(99_999)));
+        assert!(!expired(&m, b(0), 0, at(99_999)));
+        assert!(!expired(&m, lost, 0, at(99_999)));
         m.watchdog_fired = true;
-        assert_eq!(deadline(&m, at(0), 500), None);
+        assert_eq!(deadline(&m, b(0), 500), None);
     }
 }

@@ -1049,7 +1049,12 @@ mod tests {
         let params = b"1,2,3,4,5,6,7,8,9,0,1,2,3,4,5,6,";
         write(&mut m, b + r::CH_TEXT2, &words(params)).unwrap();
         let ev = write(&mut m, b, &[1, code::RUN_FUNC, 5]).unwrap();
-        apply(&mut m, &ev, embassy_time::Instant::from_millis(10));
+        apply(
+            &mut m,
+            &ev,
+            embassy_time::Instant::from_millis(10),
+            crate::state::owner::Commander::Modbus,
+        );
         let hs = m.handshake(Source::Channel(0)).unwrap();
         assert_eq!(hs.error(), (39501, 3));
         assert!(m.queue.is_empty());

@@ -131,11 +131,75 @@ impl Socket for EmbassySocket<'_> {
     }
 }
 
+/// An embassy-net UDP socket (feature `udp`): its queues are the buffers
+/// it was made with, and the stack drops what does not fit them.
+#[cfg(feature = "udp")]
+pub(crate) struct EmbassyUdp<'a> {
+    socket: embassy_net::udp::UdpSocket<'a>,
+}
+
+#[cfg(feature = "udp")]
+impl super::UdpSocket for EmbassyUdp<'_> {
+    async fn recv_from(&mut self, buf: &mut [u8]) -> Result<(usize, SocketAddrV4), NetError> {
+        use embassy_net::udp::RecvError;
+        loop {
+            match self.socket.recv_from(buf).await {
+                Ok((
+                    n,
+                    embassy_net::udp::UdpMetadata {
+                        endpoint:
+                            IpEndpoint {
+                                addr: IpAddress::Ipv4(ip),
+                                port,
+                            },
+                        ..
+                    },
+                )) => return Ok((n, SocketAddrV4::new(ip, port))),
+                // Longer than `buf` (dropped by the stack's read), or not
+                // IPv4 (with IPv6 in the stack): the next one.
+                #[allow(unreachable_patterns)]
+                Ok(_) | Err(RecvError::Truncated) => continue,
+            }
+        }
+    }
+
+    async fn send_to(&mut self, buf: &[u8], to: SocketAddrV4) -> Result<(), NetError> {
+        let ep = IpEndpoint::new(IpAddress::Ipv4(*to.ip()), to.port());
+        self.socket
+            .send_to(buf, ep)
+            .await
+            .map_err(|_| NetError::Reset)
+    }
+}
+
 impl<'d> Net for EmbassyNet<'d> {
     type Socket<'a>
         = EmbassySocket<'a>
     where
         Self: 'a;
+
+    #[cfg(feature = "udp")]
+    type Udp<'a>
+        = EmbassyUdp<'a>
+    where
+        Self: 'a;
+
+    #[cfg(feature = "udp")]
+    fn udp<'a>(
+        &'a self,
+        port: u16,
+        bufs: super::UdpBuffers<'a>,
+    ) -> Result<EmbassyUdp<'a>, NetError> {
+        let mut socket = embassy_net::udp::UdpSocket::new(
+            self.stack,
+            bufs.rx_meta,
+            bufs.rx,
+            bufs.tx_meta,
+            bufs.tx,
+        );
+        socket.bind(port).map_err(|_| NetError::ListenFailed)?;
+        Ok(EmbassyUdp { socket })
+    }
 
     fn socket<'a>(&'a self, rx: &'a mut [u8], tx: &'a mut [u8]) -> EmbassySocket<'a> {
         let mut socket = TcpSocket::new(self.stack, rx, tx);

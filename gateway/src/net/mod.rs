@@ -15,6 +15,18 @@
 //!
 //! The futures are not `Send`: the whole gateway runs as one task on a
 //! single-threaded executor (embassy's, or tokio's current-thread runtime).
+//!
+//! ## UDP (feature `udp`)
+//! A listener that takes datagrams (EtherNet/IP's discovery on 44818 and
+//! its class 1 I/O on 2222) binds a [`UdpSocket`] with [`Net::udp`] and
+//! fixed buffers ([`UdpBuffers`]): at most as many datagrams as it has
+//! packet slots, and as many bytes as its receive buffer holds, wait to be
+//! read; the stack drops what arrives beyond that (embassy-net's queue; on
+//! Linux the kernel's socket buffer). So a flood of datagrams costs the
+//! gateway the reading of what fits in the queue, and otherwise nothing but
+//! a drop: no allocation, no growing queue, no socket taken from another
+//! listener. A datagram longer than the reader's buffer is dropped whole,
+//! never handed over cut.
 
 use core::net::{Ipv4Addr, SocketAddrV4};
 
@@ -126,6 +138,59 @@ pub trait Socket {
     }
 }
 
+/// The bookkeeping of one queued datagram of a UDP socket (its length and
+/// sender): embassy-net's on boards; nothing elsewhere (tokio's sockets and
+/// the test network keep their own). A [`UdpBuffers`] has one per datagram
+/// that may wait.
+#[cfg(all(feature = "udp", feature = "embassy-net"))]
+pub type PacketMeta = embassy_net::udp::PacketMetadata;
+/// The bookkeeping of one queued datagram of a UDP socket (its length and
+/// sender): embassy-net's on boards; nothing elsewhere (tokio's sockets and
+/// the test network keep their own). A [`UdpBuffers`] has one per datagram
+/// that may wait.
+#[cfg(all(feature = "udp", not(feature = "embassy-net")))]
+#[derive(Clone, Copy, Debug)]
+pub struct PacketMeta;
+
+/// An empty [`PacketMeta`], to fill arrays with.
+#[cfg(all(feature = "udp", feature = "embassy-net"))]
+pub const PACKET_META: PacketMeta = embassy_net::udp::PacketMetadata::EMPTY;
+/// An empty [`PacketMeta`], to fill arrays with.
+#[cfg(all(feature = "udp", not(feature = "embassy-net")))]
+pub const PACKET_META: PacketMeta = PacketMeta;
+
+/// The buffers of a UDP socket: `rx_meta.len()` datagrams of `rx.len()`
+/// bytes in all may wait to be read (more are dropped by the stack), and
+/// `tx_meta.len()` datagrams of `tx.len()` bytes to be sent. Adapters with
+/// their own buffering (tokio's) use none of it; the bound is then the
+/// kernel's socket buffer.
+#[cfg(feature = "udp")]
+pub struct UdpBuffers<'a> {
+    /// A slot per received datagram that may wait.
+    pub rx_meta: &'a mut [PacketMeta],
+    /// The received datagrams' bytes.
+    pub rx: &'a mut [u8],
+    /// A slot per datagram waiting to be sent.
+    pub tx_meta: &'a mut [PacketMeta],
+    /// The bytes waiting to be sent.
+    pub tx: &'a mut [u8],
+}
+
+/// A bound UDP socket.
+#[cfg(feature = "udp")]
+#[allow(async_fn_in_trait)]
+pub trait UdpSocket {
+    /// The next datagram: its length in `buf` and its sender. A datagram
+    /// longer than `buf` is dropped (and the next one waited for), never
+    /// handed over cut. Cancel-safe: a datagram not yet returned stays
+    /// queued.
+    async fn recv_from(&mut self, buf: &mut [u8]) -> Result<(usize, SocketAddrV4), NetError>;
+
+    /// Sends `buf` to `to` as one datagram (waits for room in the socket's
+    /// send buffer; one larger than that buffer is an error).
+    async fn send_to(&mut self, buf: &[u8], to: SocketAddrV4) -> Result<(), NetError>;
+}
+
 /// A network stack that makes sockets.
 #[allow(async_fn_in_trait)]
 pub trait Net {
@@ -137,6 +202,17 @@ pub trait Net {
     /// A new, closed socket using `rx` and `tx` as its buffers (adapters with
     /// their own buffering, like tokio's, ignore them).
     fn socket<'a>(&'a self, rx: &'a mut [u8], tx: &'a mut [u8]) -> Self::Socket<'a>;
+
+    /// The UDP socket type (feature `udp`).
+    #[cfg(feature = "udp")]
+    type Udp<'a>: UdpSocket
+    where
+        Self: 'a;
+
+    /// A UDP socket bound to local `port` with `bufs` (feature `udp`);
+    /// [`NetError::ListenFailed`] if the port cannot be bound.
+    #[cfg(feature = "udp")]
+    fn udp<'a>(&'a self, port: u16, bufs: UdpBuffers<'a>) -> Result<Self::Udp<'a>, NetError>;
 
     /// The IPv4 address of the host `name`, where the platform resolves
     /// names (Linux: the system's resolver); `None` where it does not

@@ -14,6 +14,9 @@
 //! * A changed `PLC_HEARTBEAT` feeds the watchdog and clears its trip bit.
 //! * `CONFIG_COMMAND` 1 checks and applies the edit (the save is the
 //!   storage task's), 2 discards it, 3 loads the factory settings into it.
+//! * Who owns the command inputs (`crate::state::owner`): an EtherNet/IP
+//!   exclusive owner while its connection is open, else Modbus
+//!   ([`modbus_may_write`], [`enip_may_own`]).
 
 mod port;
 
@@ -26,14 +29,19 @@ use crate::error::{GatewayError, Outcome};
 use crate::job::{command, text, Job, JobKind, Source};
 use crate::registers::config::{self as reg_config, InvalidValue};
 use crate::registers::{Edge, PlcEvents};
+use crate::state::owner::Commander;
 use crate::state::Model;
 
-/// Acts on the events of one write; `true` if a job was queued (the engine
-/// has work).
-pub(crate) fn apply(m: &mut Model, ev: &PlcEvents, now: Instant) -> bool {
+/// Acts on the events of one write by `by`; `true` if a job was queued
+/// (the engine has work).
+pub(crate) fn apply(m: &mut Model, ev: &PlcEvents, now: Instant, by: Commander) -> bool {
+    if ev.edges.iter().any(|e| matches!(e, Edge::Rose(_))) {
+        m.owner.commander = by;
+    }
     if ev.heartbeat {
         m.plc.last_beat = now;
         m.plc.watchdog_tripped = false;
+        m.plc.lost = false;
     }
     let mut queued = false;
     for edge in &ev.edges {
@@ -43,6 +51,29 @@ pub(crate) fn apply(m: &mut Model, ev: &PlcEvents, now: Instant) -> bool {
         }
     }
     queued
+}
+
+/// May a Modbus write of `count` registers from `start` be stored, by the
+/// ownership rule? Not when it touches the command inputs while an
+/// EtherNet/IP PLC owns them (then it is refused whole: exception 01).
+pub(crate) fn modbus_may_write(m: &Model, start: u16, count: usize) -> bool {
+    !m.owner.enip_owns()
+        || !(start..)
+            .take(count)
+            .any(crate::registers::view::is_command_input)
+}
+
+/// May an EtherNet/IP exclusive owner at `ip` take the command inputs
+/// now? Not while a command another master fired (Modbus, or an owner at
+/// another address) is Busy: the PLC that fired it keeps the inputs until
+/// it has ended, then the Forward_Open (which a Logix PLC repeats on its
+/// own) succeeds.
+#[cfg(feature = "enip")]
+pub(crate) fn enip_may_own(m: &Model, ip: core::net::Ipv4Addr) -> bool {
+    let busy = m.channels.iter().any(|c| c.handshake.is_busy())
+        || m.raw.handshake.is_busy()
+        || m.triggers.handshakes.iter().any(|h| h.is_busy());
+    !busy || m.owner.commander == Commander::Enip(ip)
 }
 
 /// What a source's inputs say now: its job (or why there is none), the
@@ -213,7 +244,7 @@ mod tests {
 
     fn plc(m: &mut Model, start: u16, values: &[u16]) -> bool {
         let ev = write(m, start, values).unwrap();
-        apply(m, &ev, now())
+        apply(m, &ev, now(), Commander::Modbus)
     }
 
     #[test]

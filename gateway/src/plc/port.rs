@@ -46,6 +46,14 @@ impl<C: Clock> PlcPort<'_, C> {
         #[cfg(not(feature = "audit"))]
         let _ = peer;
         let (queued, command) = self.hub.with(|m| {
+            if !super::modbus_may_write(m, start, values.len()) {
+                m.access.writes_refused = m.access.writes_refused.wrapping_add(1);
+                warn!(
+                    "modbus: write to {} refused: an EtherNet/IP PLC owns the command inputs",
+                    start
+                );
+                return Err(WriteError::Protected);
+            }
             let ev = view::write(m, start, values)?;
             // A trigger text written: in use at once, so recorded at once.
             #[cfg(feature = "audit")]
@@ -55,7 +63,8 @@ impl<C: Clock> PlcPort<'_, C> {
                     &Who::modbus(peer.map(|p| *p.ip())),
                 );
             }
-            Ok::<_, WriteError>((super::apply(m, &ev, now), ev.config_command))
+            let by = crate::state::owner::Commander::Modbus;
+            Ok::<_, WriteError>((super::apply(m, &ev, now, by), ev.config_command))
         })?;
         if queued {
             self.hub.job_queued.signal(());

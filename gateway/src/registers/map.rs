@@ -86,8 +86,10 @@ pub struct Area {
 /// at 117, real numbers as thousandths in 32-bit integers for PLCs that
 /// cannot pack floats; 1.5: the protected settings, which Modbus changes
 /// only where an administrator allowed configuration over Modbus, and
-/// `ACCESS` bit 5); the major number when a PLC program written for the
-/// old map would break.
+/// `ACCESS` bit 5; who owns the command inputs and the EtherNet/IP
+/// adapter's status at 59-61, Modbus writes to the command inputs refused
+/// while an EtherNet/IP PLC owns them); the major number when a PLC
+/// program written for the old map would break.
 pub const MAP_VERSION: u16 = 0x0105;
 
 // ----------------------------------------------------------------- status
@@ -168,6 +170,17 @@ pub const STATUS_FW_VERSION: u16 = 55;
 /// waits for the restart, 4 = rolled back (the last update never confirmed
 /// itself).
 pub const STATUS_FW_STATE: u16 = 58;
+/// Who owns the command inputs: 0 Modbus, 1 an EtherNet/IP PLC (its
+/// exclusive-owner connection is open and in Run), 2 the same in Idle
+/// (program mode: its data is not applied). While it is not 0, Modbus
+/// writes to the command inputs get exception 01.
+pub const STATUS_COMMAND_OWNER: u16 = 59;
+/// EtherNet/IP connections open (class 1 and class 3).
+pub const STATUS_ENIP_CONNECTIONS: u16 = 60;
+/// EtherNet/IP sessions and datagrams refused by the allow-list
+/// (`enip.allow`) and Forward_Opens refused by the ownership rule,
+/// since start (wraps).
+pub const STATUS_ENIP_REFUSED: u16 = 61;
 
 /// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
 /// write-protected ([`CONFIG_WRITE_PROTECT`]).
@@ -609,6 +622,9 @@ pub const TABLE: &[Area] = &[
     area!("PROTOCOL_LEVEL", STATUS_PROTOCOL, 1, Ro, U16),
     area!("FW_VERSION", STATUS_FW_VERSION, 3, Ro, U16),
     area!("FW_STATE", STATUS_FW_STATE, 1, Ro, U16),
+    area!("COMMAND_OWNER", STATUS_COMMAND_OWNER, 1, Ro, U16),
+    area!("ENIP_CONNECTIONS", STATUS_ENIP_CONNECTIONS, 1, Ro, U16),
+    area!("ENIP_REFUSED", STATUS_ENIP_REFUSED, 1, Ro, U16),
     area!("CFG_ROBOT_IP", CONFIG_ROBOT_IP, 2, Rw, U16),
     area!("CFG_ROBOT_PORT", CONFIG_ROBOT_PORT, 1, Rw, U16),
     area!("CFG_LINK_MODE", CONFIG_LINK_MODE, 1, Rw, U16),
@@ -759,9 +775,10 @@ mod tests {
     fn area_lookup_and_access_checks() {
         assert_eq!(area_of(STATUS_JOINTS + 11).unwrap().name, "ACT_JOINTS");
         assert_eq!(area_of(57).unwrap().name, "FW_VERSION");
-        assert!(area_of(59).is_none());
-        assert!(check(0, 59, false).is_ok());
-        assert_eq!(check(0, 60, false), Err(AccessError::IllegalAddress));
+        assert_eq!(area_of(61).unwrap().name, "ENIP_REFUSED");
+        assert!(area_of(62).is_none());
+        assert!(check(0, 62, false).is_ok());
+        assert_eq!(check(0, 63, false), Err(AccessError::IllegalAddress));
         assert!(check(NET_IP, NET_LEN, true).is_ok());
         assert!(check(NET_IP, NET_LEN + 1, true).is_err());
         assert_eq!(check(0, 1, true), Err(AccessError::IllegalAddress));

@@ -337,6 +337,9 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
             })
         }
         r::STATUS_FW_STATE => m.firmware.boot.map_or(0, |b| b.code()),
+        r::STATUS_COMMAND_OWNER => m.owner.code(),
+        r::STATUS_ENIP_CONNECTIONS => m.owner.enip_connections,
+        r::STATUS_ENIP_REFUSED => m.owner.enip_refused,
         r::STATUS_PROTOCOL => m.link.level.map_or(0, |l| {
             let (major, minor, _) = l.parts();
             u16::from(major) * 100 + u16::from(minor)
@@ -435,6 +438,21 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
     }
     let order = m.config.active.word_order;
     let format = m.config.active.number_format;
+    let changes = changes(m, |m| {
+        for (addr, &v) in (start..).zip(values) {
+            store(m, addr, v, order, format);
+        }
+    });
+    ev.heartbeat = changes.heartbeat;
+    ev.edges = changes.edges;
+    Ok(ev)
+}
+
+/// What storing new PLC inputs with `store` asks for: the heartbeat
+/// changed, and the Execute and trigger edges (channels, RAW, then trigger
+/// bits in order). The one place edges are found, for every view a PLC
+/// writes through (the registers, the EtherNet/IP output assembly).
+pub fn changes(m: &mut Model, store: impl FnOnce(&mut Model)) -> PlcEvents {
     // Execute of every channel, then RAW's.
     let execute = |m: &Model| -> [bool; r::CHANNELS + 1] {
         core::array::from_fn(|i| match m.channels.get(i) {
@@ -445,10 +463,11 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
     let old_exec = execute(m);
     let old_bits = m.triggers.bits;
     let old_beat = m.plc.heartbeat;
-    for (addr, &v) in (start..).zip(values) {
-        store(m, addr, v, order, format);
-    }
-    ev.heartbeat = m.plc.heartbeat != old_beat;
+    store(m);
+    let mut ev = PlcEvents {
+        heartbeat: m.plc.heartbeat != old_beat,
+        ..PlcEvents::default()
+    };
     let new_exec = execute(m);
     let sources = (0..r::CHANNELS as u8)
         .map(Source::Channel)
@@ -465,7 +484,21 @@ pub fn write(m: &mut Model, start: u16, values: &[u16]) -> Result<PlcEvents, Wri
             bit(m.triggers.bits),
         );
     }
-    Ok(ev)
+    ev
+}
+
+/// A register of the command inputs, which belong to one master at a time
+/// (`COMMAND_OWNER`): `PLC_HEARTBEAT`, the channels' and RAW's inputs and
+/// `TRIG_BITS`.
+pub fn is_command_input(addr: u16) -> bool {
+    let channel = (0..r::CHANNELS).any(|i| {
+        let base = r::channel_base(i);
+        (base..base + r::CH_STATUS).contains(&addr)
+    });
+    channel
+        || addr == r::CONTROL_HEARTBEAT
+        || (r::RAW_CONTROL..r::RAW_REQUEST + r::RAW_REQUEST_REGS).contains(&addr)
+        || addr == r::TRIG_BITS
 }
 
 /// A register the write protection covers: the settings, `CONFIG_COMMAND`

@@ -16,6 +16,7 @@ pub mod firmware;
 pub mod handshake;
 pub mod history;
 pub mod inputs;
+pub mod owner;
 pub mod robot;
 #[cfg(feature = "mqtt")]
 pub mod telemetry;
@@ -142,6 +143,12 @@ pub struct PlcState {
     pub watchdog_tripped: bool,
     /// Trips since start (wraps).
     pub watchdog_trips: u16,
+    /// The PLC that owned the command inputs is gone (its EtherNet/IP
+    /// connection closed or timed out) while a motion ran: a lost
+    /// heartbeat the watchdog acts on at once, without waiting for its
+    /// period. Cleared when the heartbeat changes, and by the engine once
+    /// the watchdog acted or no motion runs.
+    pub lost: bool,
 }
 
 pub use crate::job::CHANNELS;
@@ -220,6 +227,8 @@ pub struct Model {
     pub error_text: ErrorText,
     /// The firmware: versions, update state.
     pub firmware: firmware::Firmware,
+    /// Who owns the command inputs (Modbus, or an EtherNet/IP owner).
+    pub owner: owner::Ownership,
 }
 
 impl Model {
@@ -246,6 +255,7 @@ impl Model {
                 last_beat: Instant::from_ticks(0),
                 watchdog_tripped: false,
                 watchdog_trips: 0,
+                lost: false,
             },
             queue: JobQueue::new(),
             active_motion: None,
@@ -256,6 +266,7 @@ impl Model {
             log: history::CommandLog::default(),
             error_text: ErrorText::default(),
             firmware: firmware::Firmware::NONE,
+            owner: owner::Ownership::default(),
         }
     }
 

@@ -70,7 +70,31 @@ struct State {
     blackholes: BTreeSet<Ipv4Addr>,
     /// Connection attempts of the gateway, per endpoint.
     attempts: BTreeMap<SocketAddrV4, usize>,
+    /// UDP ports the gateway bound: the datagrams waiting.
+    #[cfg(feature = "udp")]
+    udp_bound: BTreeMap<u16, UdpQueue>,
+    /// Datagrams the gateway sent, per destination, until the test takes
+    /// them.
+    #[cfg(feature = "udp")]
+    udp_sent: BTreeMap<SocketAddrV4, VecDeque<(SocketAddrV4, Vec<u8>)>>,
 }
+
+/// A bound UDP port of the gateway: at most `cap` datagrams wait (its
+/// socket's packet slots), the rest are dropped, as on a board.
+#[cfg(feature = "udp")]
+#[derive(Default)]
+struct UdpQueue {
+    queue: VecDeque<(SocketAddrV4, Vec<u8>)>,
+    cap: usize,
+    waker: Option<Waker>,
+    dropped: u64,
+}
+
+/// Datagrams kept per destination for the test to read; older ones are
+/// dropped beyond this (a test that never reads does not grow without
+/// bound).
+#[cfg(feature = "udp")]
+const UDP_SENT_KEPT: usize = 10_000;
 
 /// The network. Cheap to clone (all clones are the same network).
 #[derive(Clone)]
@@ -152,6 +176,97 @@ impl SimNet {
 
     fn with<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
         f(&mut self.state.borrow_mut())
+    }
+
+    /// Sends a datagram from `from` to the gateway's UDP `port`: `false`
+    /// if nobody is bound there or its queue is full (dropped, as a stack
+    /// drops).
+    #[cfg(feature = "udp")]
+    pub fn send_udp(&self, from: SocketAddrV4, port: u16, bytes: &[u8]) -> bool {
+        self.with(|s| {
+            let Some(q) = s.udp_bound.get_mut(&port) else {
+                return false;
+            };
+            if q.queue.len() >= q.cap {
+                q.dropped += 1;
+                return false;
+            }
+            q.queue.push_back((from, bytes.to_vec()));
+            if let Some(w) = q.waker.take() {
+                w.wake();
+            }
+            true
+        })
+    }
+
+    /// The datagrams the gateway sent to `to` since the last call: sender
+    /// and bytes, oldest first.
+    #[cfg(feature = "udp")]
+    pub fn recv_udp(&self, to: SocketAddrV4) -> Vec<(SocketAddrV4, Vec<u8>)> {
+        self.with(|s| {
+            s.udp_sent
+                .get_mut(&to)
+                .map(|q| q.drain(..).collect())
+                .unwrap_or_default()
+        })
+    }
+
+    /// Datagrams dropped at the gateway's UDP `port` because its queue was
+    /// full.
+    #[cfg(feature = "udp")]
+    pub fn udp_dropped(&self, port: u16) -> u64 {
+        self.with(|s| s.udp_bound.get(&port).map_or(0, |q| q.dropped))
+    }
+}
+
+/// A gateway UDP socket on the simulated network.
+#[cfg(feature = "udp")]
+pub struct SimUdp {
+    net: SimNet,
+    port: u16,
+}
+
+#[cfg(feature = "udp")]
+impl crate::net::UdpSocket for SimUdp {
+    async fn recv_from(&mut self, buf: &mut [u8]) -> Result<(usize, SocketAddrV4), NetError> {
+        let net = self.net.clone();
+        let port = self.port;
+        poll_fn(|cx| {
+            net.with(|s| {
+                let Some(q) = s.udp_bound.get_mut(&port) else {
+                    return Poll::Ready(Err(NetError::NotConnected));
+                };
+                while let Some((from, d)) = q.queue.pop_front() {
+                    if let Some(dst) = buf.get_mut(..d.len()) {
+                        dst.copy_from_slice(&d);
+                        return Poll::Ready(Ok((d.len(), from)));
+                    }
+                    // Longer than the reader's buffer: dropped whole.
+                }
+                q.waker = Some(cx.waker().clone());
+                Poll::Pending
+            })
+        })
+        .await
+    }
+
+    async fn send_to(&mut self, buf: &[u8], to: SocketAddrV4) -> Result<(), NetError> {
+        let from = SocketAddrV4::new(self.net.gateway_ip, self.port);
+        self.net.with(|s| {
+            let q = s.udp_sent.entry(to).or_default();
+            if q.len() >= UDP_SENT_KEPT {
+                q.pop_front();
+            }
+            q.push_back((from, buf.to_vec()));
+        });
+        Ok(())
+    }
+}
+
+#[cfg(feature = "udp")]
+impl Drop for SimUdp {
+    fn drop(&mut self) {
+        self.net.with(|s| s.udp_bound.remove(&self.port));
     }
 }
 
@@ -401,6 +516,29 @@ impl Socket for SimSocket {
 
 impl Net for SimNet {
     type Socket<'a> = SimSocket;
+    #[cfg(feature = "udp")]
+    type Udp<'a> = SimUdp;
+
+    #[cfg(feature = "udp")]
+    fn udp<'a>(&'a self, port: u16, bufs: crate::net::UdpBuffers<'a>) -> Result<SimUdp, NetError> {
+        self.with(|s| {
+            if s.udp_bound.contains_key(&port) {
+                return Err(NetError::ListenFailed);
+            }
+            s.udp_bound.insert(
+                port,
+                UdpQueue {
+                    cap: bufs.rx_meta.len(),
+                    ..UdpQueue::default()
+                },
+            );
+            Ok(())
+        })?;
+        Ok(SimUdp {
+            net: self.clone(),
+            port,
+        })
+    }
 
     fn socket<'a>(&'a self, _rx: &'a mut [u8], _tx: &'a mut [u8]) -> SimSocket {
         let sid = self.with(|s| {

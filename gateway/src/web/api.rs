@@ -242,6 +242,7 @@ impl StatusSnapshot {
                 last_beat: Instant::from_ticks(0),
                 watchdog_tripped: false,
                 watchdog_trips: 0,
+                lost: false,
             },
             sessions: 0,
             modbus_peers: heapless::Vec::new(),

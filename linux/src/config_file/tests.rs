@@ -75,6 +75,13 @@ fn full() -> Contents {
         ntp_server: ip(10, 0, 0, 123),
         modbus_config: true,
         plc_address: ip(192, 168, 0, 20),
+        enip_enabled: true,
+        enip_allow: AllowList([
+            net(ip(192, 168, 1, 20), 32),
+            AllowEntry::UNUSED,
+            AllowEntry::UNUSED,
+            AllowEntry::UNUSED,
+        ]),
     });
     for (name, role) in [("admin", Role::Admin), ("line.3_op", Role::Operator)] {
         c.stored
@@ -220,7 +227,7 @@ fn unknown_keys_and_tables_are_refused_not_ignored() {
             "1:1: unknown key \"poll_ms\" outside the tables (it goes in [link])",
             "2:1: unknown key \"port\" outside the tables (it goes in [robot] or [mqtt])",
             "4:1: unknown key \"adress\" in [robot]; its keys are address, port, id",
-            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [web], [mqtt], [triggers]",
+            "5:2: unknown table [robots]; the tables are [robot], [link], [motion], [watchdog], [registers], [network], [access], [web], [mqtt], [enip], [triggers]",
             "8:1: unknown key \"address\" in [link] (it goes in [robot] or [network])",
         ]
     );
