@@ -832,6 +832,81 @@ fn a_change_needs_the_pages_origin_and_a_json_content_type() {
     assert_eq!(trigger(&mut w, 5), "");
 }
 
+/// Issue 27: `http://localhost:8080/` in front of the QEMU demo answered
+/// raw JSON 421. A browser (`Accept: text/html`) gets a page that names the
+/// address to open; a script still gets JSON; either way nothing of the
+/// state, and nothing changes.
+#[test]
+fn a_browser_asking_by_a_refused_name_gets_a_page_naming_the_address() {
+    let mut w = world();
+    let html = [(
+        "Accept",
+        "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8",
+    )];
+    let page = |w: &mut World, host: &str| {
+        let a = send(w, PC, &request_to(host, "GET", "/", &html, b"")).unwrap();
+        assert_eq!(a.status, 421, "{host}");
+        assert_eq!(
+            a.header("content-type"),
+            Some("text/html; charset=utf-8"),
+            "{host}"
+        );
+        assert_eq!(a.header("x-frame-options"), Some("DENY"), "{host}");
+        String::from_utf8(a.body).expect("UTF-8")
+    };
+    let t = page(&mut w, "localhost:8080");
+    assert!(
+        t.contains(r#"<a href="http://127.0.0.1:8080/">http://127.0.0.1:8080/</a>"#),
+        "{t}"
+    );
+    assert!(t.contains("DNS rebinding"), "{t}");
+    assert!(!t.contains("\"link\""), "nothing of the state: {t}");
+    // Another name: the device's address where it sets it itself (a board
+    // with a static address: unit test `web::misdirected::tests`), here
+    // its form; and how to make the device answer to that name.
+    let t = page(&mut w, "gw.plant.local");
+    assert!(t.contains("<code>http://ADDRESS/</code>"), "{t}");
+    assert!(t.contains("web.host_name"), "{t}");
+    // A request's bytes never become markup.
+    let t = page(&mut w, "evil<b>.example");
+    assert!(!t.contains("<b>"), "{t}");
+    // A script gets JSON, and a change asked for by a page of that name is
+    // still refused before anything happens.
+    let a = send(
+        &mut w,
+        PC,
+        &request_to(
+            "localhost:8080",
+            "GET",
+            "/api/status",
+            &[("Accept", "*/*")],
+            b"",
+        ),
+    )
+    .unwrap();
+    assert_eq!(a.status, 421);
+    assert!(a.json()["error"].is_string());
+    let mut evil = html.to_vec();
+    evil.extend([
+        ("Origin", "http://evil.example"),
+        ("Content-Type", "application/json"),
+    ]);
+    let a = send(
+        &mut w,
+        PC,
+        &request_to(
+            "evil.example",
+            "POST",
+            "/api/setup",
+            &evil,
+            br#"{"code":"ABCD-EFGH-JKMN","name":"evil","password":"attacker pw"}"#,
+        ),
+    )
+    .unwrap();
+    assert_eq!(a.status, 421);
+    assert_eq!(get(&mut w, "/api/session").json()["admin_exists"], false);
+}
+
 #[test]
 fn a_chunked_request_is_refused_and_its_body_never_read_as_a_request() {
     let mut w = world();
