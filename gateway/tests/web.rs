@@ -1355,6 +1355,55 @@ mod update {
         );
     }
 
+    /// Issue 27: a refused upload cleared "Previous" (the state read the
+    /// download slot again, where a refused body had been written). No
+    /// refusal changes a version the status shows; `image` beside
+    /// `version` names the running image and the software; `keeps` says
+    /// what a restart keeps.
+    #[test]
+    fn a_refused_image_changes_no_version_the_status_shows() {
+        let (mut w, _flash, token) = board(false);
+        let image = sign(&TEST_KEY_SEED, BOARD, version(1, 1, 0), &body(0xB, 20_000));
+        assert_eq!(upload(&mut w, &token, "", &image).status, 200);
+        w.restart();
+        w.run_for(ms(300));
+        w.run_for(hans_gateway::TRIAL_CHECK + Duration::from_secs(1));
+        let status = get(&mut w, "/api/status").json();
+        assert_eq!(
+            status["version"],
+            v(env!("CARGO_PKG_VERSION")),
+            "the software's"
+        );
+        assert_eq!(status["image"], v("1.1.0"), "the running image's");
+        assert_eq!(status["keeps"]["config"], true, "{status}");
+        assert_eq!(status["keeps"]["audit"], true, "{status}");
+        let versions = |w: &mut World| {
+            let f = firmware(w);
+            (
+                f["running"].clone(),
+                f["previous"].clone(),
+                f["state"].clone(),
+            )
+        };
+        let before = (v("1.1.0"), v("1.0.0"), v("confirmed"));
+        assert_eq!(versions(&mut w), before);
+        let token = token_after_restart(&mut w);
+        // Refused at its header (nothing written), then at its end (its
+        // body written over the download slot, where the previous image
+        // was).
+        let other_key = sign(&[9; 32], BOARD, version(1, 2, 0), &body(0xC, 20_000));
+        let mut corrupted = sign(&TEST_KEY_SEED, BOARD, version(1, 2, 0), &body(0xC, 20_000));
+        let n = corrupted.len();
+        corrupted[n - 10] ^= 1;
+        for (what, image) in [("another key", other_key), ("corrupted", corrupted)] {
+            assert_eq!(upload(&mut w, &token, "", &image).status, 422, "{what}");
+            let f = firmware(&mut w);
+            assert_eq!(f["upload"]["state"], v("refused"), "{what}");
+            assert_eq!(versions(&mut w), before, "{what}");
+            assert_eq!(get(&mut w, "/api/status").json()["image"], v("1.1.0"));
+        }
+    }
+
     #[test]
     fn an_image_that_fails_its_self_check_is_rolled_back_at_its_restart() {
         let (mut w, flash, token) = board(true);

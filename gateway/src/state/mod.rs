@@ -220,6 +220,20 @@ pub struct Model {
     pub error_text: ErrorText,
     /// The firmware: versions, update state.
     pub firmware: firmware::Firmware,
+    /// What this platform keeps across a restart.
+    pub keeps: Keeps,
+}
+
+/// What survives a restart, from the platform's storage (set once at
+/// start): a device that keeps nothing loses its settings, accounts and
+/// audit records at each restart, and its views must say so.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Keeps {
+    /// The configuration, the accounts and the trigger table: the
+    /// storage's `storage::Medium` is not `None`.
+    pub config: bool,
+    /// The audit log's records (an `AuditStore` that is persistent).
+    pub audit: bool,
 }
 
 impl Model {
@@ -256,6 +270,7 @@ impl Model {
             log: history::CommandLog::default(),
             error_text: ErrorText::default(),
             firmware: firmware::Firmware::NONE,
+            keeps: Keeps::default(),
         }
     }
 
