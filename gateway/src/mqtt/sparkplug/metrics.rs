@@ -277,7 +277,7 @@ use Scope::{Device as D, Node as N};
 pub const TABLE: &[Def] = &[
     def("bdSeq", T::UInt64, "", N, R::Birth, Field::BdSeq, "birth/death sequence of this MQTT session (0-255), as in the NDEATH"),
     def("Node Control/Rebirth", T::Boolean, "", N, R::Birth, Field::Rebirth, "always false; an NCMD writing true asks for new births"),
-    def("Gateway/Version", T::String, "", N, R::Birth, Field::Version, "the gateway's version"),
+    def("Gateway/Version", T::String, "", N, R::Birth, Field::Version, "the installed version: the running firmware image's on a board, else the gateway software's"),
     def("Gateway/Map Version", T::String, "", N, R::Birth, Field::MapVersion, "the Modbus register map's version (major.minor)"),
     // Every 10 s: also what tells a host that subscribed after the births
     // that the node is there (it then asks for a rebirth).
@@ -455,8 +455,9 @@ pub(crate) enum Val<'a> {
     U64(u64),
     F32(f32),
     Str(&'a str),
-    /// A string written on the spot (a protocol level).
-    Small(heapless::String<16>),
+    /// A string written on the spot (a protocol level, an image's
+    /// version: `65535.65535.65535` is the longest, 17 bytes).
+    Small(heapless::String<20>),
 }
 
 impl Val<'_> {
@@ -527,7 +528,7 @@ fn error_id(o: Outcome) -> i32 {
     }
 }
 
-fn level(l: ProtocolLevel) -> heapless::String<16> {
+fn level(l: ProtocolLevel) -> heapless::String<20> {
     let mut out = heapless::String::new();
     if l == ProtocolLevel::V5 {
         let _ = out.push_str("V5");
@@ -567,7 +568,15 @@ pub(crate) fn read<'a>(metric: &Metric, ctx: &Ctx<'a>) -> Val<'a> {
     match metric.def.field {
         Field::BdSeq => Val::U64(ctx.bd_seq.into()),
         Field::Rebirth => Val::Bool(false),
-        Field::Version => Val::Str(VERSION),
+        // The version installed, as the page's header names it: a board's
+        // running image (signed with the version its maker gives it, which
+        // an update changes), else the software's (Linux: its package's).
+        Field::Version => m.firmware.running.map_or(Val::Str(VERSION), |v| {
+            let mut s = heapless::String::new();
+            // Cannot fail: the longest is 17 bytes (`Val::Small`).
+            let _ = write!(s, "{}.{}.{}", v.major, v.minor, v.patch);
+            Val::Small(s)
+        }),
         Field::MapVersion => {
             let [major, minor] = crate::registers::map::MAP_VERSION.to_be_bytes();
             let mut s = heapless::String::new();
