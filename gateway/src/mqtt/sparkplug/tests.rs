@@ -272,9 +272,20 @@ fn births_carry_every_metric_with_its_datatype_and_value() {
 #[test]
 fn the_version_metric_is_the_running_images_where_one_runs() {
     for (running, text) in [
-        (crate::state::firmware::Version { major: 0, minor: 2, patch: 0 }, "0.2.0"),
         (
-            crate::state::firmware::Version { major: 65535, minor: 65535, patch: 65535 },
+            crate::state::firmware::Version {
+                major: 0,
+                minor: 2,
+                patch: 0,
+            },
+            "0.2.0",
+        ),
+        (
+            crate::state::firmware::Version {
+                major: 65535,
+                minor: 65535,
+                patch: 65535,
+            },
             "65535.65535.65535",
         ),
     ] {
