@@ -405,7 +405,7 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
     };
     let bound = async {
         let at = |listener: Listener, addr: SocketAddrV4| {
-            move |error: io::Error| ListenError::new(listener, addr, error)
+            move |error: io::Error| ListenError::io(listener, addr, error)
         };
         let mport = net
             .listen(opts.modbus_listen)
@@ -548,7 +548,7 @@ impl AuditStore for Files {
 
 /// Binds the web page's `addr`: for HTTPS with `--web-tls`.
 async fn listen_web(net: &TokioNet, addr: SocketAddrV4, opts: &HostOptions) -> io::Result<u16> {
-    let at = |error| ListenError::new(Listener::Web, addr, error);
+    let at = |error| ListenError::io(Listener::Web, addr, error);
     if let Some(id) = &opts.web_tls {
         let server = crate::tls::TlsServer::web(&id.cert, &id.key)?;
         return net.listen_tls(addr, server).await.map_err(at);
@@ -610,7 +610,7 @@ pub struct ListenError {
 
 impl ListenError {
     /// `error` of `listener` on `addr`, as an [`io::Error`] of its kind.
-    fn new(listener: Listener, addr: SocketAddrV4, error: io::Error) -> io::Error {
+    fn io(listener: Listener, addr: SocketAddrV4, error: io::Error) -> io::Error {
         io::Error::new(
             error.kind(),
             ListenError {
