@@ -415,8 +415,14 @@ impl Gateway {
         // The audit log first: the boot counter follows its newest record.
         #[cfg(feature = "audit")]
         let boot = crate::audit::keep::restore(&self.hub.audit, storage).await;
-        #[cfg(feature = "audit")]
         let medium = storage.medium();
+        let keeps = crate::state::Keeps {
+            config: medium != Medium::None,
+            #[cfg(feature = "audit")]
+            audit: <S as crate::storage::AuditStore>::persistent(storage),
+            #[cfg(not(feature = "audit"))]
+            audit: false,
+        };
         let stored = storage.load().await;
         let opts = &self.opts;
         let now = clock.now();
@@ -467,6 +473,7 @@ impl Gateway {
                 warn!("config: recovery start: factory network and access settings for this run");
                 config = config.with_network_of(&opts.defaults);
             }
+            m.keeps = keeps;
             m.access.recovery = opts.recovery;
             m.access.network_managed = opts.network_managed;
             m.access.running = config.net;
@@ -658,7 +665,7 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
 }
 
 /// Reads the boot state and the two slots' headers into the firmware's
-/// status (at start, and after an update is marked).
+/// status (at start).
 #[cfg(feature = "update")]
 async fn survey<S: crate::update::SlotStore>(hub: &Hub, slots: &mut S) {
     use crate::update::{BootState, Slot, SlotError};
@@ -724,8 +731,9 @@ async fn firmware<S: crate::update::SlotStore>(
             let data = piece.get(..len).unwrap_or(&[]);
             slots.write(offset, data).await
         }
-        Op::Survey => {
-            survey(hub, slots).await;
+        Op::BootState => {
+            let boot = slots.state().await?;
+            hub.with(|m| m.firmware.boot = Some(boot));
             Ok(())
         }
         Op::MarkUpdated => slots.mark_updated().await,

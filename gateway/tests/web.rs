@@ -848,6 +848,81 @@ fn a_change_needs_the_pages_origin_and_a_json_content_type() {
     assert_eq!(trigger(&mut w, 5), "");
 }
 
+/// Issue 27: `http://localhost:8080/` in front of the QEMU demo answered
+/// raw JSON 421. A browser (`Accept: text/html`) gets a page that names the
+/// address to open; a script still gets JSON; either way nothing of the
+/// state, and nothing changes.
+#[test]
+fn a_browser_asking_by_a_refused_name_gets_a_page_naming_the_address() {
+    let mut w = world();
+    let html = [(
+        "Accept",
+        "text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8",
+    )];
+    let page = |w: &mut World, host: &str| {
+        let a = send(w, PC, &request_to(host, "GET", "/", &html, b"")).unwrap();
+        assert_eq!(a.status, 421, "{host}");
+        assert_eq!(
+            a.header("content-type"),
+            Some("text/html; charset=utf-8"),
+            "{host}"
+        );
+        assert_eq!(a.header("x-frame-options"), Some("DENY"), "{host}");
+        String::from_utf8(a.body).expect("UTF-8")
+    };
+    let t = page(&mut w, "localhost:8080");
+    assert!(
+        t.contains(r#"<a href="http://127.0.0.1:8080/">http://127.0.0.1:8080/</a>"#),
+        "{t}"
+    );
+    assert!(t.contains("DNS rebinding"), "{t}");
+    assert!(!t.contains("\"link\""), "nothing of the state: {t}");
+    // Another name: the device's address where it sets it itself (a board
+    // with a static address: unit test `web::misdirected::tests`), here
+    // its form; and how to make the device answer to that name.
+    let t = page(&mut w, "gw.plant.local");
+    assert!(t.contains("<code>http://ADDRESS/</code>"), "{t}");
+    assert!(t.contains("web.host_name"), "{t}");
+    // A request's bytes never become markup.
+    let t = page(&mut w, "evil<b>.example");
+    assert!(!t.contains("<b>"), "{t}");
+    // A script gets JSON, and a change asked for by a page of that name is
+    // still refused before anything happens.
+    let a = send(
+        &mut w,
+        PC,
+        &request_to(
+            "localhost:8080",
+            "GET",
+            "/api/status",
+            &[("Accept", "*/*")],
+            b"",
+        ),
+    )
+    .unwrap();
+    assert_eq!(a.status, 421);
+    assert!(a.json()["error"].is_string());
+    let mut evil = html.to_vec();
+    evil.extend([
+        ("Origin", "http://evil.example"),
+        ("Content-Type", "application/json"),
+    ]);
+    let a = send(
+        &mut w,
+        PC,
+        &request_to(
+            "evil.example",
+            "POST",
+            "/api/setup",
+            &evil,
+            br#"{"code":"ABCD-EFGH-JKMN","name":"evil","password":"attacker pw"}"#,
+        ),
+    )
+    .unwrap();
+    assert_eq!(a.status, 421);
+    assert_eq!(get(&mut w, "/api/session").json()["admin_exists"], false);
+}
+
 #[test]
 fn a_chunked_request_is_refused_and_its_body_never_read_as_a_request() {
     let mut w = world();
@@ -1294,6 +1369,55 @@ mod update {
             (f["running"].clone(), f["state"].clone()),
             (v("1.1.0"), v("confirmed"))
         );
+    }
+
+    /// Issue 27: a refused upload cleared "Previous" (the state read the
+    /// download slot again, where a refused body had been written). No
+    /// refusal changes a version the status shows; `image` beside
+    /// `version` names the running image and the software; `keeps` says
+    /// what a restart keeps.
+    #[test]
+    fn a_refused_image_changes_no_version_the_status_shows() {
+        let (mut w, _flash, token) = board(false);
+        let image = sign(&TEST_KEY_SEED, BOARD, version(1, 1, 0), &body(0xB, 20_000));
+        assert_eq!(upload(&mut w, &token, "", &image).status, 200);
+        w.restart();
+        w.run_for(ms(300));
+        w.run_for(hans_gateway::TRIAL_CHECK + Duration::from_secs(1));
+        let status = get(&mut w, "/api/status").json();
+        assert_eq!(
+            status["version"],
+            v(env!("CARGO_PKG_VERSION")),
+            "the software's"
+        );
+        assert_eq!(status["image"], v("1.1.0"), "the running image's");
+        assert_eq!(status["keeps"]["config"], true, "{status}");
+        assert_eq!(status["keeps"]["audit"], true, "{status}");
+        let versions = |w: &mut World| {
+            let f = firmware(w);
+            (
+                f["running"].clone(),
+                f["previous"].clone(),
+                f["state"].clone(),
+            )
+        };
+        let before = (v("1.1.0"), v("1.0.0"), v("confirmed"));
+        assert_eq!(versions(&mut w), before);
+        let token = token_after_restart(&mut w);
+        // Refused at its header (nothing written), then at its end (its
+        // body written over the download slot, where the previous image
+        // was).
+        let other_key = sign(&[9; 32], BOARD, version(1, 2, 0), &body(0xC, 20_000));
+        let mut corrupted = sign(&TEST_KEY_SEED, BOARD, version(1, 2, 0), &body(0xC, 20_000));
+        let n = corrupted.len();
+        corrupted[n - 10] ^= 1;
+        for (what, image) in [("another key", other_key), ("corrupted", corrupted)] {
+            assert_eq!(upload(&mut w, &token, "", &image).status, 422, "{what}");
+            let f = firmware(&mut w);
+            assert_eq!(f["upload"]["state"], v("refused"), "{what}");
+            assert_eq!(versions(&mut w), before, "{what}");
+            assert_eq!(get(&mut w, "/api/status").json()["image"], v("1.1.0"));
+        }
     }
 
     #[test]

@@ -29,6 +29,7 @@ mod tls;
 mod waker;
 
 use core::convert::Infallible;
+use core::fmt;
 use core::net::{Ipv4Addr, SocketAddrV4};
 use std::io;
 use std::path::PathBuf;
@@ -428,9 +429,18 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         None => net,
     };
     let bound = async {
-        let mport = net.listen(opts.modbus_listen).await?;
+        let at = |listener: Listener, addr: SocketAddrV4| {
+            move |error: io::Error| ListenError::io(listener, addr, error)
+        };
+        let mport = net
+            .listen(opts.modbus_listen)
+            .await
+            .map_err(at(Listener::Modbus, opts.modbus_listen))?;
         let robot = match opts.robot_listen {
-            Some(a) => Some(SocketAddrV4::new(*a.ip(), net.listen(a).await?)),
+            Some(a) => Some(SocketAddrV4::new(
+                *a.ip(),
+                net.listen(a).await.map_err(at(Listener::Robot, a))?,
+            )),
             None => None,
         };
         let web = match opts.web_listen {
@@ -444,7 +454,10 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
             Some(m) => {
                 let server =
                     crate::tls::TlsServer::modbus(&m.identity.cert, &m.identity.key, &m.client_ca)?;
-                let port = net.listen_tls_beside(mport, m.listen, server).await?;
+                let port = net
+                    .listen_tls_beside(mport, m.listen, server)
+                    .await
+                    .map_err(at(Listener::ModbusTls, m.listen))?;
                 Some(SocketAddrV4::new(*m.listen.ip(), port))
             }
             None => None,
@@ -584,12 +597,111 @@ impl AuditStore for Files {
 
 /// Binds the web page's `addr`: for HTTPS with `--web-tls`.
 async fn listen_web(net: &TokioNet, addr: SocketAddrV4, opts: &HostOptions) -> io::Result<u16> {
+    let at = |error| ListenError::io(Listener::Web, addr, error);
     if let Some(id) = &opts.web_tls {
         let server = crate::tls::TlsServer::web(&id.cert, &id.key)?;
-        return net.listen_tls(addr, server).await;
+        return net.listen_tls(addr, server).await.map_err(at);
     }
-    let _ = opts;
-    net.listen(addr).await
+    net.listen(addr).await.map_err(at)
+}
+
+/// A listener of the gateway (for the error that says which one could not
+/// listen).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Listener {
+    /// The Modbus TCP server (`--modbus-listen`).
+    Modbus,
+    /// The robot's listener in listen mode (`--robot-listen`).
+    Robot,
+    /// The web page (`--web-listen`).
+    Web,
+    /// Modbus/TCP Security (`--modbus-tls-listen`).
+    ModbusTls,
+}
+
+impl Listener {
+    /// The command-line option that gives its address.
+    pub fn option(self) -> &'static str {
+        match self {
+            Listener::Modbus => "--modbus-listen",
+            Listener::Robot => "--robot-listen",
+            Listener::Web => "--web-listen",
+            Listener::ModbusTls => "--modbus-tls-listen",
+        }
+    }
+
+    /// What it serves, in words.
+    pub fn what(self) -> &'static str {
+        match self {
+            Listener::Modbus => "the Modbus TCP server",
+            Listener::Robot => "the robot's connection",
+            Listener::Web => "the web page",
+            Listener::ModbusTls => "Modbus/TCP Security",
+        }
+    }
+}
+
+/// A listener could not listen on its address (the start's error, as an
+/// [`io::Error`] of the same kind whose text says which listener, where,
+/// why, and what usually helps):
+/// `--modbus-listen 127.0.0.1:502: the Modbus TCP server cannot listen
+/// there: Address already in use (os error 98): another program listens on
+/// that port (or this gateway runs already): stop it or choose another`.
+#[derive(Debug)]
+pub struct ListenError {
+    /// Which listener.
+    pub listener: Listener,
+    /// The address it was to listen on.
+    pub addr: SocketAddrV4,
+    /// The operating system's error.
+    pub error: io::Error,
+}
+
+impl ListenError {
+    /// `error` of `listener` on `addr`, as an [`io::Error`] of its kind.
+    fn io(listener: Listener, addr: SocketAddrV4, error: io::Error) -> io::Error {
+        io::Error::new(
+            error.kind(),
+            ListenError {
+                listener,
+                addr,
+                error,
+            },
+        )
+    }
+}
+
+impl fmt::Display for ListenError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let hint = match self.error.kind() {
+            io::ErrorKind::AddrInUse => {
+                ": another program listens on that port (or this gateway runs already): \
+                 stop it or choose another port"
+            }
+            io::ErrorKind::PermissionDenied => {
+                ": ports below 1024 need root or the capability CAP_NET_BIND_SERVICE \
+                 (the systemd unit gives it)"
+            }
+            io::ErrorKind::AddrNotAvailable => {
+                ": this machine has no such address (0.0.0.0 listens on all of them)"
+            }
+            _ => "",
+        };
+        write!(
+            f,
+            "{} {}: {} cannot listen there: {}{hint}",
+            self.listener.option(),
+            self.addr,
+            self.listener.what(),
+            self.error
+        )
+    }
+}
+
+impl std::error::Error for ListenError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
 }
 
 /// Fills `buf` from the operating system's random source (`/dev/urandom`).

@@ -49,14 +49,17 @@ hans-gateway --robot HOST[:PORT] --modbus-listen HOST:PORT [--config FILE] [--we
            [--modbus-tls-listen HOST:PORT --modbus-tls CERT KEY --modbus-tls-ca CA]
        hans-gateway --help | --version";
 
-/// What `--help` says after the options.
+/// What `--help` says after the options: [`TABLES`] is replaced by the
+/// settings' tables ([`after_help`]).
 const AFTER_HELP: &str = "\
 The configuration file (--config FILE) is TOML that you may edit and keep in version
-control: the settings in the tables [robot], [link], [motion], [watchdog], [registers],
-[network] and [access] (each key's comment names its CFG_* / NET_* register), the sixteen
-trigger entries in [triggers], and the web password as a salted hash (never in clear). An
-example with every key: linux/examples/gateway.toml. A key left out takes its factory
-default; a file that does not exist yet means the defaults (the first save creates it).
+control: the settings in the tables
+  TABLES
+(their keys are those of the web page's Configuration, which names each; REGISTERS.md
+names their Modbus registers), the sixteen trigger entries in [triggers], and in [access]
+the web page's accounts (name, role, and the password as a salted hash, never in clear).
+An example: linux/examples/gateway.toml. A key left out takes its factory default; a file
+that does not exist yet means the defaults (the first save creates it).
 The file is checked before anything starts: a malformed file, an unknown key or a value
 out of range is refused, one line per problem on stderr
   hans-gateway: FILE:LINE:COLUMN: reason
@@ -66,7 +69,10 @@ kept. The file is written readable by its owner only (mode 0600), also over a fi
 was not. A binary image written by an older version is still read, and written as TOML at
 the next save. --robot or --robot-listen override the robot setting saved in the file
 for this run (a warning in the log says so); the other saved settings are kept. One of
---robot, --robot-listen or --config FILE is needed.
+--robot, --robot-listen or --config FILE is needed; with a file whose robot.address is
+0.0.0.0 (the factory state) the gateway warns that it connects to no robot until one is
+set (on the web page, in the file, or over Modbus).
+Without --config nothing is kept across a restart (the page says so at its top).
 
 The setup code: at each start the gateway makes a new one-time code from the operating
 system's random source and writes it to the --setup-code-file FILE only (readable by its
@@ -102,7 +108,6 @@ Exit status:
     name = "hans-gateway",
     about = "hans-gateway: Modbus TCP (PLC) to Hans / Huayan Elfin robot controller gateway",
     override_usage = USAGE,
-    after_help = AFTER_HELP,
     disable_help_flag = true,
     disable_version_flag = true
 )]
@@ -191,11 +196,13 @@ struct Cli {
     /// (mqtt.tls); default: the system's, /etc/ssl/certs/ca-certificates.crt.
     #[arg(long, value_name = "FILE", verbatim_doc_comment)]
     mqtt_ca: Option<PathBuf>,
-    /// Keep the configuration and the trigger table in FILE (TOML):
-    /// checked and read at start, written when the PLC writes 1 to
-    /// CONFIG_COMMAND.
-    /// Without it they live in RAM: the PLC's CONFIG_COMMAND 1
-    /// applies them but reports CONFIG_RESULT 3 (not saved).
+    /// Keep the configuration, the trigger table and the web page's
+    /// accounts in FILE (TOML), and the audit log beside it
+    /// (FILE.audit): checked and read at start, written at each save
+    /// (the page's, or the PLC's CONFIG_COMMAND 1).
+    /// Without it they live in RAM and are lost at each restart: the
+    /// PLC's CONFIG_COMMAND 1 applies them but reports CONFIG_RESULT 3
+    /// (not saved), and the page says so at its top.
     #[arg(long, value_name = "FILE", verbatim_doc_comment)]
     config: Option<PathBuf>,
     /// Write the one-time setup code (for creating the first
@@ -310,13 +317,36 @@ fn version() -> String {
     )
 }
 
-/// The command line's definition with its version, which is built at run
-/// time from the map version and so goes on here rather than in the derive
-/// attribute (clap takes a `&'static str`: the string is leaked, once per
-/// run).
+/// The placeholder of [`AFTER_HELP`] for the settings' tables.
+const TABLES: &str = "TABLES";
+
+/// [`AFTER_HELP`] with the settings' tables of this build (`[robot]`,
+/// `[link]`, ..., in the schema's order): the help names every table the
+/// file may have, also those added later.
+fn after_help() -> String {
+    let mut groups: Vec<&str> = Vec::new();
+    for s in hans_gateway::config::SETTINGS {
+        if !groups.contains(&s.group()) {
+            groups.push(s.group());
+        }
+    }
+    let tables: Vec<String> = groups.iter().map(|g| format!("[{g}]")).collect();
+    let list = match tables.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    AFTER_HELP.replacen(TABLES, &list, 1)
+}
+
+/// The command line's definition with its version and its after-help,
+/// which are built at run time (the map version, the settings' tables) and
+/// so go on here rather than in the derive attribute (clap takes a
+/// `&'static str`: the strings are leaked, once per run).
 fn command() -> clap::Command {
     let version: &'static str = version().leak();
-    Cli::command().version(version)
+    let after: &'static str = after_help().leak();
+    Cli::command().version(version).after_help(after)
 }
 
 /// Reads the command line. `--help` and `--version` print to stdout and
@@ -509,22 +539,49 @@ fn host_name() -> HostName {
         .unwrap_or_else(|| HostName::new("hans-gateway").unwrap_or(HostName::EMPTY))
 }
 
+/// The warning for a gateway that will connect to no robot: neither
+/// `--robot` nor `--robot-listen`, and a configuration in connect mode
+/// whose robot address is 0.0.0.0 (the factory state, and the systemd
+/// unit's start). It serves the PLC and the page meanwhile, and connects
+/// once an address is set.
+fn no_robot(cli: &Cli, config: &hans_gateway::Config) -> Option<String> {
+    let connect = config.link_mode == hans_gateway::config::LinkMode::Connect;
+    if cli.robot.is_some() || cli.robot_listen.is_some() || !connect {
+        return None;
+    }
+    if !config.robot_ip.is_unspecified() {
+        return None;
+    }
+    let file = cli
+        .config
+        .as_deref()
+        .map_or(String::new(), |p| format!(" in {}", p.display()));
+    Some(format!(
+        "no robot address configured (robot.address is 0.0.0.0{file}): the gateway serves \
+         the PLC and the page but connects to no robot until one is set: on the web page \
+         (Configuration: Robot address), in the file ([robot] address = \"HOST\"), over Modbus \
+         (CFG_ROBOT_IP, then CONFIG_COMMAND 1), or with --robot HOST[:PORT]"
+    ))
+}
+
 /// Checks the configuration file before anything starts: a file that is
 /// refused prints one `hans-gateway: FILE:LINE:COLUMN: reason` line per
 /// problem and gives status 2 (like a bad command line: the operator must
-/// fix it), one that cannot be read status 1 (the environment).
-fn check_config_file(cli: &Cli) -> Result<(), ExitCode> {
+/// fix it), one that cannot be read status 1 (the environment). Returns
+/// the configuration the gateway starts from (the file's, or the defaults).
+fn check_config_file(cli: &Cli) -> Result<hans_gateway::Config, ExitCode> {
+    let defaults = hans_gateway::Config::default();
     let Some(path) = &cli.config else {
-        return Ok(());
+        return Ok(defaults);
     };
-    match config_file::read_file(path, &hans_gateway::Config::default()) {
-        Ok(Some(_)) => Ok(()),
+    match config_file::read_file(path, &defaults) {
+        Ok(Some((contents, _))) => Ok(contents.stored.config),
         Ok(None) => {
             log::info!(
                 "config: {} does not exist yet: defaults; the first save creates it",
                 path.display()
             );
-            Ok(())
+            Ok(defaults)
         }
         Err(e) => {
             for line in e.to_string().lines() {
@@ -543,9 +600,11 @@ fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
         .format_timestamp_millis()
         .init();
-    if let Err(code) = check_config_file(&cli) {
-        return code;
-    }
+    let config = match check_config_file(&cli) {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
+    let no_robot = no_robot(&cli, &config);
     let code_file = setup_code_path(&cli);
     let web_tls = cli.web_tls.is_some();
     // A name that does not resolve is an environment the gateway cannot
@@ -581,6 +640,9 @@ fn main() -> ExitCode {
     }
     if let Some(a) = gw.modbus_tls_addr() {
         log::info!("modbus/tcp security (TLS, client certificates) on {a}");
+    }
+    if let Some(warning) = no_robot {
+        log::warn!("{warning}");
     }
     // Shown once the gateway runs: a start that fails shows no code.
     if let Some(code) = &setup_code {

@@ -100,8 +100,21 @@ fn help_and_version_print_to_stdout_and_exit_0() {
         "setup code",
         "mode 0600",
         "101",
+        "linux/dist/hans-gateway.service",
+        "the web page's accounts",
     ] {
         assert!(text.contains(needle), "help lacks {needle:?}:\n{text}");
+    }
+    // Issue 27: the help spoke of "the web password" (there are accounts
+    // now) and left [mqtt] out of the file's tables. It names every table
+    // of the settings this build has.
+    assert!(!text.contains("web password"), "{text}");
+    for s in hans_gateway::config::SETTINGS {
+        let table = format!("[{}]", s.group());
+        assert!(
+            text.contains(&table),
+            "help lacks the table {table}:\n{text}"
+        );
     }
     assert!(out.stderr.is_empty(), "help on stderr");
     let short = run(&["-h"]);
@@ -258,6 +271,99 @@ fn a_robot_name_without_a_port_means_10003() {
         out.stderr
     );
     drop(taken);
+}
+
+/// Issue 27: a listener that could not listen said `Address already in use
+/// (os error 98)` and nothing of which. Each names its option, the address
+/// and what usually helps; status 1, nothing served.
+#[test]
+fn a_listener_that_cannot_listen_names_its_option_and_address() {
+    let taken = TcpListener::bind((Ipv4Addr::LOCALHOST, 0)).expect("bind a port");
+    let addr = taken.local_addr().expect("address").to_string();
+    for (option, what, args) in [
+        (
+            "--modbus-listen",
+            "the Modbus TCP server",
+            vec!["--robot", "127.0.0.1:1", "--modbus-listen", &addr],
+        ),
+        (
+            "--web-listen",
+            "the web page",
+            vec![
+                "--robot",
+                "127.0.0.1:1",
+                "--modbus-listen",
+                "127.0.0.1:0",
+                "--web-listen",
+                &addr,
+            ],
+        ),
+        (
+            "--robot-listen",
+            "the robot's connection",
+            vec!["--robot-listen", &addr, "--modbus-listen", "127.0.0.1:0"],
+        ),
+    ] {
+        let out = run(&args);
+        assert_eq!(out.code, Some(1), "{option}: {out:?}");
+        let want = format!(
+            "hans-gateway: {option} {addr}: {what} cannot listen there: Address already in use"
+        );
+        assert!(out.stderr.contains(&want), "{option}: {}", out.stderr);
+        assert!(
+            out.stderr.contains("another program listens on that port"),
+            "{option}: {}",
+            out.stderr
+        );
+        assert!(!out.stderr.contains("modbus server on"), "{}", out.stderr);
+    }
+    drop(taken);
+}
+
+/// Issue 27: the systemd unit starts the gateway with a configuration file
+/// and no robot, and nothing said that it would connect to none. It warns,
+/// saying where to set one; with a robot given or configured it does not.
+#[test]
+fn a_gateway_without_a_robot_address_warns_that_it_connects_to_none() {
+    let file = TempFile::new("fresh.toml");
+    let (gw, log) = start(&["--config", file.arg(), "--modbus-listen", "127.0.0.1:0"]);
+    let line = log.wait_for("no robot address configured");
+    assert!(line.contains("WARN"), "{line}");
+    assert!(line.contains(file.arg()), "{line}");
+    for place in [
+        "web page",
+        "[robot] address",
+        "CFG_ROBOT_IP",
+        "--robot HOST",
+    ] {
+        assert!(line.contains(place), "{place}: {line}");
+    }
+    drop(gw);
+    // A robot on the command line, or in the file: no warning (it would
+    // come before the setup code's line).
+    let named = TempFile::new("named.toml");
+    std::fs::write(&named.0, "[robot]\naddress = \"127.0.0.1\"\nport = 1\n").expect("write");
+    for args in [
+        vec![
+            "--config",
+            file.arg(),
+            "--robot",
+            "127.0.0.1:1",
+            "--modbus-listen",
+            "127.0.0.1:0",
+        ],
+        vec!["--config", named.arg(), "--modbus-listen", "127.0.0.1:0"],
+    ] {
+        let (gw, log) = start(&args);
+        log.wait_for("setup code for the first administrator");
+        let seen = log.seen.borrow();
+        assert!(
+            !seen.iter().any(|l| l.contains("no robot address")),
+            "{args:?}: {seen:#?}"
+        );
+        drop(seen);
+        drop(gw);
+    }
 }
 
 /// Kills the child when dropped (also when an assertion fails), then
@@ -691,6 +797,13 @@ fn web_listen_serves_the_page_and_the_api() {
             .contains("strict-transport-security"),
         "{status}"
     );
+    // Without --config nothing is kept across a restart, and the status
+    // says so (the page shows it); Linux runs no firmware image.
+    assert!(
+        status.contains("\"keeps\":{\"config\":false,\"audit\":false}"),
+        "{status}"
+    );
+    assert!(status.contains("\"image\":null"), "{status}");
     // The access bit "web page on" shows over Modbus too.
     let regs = read_registers(&modbus_addr(&log), 50, 1);
     assert_eq!(regs[0] & (1 << 4), 1 << 4);

@@ -293,6 +293,19 @@ impl Setting {
         self.key.split_once('.').map_or(self.key, |(_, n)| n)
     }
 
+    /// A short name in words for people (`Robot reply timeout` of
+    /// `link.reply_timeout_ms`), from [`LABELS`]; empty in builds without
+    /// the web page (as [`Setting::help`]) or for a key without one.
+    pub fn label(&self) -> &'static str {
+        if !cfg!(feature = "web") {
+            return "";
+        }
+        LABELS
+            .iter()
+            .find(|(key, _)| *key == self.key)
+            .map_or("", |(_, label)| *label)
+    }
+
     /// Reads the setting from its text form into `c`, checked; nothing is
     /// changed on error.
     pub fn parse_into(&self, text: &str, c: &mut Config) -> Result<(), FieldError> {
@@ -963,6 +976,58 @@ pub const SETTINGS: [&Setting; BASE.len() + MQTT.len() + ENIP.len()] = {
     out
 };
 
+/// The settings' names in words, for the page (which shows the key
+/// beside it): one per setting of every build (a test checks). A table of
+/// its own rather than one more argument of every `setting!`, so that a
+/// setting and its label are added in two short lines.
+pub const LABELS: &[(&str, &str)] = &[
+    ("robot.address", "Robot address"),
+    ("robot.port", "Robot command port"),
+    ("robot.id", "Robot id"),
+    ("link.mode", "Who connects"),
+    ("link.listen_port", "Port the robot connects to"),
+    ("link.reply_timeout_ms", "Robot reply timeout"),
+    ("link.status_source", "Status source"),
+    ("link.poll_ms", "Status poll period"),
+    ("link.datasheet_port", "DataSheet port"),
+    ("link.protocol", "Protocol version"),
+    ("motion.wait_blending_done", "Done waits for blending"),
+    ("motion.wait_in_position", "Done waits for in position"),
+    ("motion.start_grace_ms", "Motion start grace time"),
+    ("motion.auto_reset", "Reset after a motion error"),
+    ("watchdog.period_ms", "PLC watchdog period"),
+    ("watchdog.action", "Watchdog action"),
+    ("registers.word_order", "32-bit word order"),
+    ("registers.number_format", "Real number format"),
+    ("network.address", "Gateway address"),
+    ("network.mask", "Network mask"),
+    ("network.gateway", "Default gateway"),
+    ("network.dhcp", "Address from DHCP"),
+    ("network.modbus_port", "Modbus TCP port"),
+    ("network.web_port", "Web page port"),
+    ("network.ntp_server", "Time server (NTP)"),
+    ("access.write_protect", "Registers write-protected"),
+    ("access.modbus_allow", "Modbus clients allowed"),
+    ("access.web_allow", "Web clients allowed"),
+    ("access.read_without_login", "Read without login"),
+    ("access.modbus_config", "Configuration over Modbus"),
+    ("access.plc_address", "PLC address (reserved slot)"),
+    ("web.host_name", "Page's DNS name"),
+    ("mqtt.enabled", "Telemetry on"),
+    ("mqtt.broker", "MQTT broker"),
+    ("mqtt.port", "Broker port"),
+    ("mqtt.tls", "TLS to the broker"),
+    ("mqtt.group_id", "Sparkplug group"),
+    ("mqtt.edge_id", "Sparkplug edge node"),
+    ("mqtt.primary_host", "Sparkplug primary host"),
+    ("mqtt.keep_alive_s", "MQTT keep-alive"),
+    ("mqtt.period_ms", "Shortest publish interval"),
+    ("mqtt.joint_deadband", "Joint deadband"),
+    ("mqtt.pose_deadband", "Pose deadband"),
+    ("enip.enabled", "EtherNet/IP adapter on"),
+    ("enip.allow", "EtherNet/IP scanners allowed"),
+];
+
 /// Bytes of a value of `kind` in the stored image (the longest, for a
 /// host name).
 pub const fn stored_len(kind: &Kind) -> usize {
@@ -993,6 +1058,41 @@ mod tests {
             assert_eq!(a.kind.check(&a.default_value()), Ok(()), "{}", a.key);
             assert_eq!(by_key(a.key).map(|s| s.id), Some(a.id));
             assert_eq!(by_id(a.id).map(|s| s.key), Some(a.key));
+        }
+    }
+
+    #[test]
+    #[cfg(feature = "web")]
+    fn every_setting_has_a_label_in_words_and_every_label_a_setting() {
+        for s in SETTINGS {
+            let l = s.label();
+            assert!(!l.is_empty(), "{} has no label in LABELS", s.key);
+            assert!(l.len() <= 32, "{}: label {l:?} longer than 32", s.key);
+            assert!(
+                l.starts_with(|c: char| c.is_ascii_uppercase() || c.is_ascii_digit()),
+                "{}: {l:?}",
+                s.key
+            );
+            assert!(
+                !l.contains(['.', '_']),
+                "{}: a label is words: {l:?}",
+                s.key
+            );
+        }
+        // Each label once, and each for a setting (of this build or one
+        // with more features: the MQTT settings).
+        for (i, (key, label)) in LABELS.iter().enumerate() {
+            assert!(
+                LABELS
+                    .iter()
+                    .skip(i + 1)
+                    .all(|(k, l)| k != key && l != label),
+                "{key} or {label:?} twice"
+            );
+            assert!(
+                by_key(key).is_some() || key.starts_with("mqtt."),
+                "{key}: a label without a setting"
+            );
         }
     }
 

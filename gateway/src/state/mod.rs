@@ -229,6 +229,20 @@ pub struct Model {
     pub firmware: firmware::Firmware,
     /// Who owns the command inputs (Modbus, or an EtherNet/IP owner).
     pub owner: owner::Ownership,
+    /// What this platform keeps across a restart.
+    pub keeps: Keeps,
+}
+
+/// What survives a restart, from the platform's storage (set once at
+/// start): a device that keeps nothing loses its settings, accounts and
+/// audit records at each restart, and its views must say so.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Keeps {
+    /// The configuration, the accounts and the trigger table: the
+    /// storage's `storage::Medium` is not `None`.
+    pub config: bool,
+    /// The audit log's records (an `AuditStore` that is persistent).
+    pub audit: bool,
 }
 
 impl Model {
@@ -267,6 +281,7 @@ impl Model {
             error_text: ErrorText::default(),
             firmware: firmware::Firmware::NONE,
             owner: owner::Ownership::default(),
+            keeps: Keeps::default(),
         }
     }
 

@@ -35,8 +35,12 @@ const _: () = assert!(PIECE >= hans_fw_image::HEADER_LEN);
 /// What the storage task is asked to do with the slots.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Op {
-    /// Read the boot state and the slots' headers into the state again.
-    Survey,
+    /// Read the boot state into the state again (an upload's writes may
+    /// have unmarked an update that waited for the restart). The versions
+    /// stay those read at start: the running one does not change until a
+    /// restart, and the previous one is the version the running firmware
+    /// replaced, which no upload (refused or not) changes.
+    BootState,
     /// Write `len` bytes of the piece buffer into the download slot at
     /// `offset`.
     Write { offset: u32, len: usize },

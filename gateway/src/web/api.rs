@@ -108,6 +108,8 @@ pub(crate) struct StatusSnapshot {
     mqtt_broker: (crate::config::HostName, u16),
     /// The firmware.
     firmware: crate::state::firmware::Firmware,
+    /// What survives a restart.
+    keeps: crate::state::Keeps,
     /// Each channel's handshake and Execute.
     channels: [(Handshake, bool); r::CHANNELS],
     /// RAW's.
@@ -260,6 +262,7 @@ impl StatusSnapshot {
             mqtt: crate::state::telemetry::Status::new().get(),
             mqtt_broker: (crate::config::HostName::EMPTY, 0),
             firmware: crate::state::firmware::Firmware::NONE,
+            keeps: crate::state::Keeps::default(),
             channels: [(Handshake::default(), false); r::CHANNELS],
             raw: (Handshake::default(), false),
             triggers: Triggers::default(),
@@ -298,6 +301,7 @@ impl StatusSnapshot {
         self.config_applied = m.config.generation;
         self.mqtt_broker = (c.mqtt.broker, c.mqtt.port);
         self.firmware = m.firmware;
+        self.keeps = m.keeps;
         for (dst, ch) in self.channels.iter_mut().zip(m.channels.iter()) {
             *dst = (ch.handshake, ch.inputs.execute());
         }
@@ -373,6 +377,10 @@ impl StatusSnapshot {
     fn render(&self, v: Value<'_, '_>) {
         v.object(|j| {
             j.key("version").str(VERSION.as_bytes());
+            // The running image's version beside the software's: a board
+            // runs an image signed with its own version (`null`: no image,
+            // as on Linux, whose package's version is the software's).
+            version(j.key("image"), self.firmware.running);
             let [major, minor] = r::MAP_VERSION.to_be_bytes();
             j.key("map").text(|t| {
                 t.uint(major.into()).str(b".").uint(minor.into());
@@ -416,6 +424,10 @@ impl StatusSnapshot {
                 j.key("recovery").bool(self.recovery);
                 j.key("network_managed").bool(self.network_managed);
                 j.key("web_refused").uint(self.web_refused.into());
+            });
+            j.key("keeps").object(|j| {
+                j.key("config").bool(self.keeps.config);
+                j.key("audit").bool(self.keeps.audit);
             });
             j.key("config").object(|j| {
                 j.key("result").uint(self.config_result);
@@ -637,6 +649,7 @@ fn fields(v: Value<'_, '_>) {
                     None => j.key("register").null(),
                 }
                 j.key("help").str(s.help.as_bytes());
+                j.key("label").str(s.label().as_bytes());
             });
         }
     });
@@ -683,18 +696,20 @@ fn entry(j: &mut Object<'_, '_>, e: &LogEntry) {
     }
 }
 
+/// A firmware image's version, `"1.2.3"` (`null`: none).
+fn version(val: Value<'_, '_>, v: Option<crate::state::firmware::Version>) {
+    val.opt(v, |val, v| {
+        val.text(|t| {
+            t.uint(v.major.into()).str(b".").uint(v.minor.into());
+            t.str(b".").uint(v.patch.into());
+        })
+    })
+}
+
 /// The firmware: running and previous versions, trial state, the last
 /// upload (`supported` false: this platform installs no image).
 fn firmware(j: &mut Object<'_, '_>, s: &crate::state::firmware::Firmware) {
-    use crate::state::firmware::{Upload, Version};
-    fn version(val: Value<'_, '_>, v: Option<Version>) {
-        val.opt(v, |val, v| {
-            val.text(|t| {
-                t.uint(v.major.into()).str(b".").uint(v.minor.into());
-                t.str(b".").uint(v.patch.into());
-            })
-        })
-    }
+    use crate::state::firmware::Upload;
     j.key("supported").bool(s.supported);
     version(j.key("running"), s.running);
     version(j.key("previous"), s.previous);
@@ -959,6 +974,10 @@ mod tests {
         assert!(fields.contains(r#"{"key":"link.poll_ms","kind":"number","unit":"ms","range":{"min":10,"max":100},"choices":null,"default":"100","restart":false,"register":{"name":"CFG_POLL_MS","address":105,"count":1},"#), "{fields}");
         assert!(fields.contains(r#"{"key":"motion.wait_in_position","kind":"flag","unit":"","range":null,"choices":["false","true"],"default":"false","restart":false,"register":{"name":"CFG_MOTION_POLICY","address":110,"count":1,"bit":1},"#), "{fields}");
         assert!(fields.contains(r#"{"key":"mqtt.broker","kind":"host","unit":"","range":null,"choices":null,"default":"","restart":true,"register":null,"#), "{fields}");
+        assert!(
+            fields.contains(r#""help":"robot reply timeout","label":"Robot reply timeout"}"#),
+            "{fields}"
+        );
         let log = render(Doc::Log, &Model::new(Config::default(), Config::default()));
         assert_eq!(
             log,

@@ -9,8 +9,10 @@
 //! [`PIECE`](crate::update::PIECE)-byte pieces through the storage task
 //! (the only owner of the flash); the slot is marked for the swap only if
 //! the hash is the signed one. A refused image leaves the running firmware
-//! and the boot state as they were, with its reason in the answer, the
-//! status (`firmware.upload`), the log and the audit log.
+//! and the versions the status shows (running, previous) as they were,
+//! with its reason in the answer, the status (`firmware.upload`), the log
+//! and the audit log; an update that waited for the restart is unmarked
+//! once a refused image's bytes were written over it.
 //!
 //! Bounds: one upload at a time (409 for a second); the next bytes must
 //! come within [`UPLOAD_STALL`] and the whole image within
@@ -142,8 +144,10 @@ impl<C: Clock> App<'_, C> {
                     .with(|m| m.firmware.upload = Upload::Refused { reason });
                 // Writing into the download slot unmarks an update that
                 // was waiting for the restart (its image is overwritten):
-                // the state says what the flash says now.
-                let _ = updates.ask(Op::Survey).await;
+                // the boot state says what the flash says now. The
+                // versions stay: nothing else changed (the previous one is
+                // the version the running firmware replaced).
+                let _ = updates.ask(Op::BootState).await;
                 warn!("update: upload refused: {}", reason);
                 let mut detail = heapless::String::<80>::new();
                 let _ = core::fmt::write(&mut detail, format_args!("refused: {reason}"));

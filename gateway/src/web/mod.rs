@@ -76,6 +76,7 @@ pub(crate) mod firmware;
 pub(crate) mod grammar;
 pub(crate) mod io;
 pub(crate) mod json;
+pub(crate) mod misdirected;
 pub(crate) mod post;
 pub(crate) mod routes;
 
@@ -872,6 +873,9 @@ pub(crate) enum Reply {
     /// 405: the path does not take the request's method; the `Allow`
     /// header names those it takes ([`routes`]).
     NotAllowed(&'static str),
+    /// 421 to a browser: a page naming the address to use
+    /// ([`misdirected`]).
+    Misdirected(misdirected::Page),
 }
 
 /// `{"error":"..."}`, the text cut to fit: always valid JSON (an escaped
@@ -963,6 +967,16 @@ impl<C: Clock> App<'_, C> {
         };
         let configured = self.hub.with(|m| m.config.active.web_host);
         if !own_host(host, self.peer, configured.as_bytes()) {
+            let accept = request.parts.headers().get("Accept");
+            if misdirected::wants_html(accept.map(|a| a.as_raw())) {
+                // The device's own address where it sets it (a board with
+                // a static address); with DHCP or on Linux it is not known.
+                let address = self.hub.with(|m| {
+                    let a = &m.access;
+                    (a.network_managed && !a.running.dhcp).then_some(a.running.ip)
+                });
+                return Reply::Misdirected(misdirected::Page::new(host, self.secure, address));
+            }
             return error(
                 StatusCode::MISDIRECTED_REQUEST,
                 "this device does not answer to that host name: use its address",
@@ -1290,6 +1304,13 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     .with_header("Cache-Control", "no-store")
                     .with_headers(SECURITY_HEADERS)
                     .with_headers(hsts(self.secure))
+                    .write_to(c, w)
+                    .await
+            }
+            Reply::Misdirected(page) => {
+                Response::new(StatusCode::MISDIRECTED_REQUEST, Head { body: page, head })
+                    .with_header("Cache-Control", "no-store")
+                    .with_headers(SECURITY_HEADERS)
                     .write_to(c, w)
                     .await
             }

@@ -476,17 +476,27 @@ impl WebRig {
     /// prefix) and opens the page; returns once the robot link is up and
     /// the page is loaded.
     pub fn start(test: &'static str) -> WebRig {
-        Self::start_with(test, None)
+        Self::start_with(test, None, None)
+    }
+
+    /// As [`WebRig::start`], the gateway keeping its configuration in a
+    /// file (`--config`, in a fresh directory under the screenshot
+    /// directory's `files/`): what a restart keeps.
+    pub fn start_kept(test: &'static str) -> WebRig {
+        let dir = screenshot_dir().join("files").join(test);
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a directory for the configuration file");
+        Self::start_with(test, None, Some(dir.join("gateway.toml")))
     }
 
     /// As [`WebRig::start`], the gateway being the firmware `elf` on the
     /// QEMU board ([`Qemu`]; its log in the screenshot directory as
     /// `<test>.defmt`).
     pub fn start_qemu(test: &'static str, elf: &Path) -> WebRig {
-        Self::start_with(test, Some(elf))
+        Self::start_with(test, Some(elf), None)
     }
 
-    fn start_with(test: &'static str, elf: Option<&Path>) -> WebRig {
+    fn start_with(test: &'static str, elf: Option<&Path>, config: Option<PathBuf>) -> WebRig {
         // A test that failed while holding the lock poisons it; the next
         // one may still run.
         let one = ONE_BROWSER.lock().unwrap_or_else(|e| e.into_inner());
@@ -512,6 +522,7 @@ impl WebRig {
                 let mut opts = HostOptions::new(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0), robot);
                 opts.web_listen = Some(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0));
                 opts.setup_code = hans_gateway::SetupCode::parse(SETUP_CODE.as_bytes());
+                opts.config_file = config;
                 let gw = RunningGateway::start(opts).expect("start the gateway");
                 let web = gw.web_addr().expect("the page is served");
                 let modbus = gw.modbus_addr();
@@ -638,6 +649,17 @@ impl WebRig {
         self.attr(id, &format!("data-{name}")).unwrap_or_default()
     }
 
+    /// The computed CSS property `prop` of element `id` (colours as
+    /// `rgb(r, g, b)`).
+    pub fn style(&self, id: &str, prop: &str) -> String {
+        let v = self.js(&format!(
+            "getComputedStyle(document.getElementById({})).getPropertyValue({})",
+            js_str(id),
+            js_str(prop)
+        ));
+        v.as_str().unwrap_or_default().to_string()
+    }
+
     /// Is element `id` shown (not hidden by itself or a parent)?
     pub fn visible(&self, id: &str) -> bool {
         self.js(&format!(
@@ -656,16 +678,27 @@ impl WebRig {
 
     /// Waits until `f` gives `Some`, looking every [`PAGE_POLL`]; after
     /// [`WAIT`] takes a screenshot and fails naming `what`.
-    pub fn wait_for<T>(&mut self, what: &str, mut f: impl FnMut(&WebRig) -> Option<T>) -> T {
+    pub fn wait_for<T>(&mut self, what: &str, f: impl FnMut(&WebRig) -> Option<T>) -> T {
+        self.wait_for_in(what, WAIT, f)
+    }
+
+    /// [`WebRig::wait_for`] with its own bound `limit` (for what must
+    /// happen sooner than something else would make it happen anyway).
+    pub fn wait_for_in<T>(
+        &mut self,
+        what: &str,
+        limit: Duration,
+        mut f: impl FnMut(&WebRig) -> Option<T>,
+    ) -> T {
         let start = Instant::now();
         loop {
             if let Some(v) = f(self) {
                 return v;
             }
-            if start.elapsed() > WAIT {
+            if start.elapsed() > limit {
                 let shot = self.shot("timeout");
                 panic!(
-                    "timed out after {WAIT:?} waiting for {what} (screenshot {})",
+                    "timed out after {limit:?} waiting for {what} (screenshot {})",
                     shot.display()
                 );
             }

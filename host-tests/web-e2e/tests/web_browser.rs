@@ -10,6 +10,16 @@ use hans_web_e2e::{WebRig, PHONE};
 /// A password the tests set.
 const PW: &str = "commission-2026";
 
+/// The page's colours (its CSS variables), as the browser computes them.
+const RED: &str = "rgb(168, 7, 26)";
+const GREEN: &str = "rgb(22, 107, 44)";
+const WHITE: &str = "rgb(255, 255, 255)";
+const GREY: &str = "rgb(85, 85, 85)";
+
+/// What the page must do at once (its own periodic reload of the audit log
+/// comes every 15 s).
+const AT_ONCE: std::time::Duration = std::time::Duration::from_secs(4);
+
 /// The joints shown on the page (J1-J6), `None` while unknown.
 fn page_joints(rig: &WebRig) -> Option<[f32; 6]> {
     let mut j = [0.0; 6];
@@ -37,6 +47,13 @@ fn the_page_shows_the_live_status_and_follows_a_move() {
     assert!(rig.text("mb-clients").starts_with("127.0.0.1:"));
     // The telemetry is off in the factory state, and the page says so.
     assert_eq!(rig.text("mqtt-state"), "off");
+    // One version line in the header: the software's (Linux runs no
+    // firmware image: `image` is null, and the line names none).
+    let status: serde_json::Value =
+        serde_json::from_str(&rig.http("GET", "/api/status", "").body).expect("JSON");
+    assert_eq!(status["image"], serde_json::Value::Null);
+    let version = status["version"].as_str().expect("a version");
+    assert_eq!(rig.text("version"), format!("software {version}"));
     // The joints on the page are those the PLC reads.
     let start = rig.modbus(async |p| p.joints().await);
     let shown = rig.wait_for("joints on the page", page_joints);
@@ -119,6 +136,28 @@ fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() 
         "the form enabled",
         "!document.getElementById('cfg-fs').disabled",
     );
+    // Each setting is named in words, its key beside (issue 27: the keys
+    // alone were hard for operators).
+    let label = |r: &WebRig, key: &str| {
+        r.js(&format!(
+            "document.querySelector('label[for=\"f-{key}\"]').textContent"
+        ))
+        .as_str()
+        .unwrap_or_default()
+        .to_string()
+    };
+    assert_eq!(
+        label(&rig, "link.reply_timeout_ms"),
+        "Robot reply timeout [ms]link.reply_timeout_ms"
+    );
+    assert_eq!(label(&rig, "robot.address"), "Robot addressrobot.address");
+    let unnamed = rig.js(
+        "[...document.querySelectorAll('#cfg-groups .fld')].filter(f => \
+         !f.querySelector('label code') || f.querySelector('label code').textContent !== f.dataset.field \
+         || f.querySelector('label').firstChild.textContent.startsWith(f.dataset.field)).map(f => f.dataset.field)",
+    );
+    assert_eq!(unnamed, serde_json::json!([]), "settings without words");
+    rig.shot_at("config", "labels");
     // Units, ranges and help come from /api/fields.
     let help = rig.text("h-link.poll_ms");
     assert!(
@@ -245,7 +284,11 @@ fn the_trigger_editor_stores_an_entry_that_fires_from_its_bit() {
     rig.click("t-save-4");
     rig.wait_text("t-err-4", "entry 4 refused", |t| !t.is_empty());
     assert_eq!(rig.text("t-err-4"), "not a protocol message: not stored");
+    // Success and refusal in different colours (issue 27: both were red).
+    assert_eq!(rig.style("t-err-3", "color"), GREEN);
+    assert_eq!(rig.style("t-err-4", "color"), RED);
     rig.shot("edited");
+    rig.shot_at("triggers", "stored-and-refused");
 
     let texts = rig.modbus(async |plc| {
         (
@@ -377,8 +420,23 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     }
     assert!(rig.text("access-flags").contains("NO ADMINISTRATOR"));
     rig.shot("fresh");
+    // This gateway keeps nothing (no --config): the header says so, in
+    // sight wherever the page is scrolled, and a note at the top says what
+    // that means.
+    assert!(rig.visible("keep"), "the storage chip");
+    assert_eq!(rig.data("keep", "kept"), "no");
+    assert!(rig.visible("keep-note"));
+    assert!(rig.text("keep-note").contains("lost at every restart"));
+    assert!(rig.text("audit-kept").starts_with("NOT kept"));
     // Whoever reaches the page first cannot claim it: a wrong code is
-    // refused.
+    // refused by the device; what was typed stays (issue 27: the page
+    // cleared the fields), the code is marked.
+    let value = |r: &WebRig, id: &str| {
+        r.js(&format!("document.getElementById('{id}').value"))
+            .as_str()
+            .unwrap_or_default()
+            .to_string()
+    };
     rig.type_in("setup-code", "ABCD-EFGH-JKMP");
     rig.type_in("pw-new", "commission-1");
     rig.type_in("pw-new2", "commission-1");
@@ -386,7 +444,15 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     rig.wait_text("pw-first-msg", "the wrong code refused", |t| {
         t.contains("wrong setup code")
     });
-    // Too short, then two that differ: refused, still fresh.
+    assert_eq!(rig.data("pw-first-msg", "result"), "refused");
+    assert_eq!(value(&rig, "setup-code"), "ABCD-EFGH-JKMP");
+    assert_eq!(value(&rig, "pw-new"), "commission-1");
+    assert_eq!(
+        rig.attr("setup-code", "aria-invalid").as_deref(),
+        Some("true")
+    );
+    // Too short: the page says so before sending anything, and the setup
+    // code typed stays.
     rig.type_in("setup-code", hans_web_e2e::SETUP_CODE);
     rig.type_in("pw-new", "short");
     rig.type_in("pw-new2", "short");
@@ -394,14 +460,67 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     rig.wait_text("pw-first-msg", "the length refused", |t| {
         t.contains("at least 10 characters")
     });
+    assert!(
+        rig.text("pw-first-msg").contains("nothing was sent"),
+        "{}",
+        rig.text("pw-first-msg")
+    );
+    assert_eq!(value(&rig, "setup-code"), hans_web_e2e::SETUP_CODE);
+    assert_eq!(rig.attr("pw-new", "aria-invalid").as_deref(), Some("true"));
+    assert_eq!(
+        rig.attr("setup-code", "aria-invalid"),
+        None,
+        "the code is fine now"
+    );
+    rig.shot("setup-checked");
+    // A code that cannot be one, and two passwords that differ: the same.
+    rig.type_in("setup-code", "ABCD-EFGH");
     rig.type_in("pw-new", "commission-1");
+    rig.click("pw-set");
+    rig.wait_text("pw-first-msg", "the code's form refused", |t| {
+        t.contains("the setup code: 12 letters")
+    });
+    rig.type_in("setup-code", hans_web_e2e::SETUP_CODE);
     rig.type_in("pw-new2", "commission-2");
     rig.click("pw-set");
     rig.wait_text("pw-first-msg", "the difference found", |t| {
         t.contains("differ")
     });
     assert_eq!(rig.session(), "fresh");
+    // The page's checks cost no guess: the one wrong code was the only
+    // one counted, and the device asks for no wait.
+    let session = rig.http("GET", "/api/session", "");
+    assert!(
+        session.body.contains("\"retry_after_s\":0"),
+        "{}",
+        session.body
+    );
     rig.set_first_password(PW);
+    // The outcome stays in sight (issue 27: the panel vanished with it):
+    // created, logged in, and not kept on this gateway.
+    assert!(rig.visible("pw-first"));
+    assert_eq!(rig.data("pw-first", "done"), "not-kept");
+    assert_eq!(rig.data("pw-first-msg", "result"), "ok");
+    assert!(rig
+        .text("pw-first-msg")
+        .contains("Administrator admin created"));
+    assert!(rig.visible("pw-first-keep"));
+    assert!(!rig.visible("pw-first-form"));
+    rig.shot("setup-done");
+    // The audit log is read again as the session opens (issue 27: it said
+    // "log in first" until Reload was clicked; the page's own reload comes
+    // every 15 s, so this must happen well before).
+    let audit_rows = |r: &WebRig| {
+        (r.js("document.querySelector('#audit-body tr[data-kind=account-created]') !== null")
+            == serde_json::Value::Bool(true))
+        .then_some(())
+    };
+    rig.wait_for_in("the audit log after the login", AT_ONCE, audit_rows);
+    rig.shot_at("audit", "audit-after-login");
+    rig.click("pw-first-close");
+    rig.wait_for("the setup panel closed", |r| {
+        (!r.visible("pw-first")).then_some(())
+    });
     assert!(!rig.disabled("cfg-apply") && !rig.disabled("t-save-0"));
     rig.wait_text(
         "access-flags",
@@ -427,12 +546,16 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     });
     rig.shot("accounts");
 
-    // Logged out: a login form, changes locked again.
+    // Logged out: a login form, changes locked again, the audit log gone
+    // at once.
     rig.click("logout-btn");
     rig.wait_for("the login form", |r| {
         (r.session() == "login" && r.visible("login-form")).then_some(())
     });
     assert!(rig.disabled("cfg-apply"));
+    rig.wait_for_in("the audit log closed", AT_ONCE, |r| {
+        r.text("audit-body").contains("log in first").then_some(())
+    });
     rig.type_in("login-name", "admin");
     // Wrong passwords: after three the page shows the wait and holds the
     // button until it is over.
@@ -491,6 +614,7 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     rig.type_in("login-pw", PW);
     rig.click("login-btn");
     rig.wait_for("logged in", |r| (r.session() == "open").then_some(()));
+    rig.wait_for_in("the audit log after the login form", AT_ONCE, audit_rows);
 
     // Change the password, log out, log in with the new one.
     rig.type_in("pw-cur", PW);
@@ -506,5 +630,107 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
         (r.session() == "open").then_some(())
     });
     rig.shot("logged-in");
+    rig.finish();
+}
+
+/// Issue 27: the inactive "emergency stop", "safety guard" and "error"
+/// chips were drawn in red (read as an active E-stop). Off they are grey
+/// like every flag that is off; on they are solid red with white capitals,
+/// unlike any other chip.
+#[test]
+fn safety_flags_are_grey_while_off_and_unmistakable_while_on() {
+    let mut rig = WebRig::start("safety-flags");
+    rig.wait_live();
+    rig.wait_data("flags-enabled", "on", "1");
+    let safety = ["flags-emergency_stop", "flags-safety_guard", "flags-error"];
+    for id in safety {
+        assert_eq!(rig.data(id, "on"), "0", "{id}");
+        assert_eq!(rig.style(id, "color"), GREY, "{id} off");
+        assert_eq!(
+            rig.style(id, "background-color"),
+            "rgba(0, 0, 0, 0)",
+            "{id} off"
+        );
+    }
+    // A flag that is on and is no alarm: green, as before.
+    assert_eq!(rig.style("flags-enabled", "color"), GREEN);
+    rig.shot_at("c-robot", "off");
+
+    rig.sim.set_emergency_stop(true);
+    rig.sim.set_safety_guard(true);
+    rig.wait_data("flags-emergency_stop", "on", "1");
+    rig.wait_data("flags-safety_guard", "on", "1");
+    for id in ["flags-emergency_stop", "flags-safety_guard"] {
+        assert_eq!(rig.style(id, "background-color"), RED, "{id} on");
+        assert_eq!(rig.style(id, "color"), WHITE, "{id} on");
+        assert_eq!(rig.style(id, "text-transform"), "uppercase", "{id} on");
+    }
+    assert_eq!(rig.style("flags-error", "color"), GREY, "error still off");
+    rig.shot_at("c-robot", "on");
+    rig.sim.set_emergency_stop(false);
+    rig.sim.set_safety_guard(false);
+    rig.wait_data("flags-emergency_stop", "on", "0");
+    assert_eq!(rig.style("flags-emergency_stop", "color"), GREY);
+    rig.finish();
+}
+
+/// Issue 27: a name the device does not answer to (DNS rebinding) got raw
+/// JSON 421 in the browser. The browser gets a page that says why and
+/// links the address to use, which then shows the live page. Chromium
+/// resolves `*.localhost` to the loopback itself (no resolver involved).
+#[test]
+fn a_refused_host_name_gets_a_page_that_links_the_address_to_use() {
+    let mut rig = WebRig::start("refused-name");
+    rig.wait_live();
+    let port = rig.web.port();
+    let refused = format!("http://gw.localhost:{port}/");
+    rig.tab
+        .navigate_to(&refused)
+        .and_then(|t| t.wait_until_navigated())
+        .unwrap_or_else(|e| panic!("opening {refused}: {e:#}"));
+    let heading = rig.js("document.querySelector('h1').textContent");
+    assert_eq!(heading, "Open this gateway by its address");
+    let body = rig.js("document.body.textContent");
+    let body = body.as_str().unwrap_or_default();
+    assert!(
+        body.contains("does not answer to the name gw.localhost"),
+        "{body}"
+    );
+    let link = rig.js("document.querySelector('a').href");
+    let to = format!("http://127.0.0.1:{port}/");
+    assert_eq!(link, serde_json::Value::String(to.clone()));
+    rig.shot("page");
+    // Followed, the link opens the gateway's page, live.
+    rig.js("document.querySelector('a').click()");
+    rig.wait_js(
+        "the gateway's page",
+        &format!(
+            "location.href === {:?} && document.getElementById('conn') !== null",
+            to
+        ),
+    );
+    rig.wait_live();
+    rig.finish();
+}
+
+/// Issue 27: whether a device keeps what is changed must be in sight.
+/// Kept (a configuration file): no chip, no note, the audit log says kept,
+/// and creating the administrator says nothing of losing it.
+#[test]
+fn a_gateway_that_keeps_its_configuration_shows_no_warning() {
+    let mut rig = WebRig::start_kept("kept");
+    rig.wait_live();
+    rig.wait_for("the status read", |r| {
+        (!r.data("keep", "kept").is_empty()).then_some(())
+    });
+    assert_eq!(rig.data("keep", "kept"), "yes");
+    assert!(!rig.visible("keep"), "no chip where everything is kept");
+    assert!(!rig.visible("keep-note"));
+    assert_eq!(rig.text("audit-kept"), "Kept across restarts");
+    rig.set_first_password(PW);
+    assert_eq!(rig.data("pw-first", "done"), "kept");
+    assert!(rig.visible("pw-first-msg"));
+    assert!(!rig.visible("pw-first-keep"));
+    rig.shot("setup-done");
     rig.finish();
 }

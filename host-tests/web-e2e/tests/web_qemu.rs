@@ -29,7 +29,52 @@ fn the_page_from_the_qemu_field_device_shows_the_live_status_and_takes_a_form_ed
     rig.wait_text("j0", "J1 on the page", |t| {
         t.parse::<f32>().is_ok_and(|v| (v - start[0]).abs() < 0.001)
     });
+    // One version line: the software's and the image's the board runs
+    // (issue 27: the header named the software's alone, which an update
+    // does not change).
+    let status: Value =
+        serde_json::from_str(&rig.http("GET", "/api/status", "").body).expect("JSON");
+    assert_eq!(status["image"], "0.1.0", "the image qemu-run.sh signs");
+    assert_eq!(
+        rig.text("version"),
+        format!(
+            "software {}, image 0.1.0",
+            status["version"].as_str().unwrap_or("?")
+        )
+    );
+    // Whether the header warns that nothing is kept follows what the
+    // device's storage keeps (`keeps.config`), whatever its medium.
+    let kept = status["keeps"]["config"] == Value::Bool(true);
+    assert_eq!(rig.visible("keep"), !kept, "{status}");
+    assert_eq!(rig.data("keep", "kept"), if kept { "yes" } else { "no" });
     rig.shot("standby");
+
+    // The demo's address by name: the device sees the forwarded connection
+    // come from QEMU's network, not the loopback, and refuses the name
+    // (DNS rebinding). Issue 27: the browser showed raw JSON. It shows a
+    // page that links the loopback address, which opens the page.
+    let port = rig.web.port();
+    let by_name = format!("http://localhost:{port}/");
+    rig.tab
+        .navigate_to(&by_name)
+        .and_then(|t| t.wait_until_navigated())
+        .unwrap_or_else(|e| panic!("opening {by_name}: {e:#}"));
+    let to = format!("http://127.0.0.1:{port}/");
+    assert_eq!(
+        rig.js("document.querySelector('h1').textContent"),
+        "Open this gateway by its address"
+    );
+    assert_eq!(
+        rig.js("document.querySelector('a').href"),
+        Value::String(to.clone())
+    );
+    rig.shot("localhost-refused");
+    rig.js("document.querySelector('a').click()");
+    rig.wait_js(
+        "the page at the linked address",
+        &format!("location.href === {to:?} && document.getElementById('conn') !== null"),
+    );
+    rig.wait_live();
 
     // A move from the PLC shows on the page served by the firmware.
     let target = rig.modbus(async |p| p.start_move(0, 30.0, 20.0, 100.0, 1).await);
@@ -86,6 +131,14 @@ fn the_firmware_section_on_the_qemu_field_device_installs_a_signed_image_and_ref
     let key = untrusted_key(&dir.0);
     let bad = dir.0.join("field-device-0.2.0-untrusted.img");
     signed_image(&elf, &bad, "0.2.0", Some(&key));
+    // A newer image damaged near its end: its header passes, its body is
+    // written into the download slot, then its hash is refused.
+    let damaged = dir.0.join("field-device-0.3.0-damaged.img");
+    signed_image(&elf, &damaged, "0.3.0", None);
+    let mut bytes = std::fs::read(&damaged).expect("image C");
+    let n = bytes.len();
+    bytes[n - 10] ^= 1;
+    std::fs::write(&damaged, bytes).expect("image C damaged");
     let size = std::fs::metadata(&good).expect("image B").len();
 
     let mut rig = WebRig::start_qemu("qemu-update", &elf);
@@ -190,6 +243,40 @@ fn the_firmware_section_on_the_qemu_field_device_installs_a_signed_image_and_ref
     rig.shot_at("firmware", "firmware-trial");
     rig.wait_text("fw-state", "B confirmed on the page", |t| t == "confirmed");
     assert_eq!(rig.text("fw-running"), "0.2.0");
+    // The header names the image the board runs now beside the software.
+    rig.wait_text("version", "the image's version in the header", |t| {
+        t.ends_with(", image 0.2.0")
+    });
     rig.shot_at("firmware", "firmware-confirmed");
+
+    // Issue 27: a refused upload cleared "Previous". The damaged image is
+    // refused at its end, after its body went into the download slot:
+    // the running and previous versions shown stay.
+    rig.wait_for("the session after the restart", |r| {
+        (r.session() == "fresh" || r.session() == "login").then_some(())
+    });
+    if rig.session() == "fresh" {
+        // A device that kept nothing: the administrator again.
+        rig.set_first_password("commission-2026");
+    } else {
+        rig.type_in("login-name", "admin");
+        rig.type_in("login-pw", "commission-2026");
+        rig.click("login-btn");
+        rig.wait_for("logged in", |r| (r.session() == "open").then_some(()));
+    }
+    rig.wait_for("the upload form", |r| r.visible("fw-file").then_some(()));
+    rig.set_file("fw-file", &damaged);
+    rig.click("fw-send");
+    let msg = rig.wait_text("fw-msg", "the damaged image refused", |t| {
+        t.starts_with("Refused") || t.starts_with("The upload failed")
+    });
+    assert_eq!(msg, "Refused: image corrupted (hash mismatch)");
+    rig.wait_text("fw-upload", "the refusal as the last result", |t| {
+        t.starts_with("refused: image corrupted")
+    });
+    assert_eq!(rig.text("fw-running"), "0.2.0");
+    assert_eq!(rig.text("fw-previous"), "0.1.0", "Previous kept");
+    assert_eq!(rig.text("fw-state"), "confirmed");
+    rig.shot_at("firmware", "firmware-refused-after-update");
     rig.finish();
 }

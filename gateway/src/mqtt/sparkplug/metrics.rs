@@ -508,8 +508,9 @@ pub(crate) enum Val<'a> {
     I64(i64),
     F32(f32),
     Str(&'a str),
-    /// A string written on the spot (a protocol level).
-    Small(heapless::String<16>),
+    /// A string written on the spot (a protocol level, an image's
+    /// version: `65535.65535.65535` is the longest, 17 bytes).
+    Small(heapless::String<20>),
 }
 
 impl Val<'_> {
@@ -580,7 +581,7 @@ fn error_id(o: Outcome) -> i32 {
     }
 }
 
-fn level(l: ProtocolLevel) -> heapless::String<16> {
+fn level(l: ProtocolLevel) -> heapless::String<20> {
     let mut out = heapless::String::new();
     if l == ProtocolLevel::V5 {
         let _ = out.push_str("V5");

@@ -269,6 +269,40 @@ fn births_carry_every_metric_with_its_datatype_and_value() {
     assert_eq!(get(db, "Error/Text").is_null, Some(true));
 }
 
+/// Issue 27: `Gateway/Version` was the software's also on a board whose
+/// update had installed another image version (the page's Firmware said
+/// 0.2.0, the metric 0.1.0). Where an image runs, it is the image's, the
+/// longest one fits; without one, the software's (above).
+#[test]
+fn the_version_metric_is_the_running_images_where_one_runs() {
+    for (running, text) in [
+        (
+            crate::state::firmware::Version {
+                major: 0,
+                minor: 2,
+                patch: 0,
+            },
+            "0.2.0",
+        ),
+        (
+            crate::state::firmware::Version {
+                major: 65535,
+                minor: 65535,
+                patch: 65535,
+            },
+            "65535.65535.65535",
+        ),
+    ] {
+        let mut m = model();
+        m.firmware.running = Some(running);
+        let msgs = born(&mut node(), t(1000), &m);
+        assert_eq!(
+            get(&msgs[0], "Gateway/Version").value,
+            Some(PValue::String(text.into()))
+        );
+    }
+}
+
 #[test]
 fn signed_values_and_errors_travel_as_the_specification_says() {
     let mut m = model();
