@@ -150,7 +150,7 @@ step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bas
 # The benchmarks are type-checked here (building them took 166 s of a fresh
 # run, a release build 402 s); measure them with `cargo bench` (release).
 step "benchmarks check" cargo check --workspace --benches --locked
-step "fuzz: codec (framer, request, reply, DataSheet) and gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload), 15 s each" bash host-tests/fuzz/run.sh 15
+step "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
 step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
