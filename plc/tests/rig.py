@@ -70,8 +70,9 @@ class Proc:
 
 
 class Modbus:
-    """A minimal Modbus TCP client: FC 3 and FC 16, one request at a time,
-    every wait bounded."""
+    """A minimal Modbus TCP client: FC 3 and FC 16 (and FC 2, 4 and 15, as
+    OpenPLC's slave devices use them), one request at a time, every wait
+    bounded."""
 
     def __init__(self, host: str, port: int, timeout: float = 0.5):
         self.addr = (host, port)
@@ -122,6 +123,21 @@ class Modbus:
     def write(self, addr: int, values: list[int]) -> None:
         data = struct.pack(f">{len(values)}H", *values)
         self._request(struct.pack(">BHHB", 16, addr, len(values), len(data)) + data)
+
+    def read_input_registers(self, addr: int, count: int) -> list[int]:
+        body = self._request(struct.pack(">BHH", 4, addr, count))
+        return list(struct.unpack(f">{count}H", body[2:2 + 2 * count]))
+
+    def read_discrete_inputs(self, addr: int, count: int) -> list[bool]:
+        body = self._request(struct.pack(">BHH", 2, addr, count))
+        return [bool(body[2 + i // 8] >> (i % 8) & 1) for i in range(count)]
+
+    def write_coils(self, addr: int, values: list[bool]) -> None:
+        data = bytearray((len(values) + 7) // 8)
+        for i, on in enumerate(values):
+            if on:
+                data[i // 8] |= 1 << (i % 8)
+        self._request(struct.pack(">BHHB", 15, addr, len(values), len(data)) + bytes(data))
 
 
 def free_port() -> int:

@@ -7,7 +7,8 @@ leaves the subset fails loudly, not silently):
 
 * POUs: FUNCTION (with VAR_INPUT, VAR_IN_OUT, VAR), FUNCTION_BLOCK (VAR_INPUT,
   VAR_OUTPUT, VAR_IN_OUT, VAR; instances keep their state between calls),
-  PROGRAM (as a function block instance).
+  PROGRAM (as a function block instance; its located variables only when
+  the caller asks, as plain variables with their addresses recorded).
 * Types: BOOL, SINT/INT/DINT/LINT, USINT/UINT/UDINT/ULINT, BYTE/WORD/DWORD,
   REAL/LREAL, TIME, STRING(n); named array types and inline arrays with one
   subrange; structures; enumerations (values by name, first by default);
@@ -317,8 +318,14 @@ class Native:
 class Program:
     """Parsed sources, ready to instantiate and run."""
 
-    def __init__(self, paths, clock=None, natives=None):
+    def __init__(self, paths, clock=None, natives=None, located=False):
         self.types: dict[str, object] = {}
+        # located=True: a PROGRAM's located variables (a VAR block of their
+        # own, AT %IW100 ...) are plain variables of its instance, their
+        # addresses in self.locations[program][variable] (for a test that
+        # plays the runtime's part, e.g. OpenPLC's slave devices).
+        self.located = located
+        self.locations: dict[str, dict[str, str]] = {}
         self.pous: dict[str, object] = {}
         self.enum_values: dict[str, tuple[str, int]] = {}
         self.clock = clock or (lambda: 0.0)
@@ -473,6 +480,14 @@ class Program:
                 tf.InputOutputDeclarations: "inout", tf.VariableDeclarations: "var",
                 tf.FunctionVariableDeclarations: "var",
             }.get(type(block))
+            if self.located and isinstance(block, tf.LocatedVariableDeclarations) \
+                    and isinstance(pou, tf.Program):
+                where = self.locations.setdefault(str(pou.name).upper(), {})
+                for item in block.items:
+                    vname = str(item.name).upper()
+                    where[vname] = str(item.location).replace("AT ", "").strip()
+                    yield "var", vname, self.type_of_init(item.init), getattr(item.init, "value", None)
+                continue
             if kind is None:
                 raise StError(f"{pou.name}: {type(block).__name__} is outside the subset")
             for item in block.items:
