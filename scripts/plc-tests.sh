@@ -38,4 +38,4 @@ cargo build -q --locked -p hans-sim --bin hans-sim
 export HANS_GATEWAY=$PWD/target/debug/hans-gateway HANS_SIM=$PWD/target/debug/hans-sim
 export PLC_PARSE_CACHE=$PWD/$VENV/parse-cache PLC_TC6_XSD=$PWD/$XSD
 cd plc/tests
-exec "../../$VENV/bin/python" -m pytest -q -p no:cacheprovider test_static.py test_xml.py test_blocks.py test_adapters.py
+exec "../../$VENV/bin/python" -m pytest -q -p no:cacheprovider test_static.py test_xml.py test_blocks.py test_adapters.py test_openplc.py
