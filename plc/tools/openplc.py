@@ -158,6 +158,8 @@ def program(table=None, devices=DEVICES) -> str:
             else:
                 lines.append(f"    {name_word(kind, i)} AT {addr_word(kind, i)} : WORD; (* {r} *)")
     lines += ["END_VAR", "(* The runtime's words into the image's order *)"]
+    # Inputs / Outputs hold the table's reads / writes packed in its order
+    # (as HANS_OpenPlcAdapter walks them); the copies out go after the logic.
     packed = {False: 0, True: 0}
     outs = []
     for reg, _, count, is_write in table:
@@ -175,10 +177,6 @@ def program(table=None, devices=DEVICES) -> str:
                 lines.append(f"Inputs[{p}] := HANS_OpenPlcWord(")
                 lines += ["    " + ", ".join(args[j:j + 4]) + ("," if j < 12 else ");") for j in range(0, 16, 4)]
         packed[is_write] += count
-    return _finish(lines, outs)
-
-
-def _finish(lines, outs) -> str:
     lines += ["Adapter(Reading := TRUE, AxesGroup := Group, Inputs := Inputs, Outputs := Outputs);",
               "RobotTask(AxesGroup := Group);",
               "(* ... the cell's blocks on Group, e.g. the example PickAndPlace's body ... *)",
