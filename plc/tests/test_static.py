@@ -39,6 +39,9 @@ BAD = {
     "word arithmetic": "FUNCTION_BLOCK X\nVAR\n    w : WORD;\nEND_VAR\nw := w + 1;\nEND_FUNCTION_BLOCK\n",
     "line comment": "FUNCTION_BLOCK X\nVAR\n    i : INT; // count\nEND_VAR\nEND_FUNCTION_BLOCK\n",
     "syntax": "FUNCTION_BLOCK X\nVAR\n    i : INT\nEND_VAR\ni := ;\nEND_FUNCTION_BLOCK\n",
+    "in-out call as an argument": "FUNCTION F : INT\nVAR_IN_OUT\n    a : INT;\nEND_VAR\nF := a;\nEND_FUNCTION\n"
+                                  "FUNCTION_BLOCK X\nVAR\n    i : INT;\nEND_VAR\n"
+                                  "i := ABS(IN := F(a := i));\nEND_FUNCTION_BLOCK\n",
 }
 
 

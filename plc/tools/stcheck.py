@@ -75,7 +75,38 @@ def subset_problems(path: str, text: str, adapter: bool = False) -> list[str]:
             line = code.count("\n", 0, m.start()) + 1
             probs.append(f"{path}:{line}: arithmetic on a bit string ({m.group(0).strip()}): convert to an integer type first")
             break
-    return probs
+    return probs + nested_in_out_calls(path, code)
+
+
+LIBRARY_DIR = __import__("pathlib").Path(__file__).resolve().parent.parent / "src"
+
+
+def in_out_functions(code: str) -> set[str]:
+    """The FUNCTIONs (not blocks) that declare a VAR_IN_OUT."""
+    return {m.group(1).upper() for m in re.finditer(r"(?ms)^\s*FUNCTION\s+(\w+)\s*:.*?^\s*END_FUNCTION\b", code)
+            if re.search(r"\bVAR_IN_OUT\b", m.group(0), re.I)}
+
+
+def nested_in_out_calls(path: str, code: str) -> list[str]:
+    """A FUNCTION with a VAR_IN_OUT called inside another call's arguments:
+    matiec emits no C body for such a call (the program does not link).
+    The functions are those of this file and of the library (plc/src)."""
+    names = in_out_functions(code)
+    for lib in sorted(LIBRARY_DIR.glob("*.st")):
+        names |= in_out_functions(strip_comments_and_strings(lib.read_text(encoding="utf-8")))
+    stack = []  # for each open parenthesis: is it a call's?
+    for m in re.finditer(r"(\w+)\s*\(|\(|\)", code):
+        if m.group(0) == ")":
+            if stack:
+                stack.pop()
+            continue
+        callee = (m.group(1) or "").upper()
+        if callee in names and any(stack):
+            line = code.count("\n", 0, m.start()) + 1
+            return [f"{path}:{line}: {m.group(1)} (it has a VAR_IN_OUT) called inside another call's "
+                    "arguments: matiec cannot compile that; assign it to a variable first"]
+        stack.append(bool(callee) and callee not in ("IF", "WHILE", "UNTIL", "AND", "OR", "XOR", "NOT", "MOD"))
+    return []
 
 
 def treesitter_problems(path: str, text: str) -> list[str]:
