@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 import time
 
+import pytest
+
 import openplc
 import stinterp
 from rig import LIBRARY, PLC, ROOT, Modbus
@@ -203,16 +205,19 @@ def test_the_program_puts_every_word_where_the_plan_and_the_table_say():
     assert seen == want
 
 
-def test_openplc_wiring_drives_a_move_to_done(cell):
-    """Three connections to the gateway, polled after every scan as the
-    runtime's thread would, HansOpenPlcMain in the interpreter: the robot is
-    enabled and a linear move ends Done with the position read back."""
+@pytest.mark.parametrize("poll_every", [1, 3])
+def test_openplc_wiring_drives_a_move_to_done(cell, poll_every):
+    """Three connections to the gateway, polled after every scan or every
+    third (the runtime's thread has its own period, 100 ms by default, longer
+    than a scan), HansOpenPlcMain in the interpreter: the robot is enabled
+    and a linear move ends Done with the position read back."""
     t0 = time.monotonic()
     prog, main, locations = program(clock=lambda: time.monotonic() - t0)
     rt = Runtime(openplc.DEVICES, port=cell.modbus_port)
     group = stinterp.Ref(main.vars, "GROUP")
     blocks = {}
     inputs = {}
+    scans = [0]
 
     def use(name, fb_type, **ins):
         blocks[name] = prog.instantiate(fb_type)
@@ -226,7 +231,9 @@ def test_openplc_wiring_drives_a_move_to_done(cell):
         for name, inst in blocks.items():
             prog.call_fb(inst, dict(inputs[name], AXESGROUP=group))
         rt.buffers_out(main, locations)
-        rt.poll()
+        scans[0] += 1
+        if scans[0] % poll_every == 0:
+            rt.poll()
 
     def until(cond, scans, what):
         for _ in range(scans):
@@ -236,10 +243,10 @@ def test_openplc_wiring_drives_a_move_to_done(cell):
         raise AssertionError(f"{what}: not within {scans} scans")
 
     try:
-        until(lambda: main.vars["ROBOTTASK"]["VALID"], 50, "MC_RobotTask valid")
+        until(lambda: main.vars["ROBOTTASK"]["VALID"], 50 * poll_every, "MC_RobotTask valid")
         # MODBUS_SESSIONS (46): the three devices' connections (the first
         # device reads it before the others connect in the first poll).
-        until(lambda: main.vars["GROUP"]["IMAGE"][46] == 3, 3, "three sessions")
+        until(lambda: main.vars["GROUP"]["IMAGE"][46] == 3, 3 * poll_every, "three sessions")
         use("enable", "MC_EnableRobot", Enable=True)
         until(lambda: blocks["enable"].vars["STATUS"] or blocks["enable"].vars["ERROR"], 1500, "enabled")
         assert outs(blocks["enable"].vars, "STATUS", "ERROR") == {"STATUS": True, "ERROR": False}
