@@ -55,9 +55,9 @@ step "rustdoc (codec) without warnings" \
   env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec --no-deps --features defmt,v6 --locked
 step "rustdoc (gateway, every feature) without warnings" \
   env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-gateway --no-deps \
-  --features embassy-net,flash,testkit,web,v6,dhcp,datasheet,defmt,sntp,mqtt,update --locked
-step "rustdoc (firmware image, Linux platform) without warnings" \
-  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-fw-image -p hans-gateway-linux --no-deps --locked
+  --features embassy-net,flash,testkit,web,v6,dhcp,datasheet,defmt,sntp,mqtt,update,enip --locked
+step "rustdoc (firmware image, Linux platform, EtherNet/IP) without warnings" \
+  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-fw-image -p hans-gateway-linux -p hans-enip --no-deps --locked
 
 # --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
 # gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,

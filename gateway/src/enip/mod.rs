@@ -21,7 +21,7 @@
 //!   dropped unparsed and counted in `ENIP_REFUSED`). Applying a new list
 //!   closes the TCP sessions it no longer permits; a class 1 connection
 //!   from a refused address then times out (its datagrams are dropped).
-//! * Admission as every listener ([`Slots`]): [`SESSIONS`] TCP sessions
+//! * Admission as every listener (`crate::admission`'s `Slots`): [`SESSIONS`] TCP sessions
 //!   on [`SOCKETS`] sockets, [`PER_ADDRESS`] from one address, idle ones
 //!   taken by newcomers after [`EVICT_IDLE`], an encapsulation packet
 //!   whole within [`FRAME_DEADLINE`] of its first byte, a silent session
