@@ -216,6 +216,12 @@ impl Limiter {
             .and_then(|e| e.count.wait(now))
     }
 
+    /// How long account `account`'s own address number `own` must wait
+    /// before its next guess (its count is apart from [`Self::wait`]'s).
+    pub(crate) fn wait_own(&self, account: usize, own: usize, now: Instant) -> Option<Duration> {
+        self.own.get(account)?.get(own)?.wait(now)
+    }
+
     /// Reserves a guess of `ip` (`guess`: against whom) at `now`, counted
     /// as a failure until [`Self::succeeded`]; `Err(wait)` if it must wait
     /// first (then nothing is counted).

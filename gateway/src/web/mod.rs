@@ -901,12 +901,20 @@ impl<C: Clock> App<'_, C> {
     fn session_json(&self, who: Option<Who>) -> Json {
         let now = self.clock.now();
         let ip = self.peer.map(|p| *p.ip());
-        let wait = self
-            .web
-            .limiter
-            .borrow()
-            .wait(ip, now)
-            .map_or(0, |d| d.as_secs() + 1);
+        // The address's wait, or, where it is an account's own address
+        // (counted apart, `access::limit`), the longest of those accounts'
+        // waits: what a login from here would be told.
+        let wait = self.hub.with(|m| {
+            let limiter = self.web.limiter.borrow();
+            (0..crate::access::accounts::ACCOUNTS)
+                .filter_map(|a| {
+                    let o = m.access.accounts.own_address(a, ip)?;
+                    limiter.wait_own(a, o, now)
+                })
+                .chain(limiter.wait(ip, now))
+                .max()
+                .map_or(0, |d| d.as_secs() + 1)
+        });
         let (admin, recovery, open, name) = self.hub.with(|m| {
             let name = who
                 .and_then(|w| m.access.accounts.at(w.account))
