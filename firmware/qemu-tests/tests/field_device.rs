@@ -89,6 +89,7 @@ impl Rig {
         let body = br#"{"settings":{"access.modbus_config":"true"}}"#;
         let r = qemu_tests::HttpClient::connect(self.web(), STEP)
             .and_then(|mut c| c.send("POST", "/api/config", &headers, body, STEP))
+            .map(|(r, _took)| r)
             .unwrap_or_else(|e| panic!("POST /api/config: {e}"));
         assert_eq!(r.status, 200, "POST /api/config: {}", r.text());
     }
