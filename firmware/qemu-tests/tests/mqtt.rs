@@ -89,8 +89,7 @@ struct PMetric {
 const UINT8: u32 = 5;
 const UINT16: u32 = 6;
 const INT32: u32 = 3;
-const UINT32: u32 = 7;
-const UINT64: u32 = 8;
+const INT64: u32 = 4;
 const STRING: u32 = 12;
 
 impl PPayload {
@@ -426,7 +425,7 @@ fn the_field_device_publishes_sparkplug_b_to_mosquitto_births_and_a_command_even
         .expect("the NBIRTH is a Sparkplug B payload");
     assert_eq!(nb.seq, Some(0), "NBIRTH seq");
     let bd = nb.get("bdSeq").expect("bdSeq in the NBIRTH");
-    assert_eq!(bd.datatype, Some(UINT64), "bdSeq is UInt64");
+    assert_eq!(bd.datatype, Some(INT64), "bdSeq is Int64 (SPARKPLUG.md)");
     let bd_seq = bd.long_value.expect("bdSeq has a value");
     assert!(bd_seq <= 255, "bdSeq {bd_seq}");
     for m in [
@@ -522,7 +521,7 @@ fn the_field_device_publishes_sparkplug_b_to_mosquitto_births_and_a_command_even
         "Last Command/Error Source"
     );
     let duration = event("Last Command/Duration");
-    assert_eq!(duration.datatype, Some(UINT32), "Last Command/Duration");
+    assert_eq!(duration.datatype, Some(INT32), "Last Command/Duration (Int32: no UInt32 metric, SPARKPLUG.md)");
     let duration_ms = duration.int_value.expect("a duration");
     let sent = text(event("Last Command/Text"))
         .expect("Last Command/Text")
