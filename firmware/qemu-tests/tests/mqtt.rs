@@ -521,7 +521,11 @@ fn the_field_device_publishes_sparkplug_b_to_mosquitto_births_and_a_command_even
         "Last Command/Error Source"
     );
     let duration = event("Last Command/Duration");
-    assert_eq!(duration.datatype, Some(INT32), "Last Command/Duration (Int32: no UInt32 metric, SPARKPLUG.md)");
+    assert_eq!(
+        duration.datatype,
+        Some(INT32),
+        "Last Command/Duration (Int32: no UInt32 metric, SPARKPLUG.md)"
+    );
     let duration_ms = duration.int_value.expect("a duration");
     let sent = text(event("Last Command/Text"))
         .expect("Last Command/Text")
