@@ -715,7 +715,7 @@ fn settings_accounts_and_the_audit_log_are_kept_across_restarts() {
     let (r, _) = dev.post(
         "/api/accounts",
         "application/json",
-        br#"{"op":"add","name":"shift-2","role":"operator","password":"second-shift-26"}"#,
+        br#"{"op":"add","name":"shift-2","role":"operator","password":"evening-crew-26"}"#,
     );
     assert_eq!(r.status, 200, "add an account: {}", r.text());
     assert!(r.text().contains(r#""saved":"saved""#), "{}", r.text());
@@ -746,7 +746,7 @@ fn settings_accounts_and_the_audit_log_are_kept_across_restarts() {
         .and_then(|mut c| c.post_json("/api/setup", &body))
         .unwrap_or_else(|e| panic!("POST /api/setup: {e}"));
     assert_eq!(r.status, 409, "an administrator exists: {}", r.text());
-    let r = dev.login("shift-2", "second-shift-26");
+    let r = dev.login("shift-2", "evening-crew-26");
     assert_eq!(
         r.status,
         200,
