@@ -830,21 +830,8 @@ setting!(ACCESS_PLC_ADDRESS, "access.plc_address", 61, Kind::Address, "",
 /// close the gateway's ports, or open the allow-lists. The EtherNet/IP
 /// adapter's settings ([`ENIP_ENABLED`], [`ENIP_ALLOW`]) are access
 /// settings too, in builds that have them.
-// Indexing in a constant: evaluated by the compiler, as for SETTINGS.
-#[allow(clippy::indexing_slicing)]
-pub const PROTECTED: [&Setting; PROTECTED_BASE.len() + ENIP.len()] = {
-    let mut out = [PROTECTED_BASE[0]; PROTECTED_BASE.len() + ENIP.len()];
-    let mut i = 0;
-    while i < out.len() {
-        out[i] = if i < PROTECTED_BASE.len() {
-            PROTECTED_BASE[i]
-        } else {
-            ENIP[i - PROTECTED_BASE.len()]
-        };
-        i += 1;
-    }
-    out
-};
+pub const PROTECTED: [&Setting; PROTECTED_BASE.len() + ENIP.len()] =
+    join(&[&PROTECTED_BASE, &ENIP]);
 
 /// The protected settings every build has.
 const PROTECTED_BASE: [&Setting; 18] = [
@@ -957,24 +944,29 @@ const ENIP: [&Setting; 2] = [&ENIP_ENABLED, &ENIP_ALLOW];
 const ENIP: [&Setting; 0] = [];
 
 /// Every setting of this build, in the order the views list them.
+pub const SETTINGS: [&Setting; BASE.len() + MQTT.len() + ENIP.len()] = join(&[&BASE, &MQTT, &ENIP]);
+
+/// The lists `parts` one after the other, as one array of `N` (their
+/// total length). Only evaluated in constants: a wrong `N` is a compile
+/// error, never a run-time one.
 // Indexing in a constant: evaluated by the compiler, which refuses an
-// index out of range; nothing runs on the device.
+// index out of range.
 #[allow(clippy::indexing_slicing)]
-pub const SETTINGS: [&Setting; BASE.len() + MQTT.len() + ENIP.len()] = {
-    let mut out = [BASE[0]; BASE.len() + MQTT.len() + ENIP.len()];
-    let mut i = 0;
-    while i < out.len() {
-        out[i] = if i < BASE.len() {
-            BASE[i]
-        } else if i < BASE.len() + MQTT.len() {
-            MQTT[i - BASE.len()]
-        } else {
-            ENIP[i - BASE.len() - MQTT.len()]
-        };
-        i += 1;
+const fn join<const N: usize>(parts: &[&[&'static Setting]]) -> [&'static Setting; N] {
+    let mut out = [&ROBOT_ADDRESS; N];
+    let (mut i, mut p) = (0, 0);
+    while p < parts.len() {
+        let mut k = 0;
+        while k < parts[p].len() {
+            out[i] = parts[p][k];
+            i += 1;
+            k += 1;
+        }
+        p += 1;
     }
+    assert!(i == N, "join: N is not the parts' total length");
     out
-};
+}
 
 /// The settings' names in words, for the page (which shows the key
 /// beside it): one per setting of every build (a test checks). A table of
