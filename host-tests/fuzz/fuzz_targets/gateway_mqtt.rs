@@ -225,6 +225,8 @@ struct Snapshot {
     log: Vec<LogEntry>,
     error_text: ErrorText,
     firmware: hans_gateway::state::firmware::Firmware,
+    owner: hans_gateway::state::owner::Ownership,
+    keeps: hans_gateway::state::Keeps,
 }
 
 fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
@@ -251,6 +253,8 @@ fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
             log,
             error_text,
             firmware,
+            owner,
+            keeps,
         } = m;
         Snapshot {
             status_registers,
@@ -271,6 +275,8 @@ fn snapshot(g: &Gateway, now: Instant) -> Snapshot {
             log: log.iter().cloned().collect(),
             error_text: error_text.clone(),
             firmware: *firmware,
+            owner: *owner,
+            keeps: *keeps,
         }
     })
 }
