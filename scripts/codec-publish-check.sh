@@ -4,7 +4,8 @@
 #      would get; also lists the files and their total size);
 #   2. `cargo publish --dry-run` passes (uploads nothing; reads the crates.io
 #      index);
-#   3. the crate builds with the toolchain of the `rust-version` it declares
+#   3. the crate compiles (`cargo check`: what an older compiler refuses, it
+#      refuses there) with the toolchain of the `rust-version` it declares
 #      (installed with rustup when missing), for the host and for
 #      thumbv7em-none-eabihf, without and with its features.
 # It fails if any of them fails, or if the MSRV toolchain cannot be had.
@@ -56,8 +57,8 @@ case "$got" in
     exit 1
     ;;
 esac
-rustup run "$msrv" cargo build -p hans-codec --lib --locked
-rustup run "$msrv" cargo build -p hans-codec --lib --locked --features v6,defmt
-rustup run "$msrv" cargo build -p hans-codec --lib --locked --features v6,defmt \
+rustup run "$msrv" cargo check -p hans-codec --lib --locked
+rustup run "$msrv" cargo check -p hans-codec --lib --locked --features v6,defmt
+rustup run "$msrv" cargo check -p hans-codec --lib --locked --features v6,defmt \
   --target thumbv7em-none-eabihf
-echo "codec-publish-check: package, publish dry-run and the MSRV ($msrv) build passed"
+echo "codec-publish-check: package, publish dry-run and the MSRV ($msrv) check passed"

@@ -105,7 +105,9 @@ step "clippy (codec with v6 and defmt)" \
 # for the whole of one build: the V5-only vectors need a codec without it, so
 # the codec and its tests run alone first, then everything else.
 step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-codec -p hans-host-tests --locked
-step "host tests" cargo test --workspace --exclude hans-host-tests --locked
+# The rest of the workspace: one build, the binaries in two lanes (the
+# browser tests wait on Chromium while the simulations use a core).
+step "host tests" python3 scripts/host-tests.py --exclude hans-host-tests
 step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd-unit-test.sh
 # Sparkplug B and its MQTT client are in `default`: the host tests above ran
 # their unit tests (virtual time, fake broker), tests/mqtt.rs (Debian's
@@ -138,7 +140,7 @@ step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gate
 # --- no_std builds for the microcontroller target
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
-step "codec as a crate: cargo package, publish --dry-run, build with its declared MSRV toolchain" \
+step "codec as a crate: cargo package, publish --dry-run, check with its declared MSRV toolchain" \
   bash scripts/codec-publish-check.sh
 step "codec example (embassy-net client) builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --example robot_state --target thumbv7em-none-eabihf --locked
@@ -156,11 +158,10 @@ step "clippy (gateway as in the field-device firmware: + web + dhcp + sntp + v6 
 step "gateway with MQTT but no web page builds for thumbv7em-none-eabihf" \
   cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,mqtt --locked
 
-# --- the footprint goal, benchmark builds (run them with cargo bench) and bounded fuzzing
+# --- the footprint goal and bounded fuzzing (the benchmarks are type-checked
+# by the host workspace's clippy, --all-targets; measure them with
+# `cargo bench`)
 step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check
-# The benchmarks are type-checked here (building them took 166 s of a fresh
-# run, a release build 402 s); measure them with `cargo bench` (release).
-step "benchmarks check" cargo check --workspace --benches --locked
 step "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
