@@ -8,8 +8,9 @@ on two cores most of that time is one binary waiting (headless Chromium,
 a QEMU-free simulation bounded in wall time) while the other core idles.
 Here: one `cargo test --no-run` builds them (one build, the same feature
 resolution as `cargo test --workspace`), then two workers run the
-binaries, longest first, each in its package's directory as cargo runs
-them, each binary's output printed whole when it ends (with its time);
+binaries, longest first, each in its package's directory and with the
+`[env]` of .cargo/config.toml as cargo runs them, each binary's output
+printed whole when it ends (with its time);
 then `cargo test --doc` runs the documentation tests (its libraries are
 already built). Every test binary already runs its own tests in parallel
 threads, so the tests are written for concurrency (free ports, temporary
@@ -26,6 +27,7 @@ import subprocess
 import sys
 import threading
 import time
+import tomllib
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # Binaries known to take long (seconds on 2 cores, measured 2026-11-29):
@@ -62,9 +64,22 @@ def build(extra):
     return runs
 
 
+def cargo_env():
+    """The environment cargo gives the tests: ours plus the `[env]` table
+    of .cargo/config.toml (RUST_MIN_STACK)."""
+    env = dict(os.environ)
+    with open(os.path.join(ROOT, ".cargo", "config.toml"), "rb") as f:
+        for name, value in tomllib.load(f).get("env", {}).items():
+            if isinstance(value, dict):
+                value = value["value"]
+            env.setdefault(name, str(value))
+    return env
+
+
 def main():
     extra = sys.argv[1:]
     runs = build(extra)
+    env = cargo_env()
     runs.sort(key=lambda r: -LONG.get(r["target"], 0))
     queue = list(runs)
     lock = threading.Lock()
@@ -79,7 +94,7 @@ def main():
                 run = queue.pop(0)
             t0 = time.monotonic()
             try:
-                proc = subprocess.run([run["exe"]], cwd=run["cwd"], stdout=subprocess.PIPE,
+                proc = subprocess.run([run["exe"]], cwd=run["cwd"], env=env, stdout=subprocess.PIPE,
                                       stderr=subprocess.STDOUT, timeout=TIMEOUT)
                 out, code = proc.stdout.decode(errors="replace"), proc.returncode
             except subprocess.TimeoutExpired as e:

@@ -5,7 +5,8 @@
 #
 # Seeds come from the test vectors (seeds.py, into the git-ignored corpus/);
 # a target with a dictionary (dicts/<target>.dict) gets it with -dict.
-# Fails (non-zero exit) on the first crash; libFuzzer leaves the input in
+# Runs FUZZ_JOBS targets at a time (default 2). Fails (non-zero exit) after
+# the batch with the first crash; libFuzzer leaves the input in
 # artifacts/<target>/. Idempotent: run it again and it carries on from the
 # corpus it built. Needs the nightly toolchain and cargo-fuzz
 # (scripts/setup.sh installs both). Set FUZZ_TARGETS="framer reply" to run a
@@ -45,28 +46,46 @@ head -c 3000 /dev/zero | tr '\0' '\125' >"$seed_dir/fw.bin"
 { printf '\007\000'; cat "$seed_dir/fw.img"; } >corpus/update_image/signed-dev-key
 rm -rf "$seed_dir"
 cargo +nightly fuzz build
-log=$(mktemp)
-trap 'rm -f "$log"' EXIT
-for t in "${targets[@]}"; do
-  echo "==> fuzz $t for ${secs}s"
+# Two targets at a time (FUZZ_JOBS): libFuzzer runs one process on one
+# core, and the machines this runs on have two.
+jobs=${FUZZ_JOBS:-2}
+logs=$(mktemp -d)
+trap 'rm -rf "$logs"' EXIT
+fuzz_one() {
+  local t=$1 max_len=8192 dict=()
   mkdir -p "corpus/$t" "artifacts/$t"
-  status=0
   # The robot target gives each scripted reply simulated time, so its cost
   # grows with the input: 2 KiB still holds two replies at the link's 1 KiB
   # limit (or dozens of short ones), and keeps it above 2,000 inputs a second.
-  max_len=8192
   [ "$t" = gateway_robot ] && max_len=2048
   # A target's dictionary of words (dicts/<target>.dict), if it has one.
-  dict=()
   [ -f "dicts/$t.dict" ] && dict=(-dict="dicts/$t.dict")
   cargo +nightly fuzz run "$t" "corpus/$t" -- \
     -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len" \
-    "${dict[@]}" -print_final_stats=1 >"$log" 2>&1 || status=$?
-  grep -E 'stat::number_of_executed_units|stat::new_units_added|Done [0-9]+ runs' "$log" || true
-  if [ "$status" -ne 0 ]; then
-    tail -n 60 "$log" >&2
-    echo "fuzz: $t FAILED (exit $status); the input is in host-tests/fuzz/artifacts/$t/" >&2
-    exit 1
-  fi
+    "${dict[@]}" -print_final_stats=1 >"$logs/$t.log" 2>&1
+}
+failed=()
+for ((i = 0; i < ${#targets[@]}; i += jobs)); do
+  batch=("${targets[@]:i:jobs}")
+  pids=()
+  for t in "${batch[@]}"; do
+    echo "==> fuzz $t for ${secs}s"
+    fuzz_one "$t" &
+    pids+=($!)
+  done
+  for k in "${!batch[@]}"; do
+    t=${batch[$k]}
+    status=0
+    wait "${pids[$k]}" || status=$?
+    echo "--- $t"
+    grep -E 'stat::number_of_executed_units|stat::new_units_added|Done [0-9]+ runs' "$logs/$t.log" || true
+    if [ "$status" -ne 0 ]; then
+      tail -n 60 "$logs/$t.log" >&2
+      echo "fuzz: $t FAILED (exit $status); the input is in host-tests/fuzz/artifacts/$t/" >&2
+      failed+=("$t")
+    fi
+  done
+  # A crash ends the run after its batch (its input is kept).
+  [ ${#failed[@]} -eq 0 ] || exit 1
 done
 echo "fuzz: ${#targets[@]} targets, ${secs}s each, no crash"

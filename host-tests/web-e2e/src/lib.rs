@@ -726,11 +726,43 @@ impl WebRig {
     }
 
     /// Clicks element `id` with the mouse (scrolled into view first).
+    ///
+    /// The mouse goes to where the element was a moment before; when the
+    /// page moved in between (a table above it grew, as the audit log does
+    /// after a change), the click lands on something else. A listener
+    /// placed for this one click keeps such a click from reaching the other
+    /// element (stopped, its default prevented) and the click is tried
+    /// again, within [`WAIT`]. A click the page never sees (a disabled
+    /// button) is left as a user's would be.
     pub fn click(&self, id: &str) {
-        self.tab
-            .find_element(&format!("#{id}"))
-            .and_then(|e| e.click().map(|_| ()))
-            .unwrap_or_else(|e| panic!("clicking #{id}: {e:#}"));
+        let guard = format!(
+            "(() => {{ const want = document.getElementById({id}); \
+             if (window.__rigClick) document.removeEventListener('click', window.__rigClick, true); \
+             window.__rigClickSeen = 'none'; \
+             window.__rigClick = (e) => {{ \
+               document.removeEventListener('click', window.__rigClick, true); \
+               if (want && want.contains(e.target)) {{ window.__rigClickSeen = 'hit'; return; }} \
+               window.__rigClickSeen = 'miss'; e.stopPropagation(); e.preventDefault(); }}; \
+             document.addEventListener('click', window.__rigClick, true); }})()",
+            id = js_str(id)
+        );
+        let start = Instant::now();
+        loop {
+            self.js(&guard);
+            self.tab
+                .find_element(&format!("#{id}"))
+                .and_then(|e| e.click().map(|_| ()))
+                .unwrap_or_else(|e| panic!("clicking #{id}: {e:#}"));
+            let seen = self.js("(() => { const s = window.__rigClickSeen; \
+                 document.removeEventListener('click', window.__rigClick, true); return s; })()");
+            if seen.as_str() != Some("miss") {
+                return;
+            }
+            assert!(
+                start.elapsed() < WAIT,
+                "clicking #{id}: the click landed elsewhere for {WAIT:?}, the page kept moving"
+            );
+        }
     }
 
     /// Replaces the text of input `id` as typed text does (focus, select
@@ -803,6 +835,24 @@ impl WebRig {
             "document.getElementById({}).dispatchEvent(new Event('change', {{bubbles: true}}))",
             js_str(id)
         ));
+        // The input holds the new file before anything reads it.
+        let name = file
+            .file_name()
+            .and_then(|n| n.to_str())
+            .expect("a file name");
+        let cond = format!(
+            "document.getElementById({}).files[0]?.name === {}",
+            js_str(id),
+            js_str(name)
+        );
+        let start = Instant::now();
+        while self.js(&cond) != Value::Bool(true) {
+            assert!(
+                start.elapsed() < WAIT,
+                "#{id} does not hold {name} after {WAIT:?}"
+            );
+            std::thread::sleep(PAGE_POLL);
+        }
     }
 
     /// The session state the page shows: `fresh` (no password),
