@@ -57,9 +57,13 @@ async fn gateway(stack: embassy_net::Stack<'static>) -> ! {
     // The field device updates itself: the firmware slots of the flash file
     // it was started from, beside its store (configuration, accounts,
     // audit records) in the same file.
+    // Kept here (in this task's static future) and lent to the gateway:
+    // see `open_into`.
     #[cfg(feature = "field-device")]
-    let storage = match board::slots::open() {
-        Ok((slots, storage)) => hans_gateway::WithSlots { storage, slots },
+    let mut store = None;
+    #[cfg(feature = "field-device")]
+    let storage = match board::slots::open_into(&mut store) {
+        Ok(storage) => storage,
         Err(e) => board::fail(e),
     };
     // Only what differs from the library's defaults, so new options need no

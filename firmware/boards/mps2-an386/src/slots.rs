@@ -85,9 +85,21 @@ impl NorFlash for Sectors {
     }
 }
 
-/// Opens the flash file and makes the slots and the store over it; once
-/// (a second call is [`BoardError::Flash`]).
-pub fn open() -> Result<(Slots, Store), BoardError> {
+/// What the field device stores through: its store (configuration,
+/// accounts, audit records) beside its firmware slots.
+pub type Storage = hans_gateway::WithSlots<Store, Slots>;
+
+/// Opens the flash file and makes the slots and the store over it, in
+/// `slot`; once (a second call is [`BoardError::Flash`]).
+///
+/// In a slot the caller keeps (the gateway task's, in its static future),
+/// and not inlined: the store (its work buffer holds a whole stored image)
+/// is built in this function's frame, gone once it returns. Returned by
+/// value, it was a temporary in the frame of the gateway task's poll,
+/// which the stack carries for as long as the gateway runs, under the web
+/// server's deepest path (that frame was 16.3 KiB).
+#[inline(never)]
+pub fn open_into(slot: &mut Option<Storage>) -> Result<&mut Storage, BoardError> {
     static FLASH: StaticCell<Mutex<NoopRawMutex, SemihostingFlash>> = StaticCell::new();
     let path = FlashPath::from_args().map_err(|e| BoardError::Flash(e.as_str()))?;
     let flash = SemihostingFlash::open(&path, MPS2_AN386.size).map_err(|e| {
@@ -105,5 +117,8 @@ pub fn open() -> Result<(Slots, Store), BoardError> {
     );
     let store = FlashStorage::with_audit(Sectors(part(&MPS2_AN386.store)), CONFIG, AUDIT)
         .map_err(|_| BoardError::Flash("the store is not whole sectors"))?;
-    Ok((slots, store))
+    Ok(slot.insert(hans_gateway::WithSlots {
+        storage: store,
+        slots,
+    }))
 }
