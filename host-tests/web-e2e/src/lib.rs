@@ -825,7 +825,7 @@ impl WebRig {
     }
 
     /// Sets the files of the file input `id` (as the file chooser does).
-    pub fn set_file(&self, id: &str, file: &Path) {
+    pub fn set_file(&mut self, id: &str, file: &Path) {
         let path = file.to_str().expect("a UTF-8 path");
         self.tab
             .find_element(&format!("#{id}"))
@@ -840,19 +840,14 @@ impl WebRig {
             .file_name()
             .and_then(|n| n.to_str())
             .expect("a file name");
-        let cond = format!(
-            "document.getElementById({}).files[0]?.name === {}",
-            js_str(id),
-            js_str(name)
+        self.wait_js(
+            &format!("#{id} to hold {name}"),
+            &format!(
+                "document.getElementById({}).files[0]?.name === {}",
+                js_str(id),
+                js_str(name)
+            ),
         );
-        let start = Instant::now();
-        while self.js(&cond) != Value::Bool(true) {
-            assert!(
-                start.elapsed() < WAIT,
-                "#{id} does not hold {name} after {WAIT:?}"
-            );
-            std::thread::sleep(PAGE_POLL);
-        }
     }
 
     /// The session state the page shows: `fresh` (no password),

@@ -87,7 +87,7 @@ impl NorFlash for Sectors {
 
 /// What the field device stores through: its store (configuration,
 /// accounts, audit records) beside its firmware slots.
-pub type Storage = hans_gateway::WithSlots<Store, Slots>;
+pub type DeviceStorage = hans_gateway::WithSlots<Store, Slots>;
 
 /// Opens the flash file and makes the slots and the store over it, in
 /// `slot`; once (a second call is [`BoardError::Flash`]).
@@ -99,7 +99,7 @@ pub type Storage = hans_gateway::WithSlots<Store, Slots>;
 /// which the stack carries for as long as the gateway runs, under the web
 /// server's deepest path (that frame was 16.3 KiB).
 #[inline(never)]
-pub fn open_into(slot: &mut Option<Storage>) -> Result<&mut Storage, BoardError> {
+pub fn open_into(slot: &mut Option<DeviceStorage>) -> Result<&mut DeviceStorage, BoardError> {
     static FLASH: StaticCell<Mutex<NoopRawMutex, SemihostingFlash>> = StaticCell::new();
     let path = FlashPath::from_args().map_err(|e| BoardError::Flash(e.as_str()))?;
     let flash = SemihostingFlash::open(&path, MPS2_AN386.size).map_err(|e| {
