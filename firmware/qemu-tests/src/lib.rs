@@ -10,7 +10,9 @@
 //!   web page, as a browser holds one connection; [`http_get`] is one request;
 //!   [`HttpClient::send`] uploads a body while reading the answer.
 //! * [`hans_fw`] finds the host tool that signs and installs images.
-//! * [`free_port`] picks an unused port on 127.0.0.1.
+//! * [`free_port`] picks an unused port on 127.0.0.1, below the ephemeral
+//!   range; [`Qemu`] waits until QEMU listens on its forwards and starts
+//!   it again on other ports when one was taken meanwhile.
 //! * [`STACK_BUDGETS`] is each firmware's stack budget, which
 //!   [`check_stack_budget`] holds a test's stack high-water mark to.
 //!
@@ -63,10 +65,69 @@ pub fn firmware_elf(bin: &str) -> PathBuf {
     target.join("thumbv7em-none-eabihf/release").join(bin)
 }
 
-/// A port on 127.0.0.1 that was free a moment ago.
+/// A port on 127.0.0.1 that was free a moment ago, below the kernel's
+/// ephemeral range (`ip_local_port_range`): the outgoing connections of the
+/// tests (each on an ephemeral source port) never take it before QEMU binds
+/// it, which a port the kernel handed out with `bind(0)` did not rule out
+/// (a QEMU that cannot bind its forward exits at once). Within this process
+/// no port is handed out twice (a counter from a start of its own per
+/// process); a port in use is skipped.
 pub fn free_port() -> u16 {
+    use std::sync::atomic::{AtomicU32, Ordering};
+    static NEXT: AtomicU32 = AtomicU32::new(u32::MAX);
+    let (low, span) = port_window();
+    if NEXT.load(Ordering::Relaxed) == u32::MAX {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.subsec_nanos())
+            .unwrap_or(0);
+        let start = (std::process::id() ^ nanos) % span;
+        // Another thread may have seeded it first: then theirs stays.
+        let _ = NEXT.compare_exchange(u32::MAX, start, Ordering::Relaxed, Ordering::Relaxed);
+    }
+    for _ in 0..span {
+        let n = NEXT.fetch_add(1, Ordering::Relaxed) % span;
+        let port = low + n as u16;
+        if TcpListener::bind((LOOPBACK, port)).is_ok() {
+            return port;
+        }
+    }
+    // Every port of the window in use: let the kernel choose.
     let listener = TcpListener::bind((LOOPBACK, 0)).expect("bind 127.0.0.1:0");
     listener.local_addr().expect("local addr").port()
+}
+
+/// The window [`free_port`] picks from: up to 8192 ports just below the
+/// kernel's ephemeral range (not below 10000).
+fn port_window() -> (u16, u32) {
+    let ephemeral_low = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|s| {
+            s.split_whitespace()
+                .next()
+                .and_then(|w| w.parse::<u32>().ok())
+        })
+        .unwrap_or(32768)
+        .clamp(12000, 65535);
+    let low = ephemeral_low.saturating_sub(8192).max(10000);
+    (low as u16, ephemeral_low - low)
+}
+
+/// Whether a socket listens on 127.0.0.1:`port` (or on every address), as
+/// `/proc/net/tcp` shows: a look that binds nothing, so it cannot take the
+/// port from the one about to bind it. `None` where there is no such file.
+pub fn listening(port: u16) -> Option<bool> {
+    let table = std::fs::read_to_string("/proc/net/tcp").ok()?;
+    let want = [
+        format!("0100007F:{port:04X}"),
+        format!("00000000:{port:04X}"),
+    ];
+    Some(table.lines().skip(1).any(|line| {
+        let mut cols = line.split_whitespace();
+        let local = cols.nth(1).unwrap_or("");
+        let state = cols.nth(1).unwrap_or("");
+        state == "0A" && want.iter().any(|w| w == local)
+    }))
 }
 
 /// Directory for logs of this test run: `$QEMU_LOG_DIR` or the system temp dir.
@@ -127,12 +188,15 @@ impl Process {
 
     /// Waits up to `limit` for the process to end by itself.
     pub fn wait(&mut self, limit: Duration) -> Option<ExitStatus> {
+        // Looks at least once (a zero `limit` is one look).
         let start = Instant::now();
-        while self.status.is_none() && start.elapsed() < limit {
+        while self.status.is_none() {
             match self.child.try_wait() {
                 Ok(Some(status)) => self.status = Some(status),
-                Ok(None) => std::thread::sleep(Duration::from_millis(50)),
-                Err(_) => break,
+                Ok(None) if start.elapsed() < limit => {
+                    std::thread::sleep(Duration::from_millis(50))
+                }
+                Ok(None) | Err(_) => break,
             }
         }
         self.status
@@ -199,7 +263,9 @@ pub struct Qemu {
     process: Process,
     elf: PathBuf,
     log: PathBuf,
-    /// The ports it was started with.
+    stderr: PathBuf,
+    /// The ports it runs with (the forwards other than those handed to
+    /// [`Qemu::start`] when one of those could not be bound).
     pub ports: Ports,
 }
 
@@ -242,29 +308,98 @@ impl Qemu {
         let stderr = dir.join(format!("{name}.qemu.log"));
         let script = repo_root().join("scripts/qemu-run.sh");
         let elf_arg = elf.display().to_string();
-        let mut vars = vec![
-            ("MODBUS_PORT", ports.modbus.to_string()),
-            ("SIM_PORT", ports.sim.to_string()),
-            ("ADMIN_PORT", ports.admin.to_string()),
-            ("WEB_PORT", ports.web.to_string()),
-            ("DEFMT_OUT", log.display().to_string()),
-            ("FIRMWARE_ARGS", args.to_string()),
-        ];
-        vars.extend(env.iter().cloned());
-        let process = Process::start(
-            name,
-            max,
-            Path::new("bash"),
-            &[script.to_str().expect("utf-8 path"), &elf_arg],
-            &vars,
-            &stderr,
-        )?;
-        Ok(Qemu {
-            process,
-            elf: elf.to_path_buf(),
-            log,
-            ports,
-        })
+        // QEMU's user network binds the forwards; on a TAP device (NET=tap:..)
+        // there are none to wait for.
+        let user_net = env
+            .iter()
+            .all(|(k, v)| *k != "NET" || v.is_empty() || v == "user");
+        let mut ports = ports;
+        let mut attempt = 1;
+        loop {
+            let mut vars = vec![
+                ("MODBUS_PORT", ports.modbus.to_string()),
+                ("SIM_PORT", ports.sim.to_string()),
+                ("ADMIN_PORT", ports.admin.to_string()),
+                ("WEB_PORT", ports.web.to_string()),
+                ("DEFMT_OUT", log.display().to_string()),
+                ("FIRMWARE_ARGS", args.to_string()),
+            ];
+            vars.extend(env.iter().cloned());
+            let process = Process::start(
+                name,
+                max,
+                Path::new("bash"),
+                &[script.to_str().expect("utf-8 path"), &elf_arg],
+                &vars,
+                &stderr,
+            )?;
+            let mut qemu = Qemu {
+                process,
+                elf: elf.to_path_buf(),
+                log: log.clone(),
+                stderr: stderr.clone(),
+                ports,
+            };
+            if !user_net || qemu.forwards_bound() {
+                return Ok(qemu);
+            }
+            // QEMU ended before its forwards listened. A port another
+            // program took between our look and QEMU's bind makes it exit
+            // at once ("Could not set up host forwarding rule"): three
+            // tries with other ports. Anything else is the test's to see.
+            let text = qemu.stderr_text();
+            if !text.contains("host forwarding") || attempt == 3 {
+                if text.contains("host forwarding") {
+                    return Err(io::Error::new(
+                        io::ErrorKind::AddrInUse,
+                        format!("{name}: QEMU could not bind its forwards 3 times: {text}"),
+                    ));
+                }
+                return Ok(qemu);
+            }
+            eprintln!(
+                "{name}: QEMU could not bind a forward ({}); other ports",
+                text.trim()
+            );
+            attempt += 1;
+            ports = Ports {
+                sim: ports.sim,
+                ..Ports::pick()
+            };
+        }
+    }
+
+    /// Waits (60 s at most: the field device's flash file is made first)
+    /// until QEMU listens on every forwarded port (true), or has ended
+    /// (false). On a machine without `/proc/net/tcp`, or when the wait
+    /// runs out, true: the test's own waits apply.
+    fn forwards_bound(&mut self) -> bool {
+        let start = Instant::now();
+        let ports = [self.ports.modbus, self.ports.admin, self.ports.web];
+        loop {
+            let all = ports
+                .iter()
+                .map(|&p| listening(p))
+                .try_fold(true, |acc, l| l.map(|l| acc && l));
+            match all {
+                None | Some(true) => return true,
+                Some(false) => {}
+            }
+            if !self.process.running() {
+                return false;
+            }
+            if start.elapsed() > Duration::from_secs(60) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// What QEMU and `scripts/qemu-run.sh` wrote to stderr (its errors,
+    /// the bootloader's log), or why there is nothing.
+    pub fn stderr_text(&self) -> String {
+        std::fs::read_to_string(&self.stderr)
+            .unwrap_or_else(|e| format!("(no stderr log at {}: {e})", self.stderr.display()))
     }
 
     /// The process (to wait for or stop it).

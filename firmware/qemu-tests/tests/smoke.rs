@@ -38,7 +38,7 @@ fn smoke_firmware_talks_both_ways_and_exits_zero() {
     // The host as a client of the firmware's echo server on 502.
     let echoed = (|| {
         for _ in 0..30 {
-            let mut stream = connect_retry(ports.modbus, Duration::from_secs(30)).ok()?;
+            let mut stream = connect_retry(qemu.ports.modbus, Duration::from_secs(30)).ok()?;
             stream
                 .set_read_timeout(Some(Duration::from_secs(10)))
                 .ok()?;
@@ -97,4 +97,37 @@ fn accept_with_timeout(
         }
     }
     None
+}
+
+/// A forwarded port another program took between the pick and QEMU's bind
+/// (QEMU then exits at once: "Could not set up host forwarding rule"): the
+/// harness starts QEMU again on other ports, and it listens there.
+#[test]
+fn a_forward_taken_before_qemu_binds_it_moves_to_another_port() {
+    let taken = TcpListener::bind((LOOPBACK, 0)).expect("bind a port to take");
+    let taken_port = taken.local_addr().expect("local addr").port();
+    let ports = Ports {
+        modbus: taken_port,
+        ..Ports::pick()
+    };
+    let mut qemu = Qemu::start(
+        "smoke-port-taken",
+        &firmware_elf("smoke"),
+        ports,
+        Duration::from_secs(60),
+    )
+    .expect("start QEMU");
+    assert_ne!(qemu.ports.modbus, taken_port, "moved off the taken port");
+    assert!(
+        qemu.process().running(),
+        "QEMU runs: {}",
+        qemu.stderr_text()
+    );
+    assert_eq!(
+        qemu_tests::listening(qemu.ports.modbus),
+        Some(true),
+        "QEMU listens on its new Modbus forward"
+    );
+    assert_eq!(qemu.ports.sim, ports.sim, "the simulator's port stays");
+    drop(taken);
 }

@@ -125,6 +125,12 @@ impl Drop for Rig {
                 self.name,
                 self.qemu.log_text()
             );
+            println!(
+                "--- {} QEMU stderr (running: {}) ---\n{}",
+                self.name,
+                self.qemu.process().running(),
+                self.qemu.stderr_text()
+            );
             if let Some(sim) = self.sim.as_ref() {
                 println!("--- simulator received ---\n{:?}", sim.received());
             }
