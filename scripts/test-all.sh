@@ -10,6 +10,7 @@ ROOT=$(pwd)
 LOG_DIR=$(mktemp -d)
 trap 'rm -rf "$LOG_DIR"' EXIT
 
+RUN_CPU0=$(awk '/^cpu / { print $2 + $3 + $4; exit }' /proc/stat 2>/dev/null || echo 0)
 bash scripts/setup.sh
 
 PASSED=0
@@ -23,6 +24,22 @@ count_tests() {
   f=$( (grep -Eo 'test result: [a-zA-Z]+\. [0-9]+ passed; [0-9]+ failed' "$1" || true) | awk '{s+=$6} END {print s+0}')
   PASSED=$((PASSED + p))
   FAILED=$((FAILED + f))
+}
+
+# The CPU time the machine spent (user, nice, system; every process, in
+# clock ticks) since boot: a step's share of it, over its wall time, shows
+# whether it kept both cores busy or waited.
+cpu_ticks() {
+  awk '/^cpu / { print $2 + $3 + $4; exit }' /proc/stat 2>/dev/null || echo 0
+}
+CORES=$(nproc 2>/dev/null || echo 1)
+TICKS=$(getconf CLK_TCK 2>/dev/null || echo 100)
+
+# "N cores busy": the step's CPU time over its wall time.
+busy() {
+  local ticks=$1 secs=$2
+  awk -v t="$ticks" -v s="$secs" -v hz="$TICKS" -v n="$CORES" \
+    'BEGIN { if (s < 1) s = 1; printf "%.1f/%d cores", t / hz / s, n }'
 }
 
 # TEST_ALL_FROM=<text>: skip the steps before the first whose name contains
@@ -40,14 +57,15 @@ step() {
     FROM=
   fi
   local log="$LOG_DIR/step-${#STEPS[@]}.log"
-  local start=$SECONDS
+  local start=$SECONDS cpu0
+  cpu0=$(cpu_ticks)
   echo "==> $name"
   if "$@" 2>&1 | tee "$log"; then
     count_tests "$log"
-    STEPS+=("ok   $((SECONDS - start))s  $name")
+    STEPS+=("ok   $((SECONDS - start))s ($(busy $(($(cpu_ticks) - cpu0)) $((SECONDS - start))))  $name")
   else
     count_tests "$log"
-    STEPS+=("FAIL $((SECONDS - start))s  $name")
+    STEPS+=("FAIL $((SECONDS - start))s ($(busy $(($(cpu_ticks) - cpu0)) $((SECONDS - start))))  $name")
     printf '%s\n' "${STEPS[@]}"
     echo "$PASSED passed, $((FAILED > 0 ? FAILED : 1)) failed"
     exit 1
@@ -186,4 +204,5 @@ step "robustness rig, short form (every case 4 s; table in target/robustness/RES
 echo
 echo "Summary:"
 printf '  %s\n' "${STEPS[@]}"
+echo "  total $SECONDS s ($(busy $(($(cpu_ticks) - RUN_CPU0)) $SECONDS)), setup included"
 echo "$PASSED passed, $FAILED failed"
