@@ -130,7 +130,8 @@ pub mod types;
 pub mod writer;
 
 pub use catalogue::{
-    request, response, Command, CommandId, Failure, Reply, ReplyExpect, Request, Response,
+    request, response, Command, CommandId, Failure, Reply, ReplyExpect, ReplyValues, Request,
+    Response,
 };
 pub use datasheet::{DataSheet, Deframer};
 pub use error::{EncodeError, ErrorCode, Expected, Got, ParseError, RangeError};

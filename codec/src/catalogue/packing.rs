@@ -140,6 +140,13 @@ const HASH_SLOTS: usize = {
 /// bytes (also run by the compiler to build the table). Cheap rather than
 /// strong: a collision costs one more probe, which compares lengths first.
 const fn name_hash(name: &[u8]) -> usize {
+    // The top bits of the product mix all of the input's.
+    (mix(name) >> (32 - HASH_SLOTS.trailing_zeros())) as usize
+}
+
+/// A name's length and three of its bytes, multiplied to spread them over
+/// all 32 bits (the top ones best).
+const fn mix(name: &[u8]) -> u32 {
     let n = name.len();
     let h = match n {
         0 => 0,
@@ -150,8 +157,7 @@ const fn name_hash(name: &[u8]) -> usize {
                 | (name[n - 1] as u32) << 24
         }
     };
-    // The top bits of the product mix all of the input's.
-    (h.wrapping_mul(0x9E37_79B1) >> (32 - HASH_SLOTS.trailing_zeros())) as usize
+    h.wrapping_mul(0x9E37_79B1)
 }
 
 /// The name of key `k`: a wire name, or an alias after them.
@@ -379,31 +385,95 @@ const fn same_range(a: &Option<Range>, b: &Option<Range>) -> bool {
     }
 }
 
-/// For each parameter, the index of the first parameter equal to it by
-/// `KIND`: 0 the name, 1 the range, 2 both.
-const fn firsts<const KIND: u8>() -> [u16; FIELDS] {
+// The three `FIRST*` lists below say, for each parameter, which earlier
+// parameter is equal to it. They are built in O(n) (names through a hash
+// table, ranges and pairs against the few distinct values seen so far):
+// comparing every parameter with every earlier one is O(n²) in the
+// compiler's `const` interpreter, and took 6 s of every build of the crate.
+
+/// Slots of the table [`FIRST`] is built with: a power of two, at most
+/// half full.
+const FIELD_SLOTS: usize = {
+    let mut slots = 64;
+    while FIELDS * 2 > slots {
+        slots *= 2;
+    }
+    slots
+};
+
+/// For each parameter, the first parameter with its name.
+const FIRST: [u16; FIELDS] = {
+    assert!(FIELDS < u16::MAX as usize);
     let mut first = [0u16; FIELDS];
+    // Slot -> parameter index + 1 (0: free).
+    let mut table = [0u16; FIELD_SLOTS];
     let mut i = 0;
     while i < FIELDS {
-        let mut j = 0;
-        while j < i {
-            let name = same(PARAM_NAMES[j], PARAM_NAMES[i]);
-            let range = same_range(&PARAM_RANGES[j], &PARAM_RANGES[i]);
-            let equal = match KIND {
-                0 => name,
-                1 => range,
-                _ => name && range,
-            };
-            if equal {
+        let mut slot =
+            (mix(PARAM_NAMES[i].as_bytes()) >> (32 - FIELD_SLOTS.trailing_zeros())) as usize;
+        loop {
+            let seen = table[slot] as usize;
+            if seen == 0 {
+                table[slot] = i as u16 + 1;
+                first[i] = i as u16;
                 break;
             }
-            j += 1;
+            if same(PARAM_NAMES[seen - 1], PARAM_NAMES[i]) {
+                first[i] = (seen - 1) as u16;
+                break;
+            }
+            slot = (slot + 1) % FIELD_SLOTS;
         }
-        first[i] = j as u16;
         i += 1;
     }
     first
-}
+};
+
+/// For each parameter, the first parameter with its range (compared with
+/// the first of each distinct range: there are a few dozen).
+const FIRST_RANGE: [u16; FIELDS] = {
+    let mut first = [0u16; FIELDS];
+    let mut distinct = [0u16; FIELDS];
+    let (mut n, mut i) = (0, 0);
+    while i < FIELDS {
+        let mut k = 0;
+        while k < n && !same_range(&PARAM_RANGES[distinct[k] as usize], &PARAM_RANGES[i]) {
+            k += 1;
+        }
+        if k == n {
+            distinct[n] = i as u16;
+            n += 1;
+        }
+        first[i] = distinct[k];
+        i += 1;
+    }
+    first
+};
+
+/// For each parameter, the first parameter with its name and range: the
+/// first with the same pair of [`FIRST`] and [`FIRST_RANGE`] entries.
+const FIRST_PAIR: [u16; FIELDS] = {
+    let mut first = [0u16; FIELDS];
+    let mut distinct = [0u16; FIELDS];
+    let (mut n, mut i) = (0, 0);
+    while i < FIELDS {
+        let mut k = 0;
+        while k < n {
+            let d = distinct[k] as usize;
+            if FIRST[d] == FIRST[i] && FIRST_RANGE[d] == FIRST_RANGE[i] {
+                break;
+            }
+            k += 1;
+        }
+        if k == n {
+            distinct[n] = i as u16;
+            n += 1;
+        }
+        first[i] = distinct[k];
+        i += 1;
+    }
+    first
+};
 
 /// Classes of equal parameters, numbered in order of first appearance:
 /// `first` as `firsts` gives it; for each parameter its class, and how
@@ -425,8 +495,6 @@ const fn classes(first: &[u16; FIELDS]) -> ([u8; FIELDS], usize) {
     (ids, n)
 }
 
-/// For each parameter, the first parameter with its name.
-const FIRST: [u16; FIELDS] = firsts::<0>();
 /// For each parameter, its name (an index into [`OFFSETS`]); distinct names.
 const NAMES: ([u8; FIELDS], usize) = classes(&FIRST);
 
@@ -484,8 +552,6 @@ const OFFSETS: [u16; NAMES.1 + 1] = {
     offsets
 };
 
-/// For each parameter, the first parameter with its range.
-const FIRST_RANGE: [u16; FIELDS] = firsts::<1>();
 /// For each parameter, its range (an index into [`RANGE_POOL`]); distinct
 /// ranges ("none" is one of them).
 const RANGES: ([u8; FIELDS], usize) = classes(&FIRST_RANGE);
@@ -501,8 +567,6 @@ static RANGE_POOL: [Option<Range>; RANGES.1] = {
     pool
 };
 
-/// For each parameter, the first parameter with its name and range.
-const FIRST_PAIR: [u16; FIELDS] = firsts::<2>();
 /// For each parameter, its (name, range) pair (an index into [`PAIRS`]);
 /// distinct pairs.
 const PAIR_IDS: ([u8; FIELDS], usize) = classes(&FIRST_PAIR);

@@ -47,7 +47,9 @@
 //! in `host-tests/vectors/v6/DEFECTS.md`.
 
 use super::{catalogue, catalogue_items, first_section, level_of, maybe_level, maybe_section};
-use super::{encode_with, parse_request_as, reply_message, Command, Message, ReplyExpect};
+use super::{
+    encode_with, parse_request_as, reply_message, Command, Message, ReplyExpect, ReplyValues,
+};
 use super::{range_entry, read_known, request_head, validate_with, visit_raw};
 #[cfg(feature = "v6")]
 use crate::error::ErrorCode;
