@@ -42,6 +42,9 @@ if [[ -z "$msrv" ]]; then
   exit 1
 fi
 echo "--- MSRV: hans-codec declares rust-version $msrv"
+# Its own compiler: not the stable clippy-driver of scripts/lint-env.sh
+# (which would build with itself, whatever toolchain runs cargo).
+unset RUSTC_WORKSPACE_WRAPPER CLIPPY_ARGS
 if ! rustup run "$msrv" rustc --version >/dev/null 2>&1; then
   echo "installing the Rust $msrv toolchain"
   rustup toolchain install "$msrv" --profile minimal

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Firmware checks: rustfmt and clippy of the firmware workspace and its host
-# tests, then builds every firmware in release: for each board the core
+# Firmware checks: rustfmt of the firmware workspace and its host tests,
+# then builds every firmware in release, each build also the clippy run of
+# the crates it names (scripts/lint-env.sh): for each board the core
 # gateway and the field-device firmware (feature `field-device`: web page,
 # DHCP, DataSheet reader), plus the QEMU board's smoke firmware and its
 # bootloader (the field device runs through it, from a flash file that
@@ -40,22 +41,33 @@ BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"
 # but depend by path on the gateway, the codec and the simulator; a
 # dependency those crates add must not break this step until someone
 # refreshes these lock files. Cargo adds what is missing and keeps the rest.
-echo "==> firmware: rustfmt and clippy"
+# Every build below is also the clippy run of the crates it names
+# (scripts/lint-env.sh: clippy-driver compiles them, -D warnings): the
+# release builds of the boards and bootloaders lint them as they are
+# shipped, and the QEMU tests' build lints the test crate.
+source scripts/lint-env.sh
+
+echo "==> firmware: rustfmt; clippy of the NUCLEO's debugging build"
 (cd firmware && cargo fmt --all -- --check)
 (cd firmware/qemu-tests && cargo fmt -- --check)
-# The bootloaders and the crates only they and the field devices use (the
-# NUCLEO's apart: its embassy-stm32 build is its own).
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p bootloader-mps2 -p fw-boot -p semihosting-flash -p fw-keys --all-targets -- -D warnings)
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p bootloader-nucleo --all-targets -- -D warnings)
-for board in board-mps2-an386 board-nucleo-f767zi; do
-  for features in "" "--features field-device"; do
-    # shellcheck disable=SC2086 # $features is zero or two words
-    (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p "$board" $features --all-targets -- -D warnings)
-  done
-done
-# The NUCLEO's debugging build (panic locations in the log) must keep building.
+# The NUCLEO's debugging build (panic locations in the log) must keep
+# building: the one configuration checked and not built.
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p board-nucleo-f767zi --features panic-location --all-targets -- -D warnings)
-(cd firmware/qemu-tests && CARGO_TARGET_DIR="$HOST_TARGET" cargo clippy --all-targets -- -D warnings)
+
+# The host side of the QEMU tests (hans-fw, which makes the field device's
+# flash file; the browser test; the QEMU test crate) builds in the
+# background while the firmware builds below run: those are long
+# single-threaded links (fat LTO, one codegen unit), and the host builds
+# use another target directory. Waited for before the tests.
+HOST_BUILD_LOG=$(mktemp)
+setsid -w bash -c '
+  set -e
+  CARGO_TARGET_DIR="$1" cargo build -p hans-fw --locked
+  CARGO_TARGET_DIR="$1" cargo test -p hans-web-e2e --features qemu --test web_qemu --locked --no-run
+  CARGO_TARGET_DIR="$1" cargo test --manifest-path firmware/qemu-tests/Cargo.toml --no-run
+' host-build "$HOST_TARGET" >"$HOST_BUILD_LOG" 2>&1 &
+HOST_BUILD=$!
+trap 'kill -- "-$HOST_BUILD" 2>/dev/null || true; rm -f "$HOST_BUILD_LOG"' EXIT
 
 # The field-device binaries have `required-features = ["field-device"]`: the
 # core builds leave them out, and the field-device builds name them alone, so
@@ -64,9 +76,10 @@ echo "==> build firmware (release): mps2-an386 (QEMU): core gateway and smoke"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --bins)
 echo "==> build firmware (release): mps2-an386 (QEMU): field device"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
-echo "==> build firmware (release): mps2-an386 (QEMU): bootloader; hans-fw (makes the flash file)"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2)
-CARGO_TARGET_DIR="$HOST_TARGET" cargo build -p hans-fw --locked
+echo "==> build firmware (release): mps2-an386 (QEMU): bootloader"
+# The crates only the bootloaders and the field devices use are named, so
+# that this build lints them too.
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2 -p fw-boot -p semihosting-flash -p fw-keys)
 echo "==> build firmware (release): nucleo-f767zi: core gateway"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-nucleo-f767zi --bin nucleo-f767zi)
 echo "==> build firmware (release): nucleo-f767zi: field device"
@@ -93,15 +106,20 @@ bash scripts/firmware-size.sh --budget bootloader \
 # tests/web_qemu.rs): the page loads from the firmware under QEMU with the live
 # status of hans-sim, follows a move and takes a form edit; its load time is
 # printed, not asserted. Screenshots in $HOST_TARGET/screenshots/.
+echo "==> the host side of the QEMU tests (built in the background)"
+host_status=0
+wait "$HOST_BUILD" || host_status=$?
+cat "$HOST_BUILD_LOG"
+[ $host_status = 0 ] || { echo "firmware-tests: the host side of the QEMU tests did not build" >&2; exit 1; }
+
 echo "==> web page from the QEMU field-device firmware (headless Chromium)"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
 FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \
   timeout --kill-after=10 600 \
   cargo test -p hans-web-e2e --features qemu --test web_qemu --locked -- --nocapture
 
 echo "==> QEMU tests"
 LOG=$(mktemp)
-trap 'rm -f "$LOG"' EXIT
+trap 'rm -f "$LOG" "$HOST_BUILD_LOG"' EXIT
 # One test at a time: each runs a QEMU, and the machine has two cores.
 set +e
 FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \

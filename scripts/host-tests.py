@@ -6,8 +6,9 @@
 `cargo test` builds every test binary, then runs them one after another;
 on two cores most of that time is one binary waiting (headless Chromium,
 a QEMU-free simulation bounded in wall time) while the other core idles.
-Here: one `cargo test --no-run` builds them (one build, the same feature
-resolution as `cargo test --workspace`), then two workers run the
+Here: one `cargo test --no-run --all-targets` builds them (one build, the
+same feature resolution as `cargo test --workspace`; the benchmarks are
+built, not run), then two workers run the
 binaries, longest first, each in its package's directory and with the
 `[env]` of .cargo/config.toml as cargo runs them, each binary's output
 printed whole when it ends (with its time);
@@ -37,7 +38,11 @@ TIMEOUT = 900
 
 
 def build(extra):
-    cmd = ["cargo", "test", "--workspace", "--locked", "--no-run",
+    # --all-targets: the benchmarks are built too (not run: they measure,
+    # `cargo bench`), so that this build is the whole workspace's clippy
+    # run when scripts/test-all.sh has set clippy-driver as the compiler of
+    # the workspace's crates.
+    cmd = ["cargo", "test", "--workspace", "--all-targets", "--locked", "--no-run",
            "--message-format=json-render-diagnostics", *extra]
     print("==> " + " ".join(cmd), flush=True)
     proc = subprocess.run(cmd, cwd=ROOT, stdout=subprocess.PIPE, text=True)
@@ -55,6 +60,8 @@ def build(extra):
         if not exe:
             continue
         target = msg["target"]
+        if "bench" in target["kind"]:
+            continue
         runs.append({
             "name": f"{msg['package_id'].split('#')[0].rsplit('/', 1)[-1]} {target['kind'][0]} {target['name']}",
             "target": target["name"],

@@ -8,7 +8,6 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 LOG_DIR=$(mktemp -d)
-trap 'rm -rf "$LOG_DIR"' EXIT
 
 RUN_CPU0=$(awk '/^cpu / { print $2 + $3 + $4; exit }' /proc/stat 2>/dev/null || echo 0)
 bash scripts/setup.sh
@@ -16,6 +15,12 @@ bash scripts/setup.sh
 PASSED=0
 FAILED=0
 STEPS=()
+
+# Every build of this run is also the clippy run (-D warnings) of the
+# crates it builds: scripts/lint-env.sh says how, and the step after rustfmt
+# proves it. So there is no separate `cargo clippy` of the host workspace:
+# the host tests' build (every target of every crate) is it.
+source scripts/lint-env.sh
 
 # Adds the "test result: ok. N passed; M failed" lines of a log to the totals.
 count_tests() {
@@ -72,12 +77,60 @@ step() {
   fi
 }
 
+# A step that runs in the background alongside the steps that follow it,
+# until `join` waits for it: for a step that keeps both cores busy by
+# itself (the fuzz targets' build, then two fuzzers at a time) next to steps
+# that leave one idle (downloads, one-crate builds, size reports), where
+# neither's result depends on the other's speed. Its output goes to its log
+# and is printed whole at the join; its summary line has its wall time only
+# (the CPU is shared). Only one at a time.
+BG_PID=
+BG_NAME=
+BG_LOG=
+BG_START=0
+step_bg() {
+  local name=$1
+  shift
+  if [ -n "$FROM" ]; then
+    if [[ "$name" != *"$FROM"* ]]; then
+      STEPS+=("skip      $name (TEST_ALL_FROM)")
+      return 0
+    fi
+    FROM=
+  fi
+  BG_NAME=$name
+  BG_LOG="$LOG_DIR/step-bg.log"
+  BG_START=$SECONDS
+  echo "==> $name (in the background; its output follows at the join)"
+  # A process group of its own (setsid), so that stopping it stops all of it.
+  setsid -w "$@" >"$BG_LOG" 2>&1 &
+  BG_PID=$!
+}
+join() {
+  [ -n "$BG_PID" ] || return 0
+  local status=0
+  wait "$BG_PID" || status=$?
+  BG_PID=
+  echo "==> $BG_NAME (joined)"
+  cat "$BG_LOG"
+  count_tests "$BG_LOG"
+  if [ $status = 0 ]; then
+    STEPS+=("ok   $((SECONDS - BG_START))s (alongside the steps before)  $BG_NAME")
+  else
+    STEPS+=("FAIL $((SECONDS - BG_START))s (alongside the steps before)  $BG_NAME")
+    printf '%s\n' "${STEPS[@]}"
+    echo "$PASSED passed, $((FAILED > 0 ? FAILED : 1)) failed"
+    exit 1
+  fi
+}
+# A failing step ends the run: the background one is stopped with it.
+trap 'rm -rf "$LOG_DIR"; [ -z "$BG_PID" ] || kill -- "-$BG_PID" 2>/dev/null || true' EXIT
+
 # --- lints and docs
 step "rustfmt" cargo fmt --all -- --check
 step "the gateway's layer order (lib.rs) holds, and its check catches an upward import" \
   bash -c 'python3 scripts/layers.py && python3 scripts/layers.py --self-test'
-step "clippy (host workspace)" cargo clippy --workspace --all-targets --locked -- -D warnings
-step "clippy (codec with defmt)" cargo clippy -p hans-codec --all-targets --features defmt --locked -- -D warnings
+step "every build lints: a clippy finding fails it (scripts/lint-env.sh)" bash scripts/lint-build-check.sh
 # One package per run: with two packages, `pkg/feature` flags are not
 # applied to the documented crate, and feature-gated modules go missing.
 step "rustdoc (codec) without warnings" \
@@ -125,7 +178,8 @@ step "clippy (codec with v6 and defmt)" \
 step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-codec -p hans-host-tests --locked
 # The rest of the workspace: one build, the binaries in two lanes (the
 # browser tests wait on Chromium while the simulations use a core).
-step "host tests" python3 scripts/host-tests.py --exclude hans-host-tests
+step "host tests (their build, every target of the workspace, is its clippy run)" \
+  python3 scripts/host-tests.py --exclude hans-host-tests
 step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd-unit-test.sh
 # Sparkplug B and its MQTT client are in `default`: the host tests above ran
 # their unit tests (virtual time, fake broker), tests/mqtt.rs (Debian's
@@ -156,6 +210,10 @@ step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gate
   env ENIP_IO_SECONDS=10 ENIP_GW_SECONDS=10 bash scripts/enip-tests.sh
 
 # --- no_std builds for the microcontroller target
+# Bounded fuzzing, 12 s a target, alongside the thumbv7em steps below
+# (they use one core most of the time; the fuzz targets build with nightly
+# in their own target directory, host-tests/fuzz/target).
+step_bg "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 step "codec builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
 step "codec as a crate: cargo package, publish --dry-run, check with its declared MSRV toolchain" \
@@ -176,13 +234,12 @@ step "clippy (gateway as in the field-device firmware: + web + dhcp + sntp + v6 
 step "gateway with MQTT but no web page builds for thumbv7em-none-eabihf" \
   cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,mqtt --locked
 
-# --- the footprint goal and bounded fuzzing (the benchmarks are type-checked
-# by the host workspace's clippy, --all-targets; measure them with
-# `cargo bench`)
+# --- the footprint goal (the benchmarks are built, and linted, by the host
+# tests' step; measure them with `cargo bench`)
 step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check
-step "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
+join
 step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
 
 # --- the first hour as written: README's "The first ten minutes" and

@@ -45,6 +45,9 @@ head -c 3000 /dev/zero | tr '\0' '\125' >"$seed_dir/fw.bin"
   --version 1.2.0 "$seed_dir/fw.bin" -o "$seed_dir/fw.img" >/dev/null)
 { printf '\007\000'; cat "$seed_dir/fw.img"; } >corpus/update_image/signed-dev-key
 rm -rf "$seed_dir"
+# The fuzz targets build with nightly's compiler: not with the stable
+# clippy-driver that scripts/lint-env.sh may have set for stable builds.
+unset RUSTC_WORKSPACE_WRAPPER CLIPPY_ARGS
 cargo +nightly fuzz build
 # Two targets at a time (FUZZ_JOBS): libFuzzer runs one process on one
 # core, and the machines this runs on have two.
