@@ -211,6 +211,81 @@ fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() 
 }
 
 #[test]
+fn the_form_allows_configuration_over_modbus_and_reserves_the_plcs_address() {
+    let mut rig = WebRig::start("access-form");
+    rig.wait_live();
+    rig.set_first_password(PW);
+    rig.wait_js(
+        "the form enabled",
+        "!document.getElementById('cfg-fs').disabled",
+    );
+    // Both settings are in the form, named in words (issue 25).
+    let label = |r: &WebRig, key: &str| {
+        r.js(&format!(
+            "document.querySelector('label[for=\"f-{key}\"]').textContent"
+        ))
+        .as_str()
+        .unwrap_or_default()
+        .to_string()
+    };
+    assert_eq!(
+        label(&rig, "access.modbus_config"),
+        "Configuration over Modbusaccess.modbus_config"
+    );
+    assert_eq!(
+        label(&rig, "access.plc_address"),
+        "PLC address (reserved slot)access.plc_address"
+    );
+    // With an administrator, the PLC changes no protected setting: the
+    // apply is refused (exception 01) with CONFIG_RESULT 4, and the edit is
+    // discarded.
+    let (refused, result, access) = rig.modbus(async |plc| {
+        use tokio_modbus::client::Writer;
+        plc.write(r::CONFIG_WRITE_PROTECT, &[1]).await;
+        let refused = plc
+            .ctx
+            .write_single_register(r::CONTROL_CONFIG_COMMAND, 1)
+            .await
+            .expect("transport");
+        let result = plc.read1(r::CONTROL_CONFIG_RESULT).await;
+        plc.write(r::CONTROL_CONFIG_COMMAND, &[2]).await;
+        (refused, result, plc.read1(r::STATUS_ACCESS).await)
+    });
+    assert_eq!(refused, Err(tokio_modbus::ExceptionCode::IllegalFunction));
+    assert_eq!(result, 4, "CONFIG_RESULT: access settings locked");
+    assert_eq!(access & r::ACCESS_MODBUS_CONFIG, 0, "STATUS_ACCESS");
+    rig.shot("locked");
+
+    // The administrator allows configuration over Modbus and reserves a
+    // session for the PLC's address, in the form.
+    rig.choose("f-access.modbus_config", "true");
+    rig.type_in("f-access.plc_address", "127.0.0.1");
+    rig.click("cfg-apply");
+    rig.wait_data("cfg-msg", "result", "ok");
+    rig.shot("allowed");
+    let (access, result, protected) = rig.modbus(async |plc| {
+        let access = plc.read1(r::STATUS_ACCESS).await;
+        plc.write(r::CONFIG_WRITE_PROTECT, &[1]).await;
+        plc.write(r::CONTROL_CONFIG_COMMAND, &[1]).await;
+        let result = plc.read1(r::CONTROL_CONFIG_RESULT).await;
+        (access, result, plc.read1(r::STATUS_ACCESS).await)
+    });
+    assert_ne!(access & r::ACCESS_MODBUS_CONFIG, 0, "STATUS_ACCESS");
+    assert_ne!(result, 4, "CONFIG_RESULT after the page allowed it");
+    assert_ne!(
+        protected & r::ACCESS_WRITE_PROTECTED,
+        0,
+        "applied over Modbus"
+    );
+    // The reserved address is kept: the export (what a new page's form
+    // reads) has both settings.
+    let exported = rig.js("fetch('/api/config').then(r => r.json())");
+    assert_eq!(exported["settings"]["access.plc_address"], "127.0.0.1");
+    assert_eq!(exported["settings"]["access.modbus_config"], "true");
+    rig.finish();
+}
+
+#[test]
 fn an_invalid_value_shows_its_error_beside_the_field_and_changes_nothing() {
     let mut rig = WebRig::start("config-invalid");
     rig.wait_live();
