@@ -51,16 +51,23 @@ busy() {
 # <text> (resuming after a failed step, on a tree that ran the earlier ones).
 FROM=${TEST_ALL_FROM:-}
 
-step() {
-  local name=$1
-  shift
+# Whether step NAME runs (not while TEST_ALL_FROM still skips; a skipped
+# step is listed as such).
+wanted() {
   if [ -n "$FROM" ]; then
-    if [[ "$name" != *"$FROM"* ]]; then
-      STEPS+=("skip      $name (TEST_ALL_FROM)")
-      return 0
+    if [[ "$1" != *"$FROM"* ]]; then
+      STEPS+=("skip      $1 (TEST_ALL_FROM)")
+      return 1
     fi
     FROM=
   fi
+  return 0
+}
+
+step() {
+  local name=$1
+  shift
+  wanted "$name" || return 0
   local log="$LOG_DIR/step-${#STEPS[@]}.log"
   local start=$SECONDS cpu0
   cpu0=$(cpu_ticks)
@@ -91,13 +98,7 @@ BG_START=0
 step_bg() {
   local name=$1
   shift
-  if [ -n "$FROM" ]; then
-    if [[ "$name" != *"$FROM"* ]]; then
-      STEPS+=("skip      $name (TEST_ALL_FROM)")
-      return 0
-    fi
-    FROM=
-  fi
+  wanted "$name" || return 0
   BG_NAME=$name
   BG_LOG="$LOG_DIR/step-bg.log"
   BG_START=$SECONDS

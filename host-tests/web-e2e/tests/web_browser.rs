@@ -29,6 +29,17 @@ fn page_joints(rig: &WebRig) -> Option<[f32; 6]> {
     Some(j)
 }
 
+/// The text of the form's label of setting `key`: its name in words, then
+/// the key.
+fn label(rig: &WebRig, key: &str) -> String {
+    rig.js(&format!(
+        "document.querySelector('label[for=\"f-{key}\"]').textContent"
+    ))
+    .as_str()
+    .unwrap_or_default()
+    .to_string()
+}
+
 #[test]
 fn the_page_shows_the_live_status_and_follows_a_move() {
     let mut rig = WebRig::start("live-status");
@@ -138,14 +149,6 @@ fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() 
     );
     // Each setting is named in words, its key beside (issue 27: the keys
     // alone were hard for operators).
-    let label = |r: &WebRig, key: &str| {
-        r.js(&format!(
-            "document.querySelector('label[for=\"f-{key}\"]').textContent"
-        ))
-        .as_str()
-        .unwrap_or_default()
-        .to_string()
-    };
     assert_eq!(
         label(&rig, "link.reply_timeout_ms"),
         "Robot reply timeout [ms]link.reply_timeout_ms"
@@ -220,14 +223,6 @@ fn the_form_allows_configuration_over_modbus_and_reserves_the_plcs_address() {
         "!document.getElementById('cfg-fs').disabled",
     );
     // Both settings are in the form, named in words (issue 25).
-    let label = |r: &WebRig, key: &str| {
-        r.js(&format!(
-            "document.querySelector('label[for=\"f-{key}\"]').textContent"
-        ))
-        .as_str()
-        .unwrap_or_default()
-        .to_string()
-    };
     assert_eq!(
         label(&rig, "access.modbus_config"),
         "Configuration over Modbusaccess.modbus_config"
