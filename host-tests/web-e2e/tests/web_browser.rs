@@ -29,6 +29,19 @@ fn page_joints(rig: &WebRig) -> Option<[f32; 6]> {
     Some(j)
 }
 
+/// A rig whose page has its first administrator and its configuration
+/// form enabled.
+fn form_ready(test: &'static str) -> WebRig {
+    let mut rig = WebRig::start(test);
+    rig.wait_live();
+    rig.set_first_password(PW);
+    rig.wait_js(
+        "the form enabled",
+        "!document.getElementById('cfg-fs').disabled",
+    );
+    rig
+}
+
 /// The text of the form's label of setting `key`: its name in words, then
 /// the key.
 fn label(rig: &WebRig, key: &str) -> String {
@@ -140,13 +153,7 @@ fn the_page_shows_the_live_status_and_follows_a_move() {
 
 #[test]
 fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() {
-    let mut rig = WebRig::start("config-edit");
-    rig.wait_live();
-    rig.set_first_password(PW);
-    rig.wait_js(
-        "the form enabled",
-        "!document.getElementById('cfg-fs').disabled",
-    );
+    let mut rig = form_ready("config-edit");
     // Each setting is named in words, its key beside (issue 27: the keys
     // alone were hard for operators).
     assert_eq!(
@@ -215,13 +222,7 @@ fn a_configuration_edit_through_the_form_is_applied_and_read_back_over_modbus() 
 
 #[test]
 fn the_form_allows_configuration_over_modbus_and_reserves_the_plcs_address() {
-    let mut rig = WebRig::start("access-form");
-    rig.wait_live();
-    rig.set_first_password(PW);
-    rig.wait_js(
-        "the form enabled",
-        "!document.getElementById('cfg-fs').disabled",
-    );
+    let mut rig = form_ready("access-form");
     // Both settings are in the form, named in words (issue 25).
     assert_eq!(
         label(&rig, "access.modbus_config"),
