@@ -113,20 +113,27 @@ fn port_window() -> (u16, u32) {
     (low as u16, ephemeral_low - low)
 }
 
-/// Whether a socket listens on 127.0.0.1:`port` (or on every address), as
-/// `/proc/net/tcp` shows: a look that binds nothing, so it cannot take the
-/// port from the one about to bind it. `None` where there is no such file.
-pub fn listening(port: u16) -> Option<bool> {
+/// Whether a socket listens on 127.0.0.1 (or on every address) on each of
+/// `ports`, as `/proc/net/tcp` shows (read once): a look that binds
+/// nothing, so it cannot take a port from the one about to bind it. `None`
+/// where there is no such file.
+pub fn listening(ports: &[u16]) -> Option<bool> {
     let table = std::fs::read_to_string("/proc/net/tcp").ok()?;
-    let want = [
-        format!("0100007F:{port:04X}"),
-        format!("00000000:{port:04X}"),
-    ];
-    Some(table.lines().skip(1).any(|line| {
-        let mut cols = line.split_whitespace();
-        let local = cols.nth(1).unwrap_or("");
-        let state = cols.nth(1).unwrap_or("");
-        state == "0A" && want.iter().any(|w| w == local)
+    let listeners: Vec<&str> = table
+        .lines()
+        .skip(1)
+        .filter_map(|line| {
+            let mut cols = line.split_whitespace();
+            let local = cols.nth(1)?;
+            (cols.nth(1)? == "0A").then_some(local)
+        })
+        .collect();
+    Some(ports.iter().all(|port| {
+        let want = [
+            format!("0100007F:{port:04X}"),
+            format!("00000000:{port:04X}"),
+        ];
+        listeners.iter().any(|l| want.iter().any(|w| w == l))
     }))
 }
 
@@ -348,14 +355,14 @@ impl Qemu {
             // at once ("Could not set up host forwarding rule"): three
             // tries with other ports. Anything else is the test's to see.
             let text = qemu.stderr_text();
-            if !text.contains("host forwarding") || attempt == 3 {
-                if text.contains("host forwarding") {
-                    return Err(io::Error::new(
-                        io::ErrorKind::AddrInUse,
-                        format!("{name}: QEMU could not bind its forwards 3 times: {text}"),
-                    ));
-                }
+            if !text.contains("host forwarding") {
                 return Ok(qemu);
+            }
+            if attempt == 3 {
+                return Err(io::Error::new(
+                    io::ErrorKind::AddrInUse,
+                    format!("{name}: QEMU could not bind its forwards 3 times: {text}"),
+                ));
             }
             eprintln!(
                 "{name}: QEMU could not bind a forward ({}); other ports",
@@ -377,13 +384,8 @@ impl Qemu {
         let start = Instant::now();
         let ports = [self.ports.modbus, self.ports.admin, self.ports.web];
         loop {
-            let all = ports
-                .iter()
-                .map(|&p| listening(p))
-                .try_fold(true, |acc, l| l.map(|l| acc && l));
-            match all {
-                None | Some(true) => return true,
-                Some(false) => {}
+            if listening(&ports) != Some(false) {
+                return true;
             }
             if !self.process.running() {
                 return false;

@@ -124,7 +124,7 @@ fn a_forward_taken_before_qemu_binds_it_moves_to_another_port() {
         qemu.stderr_text()
     );
     assert_eq!(
-        qemu_tests::listening(qemu.ports.modbus),
+        qemu_tests::listening(&[qemu.ports.modbus]),
         Some(true),
         "QEMU listens on its new Modbus forward"
     );
