@@ -85,9 +85,9 @@ pub trait ReplyValues<'a>: Sized {
 
 // One `From` impl for each enum, over the traits every table struct
 // implements, rather than one `From` impl per command: rustc checks the
-// impls of one trait for one type pairwise (coherence), and ~200 impls of
-// `From<_> for Request` and as many for `Response` took half of the
-// crate's compile time (12 of 25 s), in every build of it.
+// impls of one trait for one type pairwise (coherence), and the ~280 impls
+// of `From<_> for Request` and `Response` took ~6 of the crate's 25 s of
+// compile time, in every build of it (-Z time-passes).
 impl<'a, C: Command<'a>> From<C> for Request<'a> {
     fn from(c: C) -> Self {
         c.into_request()
