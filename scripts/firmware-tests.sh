@@ -67,7 +67,8 @@ setsid -w bash -c '
   CARGO_TARGET_DIR="$1" cargo test --manifest-path firmware/qemu-tests/Cargo.toml --no-run
 ' host-build "$HOST_TARGET" >"$HOST_BUILD_LOG" 2>&1 &
 HOST_BUILD=$!
-trap 'kill -- "-$HOST_BUILD" 2>/dev/null || true; rm -f "$HOST_BUILD_LOG"' EXIT
+LOG=$(mktemp)
+trap 'kill -- "-$HOST_BUILD" 2>/dev/null || true; rm -f "$HOST_BUILD_LOG" "$LOG"' EXIT
 
 # The field-device binaries have `required-features = ["field-device"]`: the
 # core builds leave them out, and the field-device builds name them alone, so
@@ -118,8 +119,6 @@ FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \
   cargo test -p hans-web-e2e --features qemu --test web_qemu --locked -- --nocapture
 
 echo "==> QEMU tests"
-LOG=$(mktemp)
-trap 'rm -f "$LOG" "$HOST_BUILD_LOG"' EXIT
 # One test at a time: each runs a QEMU, and the machine has two cores.
 set +e
 FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \

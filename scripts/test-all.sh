@@ -9,7 +9,23 @@ cd "$(dirname "$0")/.."
 ROOT=$(pwd)
 LOG_DIR=$(mktemp -d)
 
-RUN_CPU0=$(awk '/^cpu / { print $2 + $3 + $4; exit }' /proc/stat 2>/dev/null || echo 0)
+# The CPU time the machine spent (user, nice, system; every process, in
+# clock ticks) since boot: a step's share of it, over its wall time, shows
+# whether it kept both cores busy or waited.
+cpu_ticks() {
+  awk '/^cpu / { print $2 + $3 + $4; exit }' /proc/stat 2>/dev/null || echo 0
+}
+CORES=$(nproc 2>/dev/null || echo 1)
+TICKS=$(getconf CLK_TCK 2>/dev/null || echo 100)
+
+# "N cores busy": the step's CPU time over its wall time.
+busy() {
+  local ticks=$1 secs=$2
+  awk -v t="$ticks" -v s="$secs" -v hz="$TICKS" -v n="$CORES" \
+    'BEGIN { if (s < 1) s = 1; printf "%.1f/%d cores", t / hz / s, n }'
+}
+
+RUN_CPU0=$(cpu_ticks)
 bash scripts/setup.sh
 
 PASSED=0
@@ -29,22 +45,6 @@ count_tests() {
   f=$( (grep -Eo 'test result: [a-zA-Z]+\. [0-9]+ passed; [0-9]+ failed' "$1" || true) | awk '{s+=$6} END {print s+0}')
   PASSED=$((PASSED + p))
   FAILED=$((FAILED + f))
-}
-
-# The CPU time the machine spent (user, nice, system; every process, in
-# clock ticks) since boot: a step's share of it, over its wall time, shows
-# whether it kept both cores busy or waited.
-cpu_ticks() {
-  awk '/^cpu / { print $2 + $3 + $4; exit }' /proc/stat 2>/dev/null || echo 0
-}
-CORES=$(nproc 2>/dev/null || echo 1)
-TICKS=$(getconf CLK_TCK 2>/dev/null || echo 100)
-
-# "N cores busy": the step's CPU time over its wall time.
-busy() {
-  local ticks=$1 secs=$2
-  awk -v t="$ticks" -v s="$secs" -v hz="$TICKS" -v n="$CORES" \
-    'BEGIN { if (s < 1) s = 1; printf "%.1f/%d cores", t / hz / s, n }'
 }
 
 # TEST_ALL_FROM=<text>: skip the steps before the first whose name contains
@@ -72,16 +72,23 @@ step() {
   local start=$SECONDS cpu0
   cpu0=$(cpu_ticks)
   echo "==> $name"
-  if "$@" 2>&1 | tee "$log"; then
-    count_tests "$log"
-    STEPS+=("ok   $((SECONDS - start))s ($(busy $(($(cpu_ticks) - cpu0)) $((SECONDS - start))))  $name")
-  else
-    count_tests "$log"
-    STEPS+=("FAIL $((SECONDS - start))s ($(busy $(($(cpu_ticks) - cpu0)) $((SECONDS - start))))  $name")
-    printf '%s\n' "${STEPS[@]}"
-    echo "$PASSED passed, $((FAILED > 0 ? FAILED : 1)) failed"
-    exit 1
+  local status=0
+  "$@" 2>&1 | tee "$log" || status=$?
+  count_tests "$log"
+  ended $status "$((SECONDS - start))s ($(busy $(($(cpu_ticks) - cpu0)) $((SECONDS - start))))" "$name"
+}
+
+# Adds a step's summary line (STATUS 0: ok); a failed step ends the run
+# with the summary so far.
+ended() {
+  if [ "$1" = 0 ]; then
+    STEPS+=("ok   $2  $3")
+    return 0
   fi
+  STEPS+=("FAIL $2  $3")
+  printf '%s\n' "${STEPS[@]}"
+  echo "$PASSED passed, $((FAILED > 0 ? FAILED : 1)) failed"
+  exit 1
 }
 
 # A step that runs in the background alongside the steps that follow it,
@@ -115,14 +122,7 @@ join() {
   echo "==> $BG_NAME (joined)"
   cat "$BG_LOG"
   count_tests "$BG_LOG"
-  if [ $status = 0 ]; then
-    STEPS+=("ok   $((SECONDS - BG_START))s (alongside the steps before)  $BG_NAME")
-  else
-    STEPS+=("FAIL $((SECONDS - BG_START))s (alongside the steps before)  $BG_NAME")
-    printf '%s\n' "${STEPS[@]}"
-    echo "$PASSED passed, $((FAILED > 0 ? FAILED : 1)) failed"
-    exit 1
-  fi
+  ended $status "$((SECONDS - BG_START))s (alongside the steps before)" "$BG_NAME"
 }
 # A failing step ends the run: the background one is stopped with it.
 trap 'rm -rf "$LOG_DIR"; [ -z "$BG_PID" ] || kill -- "-$BG_PID" 2>/dev/null || true' EXIT
