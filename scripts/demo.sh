@@ -74,11 +74,12 @@ else
   first=" (the first build: 10 to 20 minutes on 2 cores, the firmware and its dependencies in release with LTO)"
 fi
 stage "building the field-device firmware and its bootloader$first"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 \
+(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -p board-mps2-an386 \
   --features field-device --bin field-device &&
-  CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2)
+  CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -p bootloader-mps2)
 stage "building the robot simulator (hans-sim) and the image tool (hans-fw, which makes the flash file the bootloader starts the firmware from)"
-CARGO_TARGET_DIR="$HOST_TARGET" cargo build -q -p hans-sim -p hans-fw --locked
+# (scripts/test-all.sh has built them: scripts/host-programs.sh.)
+[ -n "${HOST_PROGRAMS_BUILT:-}" ] || CARGO_TARGET_DIR="$HOST_TARGET" cargo build -q -p hans-sim -p hans-fw --locked
 stage "starting the simulator, the MQTT broker and the firmware under QEMU"
 
 pids=()

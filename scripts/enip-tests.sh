@@ -53,9 +53,7 @@ fi
 
 cargo build -q -p hans-enip --example loopback_adapter --locked
 RUNNER=$ROOT/target/debug/examples/loopback_adapter
-# Built by the host tests step already in scripts/test-all.sh.
-cargo build -q --locked -p hans-gateway-linux --bin hans-gateway
-cargo build -q --locked -p hans-sim --bin hans-sim
+source "$ROOT/scripts/host-programs.sh" && build_host_programs
 
 "$RUNNER" --eds "$OUT/loopback.eds"
 EDS_LOG=$OUT/eds_check.log

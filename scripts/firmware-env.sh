@@ -27,3 +27,21 @@ for _fw_prefix in "${CARGO_HOME:-$_fw_home/.cargo}/registry/src/" "$_fw_root/"; 
 done
 export CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUSTFLAGS="${_fw_flags# }"
 unset _fw_root _fw_home _fw_flags _fw_prefix
+
+# firmware_cargo ARGS...: cargo for a firmware build. Where the lint wrapper
+# of scripts/lint-env.sh is in effect (scripts/test-all.sh,
+# scripts/firmware-build.sh), clippy-driver becomes the wrapper of every
+# crate of the build (RUSTC_WRAPPER) rather than of the firmware
+# workspace's members alone: it then lints, -D warnings, the gateway, the
+# codec and the other crates the boards use by path, as they ship, and
+# compiles the registry's crates as rustc does (cargo caps their lints).
+# Every firmware build of a run uses the same form, so that none rebuilds
+# what another built (cargo's fingerprints include the wrapper). Without
+# the lint wrapper (the demo, by hand): plain cargo.
+firmware_cargo() {
+  if [ -n "${RUSTC_WORKSPACE_WRAPPER:-}" ]; then
+    env -u RUSTC_WORKSPACE_WRAPPER RUSTC_WRAPPER="$RUSTC_WORKSPACE_WRAPPER" cargo "$@"
+  else
+    cargo "$@"
+  fi
+}

@@ -1,14 +1,9 @@
 #!/usr/bin/env bash
-# Firmware checks: rustfmt of the firmware workspace and its host tests,
-# then builds every firmware in release, each build also the clippy run of
-# the crates it names (scripts/lint-env.sh): for each board the core
-# gateway and the field-device firmware (feature `field-device`: web page,
-# DHCP, DataSheet reader), plus the QEMU board's smoke firmware and its
-# bootloader (the field device runs through it, from a flash file that
-# hans-fw makes; scripts/qemu-run.sh). Prints the
-# size report with its two budgets (fails if a core firmware exceeds 128 KiB
-# flash / 64 KiB static RAM, or a field-device firmware 384 KiB / 160 KiB),
-# then runs the QEMU tests (firmware/qemu-tests: smoke firmware; gateway
+# Firmware checks: builds every firmware in release with its size budgets
+# (scripts/firmware-build.sh: rustfmt, every build also the clippy run of
+# what it compiles from this repository; a no-op when test-all.sh has
+# already run it in the background), then runs the QEMU tests
+# (firmware/qemu-tests: smoke firmware; gateway
 # firmware with the robot simulator, run in-process, and a Modbus client;
 # field-device firmware over HTTP; the bootloader on flash files; signed
 # updates through the page's API: bad images refused while the PLC is
@@ -32,37 +27,26 @@ ROOT=$(pwd)
 
 SETUP_FUZZ=0 bash scripts/setup.sh
 
-source scripts/firmware-env.sh
 FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 BIN_DIR="$FW_TARGET/thumbv7em-none-eabihf/release"
 
-# No --locked: firmware/ and firmware/qemu-tests/ have their own Cargo.lock
-# but depend by path on the gateway, the codec and the simulator; a
-# dependency those crates add must not break this step until someone
-# refreshes these lock files. Cargo adds what is missing and keeps the rest.
-# Every build below is also the clippy run of the crates it names
-# (scripts/lint-env.sh: clippy-driver compiles them, -D warnings): the
-# release builds of the boards and bootloaders lint them as they are
-# shipped, and the QEMU tests' build lints the test crate.
+# The host side of the QEMU tests is built with the lint wrapper of the
+# host steps (scripts/lint-env.sh), so that it reuses their artifacts. No
+# --locked for the QEMU test crate: it has its own Cargo.lock but depends by
+# path on the simulator; cargo adds what is missing and keeps the rest.
 source scripts/lint-env.sh
-
-echo "==> firmware: rustfmt; clippy of the NUCLEO's debugging build"
-(cd firmware && cargo fmt --all -- --check)
-(cd firmware/qemu-tests && cargo fmt -- --check)
-# The NUCLEO's debugging build (panic locations in the log) must keep
-# building: the one configuration checked and not built.
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo clippy --release -p board-nucleo-f767zi --features panic-location --all-targets -- -D warnings)
 
 # The host side of the QEMU tests (hans-fw, which makes the field device's
 # flash file; the browser test; the QEMU test crate) builds in the
-# background while the firmware builds below run: those are long
-# single-threaded links (fat LTO, one codegen unit), and the host builds
-# use another target directory. Waited for before the tests.
+# background while the firmware builds run (when they have not run yet):
+# those are long single-threaded links (fat LTO, one codegen unit), and the
+# host builds use another target directory. Waited for before the tests.
 HOST_BUILD_LOG=$(mktemp)
 setsid -w bash -c '
   set -e
-  CARGO_TARGET_DIR="$1" cargo build -p hans-fw --locked
+  source scripts/host-programs.sh
+  CARGO_TARGET_DIR="$1" build_host_programs
   CARGO_TARGET_DIR="$1" cargo test -p hans-web-e2e --features qemu --test web_qemu --locked --no-run
   CARGO_TARGET_DIR="$1" cargo test --manifest-path firmware/qemu-tests/Cargo.toml --no-run
 ' host-build "$HOST_TARGET" >"$HOST_BUILD_LOG" 2>&1 &
@@ -70,38 +54,7 @@ HOST_BUILD=$!
 LOG=$(mktemp)
 trap 'kill -- "-$HOST_BUILD" 2>/dev/null || true; rm -f "$HOST_BUILD_LOG" "$LOG"' EXIT
 
-# The field-device binaries have `required-features = ["field-device"]`: the
-# core builds leave them out, and the field-device builds name them alone, so
-# that no build overwrites a core binary with a field-device one.
-echo "==> build firmware (release): mps2-an386 (QEMU): core gateway and smoke"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --bins)
-echo "==> build firmware (release): mps2-an386 (QEMU): field device"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
-echo "==> build firmware (release): mps2-an386 (QEMU): bootloader"
-# The crates only the bootloaders and the field devices use are named, so
-# that this build lints them too.
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2 -p fw-boot -p semihosting-flash -p fw-keys)
-echo "==> build firmware (release): nucleo-f767zi: core gateway"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-nucleo-f767zi --bin nucleo-f767zi)
-echo "==> build firmware (release): nucleo-f767zi: field device"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-nucleo-f767zi --features field-device --bin nucleo-f767zi-field-device)
-echo "==> build firmware (release): nucleo-f767zi: bootloader"
-(cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-nucleo)
-
-echo "==> firmware size"
-bash scripts/firmware-size.sh smoke="$BIN_DIR/smoke"
-size_status=0
-bash scripts/firmware-size.sh --budget core \
-  gateway-mps2-an386="$BIN_DIR/gateway" \
-  gateway-nucleo-f767zi="$BIN_DIR/nucleo-f767zi" || size_status=1
-bash scripts/firmware-size.sh --budget field-device \
-  field-device-mps2-an386="$BIN_DIR/field-device" \
-  field-device-nucleo-f767zi="$BIN_DIR/nucleo-f767zi-field-device" || size_status=1
-bash scripts/firmware-size.sh --budget bootloader \
-  bootloader-mps2-an386="$BIN_DIR/bootloader-mps2" \
-  bootloader-nucleo-f767zi="$BIN_DIR/bootloader-nucleo" || size_status=1
-# All tables are printed before a budget fails the run.
-[ $size_status = 0 ] || { echo "firmware size: over budget (see above)" >&2; exit 1; }
+bash scripts/firmware-build.sh
 
 # The field-device firmware's web page in headless Chromium (host-tests/web-e2e,
 # tests/web_qemu.rs): the page loads from the firmware under QEMU with the live

@@ -33,8 +33,7 @@ if [ ! -s "$XSD" ]; then
   mv "$XSD.tmp" "$XSD"
   rm -rf "$sdist"
 fi
-cargo build -q --locked -p hans-gateway-linux --bin hans-gateway
-cargo build -q --locked -p hans-sim --bin hans-sim
+source scripts/host-programs.sh && build_host_programs
 export HANS_GATEWAY=$PWD/target/debug/hans-gateway HANS_SIM=$PWD/target/debug/hans-sim
 export PLC_PARSE_CACHE=$PWD/$VENV/parse-cache PLC_TC6_XSD=$PWD/$XSD
 cd plc/tests

@@ -59,9 +59,9 @@ ELF="$FW_TARGET/thumbv7em-none-eabihf/release/field-device"
 if [ "${NO_BUILD:-0}" != 1 ]; then
   SETUP_FUZZ=0 bash scripts/setup.sh >&2
   echo "qemu-field-device: building the field-device firmware, its bootloader, hans-fw and hans-sim" >&2
-  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -q -p board-mps2-an386 \
+  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -q -p board-mps2-an386 \
     --features field-device --bin field-device &&
-    CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -q -p bootloader-mps2) >&2
+    CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -q -p bootloader-mps2) >&2
   CARGO_TARGET_DIR="$HOST_TARGET" cargo build -q -p hans-fw >&2
   if [ "${SIM:-1}" != 0 ]; then
     CARGO_TARGET_DIR="$HOST_TARGET" cargo build --release -q -p hans-sim >&2

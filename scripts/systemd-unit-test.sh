@@ -28,7 +28,7 @@ fail() {
   exit 1
 }
 
-cargo build -p hans-gateway-linux --bin hans-gateway --locked --quiet
+source scripts/host-programs.sh && build_host_programs
 BIN=$(pwd)/${CARGO_TARGET_DIR:-target}/debug/hans-gateway
 [ -x "$BIN" ] || fail "no binary at $BIN"
 

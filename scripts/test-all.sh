@@ -92,55 +92,81 @@ ended() {
 }
 
 # A step that runs in the background alongside the steps that follow it,
-# until `join` waits for it: for a step that keeps both cores busy by
-# itself (the fuzz targets' build, then two fuzzers at a time) next to steps
-# that leave one idle (downloads, one-crate builds, size reports), where
-# neither's result depends on the other's speed. Its output goes to its log
-# and is printed whole at the join; its summary line has its wall time only
-# (the CPU is shared). Only one at a time.
-BG_PID=
-BG_NAME=
-BG_LOG=
-BG_START=0
+# until `join ID` waits for it: for work that fills the core the foreground
+# steps leave idle (tests waiting on Chromium, scanners, one-crate builds,
+# QEMU), where neither's result depends on the other's speed. It must not
+# share a cargo target directory with the foreground steps (cargo would
+# make one wait for the other's lock). Its output goes to its log and is
+# printed whole at the join; its summary line has its wall time only (the
+# CPU is shared).
+#
+#   step_bg ID [--idle] NAME COMMAND...
+#
+# --idle: it runs at low priority (nice 10, and its own scheduling group's,
+# since setsid gives it one), so it takes only what the foreground leaves.
+declare -A BG_PID BG_NAME BG_LOG BG_START
 step_bg() {
+  local id=$1 idle=0
+  shift
+  if [ "$1" = --idle ]; then
+    idle=1
+    shift
+  fi
   local name=$1
   shift
   wanted "$name" || return 0
-  BG_NAME=$name
-  BG_LOG="$LOG_DIR/step-bg.log"
-  BG_START=$SECONDS
+  BG_NAME[$id]=$name
+  BG_LOG[$id]="$LOG_DIR/bg-$id.log"
+  BG_START[$id]=$SECONDS
   echo "==> $name (in the background; its output follows at the join)"
   # A process group of its own (setsid), so that stopping it stops all of it.
-  setsid -w "$@" >"$BG_LOG" 2>&1 &
-  BG_PID=$!
+  setsid -w bash -c '
+    if [ "$1" = 1 ]; then
+      echo 10 >/proc/self/autogroup 2>/dev/null || true
+      shift
+      exec nice -n 10 "$@"
+    fi
+    shift
+    exec "$@"' bg "$idle" "$@" >"${BG_LOG[$id]}" 2>&1 &
+  BG_PID[$id]=$!
 }
 join() {
-  [ -n "$BG_PID" ] || return 0
-  local status=0
-  wait "$BG_PID" || status=$?
-  BG_PID=
-  echo "==> $BG_NAME (joined)"
-  cat "$BG_LOG"
-  count_tests "$BG_LOG"
-  ended $status "$((SECONDS - BG_START))s (alongside the steps before)" "$BG_NAME"
+  local id=$1
+  [ -n "${BG_PID[$id]:-}" ] || return 0
+  local status=0 pid=${BG_PID[$id]}
+  wait "$pid" || status=$?
+  unset "BG_PID[$id]"
+  echo "==> ${BG_NAME[$id]} (joined)"
+  cat "${BG_LOG[$id]}"
+  count_tests "${BG_LOG[$id]}"
+  ended $status "$((SECONDS - BG_START[$id]))s (in the background)" "${BG_NAME[$id]}"
 }
-# A failing step ends the run: the background one is stopped with it.
-trap 'rm -rf "$LOG_DIR"; [ -z "$BG_PID" ] || kill -- "-$BG_PID" 2>/dev/null || true' EXIT
+# A failing step ends the run: the background ones are stopped with it.
+stop_bg() {
+  local pid
+  for pid in "${BG_PID[@]}"; do
+    kill -- "-$pid" 2>/dev/null || true
+  done
+}
+trap 'rm -rf "$LOG_DIR"; stop_bg' EXIT
+
+# --- in the background from the start, at low priority, each in a target
+# directory of its own: the firmware's release builds (long single-threaded
+# fat-LTO links) with their size budgets, the fuzz targets' build (nightly),
+# and the documentation. They fill the idle core of the host steps below and
+# are joined where their results are needed.
+step_bg firmware --idle "firmware: release builds of both boards and bootloaders (each the clippy run of what it compiles), size budgets" \
+  bash scripts/firmware-build.sh
+step_bg fuzz-build --idle "fuzz targets build (nightly, host-tests/fuzz/target)" \
+  bash host-tests/fuzz/run.sh --build-only
+step_bg rustdoc --idle "rustdoc without warnings: codec, gateway (every feature), firmware image, Linux platform, EtherNet/IP" \
+  env CARGO_TARGET_DIR="$ROOT/target/rustdoc" bash scripts/rustdoc-check.sh
 
 # --- lints and docs
 step "rustfmt" cargo fmt --all -- --check
 step "the gateway's layer order (lib.rs) holds, and its check catches an upward import" \
   bash -c 'python3 scripts/layers.py && python3 scripts/layers.py --self-test'
 step "every build lints: a clippy finding fails it (scripts/lint-env.sh)" bash scripts/lint-build-check.sh
-# One package per run: with two packages, `pkg/feature` flags are not
-# applied to the documented crate, and feature-gated modules go missing.
-step "rustdoc (codec) without warnings" \
-  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-codec --no-deps --features defmt,v6 --locked
-step "rustdoc (gateway, every feature) without warnings" \
-  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-gateway --no-deps \
-  --features embassy-net,flash,testkit,web,v6,dhcp,datasheet,defmt,sntp,mqtt,update,enip --locked
-step "rustdoc (firmware image, Linux platform, EtherNet/IP) without warnings" \
-  env RUSTDOCFLAGS="-D warnings" cargo doc -p hans-fw-image -p hans-gateway-linux -p hans-enip --no-deps --locked
 
 # --- host tests: codec vectors and properties, DataSheet, simulator, hansctl,
 # gateway unit tests, end to end (gateway + hans-sim + tokio-modbus + mbpoll,
@@ -169,10 +195,11 @@ fi
 # The V6 commands are behind the codec's `v6` feature, which the workspace
 # build below does not turn on: their vectors, properties and typed tests run
 # here, in a build of the codec and its tests alone.
+# (Its benchmark is checked, and so linted, here too; the codec's defmt
+# feature is linted by its thumbv7em build below.)
 step "codec with the V6 commands (feature v6): vectors, properties, typed tests" \
-  cargo test -p hans-codec -p hans-host-tests --features hans-host-tests/v6 --locked
-step "clippy (codec with v6 and defmt)" \
-  cargo clippy -p hans-codec -p hans-host-tests --all-targets --features hans-codec/defmt,hans-host-tests/v6 --locked -- -D warnings
+  bash -c 'cargo check -p hans-host-tests --features v6 --benches --locked &&
+    cargo test -p hans-codec -p hans-host-tests --features hans-host-tests/v6 --locked'
 # hans-sim and hansctl build the codec with `v6`, and Cargo turns a feature on
 # for the whole of one build: the V5-only vectors need a codec without it, so
 # the codec and its tests run alone first, then everything else.
@@ -181,6 +208,9 @@ step "host tests: the codec without v6 (V5-only vectors)" cargo test -p hans-cod
 # browser tests wait on Chromium while the simulations use a core).
 step "host tests (their build, every target of the workspace, is its clippy run)" \
   python3 scripts/host-tests.py --exclude hans-host-tests
+# That build made the programs the later steps start (hans-gateway, hans-sim,
+# hansctl, hans-fw): they use them as built (scripts/host-programs.sh).
+[ -n "$FROM" ] || export HOST_PROGRAMS_BUILT=1
 step "systemd unit (verify; run it where systemd is PID 1)" bash scripts/systemd-unit-test.sh
 # Sparkplug B and its MQTT client are in `default`: the host tests above ran
 # their unit tests (virtual time, fake broker), tests/mqtt.rs (Debian's
@@ -212,36 +242,36 @@ step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gate
 
 # --- no_std builds for the microcontroller target
 # Bounded fuzzing, 12 s a target, alongside the thumbv7em steps below
-# (they use one core most of the time; the fuzz targets build with nightly
-# in their own target directory, host-tests/fuzz/target).
-step_bg "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
-step "codec builds for thumbv7em-none-eabihf" \
-  cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt --locked
+# (they use one core most of the time; the fuzz targets were built in the
+# background, in their own target directory, host-tests/fuzz/target).
+join fuzz-build
+step_bg fuzz "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
+step "codec builds for thumbv7em-none-eabihf (with defmt and v6: their clippy run)" \
+  cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt,v6 --locked
 step "codec as a crate: cargo package, publish --dry-run, check with its declared MSRV toolchain" \
   bash scripts/codec-publish-check.sh
 step "codec example (embassy-net client) builds for thumbv7em-none-eabihf" \
   cargo build -p hans-codec --example robot_state --target thumbv7em-none-eabihf --locked
-# The gateway library for the board target: clippy type-checks it with the
-# core's features and the field device's; the firmware step below builds
-# (and links) both into the boards' binaries.
-step "clippy (gateway, embassy-net + defmt + flash + datasheet, thumbv7em)" \
-  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet --locked -- -D warnings
-# The field-device build of the library (the board crates compile it, but
-# clippy lints only their own workspace): web page and DHCP client.
-step "clippy (gateway as in the field-device firmware: + web + dhcp + sntp + v6 + mqtt + update, thumbv7em)" \
-  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,web,dhcp,sntp,v6,mqtt,update --locked -- -D warnings
-# The MQTT client without the web page (its command log then holds one
-# entry) still builds for a board.
-step "gateway with MQTT but no web page builds for thumbv7em-none-eabihf" \
-  cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,mqtt --locked
+# The gateway library for the board target: the firmware builds lint it as
+# the boards ship it (core and field device, scripts/firmware-build.sh);
+# this check (a clippy run, scripts/lint-env.sh) lints a configuration no
+# board ships: the MQTT client and the DataSheet reader without the web page
+# (its command log then holds one entry).
+step "gateway with MQTT and DataSheet but no web page: clippy for thumbv7em-none-eabihf" \
+  cargo check -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,mqtt --locked
 
 # --- the footprint goal (the benchmarks are built, and linted, by the host
 # tests' step; measure them with `cargo bench`)
 step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bash host-tests/scripts/footprint.sh --check
 
-# --- firmware: lint, release builds of both boards, size budget, QEMU tests
-join
-step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
+# --- the documentation, built in the background since the start
+join rustdoc
+
+# --- firmware: the release builds (in the background since the start),
+# then the QEMU tests
+join fuzz
+join firmware
+step "firmware: QEMU tests (the release builds joined above)" bash scripts/firmware-tests.sh
 
 # --- the first hour as written: README's "The first ten minutes" and
 # REGISTERS.md's example, line by line, against scripts/demo.sh (the

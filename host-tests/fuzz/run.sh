@@ -2,6 +2,7 @@
 # Builds every fuzz target and runs each for a bounded time.
 #
 #   bash host-tests/fuzz/run.sh [SECONDS_PER_TARGET]   (default 20)
+#   bash host-tests/fuzz/run.sh --build-only           (the targets' build alone)
 #
 # Seeds come from the test vectors (seeds.py, into the git-ignored corpus/);
 # a target with a dictionary (dicts/<target>.dict) gets it with -dict.
@@ -22,6 +23,11 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
+build_only=0
+if [ "${1:-}" = --build-only ]; then
+  build_only=1
+  shift
+fi
 secs=${1:-20}
 targets=(${FUZZ_TARGETS:-framer request reply datasheet gateway_modbus gateway_robot gateway_image gateway_http gateway_mqtt update_image update_upload enip_stream enip_cpf enip_cip})
 
@@ -34,6 +40,16 @@ if ! cargo +nightly fuzz --version >/dev/null 2>&1; then
   exit 1
 fi
 
+# The fuzz targets build with nightly's compiler: not with the stable
+# clippy-driver that scripts/lint-env.sh may have set for stable builds
+# (hans-fw, for the seed below, keeps it: it shares the host steps' build).
+nightly() {
+  env -u RUSTC_WORKSPACE_WRAPPER -u CLIPPY_ARGS cargo +nightly "$@"
+}
+nightly fuzz build
+# (scripts/test-all.sh builds them first, in the background, and runs them
+# later: the build uses its own target directory, host-tests/fuzz/target.)
+[ $build_only = 0 ] || exit 0
 python3 seeds.py
 # The image target's seed: an image signed with the development key
 # (firmware/keys/dev.key) by hans-fw, so that the fuzzer starts past the
@@ -41,14 +57,11 @@ python3 seeds.py
 mkdir -p corpus/update_image
 seed_dir=$(mktemp -d)
 head -c 3000 /dev/zero | tr '\0' '\125' >"$seed_dir/fw.bin"
-(cd ../.. && cargo run -q -p hans-fw --locked -- sign --key firmware/keys/dev.key --board mps2-an386 \
-  --version 1.2.0 "$seed_dir/fw.bin" -o "$seed_dir/fw.img" >/dev/null)
+(cd ../.. && source scripts/host-programs.sh && build_host_programs &&
+  "${CARGO_TARGET_DIR:-target}/debug/hans-fw" sign --key firmware/keys/dev.key --board mps2-an386 \
+    --version 1.2.0 "$seed_dir/fw.bin" -o "$seed_dir/fw.img" >/dev/null)
 { printf '\007\000'; cat "$seed_dir/fw.img"; } >corpus/update_image/signed-dev-key
 rm -rf "$seed_dir"
-# The fuzz targets build with nightly's compiler: not with the stable
-# clippy-driver that scripts/lint-env.sh may have set for stable builds.
-unset RUSTC_WORKSPACE_WRAPPER CLIPPY_ARGS
-cargo +nightly fuzz build
 # Two targets at a time (FUZZ_JOBS): libFuzzer runs one process on one
 # core, and the machines this runs on have two.
 jobs=${FUZZ_JOBS:-2}
@@ -63,7 +76,7 @@ fuzz_one() {
   [ "$t" = gateway_robot ] && max_len=2048
   # A target's dictionary of words (dicts/<target>.dict), if it has one.
   [ -f "dicts/$t.dict" ] && dict=(-dict="dicts/$t.dict")
-  cargo +nightly fuzz run "$t" "corpus/$t" -- \
+  nightly fuzz run "$t" "corpus/$t" -- \
     -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 -max_len="$max_len" \
     "${dict[@]}" -print_final_stats=1 >"$logs/$t.log" 2>&1
 }

@@ -50,10 +50,10 @@ FW_TARGET=${CARGO_TARGET_DIR:-$ROOT/firmware/target}
 HOST_TARGET=${CARGO_TARGET_DIR:-$ROOT/target}
 BIN_DIR=${FIRMWARE_BIN_DIR:-$FW_TARGET/thumbv7em-none-eabihf/release}
 if [ ! -s "$BIN_DIR/field-device" ] || [ ! -s "$BIN_DIR/bootloader-mps2" ]; then
-  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
-  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" cargo build --release -p bootloader-mps2)
+  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -p board-mps2-an386 --features field-device --bin field-device)
+  (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -p bootloader-mps2)
 fi
-CARGO_TARGET_DIR="$HOST_TARGET" cargo build -q -p hans-sim -p hans-fw --locked
+source scripts/host-programs.sh && CARGO_TARGET_DIR="$HOST_TARGET" build_host_programs
 
 ns=hansrob-$$
 tap=hrtap$(($$ % 100000))

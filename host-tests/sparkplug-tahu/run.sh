@@ -30,8 +30,7 @@ if ! cmp -s "$HERE/package-lock.json" "$DIR/package-lock.json" ||
   (cd "$DIR" && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error)
 fi
 
-cargo build -q --locked -p hans-gateway-linux --bin hans-gateway
-cargo build -q --locked -p hans-sim --bin hans-sim
+source "$ROOT/scripts/host-programs.sh" && build_host_programs
 # What Gateway/Version must say: the binary's (its package's) version.
 GATEWAY_VERSION=$(cargo pkgid -p hans-gateway-linux | sed 's/.*[#@]//')
 
