@@ -1,6 +1,7 @@
 //! Helpers of the browser tests: a rig of hans-sim + the host gateway (with
 //! its web page) + a Modbus PLC + headless Chromium showing the page, and
-//! the page driven through the DevTools protocol ([`headless_chrome`]).
+//! the page driven through the DevTools protocol by our own small client
+//! ([`cdp`], over Chromium's `--remote-debugging-pipe`).
 //!
 //! * The browser is Debian's `/usr/bin/chromium` ([`CHROMIUM`]), never a
 //!   downloaded one; a machine without it fails with a message that says
@@ -23,18 +24,19 @@ use std::io::{Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use base64::Engine as _;
-use headless_chrome::protocol::cdp::{Emulation, Page};
-use headless_chrome::{Browser, LaunchOptions, Tab};
-use serde_json::Value;
+use serde_json::{json, Value};
 
 use hans_gateway_linux::{HostOptions, RunningGateway};
 use hans_sim::Sim;
 
 pub use hans_e2e::{Plc, WAIT};
+
+pub mod cdp;
+use cdp::{Browser, Tab};
 
 /// The browser: Debian's Chromium (`apt-get install chromium`, done by
 /// `scripts/setup.sh`).
@@ -62,17 +64,9 @@ pub fn launch_chromium() -> Browser {
         "{CHROMIUM} not found: the browser tests need Debian's chromium \
          (`bash scripts/setup.sh` installs it, or `apt-get install chromium`)"
     );
-    // No sandbox: Chromium's sandbox refuses to run as root (CI runs as
-    // root), and the browser only ever shows our own page on 127.0.0.1.
-    let opts = LaunchOptions::default_builder()
-        .path(Some(path.to_path_buf()))
-        .headless(true)
-        .sandbox(false)
-        .window_size(Some(DESKTOP))
-        .idle_browser_timeout(WAIT + WAIT)
-        .build()
-        .expect("browser launch options");
-    Browser::new(opts).unwrap_or_else(|e| panic!("starting {CHROMIUM}: {e:#}"))
+    // Headless, no sandbox (it refuses to run as root, as CI does; the
+    // browser only ever shows our own page on 127.0.0.1): cdp::SWITCHES.
+    Browser::launch(path, DESKTOP, &[]).unwrap_or_else(|e| panic!("starting {CHROMIUM}: {e:#}"))
 }
 
 /// Where screenshots go: `screenshots/` in the cargo target directory
@@ -451,7 +445,7 @@ pub const SETUP_CODE: &str = "ABCD-EFGH-JKMN";
 
 pub struct WebRig {
     /// The tab showing the page.
-    pub tab: Arc<Tab>,
+    pub tab: Tab,
     /// A Modbus client (connected before the page is opened).
     pub plc: Plc,
     /// The simulated robot.
@@ -538,12 +532,10 @@ impl WebRig {
         };
         let mut plc = rt.block_on(connect_plc(modbus));
         rt.block_on(plc.wait_link());
-        // The browser starts once the device is up: it closes its own
-        // connection after an idle period, which a slow QEMU start (on a
-        // loaded machine) could otherwise outlast.
         let browser = launch_chromium();
-        let tab = browser.new_tab().expect("a browser tab");
-        tab.set_default_timeout(WAIT);
+        let tab = browser
+            .new_tab()
+            .unwrap_or_else(|e| panic!("a browser tab: {e:#}"));
         let rig = WebRig {
             tab,
             plc,
@@ -612,12 +604,9 @@ impl WebRig {
             .tab
             .evaluate(&wrapped, true)
             .unwrap_or_else(|e| panic!("evaluating `{expr}`: {e:#}"));
-        match r.value {
-            Some(Value::String(s)) => serde_json::from_str(&s).unwrap_or(Value::String(s)),
-            _ => panic!(
-                "`{expr}` threw or gave no value: {}",
-                r.description.unwrap_or_default()
-            ),
+        match r {
+            Value::String(s) => serde_json::from_str(&s).unwrap_or(Value::String(s)),
+            other => panic!("`{expr}` gave no value: {other}"),
         }
     }
 
@@ -750,8 +739,7 @@ impl WebRig {
         loop {
             self.js(&guard);
             self.tab
-                .find_element(&format!("#{id}"))
-                .and_then(|e| e.click().map(|_| ()))
+                .click_id(id)
                 .unwrap_or_else(|e| panic!("clicking #{id}: {e:#}"));
             let seen = self.js("(() => { const s = window.__rigClickSeen; \
                  document.removeEventListener('click', window.__rigClick, true); return s; })()");
@@ -799,37 +787,28 @@ impl WebRig {
     /// throttling: an upload then takes long enough to be seen); `None`
     /// lifts the limit.
     pub fn throttle_upload(&self, bytes_per_s: Option<f64>) {
-        use headless_chrome::protocol::cdp::Network;
         self.tab
-            .call_method(Network::Enable {
-                max_total_buffer_size: None,
-                max_resource_buffer_size: None,
-                max_post_data_size: None,
-                report_direct_socket_traffic: None,
-                enable_durable_messages: None,
-            })
-            .expect("Network.enable");
+            .call("Network.enable", json!({}))
+            .unwrap_or_else(|e| panic!("{e:#}"));
         self.tab
-            .call_method(Network::EmulateNetworkConditions {
-                offline: false,
-                latency: 0.0,
-                // -1: not limited.
-                download_throughput: -1.0,
-                upload_throughput: bytes_per_s.unwrap_or(-1.0),
-                connection_Type: None,
-                packet_loss: None,
-                packet_queue_length: None,
-                packet_reordering: None,
-            })
-            .expect("Network.emulateNetworkConditions");
+            .call(
+                "Network.emulateNetworkConditions",
+                json!({
+                    "offline": false,
+                    "latency": 0,
+                    // -1: not limited.
+                    "downloadThroughput": -1,
+                    "uploadThroughput": bytes_per_s.unwrap_or(-1.0),
+                }),
+            )
+            .unwrap_or_else(|e| panic!("{e:#}"));
     }
 
     /// Sets the files of the file input `id` (as the file chooser does).
     pub fn set_file(&mut self, id: &str, file: &Path) {
         let path = file.to_str().expect("a UTF-8 path");
         self.tab
-            .find_element(&format!("#{id}"))
-            .and_then(|e| e.set_input_files(&[path]).map(|_| ()))
+            .set_input_files(id, &[path])
             .unwrap_or_else(|e| panic!("setting the file of #{id}: {e:#}"));
         self.js(&format!(
             "document.getElementById({}).dispatchEvent(new Event('change', {{bubbles: true}}))",
@@ -885,27 +864,15 @@ impl WebRig {
     pub fn phone(&self, on: bool) {
         if on {
             self.tab
-                .call_method(Emulation::SetDeviceMetricsOverride {
-                    width: PHONE.0,
-                    height: PHONE.1,
-                    device_scale_factor: 2.0,
-                    mobile: true,
-                    scale: None,
-                    screen_width: None,
-                    screen_height: None,
-                    position_x: None,
-                    position_y: None,
-                    dont_set_visible_size: None,
-                    screen_orientation: None,
-                    viewport: None,
-                    display_feature: None,
-                    device_posture: None,
-                })
-                .expect("phone viewport");
+                .call(
+                    "Emulation.setDeviceMetricsOverride",
+                    json!({"width": PHONE.0, "height": PHONE.1, "deviceScaleFactor": 2, "mobile": true}),
+                )
+                .unwrap_or_else(|e| panic!("phone viewport: {e:#}"));
         } else {
             self.tab
-                .call_method(Emulation::ClearDeviceMetricsOverride(None))
-                .expect("desktop viewport");
+                .call("Emulation.clearDeviceMetricsOverride", json!({}))
+                .unwrap_or_else(|e| panic!("desktop viewport: {e:#}"));
         }
     }
 
@@ -915,20 +882,16 @@ impl WebRig {
     pub fn shot(&mut self, step: &str) -> PathBuf {
         // From the top, so that the sticky header is where it belongs.
         self.js("window.scrollTo(0, 0)");
-        let size = self
+        let m = self
             .tab
-            .call_method(Page::GetLayoutMetrics(None))
-            .expect("the page's size")
-            .css_content_size;
+            .call("Page.getLayoutMetrics", json!({}))
+            .unwrap_or_else(|e| panic!("the page's size: {e:#}"));
+        let size = &m["cssContentSize"];
         self.capture(
             step,
-            Some(Page::Viewport {
-                x: 0.0,
-                y: 0.0,
-                width: size.width,
-                height: size.height,
-                scale: 1.0,
-            }),
+            Some(json!({
+                "x": 0, "y": 0, "width": size["width"], "height": size["height"], "scale": 1,
+            })),
         )
     }
 
@@ -942,23 +905,24 @@ impl WebRig {
         self.capture(step, None)
     }
 
-    fn capture(&mut self, step: &str, clip: Option<Page::Viewport>) -> PathBuf {
+    fn capture(&mut self, step: &str, clip: Option<Value>) -> PathBuf {
         let dir = screenshot_dir();
         std::fs::create_dir_all(&dir).expect("the screenshot directory");
         let path = dir.join(format!("{}-{step}.png", self.test));
+        let mut params = json!({
+            "format": "png",
+            "captureBeyondViewport": clip.is_some(),
+            "fromSurface": true,
+        });
+        if let Some(clip) = clip {
+            params["clip"] = clip;
+        }
         let shot = self
             .tab
-            .call_method(Page::CaptureScreenshot {
-                format: Some(Page::CaptureScreenshotFormatOption::Png),
-                quality: None,
-                capture_beyond_viewport: Some(clip.is_some()),
-                clip,
-                from_surface: Some(true),
-                optimize_for_speed: None,
-            })
-            .expect("a screenshot");
+            .call("Page.captureScreenshot", params)
+            .unwrap_or_else(|e| panic!("a screenshot: {e:#}"));
         let png = base64::engine::general_purpose::STANDARD
-            .decode(shot.data)
+            .decode(shot["data"].as_str().unwrap_or_default())
             .expect("the screenshot's base64");
         std::fs::write(&path, png).expect("writing the screenshot");
         println!("screenshot: {}", path.display());
