@@ -228,8 +228,8 @@ step "clippy (gateway, embassy-net + defmt + flash + datasheet, thumbv7em)" \
   cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet --locked -- -D warnings
 # The field-device build of the library (the board crates compile it, but
 # clippy lints only their own workspace): web page and DHCP client.
-step "clippy (gateway as in the field-device firmware: + web + dhcp + sntp + v6 + mqtt + update, thumbv7em)" \
-  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,web,dhcp,sntp,v6,mqtt,update --locked -- -D warnings
+step "clippy (gateway as in the field-device firmware: + web + dhcp + sntp + v6 + mqtt + update + enip, thumbv7em)" \
+  cargo clippy -p hans-gateway --target thumbv7em-none-eabihf --no-default-features --features embassy-net,defmt,flash,datasheet,web,dhcp,sntp,v6,mqtt,update,enip --locked -- -D warnings
 # The MQTT client without the web page (its command log then holds one
 # entry) still builds for a board.
 step "gateway with MQTT but no web page builds for thumbv7em-none-eabihf" \
@@ -241,7 +241,7 @@ step "codec footprint on Cortex-M4F (V5 codec <= 32 KiB, V5 + V6 <= 48 KiB)" bas
 
 # --- firmware: lint, release builds of both boards, size budget, QEMU tests
 join
-step "firmware (lint, release builds, size budget, QEMU tests)" bash scripts/firmware-tests.sh
+step "firmware (lint, release builds, size budget, QEMU tests, EtherNet/IP scanners on the QEMU field device)" bash scripts/firmware-tests.sh
 
 # --- the first hour as written: README's "The first ten minutes" and
 # REGISTERS.md's example, line by line, against scripts/demo.sh (the
