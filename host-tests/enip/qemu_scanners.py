@@ -8,7 +8,7 @@ adapter, against scanners nobody here wrote, over the emulated Ethernet:
   * discovery: pycomm3's ListIdentity over UDP (its `discover`, a broadcast
     on the segment) and over TCP, cpppo's ListIdentity (its own parser);
   * explicit messaging: pycomm3 Get_Attributes_All of the Identity (the
-    serial is the board's MAC address), the TCP/IP Interface object's
+    serial is the last four bytes of the board's MAC address), the TCP/IP Interface object's
     address (the board's configured one) and the Ethernet Link's MAC;
   * class 1 I/O: ethernetip (PyPI), an exclusive-owner connection at the RPI
     given (10 ms) for a bounded time, while a Modbus poller (every 20 ms) and
@@ -33,7 +33,7 @@ the host's network.
 Usage: qemu_scanners.py --firmware ELF --sim HANS_SIM --iface TAP --logdir DIR
                         [--rpi-ms 10] [--io-seconds 15]
 Prints one line per check, "figures: ..." lines, "enip-qemu: stack_used=..."
-and "N passed, M failed"; exit 1 on a failure. Every wait is bounded.
+and "enip-qemu: S s; N passed, M failed"; exit 1 on a failure. Every wait is bounded.
 """
 
 import argparse
@@ -380,8 +380,10 @@ def io_checks(seconds, rpi_ms):
     worst = max(dts) * 1000 if dts else 0
     check("T->O: sequence numbers increase, none missed", len(run) > 0 and missed == 0
           and all(b > a for a, b in zip(seqs, seqs[1:])), f"{len(run)} datagrams, {missed} missed")
-    # A figure, not a speed goal: the bound catches a wrong rate only.
-    check(f"T->O at the {rpi_ms} ms RPI (mean interval within 0.9-1.5 x)", rpi_ms * 0.9 <= mean <= rpi_ms * 1.5,
+    # A figure, not a speed goal: the bound catches a wrong rate only (a unit
+    # error, a doubled RPI), not an emulated CPU on a loaded host, which is
+    # late now and then (the mean was 11.9-12.9 ms at 10 ms on 2 busy cores).
+    check(f"T->O at the {rpi_ms} ms RPI (mean interval within 0.9-1.9 x)", rpi_ms * 0.9 <= mean <= rpi_ms * 1.9,
           f"mean {mean:.2f} ms, longest {worst:.2f} ms")
     during = [v for t, v in load.enip_connections if t0 + 0.5 <= t <= t_end]
     after = [v for t, v in load.enip_connections if t > t_end + 0.2]
