@@ -45,11 +45,7 @@ if ! command -v tshark >/dev/null; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq tshark >/dev/null
 fi
-if ! "$VENV/bin/python" -c 'import pycomm3, cpppo, ethernetip, eds_pie' 2>/dev/null; then
-  echo "enip-tests: pip install pycomm3 cpppo ethernetip eds_pie into $VENV"
-  python3 -m venv "$VENV"
-  "$VENV/bin/pip" install -q pycomm3==1.2.16 cpppo==5.2.5 ethernetip==1.2.0 eds_pie==1.2.0
-fi
+source scripts/enip-venv.sh
 
 cargo build -q -p hans-enip --example loopback_adapter --locked
 RUNNER=$ROOT/target/debug/examples/loopback_adapter

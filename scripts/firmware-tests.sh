@@ -10,7 +10,10 @@
 # served, an update installed and confirmed, one rolled back), which print
 # the stack high-water marks (a test fails when its firmware's mark is over
 # its budget: firmware/qemu-tests/src/lib.rs, STACK_BUDGETS), the web
-# page's load time and the update's figures.
+# page's load time and the update's figures. Last, the field device's
+# EtherNet/IP adapter against the PyPI scanners (scripts/enip-qemu.sh, as
+# root: QEMU on a TAP device in a network namespace), with its class 1
+# figures and its stack high-water mark.
 #
 # To run the field-device firmware for a browser (or by hand) instead, with
 # its web page forwarded to the host: scripts/qemu-field-device.sh.
@@ -81,6 +84,23 @@ FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" \
 status=${PIPESTATUS[0]}
 set -e
 
+# The EtherNet/IP adapter of the same field-device image against the PyPI
+# scanners (discovery, explicit messaging, class 1 I/O while Modbus and the
+# page are used): QEMU on a TAP device in a network namespace, as root
+# (QEMU's restricted user network drops the guest's UDP). ENIP_QEMU=0 leaves
+# it out (a run without root), and says so.
+echo "==> EtherNet/IP on the QEMU field device (scripts/enip-qemu.sh)"
+if [ "${ENIP_QEMU:-1}" = 0 ]; then
+  echo "  left out (ENIP_QEMU=0)"
+else
+  set +e
+  FIRMWARE_BIN_DIR="$BIN_DIR" CARGO_TARGET_DIR="$HOST_TARGET" timeout --kill-after=10 300 \
+    bash scripts/enip-qemu.sh 2>&1 | tee -a "$LOG"
+  enip_status=${PIPESTATUS[0]}
+  set -e
+  [ "$enip_status" = 0 ] || status=1
+fi
+
 echo "==> stack high-water marks measured under QEMU (painted stack)"
 # Each QEMU test prints "<test>: stack_used=N stack_size=M ..." at its end,
 # and fails if N is over its firmware's budget (STACK_BUDGETS in
@@ -93,4 +113,6 @@ echo "==> firmware update under QEMU (tests/update.rs; reported, not asserted)"
 # (A test's first line follows its "test ... " line: matched anywhere.)
 grep -oE '(update: (full image uploaded|the PLC, idle|the PLC during the uploads|longest engine stall|swap and restart|B confirmed)|update-rollback: B on trial).*' "$LOG" |
   sed 's/^/  /' || echo "  (none reported)"
+echo "==> EtherNet/IP class 1 on the QEMU field device (scripts/enip-qemu.sh; reported, and missed datagrams fail it)"
+grep -E '^figures: ' "$LOG" | sed 's/^/  /' || echo "  (none reported)"
 exit "$status"

@@ -271,7 +271,7 @@ join rustdoc
 # then the QEMU tests
 join fuzz
 join firmware
-step "firmware: QEMU tests (the release builds joined above)" bash scripts/firmware-tests.sh
+step "firmware: QEMU tests, EtherNet/IP scanners on the QEMU field device (the release builds joined above)" bash scripts/firmware-tests.sh
 
 # --- the first hour as written: README's "The first ten minutes" and
 # REGISTERS.md's example, line by line, against scripts/demo.sh (the

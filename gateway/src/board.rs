@@ -84,15 +84,31 @@ const SNTP_SOCKETS: usize = if cfg!(feature = "sntp") { 1 } else { 0 };
 /// The MQTT client's socket (feature `mqtt`).
 const MQTT_SOCKETS: usize = if cfg!(feature = "mqtt") { 1 } else { 0 };
 
+/// The EtherNet/IP adapter's sockets (feature `enip`): its TCP sessions'
+/// (`enip::SOCKETS`) and two UDP ones, discovery (44818) and class 1 I/O
+/// (2222). Made only while `enip.enabled` is on, but counted always: the
+/// setting changes at run time, the stack's size does not.
+#[cfg(feature = "enip")]
+const ENIP_SOCKETS: usize = crate::enip::SOCKETS + 2;
+#[cfg(not(feature = "enip"))]
+const ENIP_SOCKETS: usize = 0;
+
 /// Sockets the gateway uses on the board's stack: the Modbus sessions
 /// ([`MAX_SESSIONS`]), two for the robot link, one for the DataSheet
 /// (feature `datasheet`), the web page's connections (feature `web`:
 /// `web::WEB_CONNECTIONS`), the DHCP client's (feature `dhcp`), the
-/// SNTP client's (feature `sntp`) and the MQTT client's (feature `mqtt`).
+/// SNTP client's (feature `sntp`), the MQTT client's (feature `mqtt`) and
+/// the EtherNet/IP adapter's (feature `enip`: its sessions and two UDP).
 /// A board sizes its `StackResources` with
 /// this plus its own.
-pub const SOCKETS: usize =
-    MAX_SESSIONS + 2 + DATASHEET_SOCKETS + WEB_SOCKETS + DHCP_SOCKETS + SNTP_SOCKETS + MQTT_SOCKETS;
+pub const SOCKETS: usize = MAX_SESSIONS
+    + 2
+    + DATASHEET_SOCKETS
+    + WEB_SOCKETS
+    + DHCP_SOCKETS
+    + SNTP_SOCKETS
+    + MQTT_SOCKETS
+    + ENIP_SOCKETS;
 
 /// Runs the gateway on the board's network stack until the future is
 /// dropped (it never returns): loads the stored configuration, applies
@@ -111,6 +127,13 @@ pub async fn run<S: Storage>(
             ..options
         },
         None => options,
+    };
+    #[cfg(feature = "enip")]
+    let options = Options {
+        enip: options
+            .enip
+            .map(|o| enip_identity(o, stack.hardware_address().as_bytes())),
+        ..options
     };
     // The gateway's state (25 KiB on the field device, 10 KiB in the core)
     // is built in `place`'s frame, which is gone once it returns: built
@@ -168,6 +191,23 @@ fn mac_name(mac: &[u8]) -> Option<HostName> {
     prefix.copy_from_slice(b"hans-");
     crate::hex::encode(mac, digits)?;
     HostName::from_bytes(&out)
+}
+
+/// The EtherNet/IP adapter's identity on a board: the Ethernet Link
+/// object's MAC address is the board's, and the Identity's serial number
+/// its last four bytes (unique per device, as the MAC is). Unchanged
+/// without a 6-byte MAC.
+#[cfg(feature = "enip")]
+fn enip_identity(o: crate::enip::EnipOptions, mac: &[u8]) -> crate::enip::EnipOptions {
+    let Ok(mac) = <[u8; 6]>::try_from(mac) else {
+        return o;
+    };
+    let [_, _, a, b, c, d] = mac;
+    crate::enip::EnipOptions {
+        mac,
+        serial: u32::from_be_bytes([a, b, c, d]),
+        ..o
+    }
 }
 
 /// Applies the loaded network settings to the stack (see the module docs).

@@ -2,7 +2,8 @@
 //! (the core gateway: Modbus and the robot link) and `field-device` (feature
 //! `field-device`: also the web page with its access control, DHCP, the
 //! DataSheet reader, the Sparkplug B edge node, on when the host names a
-//! broker, see [`factory_mqtt`](crate::factory_mqtt), and signed updates).
+//! broker, see [`factory_mqtt`](crate::factory_mqtt), the EtherNet/IP
+//! adapter, off until `enip.enabled` is set, and signed updates).
 //! Only the gateway library's features differ.
 //!
 //! Modbus TCP on port 502 and (field device) the web page on 80, at
@@ -41,7 +42,7 @@ pub async fn start(spawner: Spawner) {
     defmt::info!(
         "gateway ({=str}): robot at {}:{=u16}",
         if cfg!(feature = "field-device") {
-            "field device: web page, DHCP, DataSheet, V6"
+            "field device: web page, DHCP, DataSheet, V6, MQTT, EtherNet/IP"
         } else {
             "core"
         },
