@@ -36,10 +36,10 @@ for f in field-device bootloader-mps2; do
   [ -s "$BIN_DIR/$f" ] || { echo "enip-qemu: $BIN_DIR/$f is not built (scripts/firmware-tests.sh builds it)" >&2; exit 2; }
 done
 source scripts/enip-venv.sh
-# Built by the host tests' step (hans-sim) and the firmware step (hans-fw),
-# as those build them (scripts/lint-env.sh): nothing is built twice.
+# Built by the host tests' step in scripts/test-all.sh (scripts/host-programs.sh):
+# nothing is built twice.
 source scripts/lint-env.sh
-CARGO_TARGET_DIR="$HOST_TARGET" cargo build -q -p hans-sim -p hans-fw --locked
+source scripts/host-programs.sh && CARGO_TARGET_DIR="$HOST_TARGET" build_host_programs
 
 ns=hansenip-$$
 tap=hetap$(($$ % 100000))
