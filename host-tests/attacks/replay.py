@@ -392,7 +392,10 @@ def case_a(rig, polls):
     say(f"a: slow PLC ({polls} polls every 3 s, then 5 reconnects) against 4 busy connections")
     plc = Client(HOST, rig.modbus, bind=PLC, timeout=PLC_TIMEOUT)
     plc.read(*STATUS)
-    end = time.monotonic() + 3 * polls + 5 * 4 + 30
+    # The busy clients go on until stopped, after the last reconnect (this
+    # deadline only bounds them: the polls, then five reconnects of up to
+    # RECONNECT_WAIT + 3 s each).
+    end = time.monotonic() + 3 * polls + 5 * (RECONNECT_WAIT + 3) + 30
     # A busy client waits 1 s for an answer and reconnects 0.2 s after an
     # error (a refused connection), as a client library does.
     busy = [ModbusLoop(rig, BUSY[i % 2], lambda c: c.read(0, 2)) for i in range(4)]
