@@ -47,8 +47,13 @@
 //!   protected newcomer waits behind no unprotected one, and takes the
 //!   slot of the least recently active quiet unprotected session at once
 //!   if the others hold more than their share (the reservation was just
-//!   switched on). So a busy client, from however many addresses, cannot
-//!   keep a reconnecting PLC out, nor have its slow session closed.
+//!   switched on). The others never hold the last socket either (their
+//!   sessions and waiting newcomers): a newcomer that would is refused at
+//!   once ([`Refusal::Full`]), so a socket always accepts, and the PLC's
+//!   reconnection waits in the kernel's queue behind refusals, not behind
+//!   newcomers waiting for a slot. So a busy client, from however many
+//!   addresses, cannot keep a reconnecting PLC out, nor have its slow
+//!   session closed.
 //!   [`Slots::protect`] follows a new configuration.
 //! * Allow-lists: the listener checks its list at accept (and counts the
 //!   refusals: the list and the counters are its own), and
@@ -424,6 +429,19 @@ impl Core<[Seat]> {
                 true => Step::Wait(None),
                 false => Step::Refuse(Refusal::PerAddress),
             };
+        }
+        // While a slot is reserved, the others never hold the last socket:
+        // it stays free to accept a protected newcomer (the PLC
+        // reconnecting), which would otherwise wait in the kernel's queue
+        // behind newcomers waiting here for a slot they may not take.
+        if self.reserving && !me.protected {
+            let held = self
+                .entries()
+                .filter(|e| !e.protected && (e.serving() || e.phase == Phase::Waiting))
+                .count();
+            if held >= self.seats.len() {
+                return Step::Refuse(Refusal::Full);
+            }
         }
         // First come, first served (a newcomer waiting for its own
         // address's sessions does not hold up the others; a protected one

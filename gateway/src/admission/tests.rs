@@ -44,7 +44,8 @@ macro_rules! admission_suite {
             a_protected_session_is_never_closed_for_another_address,
             a_protected_newcomer_waits_behind_no_unprotected_one,
             a_reservation_switched_on_makes_room_at_once,
-            a_busy_flood_from_several_addresses_cannot_keep_the_plc_out
+            a_busy_flood_from_several_addresses_cannot_keep_the_plc_out,
+            newcomers_queued_before_the_plc_cannot_hold_the_socket_it_reconnects_on
         );
     };
     (@tests $slots:expr; $($name:ident),*) => {
@@ -663,6 +664,55 @@ impl<const S: usize, const N: usize, const P: usize> Rig<'_, S, N, P> {
         }
         assert_eq!((polls, reconnects), (12, 4));
         assert!(tries > 1, "the attackers' newcomer kept trying");
+    }
+
+    /// The attack of the second security review, replayed over loopback
+    /// (host-tests/attacks): busy clients hold every slot but the PLC's and
+    /// their newcomers wait on the spare sockets; the PLC reconnects, and
+    /// the socket its old session freed accepts what the kernel queued
+    /// first: the attackers' reconnects. Each of those used to wait there
+    /// for a slot (up to `claim_wait`), holding the only socket that could
+    /// accept, so the PLC waited that long per queued connection. Now
+    /// unprotected peers never hold the last socket while a slot is
+    /// reserved: each is refused at once, and the PLC is served as soon as
+    /// the queue reaches it.
+    pub(crate) fn newcomers_queued_before_the_plc_cannot_hold_the_socket_it_reconnects_on(
+        &mut self,
+    ) {
+        assert!(N < S, "a socket for the attackers' newcomers");
+        let plc = 0;
+        assert_eq!(self.arrive_as(plc, peer(PLC, 1), PLC_GUARD), Some(Ok(())));
+        let attackers: Vec<usize> = (1..N).collect();
+        for &k in &attackers {
+            let from = peer(70 + (k % 2) as u8, k);
+            assert_eq!(self.arrive_as(k, from, RESERVING), Some(Ok(())));
+            self.started(k);
+        }
+        // Their newcomers on every spare socket: they may wait.
+        for spare in N..S {
+            let got = self.arrive_as(spare, peer(72 + (spare % 2) as u8, spare), RESERVING);
+            assert_eq!(got, None, "newcomer on spare socket {spare}");
+        }
+        // The PLC reconnects: its socket is freed, and accepts the
+        // attackers' queued reconnects first.
+        self.release(plc);
+        for queued in 0..5 {
+            let from = peer(72 + (queued % 2) as u8, 200 + queued);
+            let got = self.arrive_as(plc, from, RESERVING);
+            assert!(
+                matches!(got, Some(Err(Refusal::Full))),
+                "queued attacker {queued} on the PLC's socket: {got:?} (it must be refused at once)"
+            );
+            self.release(plc);
+        }
+        assert_eq!(
+            self.arrive_as(plc, peer(PLC, 2), PLC_GUARD),
+            Some(Ok(())),
+            "the reconnecting PLC is served when the queue reaches it"
+        );
+        for &k in &attackers {
+            self.answered(k);
+        }
     }
 }
 
