@@ -1057,11 +1057,15 @@ fn kept_records(config: &Path) -> Vec<(String, String)> {
 
 /// Issue 25, finding 4: the audit file was written by its writer thread
 /// after the answer, so a gateway killed right after answering a change
-/// lost its records (a SIGKILL right after a flood lost the latest). Now
-/// the answer to a request that made records goes once they are synced:
-/// one change of nine settings (nine records, each synced in turn) is
-/// answered, the process is SIGKILLed the moment the answer is whole, and
-/// after a restart all nine records are in the file.
+/// lost its record (a SIGKILL right after a flood lost the latest). Now
+/// the answer to a request that made records goes once they are synced.
+///
+/// The writer is kept busy (a change of nine settings from one session:
+/// nine records, each synced in turn); while it writes them, a second
+/// session logs out, and the gateway is SIGKILLed the moment that answer
+/// is whole. After a restart the logout and the nine changes are in the
+/// file. (Before, the logout was answered at once and its record, queued
+/// behind the nine syncs, was lost.)
 #[test]
 fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
     let config = TempFile::new("gateway.toml");
@@ -1085,18 +1089,37 @@ fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
             body.len()
         )
     };
+    let cookie_of = |answer: &str| {
+        let c = answer
+            .lines()
+            .find_map(|l| {
+                l.strip_prefix("Set-Cookie: ")
+                    .or(l.strip_prefix("set-cookie: "))
+            })
+            .and_then(|c| c.split(';').next())
+            .unwrap_or_else(|| panic!("a session cookie: {answer}"));
+        format!("Cookie: {c}\r\n")
+    };
     let body = format!(r#"{{"code":"{code}","name":"admin","password":"correct horse"}}"#);
     let answer = http_exchange(&addr, &post("/api/setup", "", &body));
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
-    let cookie = answer
-        .lines()
-        .find_map(|l| {
-            l.strip_prefix("Set-Cookie: ")
-                .or(l.strip_prefix("set-cookie: "))
-        })
-        .and_then(|c| c.split(';').next())
-        .expect("a session cookie");
-    let cookie = format!("Cookie: {cookie}\r\n");
+    let first = cookie_of(&answer);
+    let body = r#"{"name":"admin","password":"correct horse"}"#;
+    let answer = http_exchange(&addr, &post("/api/login", "", body));
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let second = cookie_of(&answer);
+    // Every record so far written (the file's size stops at the login).
+    let security = config.1 .0.join("gateway.toml.audit");
+    let start_wait = Instant::now();
+    while kept_records(&config.0).last().map(|(k, _)| k.as_str()) != Some("login") {
+        assert!(
+            start_wait.elapsed() < WAIT,
+            "{:#?}",
+            kept_records(&config.0)
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let before = std::fs::metadata(&security).expect("the audit file").len();
     let settings = [
         ("link.poll_ms", "50"),
         ("link.reply_timeout_ms", "900"),
@@ -1116,20 +1139,29 @@ fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
             .collect::<Vec<_>>()
             .join(",")
     );
-    let answer = http_exchange(&addr, &post("/api/config", &cookie, &body));
+    // The change, its answer not awaited; its first record on disk.
+    let mut change = TcpStream::connect(&addr).expect("connect to the web page");
+    change
+        .write_all(post("/api/config", &first, &body).as_bytes())
+        .expect("send the change");
+    while std::fs::metadata(&security).map_or(0, |m| m.len()) == before {
+        assert!(start_wait.elapsed() < WAIT, "the change was never written");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let answer = http_exchange(&addr, &post("/api/logout", &second, "{}"));
     // At once: no time for a writer that runs after the answer.
     gw.0.kill().expect("SIGKILL the gateway");
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
     let _ = gw.0.wait();
-    drop(gw);
+    drop((gw, change));
     // A restart reads the files (and cuts a torn record off).
     let (gw, log) = start(&args);
     web_addr(&log);
     drop(gw);
     let kept = kept_records(&config.0);
     assert!(
-        kept.iter().any(|(k, _)| k == "account-created"),
-        "{kept:#?}"
+        kept.iter().any(|(k, _)| k == "logout"),
+        "the logout answered is not kept: {kept:#?}"
     );
     for (key, value) in settings {
         assert!(
