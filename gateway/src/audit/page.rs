@@ -7,7 +7,7 @@
 //! where the next page starts (`before` = the page's oldest record).
 //!
 //! The medium belongs to the storage task: a request asks it through
-//! [`Pages`] (one at a time, the others wait their turn) and reads the
+//! `Pages` (one at a time, the others wait their turn) and reads the
 //! page from its [`Window`], a fixed buffer of [`PAGE_MAX`] records in the
 //! log: no allocation, and the store is read once per page, oldest first,
 //! whatever its size (the window keeps the newest `limit` it saw).
