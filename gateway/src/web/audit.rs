@@ -98,7 +98,7 @@ impl Format {
 pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>>(
     hub: &Hub,
     clock: &C,
-    (format, query): (Format, Query),
+    (format, query, secure): (Format, Query, bool),
     head: bool,
     c: Connection<'_, R>,
     w: W,
@@ -113,6 +113,7 @@ pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>
             .with_headers(format.disposition())
             .with_headers(headers)
             .with_headers(SECURITY_HEADERS)
+            .with_headers(super::hsts(secure))
             .write_to(c, w)
             .await;
     }
@@ -128,7 +129,7 @@ pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>
         Either::First(got) => got,
         Either::Second(()) => {
             return error_reply(
-                StatusCode::SERVICE_UNAVAILABLE,
+                (StatusCode::SERVICE_UNAVAILABLE, secure),
                 "the audit log is busy: try again",
                 c,
                 w,
@@ -139,7 +140,7 @@ pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>
     if !read {
         drop(turn);
         return error_reply(
-            StatusCode::SERVICE_UNAVAILABLE,
+            (StatusCode::SERVICE_UNAVAILABLE, secure),
             "the kept audit records could not be read",
             c,
             w,
@@ -162,6 +163,7 @@ pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>
     .with_headers(next.map(|_| ("Audit-Next-Before", cursor.as_str())))
     .with_headers(headers)
     .with_headers(SECURITY_HEADERS)
+    .with_headers(super::hsts(secure))
     .write_to(c, w)
     .await;
     drop(turn);
@@ -170,7 +172,7 @@ pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>
 
 /// A JSON error answer (the page could not be had).
 async fn error_reply<R: Read, W: ResponseWriter<Error = R::Error>>(
-    status: StatusCode,
+    (status, secure): (StatusCode, bool),
     text: &str,
     c: Connection<'_, R>,
     w: W,
@@ -179,6 +181,7 @@ async fn error_reply<R: Read, W: ResponseWriter<Error = R::Error>>(
     Response::new(status, super::json_body(&body))
         .with_header("Cache-Control", "no-store")
         .with_headers(SECURITY_HEADERS)
+        .with_headers(super::hsts(secure))
         .write_to(c, w)
         .await
 }

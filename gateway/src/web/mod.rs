@@ -1338,7 +1338,9 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     .write_to(c, w)
                     .await
             }
-            Reply::Audit(f, q) => audit::write(self.hub, self.clock, (f, q), head, c, w).await,
+            Reply::Audit(f, q) => {
+                audit::write(self.hub, self.clock, (f, q, self.secure), head, c, w).await
+            }
             Reply::Restart(j) => {
                 let sent = Response::new(StatusCode::ACCEPTED, json_body(&j))
                     .with_headers(SECURITY_HEADERS)
