@@ -245,7 +245,7 @@ step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gate
 # (they use one core most of the time; the fuzz targets were built in the
 # background, in their own target directory, host-tests/fuzz/target).
 join fuzz-build
-step_bg fuzz "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
+step_bg fuzz "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, audit export paging, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 step "codec builds for thumbv7em-none-eabihf (with defmt and v6: their clippy run)" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt,v6 --locked
 step "codec as a crate: cargo package, publish --dry-run, check with its declared MSRV toolchain" \

@@ -573,7 +573,7 @@ async fn storage_task<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut 
 enum Work {
     Save,
     #[cfg(feature = "audit")]
-    Keep,
+    Keep(Option<(u32, crate::audit::page::Query)>),
     #[cfg(feature = "update")]
     Firmware(crate::update::Op),
 }
@@ -589,10 +589,7 @@ async fn storage_work<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut 
             Work::Save
         };
         #[cfg(feature = "audit")]
-        let keep = async {
-            crate::audit::keep::wait_work(&hub.audit, clock).await;
-            Work::Keep
-        };
+        let keep = async { Work::Keep(crate::audit::keep::wait_work(&hub.audit, clock).await) };
         #[cfg(not(feature = "audit"))]
         let keep = core::future::pending::<Work>();
         #[cfg(feature = "update")]
@@ -602,10 +599,12 @@ async fn storage_work<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut 
         let work = match select3(asked, keep, slots).await {
             Either3::First(w) | Either3::Second(w) | Either3::Third(w) => w,
         };
+        #[cfg(feature = "audit")]
+        let mut page = None;
         match work {
             Work::Save => save(hub, storage).await,
             #[cfg(feature = "audit")]
-            Work::Keep => {}
+            Work::Keep(asked) => page = asked,
             #[cfg(feature = "update")]
             Work::Firmware(op) => {
                 let result = firmware(hub, storage, op).await;
@@ -613,7 +612,13 @@ async fn storage_work<S: Storage, C: Clock>(hub: &Hub, clock: &C, storage: &mut 
             }
         }
         #[cfg(feature = "audit")]
-        crate::audit::keep::keep(&hub.audit, clock, storage).await;
+        {
+            crate::audit::keep::keep(&hub.audit, clock, storage).await;
+            // After what waited was kept: the page shows it.
+            if let Some((id, query)) = page {
+                crate::audit::keep::page(&hub.audit, storage, id, query).await;
+            }
+        }
     }
 }
 

@@ -29,7 +29,7 @@ if [ "${1:-}" = --build-only ]; then
   shift
 fi
 secs=${1:-20}
-targets=(${FUZZ_TARGETS:-framer request reply datasheet gateway_modbus gateway_robot gateway_image gateway_http gateway_mqtt update_image update_upload enip_stream enip_cpf enip_cip})
+targets=(${FUZZ_TARGETS:-framer request reply datasheet gateway_modbus gateway_robot gateway_image gateway_http gateway_audit_page gateway_mqtt update_image update_upload enip_stream enip_cpf enip_cip})
 
 if ! rustup toolchain list | grep -q '^nightly'; then
   echo "fuzz: the nightly toolchain is missing (bash scripts/setup.sh installs it)" >&2

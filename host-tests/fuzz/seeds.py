@@ -415,6 +415,21 @@ def enip_seeds():
     put("enip_cpf", cpf([(0x0100, struct.pack("<HH", 1, 0x120) + b"Communications\x00\x00")]))
     put("enip_cpf", cpf([(0x0000, b""), (0x00B2, requests[3]), (0x8001, struct.pack(">HHI8s", 2, 2222, 0, b""))]))
 
+    # The audit export's paging: a query line, then stored records (audit
+    # record version 1, gateway/src/audit/record.rs), each after its
+    # length byte.
+    def audit_record(seq, kind, actor=b"", detail=b""):
+        body = bytes([1]) + struct.pack("<IIQI", seq, 1, seq * 1000, 0) + bytes([kind, 1]) + bytes(4)
+        body += bytes([len(actor), len(detail)]) + actor + detail
+        return body + struct.pack("<I", zlib.crc32(body))
+
+    records = b"".join(
+        bytes([len(r)]) + r
+        for r in (audit_record(n, (6, 4, 10, 12)[n % 4], b"admin", b"link.poll_ms: 100 -> 50") for n in range(1, 40))
+    )
+    for query in (b"", b"before=20&limit=5", b"limit=32&format=csv", b"before=4294967295", b"before=0"):
+        put("gateway_audit_page", query + b"\n" + records)
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,24 +1,38 @@
-//! The audit log's records in a file on Linux (feature `audit`): the
+//! The audit log's records in files on Linux (feature `audit`): the
 //! `--config` file's name with `.audit` appended (`gateway.toml.audit`),
-//! beside it.
+//! beside it, for the security records, and `.audit.failures` for the
+//! failure records.
 //!
-//! The file is the records one after the other, in their stored form
+//! A file is the records one after the other, in their stored form
 //! (`audit::record`: a version byte, the fields, a CRC; each record says
 //! its own length). A record is appended and synced (`fdatasync`) before
-//! the next is written, by a writer thread of the file's own (started at
+//! the next is written, by a writer thread of the files' own (started at
 //! the first record, 64 KiB of stack; the gateway goes on meanwhile, and
 //! tokio's blocking pool is left to the configuration's saves), so a power
-//! cut loses at most the record being written. A
+//! cut loses at most the record being written; the gateway answers a
+//! request that caused a security record only once it is synced. A
 //! torn record at the end (the cut came during the write) fails its CRC:
 //! at start it is cut off, so that the next record follows the last whole
-//! one. Damaged bytes inside the file are skipped up to the next record
+//! one. Damaged bytes inside a file are skipped up to the next record
 //! that reads.
 //!
-//! Bounded: when a record would take the file past its limit
-//! ([`DEFAULT_LIMIT`], 1 MiB: ~10,000 records), the file is renamed to
-//! `FILE.1` (replacing the previous one) and a new file begins, so the
-//! newest records are kept: between one and two limits' worth in all.
-//! Both files are created readable and writable by their owner only (mode
+//! ## Two stores: failures never rotate security records away
+//! Security records (`Kind::security`: starts, the configuration loaded
+//! or changed, logins and logouts, accounts, restarts, firmware, the
+//! clock) go to `FILE`; failure records (failed logins, refused
+//! connections and changes, the watchdog, lost records) to
+//! `FILE.failures`. Each is bounded on its own: when a record would take
+//! a file past its limit ([`DEFAULT_LIMIT`], 1 MiB: ~10,000 records), it
+//! is renamed to `FILE.1` (or `FILE.failures.1`, replacing the previous
+//! one) and a new file begins, so each keeps its newest records: between
+//! one and two limits' worth, 4 MiB at most in all. However many failure
+//! records an attacker causes (the log aggregates them: at most two per
+//! period per class, the period doubling up to an hour), they rotate only
+//! their own file: a security record goes only when 1-2 MiB of newer
+//! security records were written, which takes accounts and their
+//! sessions. Reading merges the two by sequence number (oldest first); a
+//! file from before the split (all records in `FILE`) reads as it was.
+//! All files are created readable and writable by their owner only (mode
 //! 0600): they name accounts and addresses.
 
 extern crate std;
@@ -32,44 +46,50 @@ use std::vec::Vec;
 use hans_gateway::audit::Record;
 use hans_gateway::storage::{AuditStore, StorageError};
 
-/// The size a file grows to before it is rotated.
+/// The size a file grows to before it is rotated (each of the two).
 pub const DEFAULT_LIMIT: u64 = 1 << 20;
 
-/// The audit records in a file, rotated at a limit (see the module
-/// documentation).
+/// The two stores: security records, failure records.
+const SECURITY: usize = 0;
+const FAILURES: usize = 1;
+
+/// The audit records in two files, each rotated at a limit (see the
+/// module documentation).
 #[derive(Debug)]
 pub struct AuditFile {
     path: PathBuf,
     limit: u64,
-    /// The file's size, once known.
-    size: Option<u64>,
+    /// Each file's size, once known.
+    size: [Option<u64>; 2],
     /// The writer thread's queue, once started (it ends when this is
     /// dropped).
     writer: Option<mpsc::Sender<Job>>,
 }
 
-/// One append for the writer thread: the record, the file's size before
-/// it, and where the new size (or the error) goes.
+/// One append for the writer thread: the record, which file, the file's
+/// size before it, and where the new size (or the error) goes.
 #[derive(Debug)]
 struct Job {
     record: Vec<u8>,
+    file: usize,
     size: u64,
     done: tokio::sync::oneshot::Sender<io::Result<u64>>,
 }
 
 impl AuditFile {
-    /// Records in `path`, rotated at [`DEFAULT_LIMIT`].
+    /// Records in `path` (and `path.failures`), rotated at
+    /// [`DEFAULT_LIMIT`].
     pub fn new(path: impl Into<PathBuf>) -> Self {
         AuditFile::with_limit(path, DEFAULT_LIMIT)
     }
 
-    /// Records in `path`, rotated when a record would take it past
-    /// `limit` bytes.
+    /// Records in `path` (and `path.failures`), each rotated when a record
+    /// would take it past `limit` bytes.
     pub fn with_limit(path: impl Into<PathBuf>, limit: u64) -> Self {
         AuditFile {
             path: path.into(),
             limit,
-            size: None,
+            size: [None; 2],
             writer: None,
         }
     }
@@ -80,27 +100,45 @@ impl AuditFile {
         AuditFile::new(suffixed(config, ".audit"))
     }
 
-    /// Where the records go.
+    /// Where the security records go.
     pub fn path(&self) -> &Path {
         &self.path
     }
 
-    /// Where the records of the previous file are (`FILE.1`).
+    /// Where the security records of the previous file are (`FILE.1`).
     pub fn rotated(&self) -> PathBuf {
         suffixed(&self.path, ".1")
+    }
+
+    /// Where the failure records go (`FILE.failures`).
+    pub fn failures(&self) -> PathBuf {
+        suffixed(&self.path, ".failures")
+    }
+
+    /// The file of store `file` and its rotated one.
+    fn files(&self, file: usize) -> (PathBuf, PathBuf) {
+        let p = if file == SECURITY {
+            self.path.clone()
+        } else {
+            self.failures()
+        };
+        let r = suffixed(&p, ".1");
+        (p, r)
     }
 
     /// The writer thread's queue, the thread started if it is not yet.
     fn writer(&mut self) -> io::Result<&mpsc::Sender<Job>> {
         if self.writer.is_none() {
             let (tx, rx) = mpsc::channel::<Job>();
-            let (path, rotated, limit) = (self.path.clone(), self.rotated(), self.limit);
+            let files = [self.files(SECURITY), self.files(FAILURES)];
+            let limit = self.limit;
             std::thread::Builder::new()
                 .name("audit-file".into())
                 .stack_size(64 << 10)
                 .spawn(move || {
                     while let Ok(job) = rx.recv() {
-                        let r = append(&path, &rotated, limit, job.size, &job.record);
+                        let (path, rotated) = &files[job.file.min(FAILURES)];
+                        let r = append(path, rotated, limit, job.size, &job.record);
                         let _ = job.done.send(r);
                     }
                 })?;
@@ -109,6 +147,69 @@ impl AuditFile {
         self.writer
             .as_ref()
             .ok_or_else(|| io::Error::other("no writer"))
+    }
+
+    /// Reads store `file` (its rotated file, then its file): where each
+    /// record is in `old` and `new`, and cuts a torn tail off the file.
+    fn read_store(&mut self, file: usize) -> Result<Store, StorageError> {
+        let io = |e: io::Error, path: &Path| {
+            log::warn!("audit: cannot read {}: {e}", path.display());
+            StorageError::Io
+        };
+        let (path, rotated) = self.files(file);
+        let old = read_or_empty(&rotated).map_err(|e| io(e, &rotated))?;
+        let new = read_or_empty(&path).map_err(|e| io(e, &path))?;
+        let (old_at, _) = positions(&old);
+        let (new_at, end) = positions(&new);
+        if end < new.len() {
+            // A torn record at the end: cut off, so that the next one
+            // follows the last whole record.
+            log::warn!(
+                "audit: {} ends in {} damaged bytes (a cut write): removed",
+                path.display(),
+                new.len() - end
+            );
+            let f = fs::OpenOptions::new()
+                .write(true)
+                .open(&path)
+                .map_err(|e| io(e, &path))?;
+            f.set_len(end as u64)
+                .and_then(|()| f.sync_all())
+                .map_err(|e| io(e, &path))?;
+        }
+        if let Some(s) = self.size.get_mut(file) {
+            *s = Some(end as u64);
+        }
+        Ok(Store {
+            old,
+            new,
+            old_at,
+            new_at,
+        })
+    }
+}
+
+/// One store's bytes read: its rotated file and its file, and the records'
+/// places in them (sequence number, range).
+struct Store {
+    old: Vec<u8>,
+    new: Vec<u8>,
+    old_at: Vec<(u32, core::ops::Range<usize>)>,
+    new_at: Vec<(u32, core::ops::Range<usize>)>,
+}
+
+impl Store {
+    /// Its records, oldest first: (sequence number, bytes).
+    fn records(&self) -> impl Iterator<Item = (u32, &[u8])> {
+        let old = self
+            .old_at
+            .iter()
+            .map(|(s, r)| (*s, self.old.get(r.clone()).unwrap_or(&[])));
+        let new = self
+            .new_at
+            .iter()
+            .map(|(s, r)| (*s, self.new.get(r.clone()).unwrap_or(&[])));
+        old.chain(new)
     }
 }
 
@@ -119,22 +220,23 @@ fn suffixed(path: &Path, suffix: &str) -> PathBuf {
     PathBuf::from(p)
 }
 
-/// Calls `each` with every record that reads in `bytes`, in order,
-/// skipping damaged bytes up to the next record that reads. Returns where
-/// the last whole record ends.
-fn records(bytes: &[u8], each: &mut dyn FnMut(&[u8])) -> usize {
+/// Where every record that reads in `bytes` is (its sequence number and
+/// range), in order, skipping damaged bytes up to the next record that
+/// reads; and where the last whole record ends.
+fn positions(bytes: &[u8]) -> (Vec<(u32, core::ops::Range<usize>)>, usize) {
     let (mut at, mut end) = (0, 0);
+    let mut found = Vec::new();
     while let Some(rest) = bytes.get(at..).filter(|r| !r.is_empty()) {
         match Record::parse(rest) {
-            Ok((_, n)) => {
-                each(rest.get(..n).unwrap_or(&[]));
+            Ok((r, n)) => {
+                found.push((r.seq, at..at + n));
                 at += n;
                 end = at;
             }
             Err(_) => at += 1,
         }
     }
-    end
+    (found, end)
 }
 
 /// A file's bytes; none if it does not exist.
@@ -184,43 +286,39 @@ fn append(path: &Path, rotated: &Path, limit: u64, size: u64, record: &[u8]) -> 
 
 impl AuditStore for AuditFile {
     async fn read(&mut self, each: &mut dyn FnMut(&[u8])) -> Result<(), StorageError> {
-        let io = |e: io::Error, path: &Path| {
-            log::warn!("audit: cannot read {}: {e}", path.display());
-            StorageError::Io
-        };
-        let rotated = self.rotated();
-        let old = read_or_empty(&rotated).map_err(|e| io(e, &rotated))?;
-        records(&old, each);
-        let new = read_or_empty(&self.path).map_err(|e| io(e, &self.path))?;
-        let end = records(&new, each);
-        if end < new.len() {
-            // A torn record at the end: cut off, so that the next one
-            // follows the last whole record.
-            log::warn!(
-                "audit: {} ends in {} damaged bytes (a cut write): removed",
-                self.path.display(),
-                new.len() - end
-            );
-            let f = fs::OpenOptions::new()
-                .write(true)
-                .open(&self.path)
-                .map_err(|e| io(e, &self.path))?;
-            f.set_len(end as u64)
-                .and_then(|()| f.sync_all())
-                .map_err(|e| io(e, &self.path))?;
+        let security = self.read_store(SECURITY)?;
+        let failures = self.read_store(FAILURES)?;
+        // Each store is in order: merged by sequence number.
+        let mut a = security.records().peekable();
+        let mut b = failures.records().peekable();
+        loop {
+            let take_a = match (a.peek(), b.peek()) {
+                (Some((sa, _)), Some((sb, _))) => sa <= sb,
+                (Some(_), None) => true,
+                (None, Some(_)) => false,
+                (None, None) => break,
+            };
+            let next = if take_a { a.next() } else { b.next() };
+            if let Some((_, bytes)) = next {
+                each(bytes);
+            }
         }
-        self.size = Some(end as u64);
         Ok(())
     }
 
     async fn append(&mut self, record: &[u8]) -> Result<(), StorageError> {
-        let size = match self.size {
+        let file = match Record::parse(record) {
+            Ok((r, _)) if !r.kind.security() => FAILURES,
+            _ => SECURITY,
+        };
+        let size = match self.size.get(file).copied().flatten() {
             Some(s) => s,
-            None => fs::metadata(&self.path).map_or(0, |m| m.len()),
+            None => fs::metadata(self.files(file).0).map_or(0, |m| m.len()),
         };
         let (done, answer) = tokio::sync::oneshot::channel();
         let job = Job {
             record: record.to_vec(),
+            file,
             size,
             done,
         };
@@ -236,14 +334,18 @@ impl AuditStore for AuditFile {
         };
         match result {
             Ok(size) => {
-                self.size = Some(size);
+                if let Some(s) = self.size.get_mut(file) {
+                    *s = Some(size);
+                }
                 Ok(())
             }
             Err(e) => {
-                log::warn!("audit: cannot write {}: {e}", self.path.display());
+                log::warn!("audit: cannot write {}: {e}", self.files(file).0.display());
                 // Unknown now: asked again at the next append; a writer
                 // that ended is started again.
-                self.size = None;
+                if let Some(s) = self.size.get_mut(file) {
+                    *s = None;
+                }
                 self.writer = None;
                 Err(StorageError::Io)
             }
@@ -269,9 +371,13 @@ mod tests {
     use hans_gateway::audit::{Kind, Short, RECORD_MAX};
 
     fn record(seq: u32) -> Vec<u8> {
+        record_of(seq, Kind::Config)
+    }
+
+    fn record_of(seq: u32, kind: Kind) -> Vec<u8> {
         let r = Record {
             seq,
-            kind: Kind::Config,
+            kind,
             detail: Short::new(format!("setting {seq:03}").as_bytes()),
             ..Record::EMPTY
         };
@@ -364,6 +470,109 @@ mod tests {
         append_all(&mut f, 6..=6);
         let mut f = AuditFile::new(&path);
         assert_eq!(seqs(&mut f), [1, 3, 4, 6]);
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Issue 25: the file rotated at its limit into one previous
+    /// generation, whatever the records were, so a flood of failure
+    /// records (counted per period, but a long flood, or a medium far
+    /// smaller than a year of them) pushed an account's creation out of
+    /// both. Security records now have their own file: failures rotate
+    /// only theirs.
+    #[test]
+    fn failure_records_never_rotate_a_security_record_away() {
+        let d = dir("flood");
+        let len = record_of(1, Kind::Refused).len() as u64;
+        let mut f = AuditFile::with_limit(d.join("a.audit"), 10 * len);
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        rt.block_on(f.append(&record_of(1, Kind::Start))).unwrap();
+        rt.block_on(f.append(&record_of(2, Kind::AccountCreated)))
+            .unwrap();
+        // Ten files' worth of failures of every failure kind.
+        let failures = [
+            Kind::LoginFailed,
+            Kind::Refused,
+            Kind::ConfigRefused,
+            Kind::Watchdog,
+            Kind::Lost,
+        ];
+        for seq in 3..103 {
+            let kind = failures[seq as usize % failures.len()];
+            assert!(!kind.security());
+            rt.block_on(f.append(&record_of(seq, kind))).unwrap();
+        }
+        rt.block_on(f.append(&record_of(103, Kind::Login))).unwrap();
+        // Read back after a restart: the account's creation is there, the
+        // oldest failures went, and the order is by sequence number.
+        let mut f = AuditFile::with_limit(d.join("a.audit"), 10 * len);
+        let got = seqs(&mut f);
+        assert_eq!(&got[..2], [1, 2], "{got:?}");
+        assert_eq!(got.last(), Some(&103));
+        assert!(got.windows(2).all(|w| w[0] < w[1]), "{got:?}");
+        assert!(!got.contains(&3), "the failures rotate: {got:?}");
+        assert!(f.failures().exists() && f.failures().with_extension("failures.1").exists());
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_file_from_before_the_split_reads_as_it_was() {
+        let d = dir("split");
+        let path = d.join("a.audit");
+        let mut bytes = Vec::new();
+        for (seq, kind) in [(1, Kind::Start), (2, Kind::Refused), (3, Kind::Login)] {
+            bytes.extend_from_slice(&record_of(seq, kind));
+        }
+        fs::write(&path, &bytes).unwrap();
+        let mut f = AuditFile::new(&path);
+        append_all(&mut f, 4..=4);
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        rt.block_on(f.append(&record_of(5, Kind::LoginFailed)))
+            .unwrap();
+        let mut f = AuditFile::new(&path);
+        assert_eq!(seqs(&mut f), [1, 2, 3, 4, 5]);
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// Paging (`GET /api/audit?before=SEQ&limit=N`: the gateway's window
+    /// over this store's `read`) walks back across the rotation boundary
+    /// of both files, each record once, to the oldest kept.
+    #[test]
+    fn pages_walk_back_across_the_rotation_of_both_files() {
+        use hans_gateway::audit::page::{Query, Window};
+        let d = dir("pages");
+        let len = record(1).len() as u64;
+        let mut f = AuditFile::with_limit(d.join("a.audit"), 10 * len);
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .unwrap();
+        for seq in 1..=60 {
+            let kind = if seq % 3 == 0 {
+                Kind::Refused
+            } else {
+                Kind::Config
+            };
+            rt.block_on(f.append(&record_of(seq, kind))).unwrap();
+        }
+        assert!(f.rotated().exists() && suffixed(&f.failures(), ".1").exists());
+        let all = seqs(&mut f);
+        // Both stores rotated: the oldest of each went, the rest is whole.
+        assert!(all.len() < 60 && all.len() > 20, "{all:?}");
+        let mut walked = Vec::new();
+        let mut before = None;
+        for _ in 0..20 {
+            let mut w = Window::new(Query { before, limit: 7 });
+            rt.block_on(f.read(&mut |b| w.feed(b))).unwrap();
+            walked.splice(0..0, w.records().map(|r| r.seq));
+            match w.next_before() {
+                Some(n) => before = Some(n),
+                None => break,
+            }
+        }
+        assert_eq!(walked, all);
         fs::remove_dir_all(&d).unwrap();
     }
 }

@@ -1008,3 +1008,167 @@ fn a_gateway_that_fails_while_running_exits_101() {
     );
     assert!(!file.0.exists(), "nothing saved");
 }
+
+/// Sends `request` (a whole HTTP/1.1 request) to `addr` and returns the
+/// answer as soon as it is whole (its head and its `Content-Length`
+/// body), without waiting for the connection to close.
+fn http_exchange(addr: &str, request: &str) -> String {
+    let mut s = TcpStream::connect(addr).expect("connect to the web page");
+    s.set_read_timeout(Some(WAIT)).expect("timeout");
+    s.write_all(request.as_bytes()).expect("send");
+    let mut got = Vec::new();
+    let mut buf = [0u8; 4096];
+    loop {
+        if let Some(end) = got.windows(4).position(|w| w == b"\r\n\r\n") {
+            let head = String::from_utf8_lossy(&got[..end]).to_ascii_lowercase();
+            let len = head
+                .lines()
+                .find_map(|l| l.strip_prefix("content-length:"))
+                .and_then(|v| v.trim().parse::<usize>().ok())
+                .unwrap_or(0);
+            if got.len() >= end + 4 + len {
+                return String::from_utf8_lossy(&got).to_string();
+            }
+        }
+        let n = s.read(&mut buf).expect("read the answer");
+        assert!(n > 0, "closed before the answer was whole: {got:?}");
+        got.extend_from_slice(&buf[..n]);
+    }
+}
+
+/// The records kept in the audit files beside `config`, oldest first:
+/// (kind, detail).
+fn kept_records(config: &Path) -> Vec<(String, String)> {
+    use hans_gateway::audit::Record;
+    use hans_gateway::storage::AuditStore;
+    let mut f = hans_gateway_linux::audit_file::AuditFile::beside(config);
+    let mut got = Vec::new();
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .build()
+        .expect("a runtime");
+    rt.block_on(f.read(&mut |b| {
+        if let Ok((r, _)) = Record::parse(b) {
+            got.push((r.kind.as_str().to_string(), r.detail.as_str().to_string()));
+        }
+    }))
+    .expect("read the audit files");
+    got
+}
+
+/// Issue 25, finding 4: the audit file was written by its writer thread
+/// after the answer, so a gateway killed right after answering a change
+/// lost its record (a SIGKILL right after a flood lost the latest). Now
+/// the answer to a request that made records goes once they are synced.
+///
+/// The writer is kept busy (a change of nine settings from one session:
+/// nine records, each synced in turn); while it writes them, a second
+/// session logs out, and the gateway is SIGKILLed the moment that answer
+/// is whole. After a restart the logout and the nine changes are in the
+/// file. (Before, the logout was answered at once and its record, queued
+/// behind the nine syncs, was lost.)
+#[test]
+fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
+    let config = TempFile::new("gateway.toml");
+    let args = [
+        "--config",
+        config.arg(),
+        "--robot",
+        "127.0.0.1:1",
+        "--modbus-listen",
+        "127.0.0.1:0",
+        "--web-listen",
+        "127.0.0.1:0",
+    ];
+    let (mut gw, log) = start(&args);
+    let code_file = config.1 .0.join("setup-code");
+    let (code, _) = shown_setup_code(&log.wait_for("setup code for the first"), &code_file);
+    let addr = web_addr(&log);
+    let post = |path: &str, cookie: &str, body: &str| {
+        format!(
+            "POST {path} HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\n{cookie}Content-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+            body.len()
+        )
+    };
+    let cookie_of = |answer: &str| {
+        let c = answer
+            .lines()
+            .find_map(|l| {
+                l.strip_prefix("Set-Cookie: ")
+                    .or(l.strip_prefix("set-cookie: "))
+            })
+            .and_then(|c| c.split(';').next())
+            .unwrap_or_else(|| panic!("a session cookie: {answer}"));
+        format!("Cookie: {c}\r\n")
+    };
+    let body = format!(r#"{{"code":"{code}","name":"admin","password":"correct horse"}}"#);
+    let answer = http_exchange(&addr, &post("/api/setup", "", &body));
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let first = cookie_of(&answer);
+    let body = r#"{"name":"admin","password":"correct horse"}"#;
+    let answer = http_exchange(&addr, &post("/api/login", "", body));
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let second = cookie_of(&answer);
+    // Every record so far written (the file's size stops at the login).
+    let security = config.1 .0.join("gateway.toml.audit");
+    let start_wait = Instant::now();
+    while kept_records(&config.0).last().map(|(k, _)| k.as_str()) != Some("login") {
+        assert!(
+            start_wait.elapsed() < WAIT,
+            "{:#?}",
+            kept_records(&config.0)
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let before = std::fs::metadata(&security).expect("the audit file").len();
+    let settings = [
+        ("link.poll_ms", "50"),
+        ("link.reply_timeout_ms", "900"),
+        ("watchdog.period_ms", "700"),
+        ("mqtt.keep_alive_s", "45"),
+        ("mqtt.period_ms", "300"),
+        ("mqtt.group_id", "plant9"),
+        ("mqtt.edge_id", "gw9"),
+        ("mqtt.primary_host", "scada9"),
+        ("motion.start_grace_ms", "400"),
+    ];
+    let body = format!(
+        r#"{{"settings":{{{}}}}}"#,
+        settings
+            .iter()
+            .map(|(k, v)| format!(r#""{k}":"{v}""#))
+            .collect::<Vec<_>>()
+            .join(",")
+    );
+    // The change, its answer not awaited; its first record on disk.
+    let mut change = TcpStream::connect(&addr).expect("connect to the web page");
+    change
+        .write_all(post("/api/config", &first, &body).as_bytes())
+        .expect("send the change");
+    while std::fs::metadata(&security).map_or(0, |m| m.len()) == before {
+        assert!(start_wait.elapsed() < WAIT, "the change was never written");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let answer = http_exchange(&addr, &post("/api/logout", &second, "{}"));
+    // At once: no time for a writer that runs after the answer.
+    gw.0.kill().expect("SIGKILL the gateway");
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let _ = gw.0.wait();
+    drop((gw, change));
+    // A restart reads the files (and cuts a torn record off).
+    let (gw, log) = start(&args);
+    web_addr(&log);
+    drop(gw);
+    let kept = kept_records(&config.0);
+    assert!(
+        kept.iter().any(|(k, _)| k == "logout"),
+        "the logout answered is not kept: {kept:#?}"
+    );
+    for (key, value) in settings {
+        assert!(
+            kept.iter().any(|(k, d)| k == "config"
+                && d.starts_with(&format!("{key}: "))
+                && d.ends_with(value)),
+            "no record of {key} -> {value}: {kept:#?}"
+        );
+    }
+}

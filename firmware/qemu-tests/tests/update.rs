@@ -213,10 +213,20 @@ impl Device {
 
     /// The audit log's records (`GET /api/audit`).
     fn audit(&self) -> Vec<Value> {
-        self.get_json("/api/audit")["records"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default()
+        // Page by page (32 records a page), back to the first kept.
+        let mut all = Vec::new();
+        let mut path = String::from("/api/audit");
+        for _ in 0..256 {
+            let page = self.get_json(&path);
+            let mut records = page["records"].as_array().cloned().unwrap_or_default();
+            records.append(&mut all);
+            all = records;
+            match page["next_before"].as_u64() {
+                Some(n) => path = format!("/api/audit?before={n}"),
+                None => break,
+            }
+        }
+        all
     }
 
     fn web(&self) -> u16 {

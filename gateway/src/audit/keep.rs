@@ -5,9 +5,10 @@
 use core::convert::Infallible;
 use core::fmt::Write;
 
-use embassy_futures::select::select;
+use embassy_futures::select::{select, Either};
 use embassy_time::Instant;
 
+use super::page::{Filled, Query, Window};
 use super::{Interface, Kind, Log, Record, Who, RECORD_MAX};
 use crate::clock::Clock;
 use crate::config::Config;
@@ -123,14 +124,52 @@ pub(crate) async fn stamper<C: Clock>(log: &Log, clock: &C) -> Infallible {
 }
 
 /// Waits until the log has work for the storage task: stamped records to
-/// keep, or a refusal period that ended.
-pub(crate) async fn wait_work<C: Clock>(log: &Log, clock: &C) {
-    match log.refusals_due() {
-        Some(at) => {
-            select(log.wait_stamped(), clock.sleep_until(at)).await;
+/// keep, a refusal period that ended, or a page asked for (returned: the
+/// storage task reads it after keeping what waits, [`page`]).
+pub(crate) async fn wait_work<C: Clock>(log: &Log, clock: &C) -> Option<(u32, Query)> {
+    let due = async {
+        match log.refusals_due() {
+            Some(at) => {
+                select(log.wait_stamped(), clock.sleep_until(at)).await;
+            }
+            None => log.wait_stamped().await,
         }
-        None => log.wait_stamped().await,
+    };
+    match select(due, log.pages.asked()).await {
+        Either::First(()) => None,
+        Either::Second(asked) => Some(asked),
     }
+}
+
+/// Reads the page `query` asks for (request `id`) into the log's window:
+/// from the medium, or from the RAM ring where nothing is kept; answers
+/// the request.
+pub(crate) async fn page<S: AuditStore>(log: &Log, storage: &mut S, id: u32, query: Query) {
+    let pages = &log.pages;
+    pages.with(|w| *w = Window::new(query));
+    let filled = if storage.persistent() {
+        match storage.read(&mut |b| pages.with(|w| w.feed(b))).await {
+            Ok(()) => Filled::Page(id),
+            Err(_) => {
+                warn!("audit: the kept records could not be read for a page");
+                Filled::Failed(id)
+            }
+        }
+    } else {
+        let (newest, _, _) = log.summary();
+        if let Some(last) = newest {
+            let mut next = 0;
+            while let Some(r) = log.copy(next, last) {
+                pages.with(|w| w.offer(r));
+                if r.seq >= last {
+                    break;
+                }
+                next = r.seq.wrapping_add(1);
+            }
+        }
+        Filled::Page(id)
+    };
+    pages.answer(filled);
 }
 
 /// Ends the refusal periods that are due, and keeps the stamped records

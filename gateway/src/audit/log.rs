@@ -35,6 +35,7 @@ use core::net::Ipv4Addr;
 use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::signal::Signal;
+use embassy_sync::waitqueue::MultiWakerRegistration;
 use embassy_time::{Duration, Instant};
 
 use super::record::{Interface, Kind, Record, Short, DETAIL_MAX, RECORD_MAX};
@@ -55,6 +56,10 @@ pub(crate) const REFUSED_PERIOD: Duration = Duration::from_secs(60);
 /// one before, up to this (a storm writes at most two records an hour per
 /// class, and cannot push the other records out of the medium).
 pub(crate) const REFUSED_PERIOD_MAX: Duration = Duration::from_secs(3600);
+/// Requests that may wait at once for their records to be kept
+/// ([`Log::wait_kept`]): one per web slot, and one more. A waiter beyond
+/// this wakes the others, which register again (no waiter is lost).
+const KEPT_WAITERS: usize = 4;
 /// Distinct addresses a period's count tells apart; beyond, the record
 /// says "more than" this many.
 pub(crate) const TALLY_ADDRESSES: usize = 16;
@@ -188,6 +193,8 @@ struct Inner {
     tallies: [Tally; CLASSES.len()],
     /// CRC of each trigger entry as last recorded.
     triggers: [u32; TRIGGERS],
+    /// Who waits for records to be kept ([`Log::wait_kept`]).
+    kept_waiters: MultiWakerRegistration<KEPT_WAITERS>,
 }
 
 /// The audit log (see the module documentation). One lives in the hub.
@@ -198,6 +205,8 @@ pub(crate) struct Log {
     /// Wakes the storage task: stamped records wait to be kept, or a
     /// refusal period started.
     stamped: Signal<NoopRawMutex, ()>,
+    /// The page's requests for a page of the kept records.
+    pub(crate) pages: super::page::Pages,
 }
 
 impl Default for Log {
@@ -228,9 +237,11 @@ impl Log {
                 wall: Wall::Unknown,
                 tallies: [Tally::NONE; CLASSES.len()],
                 triggers: [0; TRIGGERS],
+                kept_waiters: MultiWakerRegistration::new(),
             })),
             fresh: Signal::new(),
             stamped: Signal::new(),
+            pages: super::page::Pages::new(),
         }
     }
 
@@ -672,6 +683,7 @@ impl Log {
     pub(crate) fn kept(&self, seq: u32, ok: bool) -> bool {
         let lost = self.with(|i| {
             i.keep_from = i.keep_from.max(seq.wrapping_add(1));
+            i.kept_waiters.wake();
             if !ok {
                 i.lost = i.lost.saturating_add(1);
                 return 0;
@@ -704,8 +716,36 @@ impl Log {
             i.stamp_from = seq;
             i.keep_from = seq;
             i.keeping = keeping;
+            i.kept_waiters.wake();
             i.boot
         })
+    }
+
+    /// The sequence number the next record gets: the records made from
+    /// now on have this one or later.
+    pub(crate) fn next_seq(&self) -> u32 {
+        self.with(|i| i.next_seq)
+    }
+
+    /// Waits until every record before `end` (a [`Self::next_seq`]) was
+    /// kept on the medium, or given up (lost: the medium failed, or was
+    /// slower than [`RING`] records); at once when nothing is kept
+    /// (no persistent storage). The page answers a change only then: the
+    /// record of a change is on the medium when its answer arrives.
+    pub(crate) async fn wait_kept(&self, end: u32) {
+        core::future::poll_fn(|cx| {
+            self.with(|i| {
+                // Sequence numbers wrap: "before end" is within half the
+                // range behind it.
+                let waiting = end.wrapping_sub(i.keep_from) as i32 > 0;
+                if !i.keeping || !waiting {
+                    return core::task::Poll::Ready(());
+                }
+                i.kept_waiters.register(cx.waker());
+                core::task::Poll::Pending
+            })
+        })
+        .await
     }
 
     /// Puts a kept record (read back at start) into the ring, as kept.
@@ -762,6 +802,7 @@ impl Inner {
                 if self.keeping && old.seq >= self.keep_from {
                     self.lost = self.lost.saturating_add(1);
                     self.keep_from = old.seq.wrapping_add(1);
+                    self.kept_waiters.wake();
                 }
             }
         }

@@ -64,15 +64,24 @@
 //!   appended and synced; at its size limit it is rotated, the previous
 //!   file kept). Without persistent storage (the QEMU board, Linux without
 //!   `--config`) only the RAM ring holds them.
-//! * `GET /api/audit` (JSON, or `?format=csv`) exports the RAM ring.
+//! * `GET /api/audit` (JSON, or `?format=csv`) pages through the whole log
+//!   kept ([`page`]: `?before=SEQ&limit=N`, at most [`page::PAGE_MAX`]
+//!   records a page, read from the medium into a fixed window), newest
+//!   page first; where nothing is kept, through the RAM ring.
+//! * The page answers a change once its records are kept on the medium
+//!   (`Log::wait_kept`, at most 5 s): evidence that a client saw answered
+//!   survives a crash right after.
 
 pub(crate) mod keep;
 pub(crate) mod log;
+pub mod page;
 pub mod record;
 
 use core::net::Ipv4Addr;
 
-pub(crate) use log::{Log, RING};
+pub(crate) use log::Log;
+#[cfg(test)]
+pub(crate) use log::RING;
 pub use record::{Interface, Kind, Record, Short, RECORD_MAX};
 #[cfg(test)]
 pub(crate) use record::{ACTOR_MAX, DETAIL_MAX};

@@ -149,6 +149,34 @@ coded! {
     }
 }
 
+impl Kind {
+    /// A security record: a start, the configuration loaded or changed, a
+    /// login or logout, an account's change, a restart, a firmware update,
+    /// the wall clock set. The others (failed logins, refused connections
+    /// and changes, the watchdog, lost records, unknown kinds) are failure
+    /// records, which an attacker without an account can cause (bounded by
+    /// the log's aggregation): a store may keep the two apart, so that
+    /// failures never push security records out (Linux's `audit_file`).
+    pub fn security(self) -> bool {
+        matches!(
+            self,
+            Kind::Start
+                | Kind::Recovery
+                | Kind::Login
+                | Kind::Logout
+                | Kind::AccountCreated
+                | Kind::AccountRemoved
+                | Kind::AccountRole
+                | Kind::AccountPassword
+                | Kind::Config
+                | Kind::ConfigLoaded
+                | Kind::Restart
+                | Kind::Firmware
+                | Kind::Time
+        )
+    }
+}
+
 coded! {
     /// Where an event came from.
     Interface {

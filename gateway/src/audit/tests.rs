@@ -670,7 +670,8 @@ fn the_export_is_json_by_default_and_csv_as_a_download() {
     assert!(head.starts_with("http/1.1 200"), "{head}");
     assert!(head.contains("content-type: application/json"));
     let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
-    assert_eq!(v["capacity"], RING);
+    assert_eq!(v["limit"], page::PAGE_MAX);
+    assert_eq!(v["older"], false);
     assert_eq!(v["boot"], 1);
     assert!(v["now_unix"].is_null(), "the world has no wall clock");
     let records = v["records"].as_array().unwrap();
@@ -882,4 +883,125 @@ fn failed_logins_are_counted_per_period_not_recorded_one_by_one() {
     log.login_failed(b"bob", false, None);
     log.stamp(at(70));
     assert_eq!(ring(&log).len(), 4);
+}
+
+/// Pages back from the newest with `limit`: every page's records (oldest
+/// first each), newest page first, and the `before` each was asked with.
+fn walk(w: &mut World, session: &str, limit: usize) -> Vec<Vec<u32>> {
+    let mut pages = Vec::new();
+    let mut before: Option<u64> = None;
+    for _ in 0..200 {
+        let path = match before {
+            Some(b) => format!("/api/audit?before={b}&limit={limit}"),
+            None => format!("/api/audit?limit={limit}"),
+        };
+        let (head, body) = http(w, "GET", &path, session, "");
+        assert!(head.starts_with("http/1.1 200"), "{path}: {head}");
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        let seqs: Vec<u32> = v["records"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["seq"].as_u64().unwrap() as u32)
+            .collect();
+        assert!(seqs.len() <= limit, "{path}: {seqs:?}");
+        let older = v["older"].as_bool().unwrap();
+        let next = v["next_before"].as_u64();
+        pages.push(seqs.clone());
+        if !older {
+            assert!(next.is_none());
+            assert!(!head.contains("audit-next-before"), "{head}");
+            return pages;
+        }
+        assert_eq!(next, seqs.first().map(|s| u64::from(*s)), "{path}");
+        assert!(
+            head.contains(&format!("audit-next-before: {}", next.unwrap())),
+            "{head}"
+        );
+        before = next;
+    }
+    panic!("no end after 200 pages");
+}
+
+/// Issue 25, finding 4: the page and `/api/audit` showed the newest 64
+/// (the RAM ring) only. Now they page back through everything the medium
+/// keeps: 300 records (far more than the ring), in pages of 32 and of 7,
+/// each record once, back to the first.
+#[test]
+fn the_export_pages_back_through_everything_kept_not_only_the_ring() {
+    let mut w = web_world();
+    let session = admin_session(&mut w);
+    for batch in 0..15 {
+        for n in 0..20 {
+            note(&w.gateway.hub().audit, batch * 20 + n);
+        }
+        w.run_for(Duration::from_millis(10));
+    }
+    let all: Vec<u32> = kept(&w.config.storage).iter().map(|r| r.seq).collect();
+    assert!(all.len() > 300 && all.len() > 4 * RING, "{}", all.len());
+    assert_eq!(all.first(), Some(&1));
+    for limit in [page::PAGE_MAX, 7] {
+        let pages = walk(&mut w, &session, limit);
+        assert!(pages.iter().all(|p| !p.is_empty()));
+        assert!(pages[..pages.len() - 1].iter().all(|p| p.len() == limit));
+        let mut got: Vec<u32> = pages.into_iter().rev().flatten().collect();
+        // The walk's own requests made no records; the newest page may
+        // hold records made after it was read (none here).
+        got.dedup();
+        assert_eq!(got, all, "limit {limit}");
+    }
+    // Without a limit: a page of PAGE_MAX, the newest.
+    let (_, body) = http(&mut w, "GET", "/api/audit", &session, "");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["records"].as_array().unwrap().len(), page::PAGE_MAX);
+    assert_eq!(
+        v["records"][page::PAGE_MAX - 1]["seq"].as_u64(),
+        all.last().map(|s| u64::from(*s))
+    );
+    // CSV pages the same way.
+    let (head, body) = http(
+        &mut w,
+        "GET",
+        "/api/audit?format=csv&before=3&limit=5",
+        &session,
+        "",
+    );
+    assert!(
+        head.contains("text/csv") && !head.contains("audit-next-before"),
+        "{head}"
+    );
+    let text = String::from_utf8(body).unwrap();
+    let lines: Vec<_> = text.split("\r\n").filter(|l| !l.is_empty()).collect();
+    assert_eq!(lines.len(), 3, "{text}");
+    assert!(
+        lines[1].starts_with("1,") && lines[2].starts_with("2,"),
+        "{text}"
+    );
+}
+
+#[test]
+fn bad_paging_parameters_are_a_400_that_says_why_and_the_page_needs_an_account() {
+    let mut w = web_world();
+    let (head, _) = http(&mut w, "GET", "/api/audit?before=5", "", "");
+    assert!(head.starts_with("http/1.1 403"), "{head}");
+    let session = admin_session(&mut w);
+    for (query, why) in [
+        ("before=0", "before is a record's number"),
+        ("before=abc", "before is a record's number"),
+        ("before=99999999999", "before is a record's number"),
+        ("limit=0", "limit is a number of records"),
+        ("limit=-4", "limit is a number of records"),
+        ("before=3&before=4", "each be given once"),
+        ("format=xml&before=3", "format is json or csv"),
+    ] {
+        let (head, body) = http(&mut w, "GET", &format!("/api/audit?{query}"), &session, "");
+        assert!(head.starts_with("http/1.1 400"), "{query}: {head}");
+        let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert!(v["error"].as_str().unwrap().contains(why), "{query}: {v}");
+    }
+    // A limit above the page's size is taken as that size.
+    let (head, body) = http(&mut w, "GET", "/api/audit?limit=1000", &session, "");
+    assert!(head.starts_with("http/1.1 200"), "{head}");
+    let v: serde_json::Value = serde_json::from_slice(&body).unwrap();
+    assert_eq!(v["limit"], page::PAGE_MAX);
 }

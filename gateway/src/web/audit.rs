@@ -1,15 +1,18 @@
-//! `GET /api/audit`: the audit log's newest records (the RAM ring of
-//! `crate::audit`, oldest first), as JSON or, with `?format=csv`, as a CSV
-//! file to download (`gateway/WEB.md`).
+//! `GET /api/audit`: a page of the audit log (`crate::audit::page`:
+//! `?before=SEQ&limit=N`, the newest page without them), oldest record
+//! first, as JSON or, with `?format=csv`, as a CSV file to download
+//! (`gateway/WEB.md`).
 //!
-//! The answer is chunked: each record is copied out of the ring under the
-//! log's lock, one at a time, and written as one chunk from a small buffer
-//! ([`CHUNK`]), so neither the ring nor a snapshot of it is held for the
-//! network. The records shown are those in the ring when the answer
-//! starts (up to the newest then); one pushed out of the ring meanwhile is
-//! left out (its sequence number shows the gap).
+//! The page is read by the storage task into the log's window (one
+//! request at a time: another waits its turn, at most [`PAGE_WAIT`]); the
+//! answer is chunked: each record is copied out of the window, one at a
+//! time, and written as one chunk from a small buffer ([`CHUNK`]). JSON
+//! ends with `"older"` (older records exist) and `"next_before"` (the
+//! `before` of the next page, or `null`); both forms have the header
+//! `Audit-Next-Before` when older records exist.
 
-use embassy_time::Instant;
+use embassy_futures::select::{select, Either};
+use embassy_time::{Duration, Instant};
 use picoserve::io::{Read, Write};
 use picoserve::request::RequestParts;
 use picoserve::response::chunked::{ChunkWriter, ChunkedResponse, Chunks, ChunksWritten};
@@ -18,13 +21,18 @@ use picoserve::ResponseSent;
 
 use super::json::Out;
 use super::{error, App, Reply, SECURITY_HEADERS};
-use crate::audit::{Record, Short, RING};
+use crate::audit::page::{Query, PAGE_MAX};
+use crate::audit::{Record, Short};
 use crate::clock::Clock;
 use crate::hub::Hub;
 
 /// Bytes of the buffer a record is written into (the longest record, every
 /// text character escaped, takes ~400 as JSON: tested).
 pub(crate) const CHUNK: usize = 512;
+
+/// Longest a request waits for its turn and its page (the storage task
+/// may be writing flash, or another client reading its page): then 503.
+pub(crate) const PAGE_WAIT: Duration = Duration::from_secs(10);
 
 /// The form of the export.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,8 +44,6 @@ pub(crate) enum Format {
 }
 
 impl<C: Clock> App<'_, C> {
-    /// The answer to `GET /api/audit`: for whoever may read the
-    /// configuration (see [`reply`]).
     /// `GET /api/audit`: a session of any account (viewer and up), also
     /// while reading without login is on: who did what is not for
     /// everyone who reaches the page.
@@ -49,18 +55,23 @@ impl<C: Clock> App<'_, C> {
     }
 }
 
-/// The answer to `GET /api/audit[?format=json|csv]` (other query
-/// parameters are ignored; another format is 400).
+/// The answer to `GET /api/audit[?format=json|csv][&before=SEQ][&limit=N]`
+/// (other query parameters are ignored; another format, or a `before` or
+/// `limit` that is not a number in range, is 400).
 pub(crate) fn reply(parts: &RequestParts<'_>) -> Reply {
     let query = parts.query().map_or("", |q| q.0);
     let format = query
         .split('&')
         .find_map(|p| p.strip_prefix("format="))
         .unwrap_or("json");
-    match format {
-        "json" => Reply::Audit(Format::Json),
-        "csv" => Reply::Audit(Format::Csv),
-        _ => error(StatusCode::BAD_REQUEST, "format is json or csv"),
+    let format = match format {
+        "json" => Format::Json,
+        "csv" => Format::Csv,
+        _ => return error(StatusCode::BAD_REQUEST, "format is json or csv"),
+    };
+    match Query::parse(query) {
+        Ok(q) => Reply::Audit(format, q),
+        Err(e) => error(StatusCode::BAD_REQUEST, e.as_str()),
     }
 }
 
@@ -87,7 +98,7 @@ impl Format {
 pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>>(
     hub: &Hub,
     clock: &C,
-    format: Format,
+    (format, query, secure): (Format, Query, bool),
     head: bool,
     c: Connection<'_, R>,
     w: W,
@@ -102,14 +113,75 @@ pub(crate) async fn write<C: Clock, R: Read, W: ResponseWriter<Error = R::Error>
             .with_headers(format.disposition())
             .with_headers(headers)
             .with_headers(SECURITY_HEADERS)
+            .with_headers(super::hsts(secure))
             .write_to(c, w)
             .await;
     }
-    ChunkedResponse::new(Export { hub, clock, format })
-        .into_response()
-        .with_headers(format.disposition())
-        .with_headers(headers)
+    let pages = &hub.audit.pages;
+    // The turn is held until the page is sent: the window is this
+    // request's meanwhile.
+    let turn = async {
+        let turn = pages.turn.lock().await;
+        let read = pages.ask(query).await;
+        (turn, read)
+    };
+    let (turn, read) = match select(turn, clock.sleep(PAGE_WAIT)).await {
+        Either::First(got) => got,
+        Either::Second(()) => {
+            return error_reply(
+                (StatusCode::SERVICE_UNAVAILABLE, secure),
+                "the audit log is busy: try again",
+                c,
+                w,
+            )
+            .await
+        }
+    };
+    if !read {
+        drop(turn);
+        return error_reply(
+            (StatusCode::SERVICE_UNAVAILABLE, secure),
+            "the kept audit records could not be read",
+            c,
+            w,
+        )
+        .await;
+    }
+    let next = pages.with(|win| win.next_before());
+    let mut cursor = Short::<12>::EMPTY;
+    if let Some(n) = next {
+        let _ = core::fmt::Write::write_fmt(&mut cursor, format_args!("{n}"));
+    }
+    let sent = ChunkedResponse::new(Export {
+        hub,
+        clock,
+        format,
+        query,
+    })
+    .into_response()
+    .with_headers(format.disposition())
+    .with_headers(next.map(|_| ("Audit-Next-Before", cursor.as_str())))
+    .with_headers(headers)
+    .with_headers(SECURITY_HEADERS)
+    .with_headers(super::hsts(secure))
+    .write_to(c, w)
+    .await;
+    drop(turn);
+    sent
+}
+
+/// A JSON error answer (the page could not be had).
+async fn error_reply<R: Read, W: ResponseWriter<Error = R::Error>>(
+    (status, secure): (StatusCode, bool),
+    text: &str,
+    c: Connection<'_, R>,
+    w: W,
+) -> Result<ResponseSent, W::Error> {
+    let body = super::error_json(text);
+    Response::new(status, super::json_body(&body))
+        .with_header("Cache-Control", "no-store")
         .with_headers(SECURITY_HEADERS)
+        .with_headers(super::hsts(secure))
         .write_to(c, w)
         .await
 }
@@ -119,6 +191,7 @@ struct Export<'a, C: Clock> {
     hub: &'a Hub,
     clock: &'a C,
     format: Format,
+    query: Query,
 }
 
 impl<C: Clock> Chunks for Export<'_, C> {
@@ -131,34 +204,31 @@ impl<C: Clock> Chunks for Export<'_, C> {
         mut w: ChunkWriter<W>,
     ) -> Result<ChunksWritten, W::Error> {
         let log = &self.hub.audit;
-        let (newest, boot, _) = log.summary();
+        let (_, boot, _) = log.summary();
         let mut buf = [0u8; CHUNK];
+        let now = self.clock.now();
         let n = head(
             self.format,
+            self.query,
             boot,
-            self.clock.now(),
-            log.wall_at(self.clock.now()),
+            now,
+            log.wall_at(now),
             &mut buf,
         );
         w.write_chunk(buf.get(..n).unwrap_or(&[])).await?;
-        if let Some(last) = newest {
-            let mut next = 0;
-            let mut first = true;
-            while let Some(r) = log.copy(next, last) {
-                let n = match self.format {
-                    Format::Json => json_record(&r, first, &mut buf),
-                    Format::Csv => csv_record(&r, &mut buf),
-                };
-                w.write_chunk(buf.get(..n).unwrap_or(&[])).await?;
-                first = false;
-                if r.seq >= last {
-                    break;
-                }
-                next = r.seq + 1;
-            }
+        let mut i = 0;
+        while let Some(r) = log.pages.with(|win| win.get(i)) {
+            let n = match self.format {
+                Format::Json => json_record(&r, i == 0, &mut buf),
+                Format::Csv => csv_record(&r, &mut buf),
+            };
+            w.write_chunk(buf.get(..n).unwrap_or(&[])).await?;
+            i += 1;
         }
         if self.format == Format::Json {
-            w.write_chunk(b"]}").await?;
+            let next = log.pages.with(|win| win.next_before());
+            let n = tail(next, &mut buf);
+            w.write_chunk(buf.get(..n).unwrap_or(&[])).await?;
         }
         w.finalize().await
     }
@@ -190,13 +260,25 @@ impl Fill<'_> {
 
 /// The document's head (JSON: the object up to its records' array) or
 /// the CSV header line.
-fn head(format: Format, boot: u32, now: Instant, unix: Option<u32>, buf: &mut [u8]) -> usize {
+fn head(
+    format: Format,
+    query: Query,
+    boot: u32,
+    now: Instant,
+    unix: Option<u32>,
+    buf: &mut [u8],
+) -> usize {
     let mut f = Fill { buf, len: 0 };
     match format {
         Format::Json => {
-            f.put(b"{\"capacity\":")
-                .num(RING as u64)
-                .put(b",\"boot\":")
+            f.put(b"{\"limit\":")
+                .num(query.limit as u64)
+                .put(b",\"before\":");
+            match query.before {
+                Some(b) => f.num(b.into()),
+                None => f.put(b"null"),
+            };
+            f.put(b",\"boot\":")
                 .num(boot.into())
                 .put(b",\"now_ms\":")
                 .num(now.as_millis())
@@ -211,6 +293,19 @@ fn head(format: Format, boot: u32, now: Instant, unix: Option<u32>, buf: &mut [u
             f.put(b"seq,boot,uptime_ms,unix_time,time_utc,kind,actor,interface,from,detail\r\n");
         }
     }
+    f.len
+}
+
+/// The JSON document's end: whether older records exist, and the next
+/// page's `before`.
+fn tail(next: Option<u32>, buf: &mut [u8]) -> usize {
+    let mut f = Fill { buf, len: 0 };
+    f.put(b"],\"older\":");
+    match next {
+        Some(n) => f.put(b"true,\"next_before\":").num(n.into()),
+        None => f.put(b"false,\"next_before\":null"),
+    };
+    f.put(b",\"page_max\":").num(PAGE_MAX as u64).put(b"}");
     f.len
 }
 
@@ -399,10 +494,22 @@ mod tests {
     #[test]
     fn the_head_is_the_start_of_a_document() {
         let mut buf = [0u8; CHUNK];
-        let n = head(Format::Json, 4, Instant::from_millis(2500), None, &mut buf);
-        let doc = [&buf[..n], b"]}"].concat();
+        let n = head(
+            Format::Json,
+            Query::NEWEST,
+            4,
+            Instant::from_millis(2500),
+            None,
+            &mut buf,
+        );
+        let mut end = [0u8; 64];
+        let e = tail(Some(7), &mut end);
+        let doc = [&buf[..n], &end[..e]].concat();
         let v: serde_json::Value = serde_json::from_slice(&doc).unwrap();
-        assert_eq!(v["capacity"], RING);
+        assert_eq!(v["limit"], PAGE_MAX);
+        assert!(v["before"].is_null());
+        assert_eq!(v["older"], true);
+        assert_eq!(v["next_before"], 7);
         assert_eq!(v["boot"], 4);
         assert_eq!(v["now_ms"], 2500);
         assert!(v["now_unix"].is_null());

@@ -112,6 +112,10 @@ use io::{ClockTimer, Conn, Exchange};
 use json::Json;
 use routes::Route;
 
+/// Longest an answer waits for the records its request made to be kept on
+/// the medium (a flash erase takes well under a second; a medium that
+/// hangs longer gets the answer sent anyway).
+const KEPT_WAIT: embassy_time::Duration = embassy_time::Duration::from_secs(5);
 /// Requests served at once: slots, each with an [`HTTP_BUF`] and a
 /// request handler.
 pub(crate) const WEB_SLOTS: usize = 3;
@@ -869,7 +873,7 @@ pub(crate) enum Reply {
     /// Answer, then restart the device.
     Restart(Json),
     /// The audit log's export ([`audit`]).
-    Audit(audit::Format),
+    Audit(audit::Format, crate::audit::page::Query),
     /// 405: the path does not take the request's method; the `Allow`
     /// header names those it takes ([`routes`]).
     NotAllowed(&'static str),
@@ -1200,7 +1204,19 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 .await;
         }
         let head = request.parts.method() == "HEAD";
+        let made_from = self.hub.audit.next_seq();
         let reply = self.route(path.encoded(), &mut request).await;
+        // A change's records (login, logout, accounts, settings, firmware,
+        // a restart) are on the medium before its answer goes: an answer
+        // the client saw is evidence that survives a crash right after.
+        // Only a request that made records waits (failures are counted,
+        // not recorded one by one: a flood of them waits for no medium),
+        // and at most KEPT_WAIT (a medium that hangs).
+        let made_to = self.hub.audit.next_seq();
+        if made_to != made_from {
+            let kept = self.hub.audit.wait_kept(made_to);
+            embassy_futures::select::select(kept, self.clock.sleep(KEPT_WAIT)).await;
+        }
         let c = request.body_connection.finalize().await?;
         match reply {
             Reply::Page => {
@@ -1322,7 +1338,9 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                     .write_to(c, w)
                     .await
             }
-            Reply::Audit(f) => audit::write(self.hub, self.clock, f, head, c, w).await,
+            Reply::Audit(f, q) => {
+                audit::write(self.hub, self.clock, (f, q, self.secure), head, c, w).await
+            }
             Reply::Restart(j) => {
                 let sent = Response::new(StatusCode::ACCEPTED, json_body(&j))
                     .with_headers(SECURITY_HEADERS)

@@ -805,3 +805,83 @@ fn a_gateway_that_keeps_its_configuration_shows_no_warning() {
     rig.shot("setup-done");
     rig.finish();
 }
+
+/// The audit panel's rows shown (their sequence numbers, top to bottom).
+fn audit_seqs(rig: &WebRig) -> Vec<u64> {
+    let v = rig.js(
+        "Array.from(document.querySelectorAll('#audit-body tr[data-seq]')).map(tr => Number(tr.dataset.seq))",
+    );
+    v.as_array()
+        .map(|a| a.iter().filter_map(|s| s.as_u64()).collect())
+        .unwrap_or_default()
+}
+
+/// Issue 25: the audit panel showed the newest records only (the RAM
+/// ring's 64). Now "Older" pages back through what the gateway keeps (its
+/// audit file here), to the first record: each record once, newest first,
+/// and the panel says when the first is shown.
+#[test]
+fn the_audit_panel_pages_back_to_the_first_record() {
+    let mut rig = WebRig::start_kept("audit-older");
+    rig.wait_live();
+    rig.set_first_password(PW);
+    // Seven changes of nine settings (between two sets of values): a
+    // record per setting, 63 in all.
+    for change in 0..7u32 {
+        let round = change % 2;
+        let settings = [
+            ("link.poll_ms", (50 + round * 10).to_string()),
+            ("link.reply_timeout_ms", (900 + round * 100).to_string()),
+            ("watchdog.period_ms", (700 + round * 100).to_string()),
+            ("mqtt.keep_alive_s", (45 + round).to_string()),
+            ("mqtt.period_ms", (300 + round * 100).to_string()),
+            ("mqtt.group_id", format!("plant{round}")),
+            ("mqtt.edge_id", format!("gw{round}")),
+            ("mqtt.primary_host", format!("scada{round}")),
+            ("motion.start_grace_ms", (400 + round * 100).to_string()),
+        ];
+        let body = settings
+            .iter()
+            .map(|(k, v)| format!("\"{k}\":\"{v}\""))
+            .collect::<Vec<_>>()
+            .join(",");
+        let status = rig.js(&format!(
+            "api('POST', '/api/config', JSON.stringify({{settings: {{{body}}}}})).then(r => r.status)"
+        ));
+        assert_eq!(status, serde_json::json!(200), "change {change}");
+    }
+    rig.click("audit-reload");
+    rig.wait_for_in("the newest page, with Older", AT_ONCE, |r| {
+        (r.visible("audit-older") && audit_seqs(r).len() >= 32).then_some(())
+    });
+    assert!(!rig.visible("audit-end"));
+    let newest = audit_seqs(&rig);
+    assert!(newest.windows(2).all(|w| w[0] > w[1]), "{newest:?}");
+    rig.shot_at("audit", "audit-newest");
+    let mut pages = 1;
+    while rig.visible("audit-older") {
+        let shown = audit_seqs(&rig).len();
+        rig.click("audit-older");
+        rig.wait_for_in("an older page below", AT_ONCE, |r| {
+            (audit_seqs(r).len() > shown).then_some(())
+        });
+        pages += 1;
+        assert!(pages < 10, "no end after {pages} pages");
+    }
+    rig.wait_for_in("the end said", AT_ONCE, |r| {
+        r.visible("audit-end").then_some(())
+    });
+    assert!(pages >= 3, "{pages} pages");
+    let all = audit_seqs(&rig);
+    // Every record once, newest first, down to the first.
+    assert_eq!(all.last(), Some(&1), "{all:?}");
+    assert!(all.windows(2).all(|w| w[0] == w[1] + 1), "{all:?}");
+    assert!(all.len() > 63, "{}", all.len());
+    assert_eq!(
+        rig.js("document.querySelector('#audit-body tr[data-seq=\"1\"]').dataset.kind"),
+        serde_json::json!("start")
+    );
+    // The whole page: every page walked, down to record 1 and the note.
+    rig.shot("audit-oldest");
+    rig.finish();
+}
