@@ -126,6 +126,10 @@ pub fn o_t_datagram(id: u32, seq: u32, out: &[u8]) -> Vec<u8> {
 
 /// A UINT of an assembly image.
 pub fn u16_at(d: &[u8], at: usize) -> u16 {
+    assert!(
+        d.len() >= at + 2,
+        "no input image: no T->O datagram came (the connection is gone)"
+    );
     u16::from_le_bytes([d[at], d[at + 1]])
 }
 
