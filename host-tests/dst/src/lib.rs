@@ -247,12 +247,13 @@ impl Checker {
     /// connection during a watched motion trips the watchdog at once.
     fn check_enip(&mut self, w: &World) -> Result<(), String> {
         let now = w.now();
-        let (owner, active, trips, watch) = w.model(|m| {
+        let (owner, active, trips, watch, lost) = w.model(|m| {
             (
                 m.owner.enip_owner.map(|o| o.connection),
                 m.active_motion,
                 m.plc.watchdog_trips,
                 m.config.active.watchdog_ms != 0,
+                m.plc.lost,
             )
         });
         if let Some((by, before, s)) = self.lost_by {
@@ -280,6 +281,13 @@ impl Checker {
         // tripped for: the watchdog must act (its stop, pause or report).
         if let (Some(_), None, Some((s, at_start))) = (self.enip_owner, owner, self.motion) {
             if watch && active == Some(s) && at_start == trips {
+                // At once the heartbeat is lost (the engine trips on it
+                // when it next decides).
+                if !lost {
+                    return Err(format!(
+                        "the EtherNet/IP owner's connection closed during {s:?}'s watched motion: the heartbeat is not lost"
+                    ));
+                }
                 // At once: when the engine next decides, which a request in
                 // flight may delay by its reply timeout.
                 let by = now + ms(u64::from(self.reply_timeout_ms) + 20);
