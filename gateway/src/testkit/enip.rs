@@ -192,16 +192,23 @@ impl Scanner {
         }
     }
 
-    /// Sends an encapsulation packet; its reply, whole.
+    /// Sends an encapsulation packet; its reply, whole. Taken as soon as
+    /// the gateway has written it (what is due at that instant first, as
+    /// `World::request` does): the time it returns at does not depend on
+    /// what else the world has scheduled later.
     pub fn exchange(&mut self, w: &mut World, packet: &[u8]) -> Vec<u8> {
+        w.catch_up();
         self.tcp.write(packet);
+        let end = w.now() + ms(2000);
         let mut got = Vec::new();
-        let done = w.run_until_cond(ms(2000), |_| {
+        loop {
+            w.catch_up();
             got.extend(self.tcp.read());
-            Header::parse(&got).is_ok_and(|h| got.len() >= HEADER_LEN + h.length as usize)
-        });
-        assert!(done, "no reply");
-        got
+            if Header::parse(&got).is_ok_and(|h| got.len() >= HEADER_LEN + h.length as usize) {
+                return got;
+            }
+            assert!(w.turn(end), "no reply");
+        }
     }
 
     /// An explicit request; its response header and data.

@@ -1255,6 +1255,11 @@ impl Scenario {
         // channels are driven through the assemblies (if it talks).
         let owned = self.enip_owns();
         let drives = self.enip_drives();
+        // The EtherNet/IP PLC's connection ends during a motion more often
+        // than the 9 % of its connection actions would make it: that is the
+        // case the watchdog must catch (no random number drawn otherwise).
+        let moving = drives && self.world.model(|m| m.active_motion.is_some());
+        let r = if moving && self.rng.chance(80) { 95 } else { r };
         let result = match r {
             30..=41 if drives => {
                 let ch = self.rng.below(2) as u8;
