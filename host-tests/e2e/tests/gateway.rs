@@ -430,7 +430,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     let e = rig
         .plc
         .ctx
-        .read_holding_registers(62, 1)
+        .read_holding_registers(64, 1)
         .await
         .expect("transport");
     assert_eq!(e, Err(ExceptionCode::IllegalDataAddress));
