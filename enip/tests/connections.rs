@@ -606,6 +606,7 @@ fn o_t_data_reaches_the_application_and_run_idle_is_reported() {
     );
     let info = a.connections().next().unwrap();
     assert_eq!((info.received, info.missed, info.run), (4, 2, Some(true)));
+    assert_eq!(a.io_missed(), 2, "the adapter's total");
     let runs: Vec<_> = app
         .events
         .iter()

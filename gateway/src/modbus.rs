@@ -936,7 +936,7 @@ mod tests {
             [0, 1, 0, 0, 0, 3, 1, 0x90, 1]
         );
         assert_eq!(
-            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 62, 0, 1]),
+            answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 3, 0, 64, 0, 1]),
             [0, 1, 0, 0, 0, 3, 1, 0x83, 2]
         );
         assert_eq!(
@@ -954,8 +954,11 @@ mod tests {
         let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xDC]);
         assert_eq!((r[7], r[8], r.len()), (2, 124, 9 + 124));
         assert_eq!(r[9], 1 << 4);
-        // One bit more reaches register 62, unmapped: 02.
-        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xDD]);
+        // From bit 4 to the status block's end (register 63): 1020 bits;
+        // one bit more reaches register 64, unmapped: 02.
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xFC]);
+        assert_eq!((r[7], r[8], r.len()), (2, 128, 9 + 128));
+        let r = answer(&ctx, &[0, 1, 0, 0, 0, 6, 1, 2, 0, 4, 0x03, 0xFD]);
         assert_eq!(&r[7..], [0x82, 2]);
         // FC 16 shorter than its header says -> 03, never a panic.
         assert_eq!(

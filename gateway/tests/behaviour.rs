@@ -606,8 +606,8 @@ fn watchdog_action_2_pauses() {
 fn modbus_limits_and_exceptions() {
     let mut w = world();
     assert_eq!(w.read(0, 126), Err(3), "more than 125 registers");
-    assert_eq!(w.read(62, 1), Err(2), "a gap");
-    assert_eq!(w.read(0, 63), Err(2), "partly in a gap");
+    assert_eq!(w.read(64, 1), Err(2), "a gap");
+    assert_eq!(w.read(0, 65), Err(2), "partly in a gap");
     assert_eq!(w.write(0, &[1]), Err(2), "read-only");
     assert_eq!(w.write(r::CONTROL_CONFIG_COMMAND, &[4]), Err(3));
     // FC 5 with a value other than 0x0000 / 0xFF00: exception 03.

@@ -534,6 +534,7 @@ impl<const SESSIONS: usize, const CONNECTIONS: usize> Adapter<'_, SESSIONS, CONN
                 return IoOutcome::Stale;
             }
             c.missed = c.missed.wrapping_add(ahead - 1);
+            self.io_missed = self.io_missed.wrapping_add(ahead - 1);
         }
         let mut write = None;
         if let Some(out) = c.output {

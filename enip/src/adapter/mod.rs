@@ -127,6 +127,8 @@ pub struct Adapter<'d, const SESSIONS: usize, const CONNECTIONS: usize> {
     sessions: heapless::Vec<Session, SESSIONS>,
     conns: heapless::Vec<Connection, CONNECTIONS>,
     rng: u32,
+    /// O->T datagrams missed by every class 1 connection so far.
+    io_missed: u32,
 }
 
 /// Writes a reply: the body after the header, then the header with the
@@ -165,6 +167,7 @@ impl<'d, const SESSIONS: usize, const CONNECTIONS: usize> Adapter<'d, SESSIONS, 
             config,
             sessions: heapless::Vec::new(),
             conns: heapless::Vec::new(),
+            io_missed: 0,
             rng: if config.seed == 0 {
                 0x9E37_79B9
             } else {
@@ -191,6 +194,15 @@ impl<'d, const SESSIONS: usize, const CONNECTIONS: usize> Adapter<'d, SESSIONS, 
     /// The open connections.
     pub fn connections(&self) -> impl Iterator<Item = ConnectionInfo> + '_ {
         self.conns.iter().map(Connection::info)
+    }
+
+    /// O->T datagrams missed since the adapter started, by every class 1
+    /// connection (open or closed; wraps): each a datagram the originator
+    /// produced at its RPI, as its sequence numbers count, that never came
+    /// (a gap in the sequence). The open ones' own counts are in
+    /// [`Adapter::connections`].
+    pub fn io_missed(&self) -> u32 {
+        self.io_missed
     }
 
     /// xorshift32: unpredictable enough for handles given a random seed,

@@ -198,6 +198,8 @@ impl<C: Clock> Application for App<'_, C> {
                             ip: originator,
                             run: false,
                             fresh: true,
+                            received: 0,
+                            missed: 0,
                         });
                     }
                 });
@@ -214,10 +216,14 @@ impl<C: Clock> Application for App<'_, C> {
                 };
                 let lost = self.hub.with(|m| {
                     m.owner.enip_connections = m.owner.enip_connections.saturating_sub(1);
-                    let owner = m.owner.enip_owner.filter(|o| o.connection == connection.0);
-                    if owner.is_none() {
+                    let Some(owner) = m.owner.enip_owner.filter(|o| o.connection == connection.0)
+                    else {
                         return false;
-                    }
+                    };
+                    info!(
+                        "enip: owner connection {}: {} O->T datagrams received, {} missed",
+                        connection.0, owner.received, owner.missed
+                    );
                     m.owner.enip_owner = None;
                     // The owner is gone while a motion runs: nobody holds
                     // its heartbeat any more.

@@ -52,8 +52,8 @@ use embassy_sync::blocking_mutex::raw::NoopRawMutex;
 use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Instant};
 use hans_enip::{
-    Adapter, Assembly, AssemblyKind, ConnectionKind, Device, Frame, Framer, IoConnection, LinkId,
-    TcpAction,
+    Adapter, Assembly, AssemblyKind, ConnectionKind, Device, Frame, Framer, IoConnection,
+    IoOutcome, LinkId, TcpAction,
 };
 
 use crate::admission::{self, octets, Limits, Refusal};
@@ -526,7 +526,8 @@ async fn io<N: Net, C: Clock>(ctx: &Ctx<'_, '_, C>, net: &N) -> Infallible {
                 let now = now_of(ctx.clock);
                 let mut app = ctx.app();
                 if let Ok(mut ad) = ctx.adapter.try_borrow_mut() {
-                    let _ = ad.handle_io(from, datagram.get(..n).unwrap_or(&[]), now, &mut app);
+                    let got = ad.handle_io(from, datagram.get(..n).unwrap_or(&[]), now, &mut app);
+                    io_counters(ctx.hub, &ad, got);
                 }
             } else {
                 ctx.refused();
@@ -544,5 +545,25 @@ async fn io<N: Net, C: Clock>(ctx: &Ctx<'_, '_, C>, net: &N) -> Infallible {
         }
     }
 }
+
+/// After a datagram on the I/O port: the counters in the typed state
+/// (`ENIP_MISSED`, `ENIP_IO_DROPPED`, the owner's own counts).
+fn io_counters(hub: &Hub, ad: &Adapter<'_, SESSIONS, CONNECTIONS>, got: IoOutcome) {
+    let owner = hub.peek(|m| m.owner.enip_owner.map(|o| o.connection));
+    let info = owner.and_then(|id| ad.connections().find(|c| c.id.0 == id));
+    // The register shows the total's low 16 bits: it wraps as it does.
+    let missed = ad.io_missed() as u16;
+    hub.with(|m| {
+        m.owner.enip_missed = missed;
+        if got != IoOutcome::Consumed {
+            m.owner.enip_io_dropped = m.owner.enip_io_dropped.wrapping_add(1);
+        }
+        if let (Some(o), Some(c)) = (m.owner.enip_owner.as_mut(), info) {
+            o.received = c.received;
+            o.missed = c.missed;
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests;

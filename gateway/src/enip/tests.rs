@@ -1,7 +1,7 @@
 //! The adapter in the gateway, in virtual time: the real gateway future on
-//! the simulated network with the scripted robot (`crate::testkit`), and a
-//! scanner written here with `hans-enip`'s own emitters (the scanners
-//! nobody here wrote are scripts/enip-tests.sh's). What is tested is the
+//! the simulated network with the scripted robot (`crate::testkit`), and
+//! the testkit's scanner (`crate::testkit::enip`; the scanners nobody here
+//! wrote are scripts/enip-tests.sh's). What is tested is the
 //! gateway's side: the assemblies as a view of the state, the ownership
 //! rule between Modbus and EtherNet/IP, and a class 1 timeout as a lost
 //! heartbeat.
@@ -13,15 +13,9 @@ use std::vec;
 use std::vec::Vec;
 
 use embassy_time::Duration;
-use hans_enip::wire::cip::{GeneralStatus, Request, ResponseHeader, Service};
-use hans_enip::wire::conn_mgr::{
-    ConnectionType, ExtendedStatus, ForwardClose, ForwardOpen, ForwardOpenReply, NetParams,
-    Transport, Triad,
-};
-use hans_enip::wire::cpf::{Cpf, CpfWriter, ItemType};
+use hans_enip::wire::cip::{GeneralStatus, ResponseHeader, Service};
+use hans_enip::wire::conn_mgr::{ExtendedStatus, ForwardOpen, Transport};
 use hans_enip::wire::encap::{Command, Header, Status, HEADER_LEN};
-use hans_enip::wire::io::IoPacket;
-use hans_enip::wire::session::SendDataRepr;
 use hans_enip::wire::Writer;
 
 use super::assembly::{input, output, CONFIG, INPUT, OUTPUT, SIZE};
@@ -29,6 +23,7 @@ use crate::config::{Config, WatchdogAction};
 use crate::error::GatewayError;
 use crate::job::code;
 use crate::registers as r;
+use crate::testkit::enip::{encap, i32_at, mr, o_t_datagram, p2p, triad, u16_at, Scanner, CM_PATH};
 use crate::testkit::net::SimStream;
 use crate::testkit::world::{World, WorldConfig};
 
@@ -51,261 +46,6 @@ fn world(config: Config) -> World {
     w.run_for(ms(300));
     w.robot.model.motion_time = ms(1000);
     w
-}
-
-/// A scanner's side: its TCP session, its connection, its output image.
-struct Scanner {
-    tcp: SimStream,
-    session: u32,
-    conn: Option<ForwardOpenReply>,
-    seq: u32,
-    out: Vec<u8>,
-}
-
-fn encap(command: Command, session: u32, data: &[u8]) -> Vec<u8> {
-    let mut out = vec![0u8; HEADER_LEN + data.len()];
-    Header {
-        command,
-        length: data.len() as u16,
-        session,
-        status: Status::Success,
-        context: *b"gw-test!",
-        options: 0,
-    }
-    .emit(&mut out)
-    .unwrap();
-    out[HEADER_LEN..].copy_from_slice(data);
-    out
-}
-
-fn rr_data(request: &[u8]) -> Vec<u8> {
-    let mut buf = vec![0u8; 1024];
-    let mut w = Writer::new(&mut buf);
-    SendDataRepr::emit_prefix(0, 10, &mut w).unwrap();
-    let mut c = CpfWriter::begin(&mut w).unwrap();
-    c.item(&mut w, ItemType::NullAddress, &[]).unwrap();
-    c.item(&mut w, ItemType::UnconnectedData, request).unwrap();
-    let n = w.len();
-    buf.truncate(n);
-    buf
-}
-
-fn mr(service: Service, path: &[u8], data: &[u8]) -> Vec<u8> {
-    let mut buf = vec![0u8; 1024];
-    let mut w = Writer::new(&mut buf);
-    Request {
-        service,
-        path,
-        data,
-    }
-    .emit(&mut w)
-    .unwrap();
-    let n = w.len();
-    buf.truncate(n);
-    buf
-}
-
-const CM_PATH: [u8; 4] = [0x20, 0x06, 0x24, 0x01];
-
-fn p2p(size: u16) -> NetParams {
-    NetParams {
-        redundant_owner: false,
-        kind: ConnectionType::PointToPoint,
-        priority: 2,
-        variable: false,
-        size,
-    }
-}
-
-fn triad(serial: u16) -> Triad {
-    Triad {
-        serial,
-        vendor: 0x0001,
-        originator_serial: 0x0BAD_CAFE,
-    }
-}
-
-impl Scanner {
-    /// Connects from `ip` and registers a session.
-    fn connect(w: &mut World, ip: Ipv4Addr) -> Scanner {
-        let tcp = w
-            .net
-            .connect(SocketAddrV4::new(ip, 40_000), 44818)
-            .expect("the adapter listens");
-        let mut s = Scanner {
-            tcp,
-            session: 0,
-            conn: None,
-            seq: 0,
-            out: vec![0; SIZE],
-        };
-        let reply = s.exchange(w, &encap(Command::RegisterSession, 0, &[1, 0, 0, 0]));
-        let h = Header::parse(&reply).unwrap();
-        assert_eq!(h.status, Status::Success);
-        s.session = h.session;
-        s
-    }
-
-    /// Sends an encapsulation packet; its reply, whole.
-    fn exchange(&mut self, w: &mut World, packet: &[u8]) -> Vec<u8> {
-        self.tcp.write(packet);
-        let mut got = Vec::new();
-        let done = w.run_until_cond(ms(2000), |_| {
-            got.extend(self.tcp.read());
-            Header::parse(&got).is_ok_and(|h| got.len() >= HEADER_LEN + h.length as usize)
-        });
-        assert!(done, "no reply");
-        got
-    }
-
-    /// An explicit request; its response header and data.
-    fn ask(&mut self, w: &mut World, request: &[u8]) -> (ResponseHeader, Vec<u8>) {
-        let packet = encap(Command::SendRrData, self.session, &rr_data(request));
-        let reply = self.exchange(w, &packet);
-        let sd = SendDataRepr::parse(&reply[HEADER_LEN..]).unwrap();
-        let cpf = Cpf::parse(sd.cpf).unwrap();
-        let item = cpf.get(1).unwrap();
-        let (h, data) = ResponseHeader::parse(item.data).unwrap();
-        (h, data.to_vec())
-    }
-
-    /// An exclusive-owner Forward_Open at 10 ms RPI, multiplier x16
-    /// (timeout 160 ms); its response header.
-    fn open(&mut self, w: &mut World, serial: u16) -> ResponseHeader {
-        let path = [
-            0x20,
-            0x04,
-            0x24,
-            CONFIG as u8,
-            0x2C,
-            OUTPUT as u8,
-            0x2C,
-            INPUT as u8,
-        ];
-        let fo = ForwardOpen {
-            large: false,
-            priority_tick: 0x0A,
-            timeout_ticks: 0x0E,
-            o_t_id: 0,
-            t_o_id: 0x7000_0000 + u32::from(serial),
-            triad: triad(serial),
-            multiplier: 2,
-            o_t_rpi: 10_000,
-            o_t_params: p2p(SIZE as u16 + 6),
-            t_o_rpi: 10_000,
-            t_o_params: p2p(SIZE as u16 + 2),
-            transport: Transport {
-                server: false,
-                trigger: 0,
-                class: 1,
-            },
-            path: &path,
-        };
-        let mut buf = vec![0u8; 512];
-        let mut wr = Writer::new(&mut buf);
-        fo.emit(&mut wr).unwrap();
-        let n = wr.len();
-        let (h, data) = self.ask(w, &mr(Service::ForwardOpen, &CM_PATH, &buf[..n]));
-        if h.status == GeneralStatus::Success {
-            self.conn = Some(ForwardOpenReply::parse(&data).unwrap());
-        }
-        h
-    }
-
-    fn close(&mut self, w: &mut World) {
-        let c = self.conn.take().expect("open");
-        let fc = ForwardClose {
-            priority_tick: 0x0A,
-            timeout_ticks: 0x0E,
-            triad: c.triad,
-            path: &[0x20, 0x04, 0x24, CONFIG as u8],
-        };
-        let mut buf = vec![0u8; 64];
-        let mut wr = Writer::new(&mut buf);
-        fc.emit(&mut wr).unwrap();
-        let n = wr.len();
-        let (h, _) = self.ask(w, &mr(Service::ForwardClose, &CM_PATH, &buf[..n]));
-        assert_eq!(h.status, GeneralStatus::Success, "{h:?}");
-    }
-
-    /// Sends one O->T datagram (Run) with the output image.
-    fn produce(&mut self, w: &mut World) {
-        let c = self.conn.expect("open");
-        self.seq = self.seq.wrapping_add(1);
-        let mut payload = Vec::from(1u32.to_le_bytes());
-        payload.extend_from_slice(&self.out);
-        let mut buf = vec![0u8; 600];
-        let mut wr = Writer::new(&mut buf);
-        IoPacket {
-            connection_id: c.o_t_id,
-            sequence: self.seq,
-            sequence_count: self.seq as u16,
-            data: &payload,
-        }
-        .emit(&mut wr)
-        .unwrap();
-        let n = wr.len();
-        let from = SocketAddrV4::new(LOGIX, 2222);
-        assert!(w.net.send_udp(from, 2222, &buf[..n]));
-    }
-
-    /// Runs `d` producing every 10 ms; the last input image received.
-    fn cycle(&mut self, w: &mut World, d: Duration) -> Vec<u8> {
-        let end = w.now() + d;
-        let mut last = Vec::new();
-        while w.now() < end {
-            self.produce(w);
-            w.run_for(ms(10));
-            for (_, bytes) in w.net.recv_udp(SocketAddrV4::new(LOGIX, 2222)) {
-                let p = IoPacket::parse(&bytes).unwrap();
-                last = p.data.to_vec();
-            }
-        }
-        last
-    }
-
-    /// Cycles until the input's channel 0 status is no longer Busy.
-    fn until_ended(&mut self, w: &mut World, limit: Duration) -> u16 {
-        let end = w.now() + limit;
-        while w.now() < end {
-            let i = self.cycle(w, ms(10));
-            let s = u16_at(&i, input::CH0);
-            if s != 0 && s & r::ST_BUSY == 0 {
-                return s;
-            }
-        }
-        panic!("still busy after {limit:?}");
-    }
-
-    fn put_u16(&mut self, at: usize, v: u16) {
-        self.out[at..at + 2].copy_from_slice(&v.to_le_bytes());
-    }
-
-    fn put_real(&mut self, at: usize, v: f32) {
-        self.out[at..at + 4].copy_from_slice(&v.to_le_bytes());
-    }
-
-    /// Channel 0: code, sequence, parameters; Execute low.
-    fn command(&mut self, code: u16, seq: u16, params: &[f32]) {
-        self.put_u16(output::CH0, 0);
-        self.put_u16(output::CH0 + 2, code);
-        self.put_u16(output::CH0 + 4, seq);
-        for (i, p) in params.iter().enumerate() {
-            self.put_real(output::CH0 + 8 + 4 * i, *p);
-        }
-    }
-
-    fn execute(&mut self, on: bool) {
-        self.put_u16(output::CH0, u16::from(on));
-    }
-}
-
-fn u16_at(d: &[u8], at: usize) -> u16 {
-    u16::from_le_bytes([d[at], d[at + 1]])
-}
-
-fn i32_at(d: &[u8], at: usize) -> i32 {
-    i32::from_le_bytes([d[at], d[at + 1], d[at + 2], d[at + 3]])
 }
 
 fn sent(w: &World, name: &str) -> usize {
@@ -340,7 +80,7 @@ fn a_move_fired_through_the_assemblies_is_busy_then_done_as_over_modbus() {
     s.execute(false);
     let i = s.cycle(&mut w, ms(30));
     assert_eq!(u16_at(&i, input::CH0), 0);
-    s.close(&mut w);
+    assert_eq!(s.close(&mut w).status, GeneralStatus::Success);
     w.run_for(ms(20));
     assert_eq!(w.reg(r::STATUS_COMMAND_OWNER), 0, "Modbus owns again");
     assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), 0);
@@ -389,7 +129,7 @@ fn modbus_may_not_write_the_command_inputs_while_an_owner_connection_is_open() {
     let (h, _) = s.ask(&mut w, &set);
     assert_eq!(h.status, GeneralStatus::DeviceStateConflict);
     // Closed: Modbus owns the inputs again.
-    s.close(&mut w);
+    assert_eq!(s.close(&mut w).status, GeneralStatus::Success);
     w.run_for(ms(20));
     assert!(w.write(r::CONTROL_HEARTBEAT, &[5]).is_ok());
 }
@@ -468,7 +208,7 @@ fn a_forward_close_without_a_motion_trips_nothing() {
     let mut s = Scanner::connect(&mut w, LOGIX);
     assert_eq!(s.open(&mut w, 1).status, GeneralStatus::Success);
     s.cycle(&mut w, ms(50));
-    s.close(&mut w);
+    assert_eq!(s.close(&mut w).status, GeneralStatus::Success);
     w.run_for(ms(1000));
     assert_eq!(w.reg(r::STATUS_WATCHDOG_TRIPS), 0);
     // A motion fired later over Modbus is not stopped by the old loss.
@@ -550,4 +290,397 @@ fn the_eds_file_is_written_from_the_definitions() {
     ))
     .unwrap_or_default();
     generated("hans-gateway.eds", &file, &eds, true);
+}
+
+// ------------------------------------------------------------------ attacks
+// One test per bound of the listener (ENIP.md, "Attacks and bounds"): the
+// attack, what the bound does, and the PLC's owner connection running on.
+
+/// An attacker's address (nothing to do with the PLC).
+fn attacker(n: u8) -> Ipv4Addr {
+    Ipv4Addr::new(10, 0, 0, 60 + n)
+}
+
+/// A registered session from `ip`, port `port` (several from one address).
+fn session_from(w: &mut World, ip: Ipv4Addr, port: u16) -> SimStream {
+    let mut tcp = w
+        .net
+        .connect(SocketAddrV4::new(ip, port), 44818)
+        .expect("the adapter listens");
+    tcp.write(&encap(Command::RegisterSession, 0, &[1, 0, 0, 0]));
+    tcp
+}
+
+/// Reads what has come on `tcp` within `limit`: a whole reply, or nothing.
+fn reply_on(w: &mut World, tcp: &mut SimStream, limit: Duration) -> Vec<u8> {
+    let mut got = Vec::new();
+    w.run_until_cond(limit, |_| {
+        got.extend(tcp.read());
+        Header::parse(&got).is_ok_and(|h| got.len() >= HEADER_LEN + h.length as usize)
+    });
+    got
+}
+
+/// The PLC's owner connection, open and cycling, with a heartbeat.
+fn plc_running(w: &mut World) -> Scanner {
+    let mut s = Scanner::connect(w, LOGIX);
+    assert_eq!(s.open(w, 1).status, GeneralStatus::Success);
+    s.cycle(w, ms(50));
+    assert_eq!(w.reg(r::STATUS_COMMAND_OWNER), 1);
+    s
+}
+
+/// The PLC fires a move through its assemblies and sees it Done: its
+/// connection works.
+fn plc_moves(w: &mut World, s: &mut Scanner, seq: u16) {
+    w.robot.model.motion_time = ms(200);
+    s.command(code::MOVE_REL_J, seq, &MOVE);
+    s.cycle(w, ms(20));
+    s.execute(true);
+    assert_eq!(s.until_ended(w, ms(3000)), r::ST_DONE, "the PLC's move");
+    s.execute(false);
+    s.cycle(w, ms(20));
+}
+
+#[test]
+fn a_session_flood_from_one_address_holds_two_sessions_and_the_plc_runs_on() {
+    let mut w = world(Config::default());
+    let mut plc = plc_running(&mut w);
+    let mut flood = Vec::new();
+    for n in 0..8u16 {
+        flood.push(session_from(&mut w, attacker(1), 41_000 + n));
+        plc.cycle(&mut w, ms(30));
+        // Never more than PER_ADDRESS of them open at once: the newest
+        // takes the slot of its own address's oldest.
+        let open = flood.iter().filter(|t| t.is_open()).count();
+        assert!(
+            open <= super::PER_ADDRESS,
+            "{open} sessions from one address"
+        );
+    }
+    assert!(plc.tcp.is_open(), "the PLC's session stays");
+    let i = plc.cycle(&mut w, ms(100));
+    assert_eq!(u16_at(&i, input::COMMAND_OWNER), 1);
+    plc_moves(&mut w, &mut plc, 11);
+    assert_eq!(w.reg(r::STATUS_WATCHDOG_TRIPS), 0);
+}
+
+#[test]
+fn a_session_flood_from_many_addresses_never_holds_more_than_three_and_class_1_runs_on() {
+    let mut w = world(Config::default());
+    let mut plc = plc_running(&mut w);
+    // Each flood connection, and whether it was served (its
+    // RegisterSession answered).
+    let mut flood: Vec<(SimStream, bool)> = Vec::new();
+    // Forty sessions from twenty addresses over 12 s, each keeping its
+    // session busy with a NOP now and then.
+    for n in 0..40u16 {
+        let t = session_from(&mut w, attacker((n % 20) as u8), 42_000 + n);
+        flood.push((t, false));
+        for _ in 0..30 {
+            plc.cycle(&mut w, ms(10));
+            for (t, served) in flood.iter_mut() {
+                *served |= !t.read().is_empty();
+            }
+            // Served at once: at most SESSIONS (the others wait in the
+            // backlog or for a slot, then are refused).
+            let served = flood.iter().filter(|(t, s)| *s && t.is_open()).count()
+                + usize::from(plc.tcp.is_open());
+            assert!(
+                served <= super::SESSIONS,
+                "{served} sessions served at once"
+            );
+        }
+        for (t, _) in flood.iter_mut().filter(|(t, _)| t.is_open()) {
+            t.write(&encap(Command::Nop, 0, &[]));
+        }
+    }
+    assert!(
+        flood.iter().filter(|(_, s)| *s).count() >= 3,
+        "the flood was served at all"
+    );
+    // The PLC's TCP session, quiet while its class 1 runs, may have given
+    // its slot to a newcomer (it was idle); its connection runs on UDP
+    // and never stopped.
+    let i = plc.cycle(&mut w, ms(100));
+    assert_eq!(u16_at(&i, input::COMMAND_OWNER), 1);
+    assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), 1);
+    plc_moves(&mut w, &mut plc, 12);
+    assert_eq!(w.reg(r::STATUS_WATCHDOG_TRIPS), 0);
+}
+
+/// A class 1 Forward_Open of an input-only connection (heartbeat O->T) at
+/// `rpi_us`, multiplier `mult`; the response header.
+fn open_input_only(
+    w: &mut World,
+    s: &mut Scanner,
+    serial: u16,
+    rpi_us: u32,
+    mult: u8,
+) -> ResponseHeader {
+    let path = [
+        0x20,
+        0x04,
+        0x24,
+        CONFIG as u8,
+        0x2C,
+        super::assembly::INPUT_ONLY as u8,
+        0x2C,
+        INPUT as u8,
+    ];
+    let fo = ForwardOpen {
+        large: false,
+        priority_tick: 0x0A,
+        timeout_ticks: 0x0E,
+        o_t_id: 0,
+        t_o_id: 0x6000_0000 + u32::from(serial),
+        triad: triad(serial),
+        multiplier: mult,
+        o_t_rpi: rpi_us,
+        o_t_params: p2p(2),
+        t_o_rpi: rpi_us,
+        t_o_params: p2p(SIZE as u16 + 2),
+        transport: Transport {
+            server: false,
+            trigger: 0,
+            class: 1,
+        },
+        path: &path,
+    };
+    let mut buf = vec![0u8; 512];
+    let mut wr = Writer::new(&mut buf);
+    fo.emit(&mut wr).unwrap();
+    let n = wr.len();
+    s.ask(w, &mr(Service::ForwardOpen, &CM_PATH, &buf[..n])).0
+}
+
+fn out_of_connections(h: &ResponseHeader) -> bool {
+    h.status == GeneralStatus::ConnectionFailure
+        && h.additional.first().copied() == Some(ExtendedStatus::OutOfConnections.into())
+}
+
+#[test]
+fn half_open_forward_opens_are_refused_beyond_the_table_and_freed_by_their_timeout() {
+    let mut w = world(Config::default());
+    let mut plc = plc_running(&mut w);
+    let mut a = Scanner::connect(&mut w, attacker(1));
+    let mut b = Scanner::connect(&mut w, attacker(2));
+    // Connections opened and never fed: two from A (its cap)...
+    assert_eq!(
+        open_input_only(&mut w, &mut a, 100, 10_000, 0).status,
+        GeneralStatus::Success
+    );
+    // (this one's own timeout, 1 s x 4 << 1 = 8 s, is longer than the
+    // first-packet timeout: it holds its slot that long)
+    assert_eq!(
+        open_input_only(&mut w, &mut a, 101, 1_000_000, 1).status,
+        GeneralStatus::Success
+    );
+    // ...a third from A: the per-originator cap (the table has room).
+    assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), 3);
+    let h = open_input_only(&mut w, &mut a, 102, 10_000, 0);
+    assert!(out_of_connections(&h), "{h:?}");
+    // One from B fills the table; B's second: the table is full.
+    assert_eq!(
+        open_input_only(&mut w, &mut b, 200, 10_000, 0).status,
+        GeneralStatus::Success
+    );
+    let h = open_input_only(&mut w, &mut b, 201, 10_000, 0);
+    assert!(out_of_connections(&h), "{h:?}");
+    assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), super::CONNECTIONS as u16);
+    // The half-open ones time out (3 s after their reply; the PLC's owner
+    // runs on meanwhile); the long one after its own 8 s.
+    let opened = w.now();
+    plc.cycle(&mut w, ms(2800));
+    assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), 4, "freed too early");
+    let until = opened + Duration::from_micros(u64::from(super::FIRST_PACKET_TIMEOUT_US));
+    let left = until - w.now() + ms(300);
+    plc.cycle(&mut w, left);
+    assert_eq!(
+        w.reg(r::STATUS_ENIP_CONNECTIONS),
+        2,
+        "the half-open ones freed"
+    );
+    // The table has recovered: B's retry is served.
+    assert_eq!(
+        open_input_only(&mut w, &mut b, 202, 10_000, 0).status,
+        GeneralStatus::Success
+    );
+    plc.cycle(&mut w, ms(5000));
+    assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), 1, "the 8 s one freed");
+    // The owner never lost its connection.
+    assert_eq!(w.reg(r::STATUS_COMMAND_OWNER), 1);
+    plc_moves(&mut w, &mut plc, 13);
+    assert_eq!(w.reg(r::STATUS_WATCHDOG_TRIPS), 0);
+}
+
+#[test]
+fn an_oversized_encapsulation_length_is_refused_typed_and_a_lying_one_closed_at_the_deadline() {
+    let mut w = world(Config::default());
+    let mut plc = plc_running(&mut w);
+    let mut s = Scanner::connect(&mut w, attacker(1));
+    // 2000 bytes of data: beyond the 600-byte buffer. Skipped, answered
+    // with status 0x65 (invalid length); the session stays.
+    let mut big = encap(Command::SendRrData, s.session, &[0x55; 2000]);
+    big.truncate(HEADER_LEN);
+    big.extend(std::iter::repeat_n(0x55, 2000));
+    let reply = s.exchange(&mut w, &big);
+    assert_eq!(Header::parse(&reply).unwrap().status, Status::InvalidLength);
+    let h = Header::parse(&s.exchange(&mut w, &encap(Command::ListIdentity, 0, &[]))).unwrap();
+    assert_eq!(h.status, Status::Success, "the session still served");
+    // A length of 65535 and a trickle of data: closed one FRAME_DEADLINE
+    // after the packet's first byte, whatever the trickle.
+    let mut lie = encap(Command::SendRrData, s.session, &[]);
+    lie[2..4].copy_from_slice(&u16::MAX.to_le_bytes());
+    s.tcp.write(&lie);
+    let first = w.now();
+    let mut closed = None;
+    while w.now() < first + ms(3000) {
+        s.tcp.write(&[0; 10]);
+        plc.cycle(&mut w, ms(50));
+        if !s.tcp.is_open() {
+            closed = Some(w.now() - first);
+            break;
+        }
+    }
+    let after = closed.expect("the lying session is closed");
+    assert!(
+        after >= super::FRAME_DEADLINE && after <= super::FRAME_DEADLINE + ms(100),
+        "closed {after:?} after its first byte"
+    );
+    assert_eq!(w.reg(r::STATUS_COMMAND_OWNER), 1);
+    plc_moves(&mut w, &mut plc, 14);
+}
+
+#[test]
+fn oversized_cpf_item_counts_and_lengths_get_a_typed_refusal_and_nothing_else_moves() {
+    let mut w = world(Config::default());
+    let mut plc = plc_running(&mut w);
+    let mut s = Scanner::connect(&mut w, attacker(1));
+    let bad: [Vec<u8>; 3] = [
+        // Interface handle, timeout, then 500 items declared, two present.
+        [
+            &[0, 0, 0, 0, 10, 0][..],
+            &500u16.to_le_bytes(),
+            &[0, 0, 0, 0, 0xB2, 0, 2, 0, 0x01, 0x02],
+        ]
+        .concat(),
+        // Two items, the second claiming 4000 bytes.
+        [
+            &[0, 0, 0, 0, 10, 0, 2, 0, 0, 0, 0, 0, 0xB2, 0][..],
+            &4000u16.to_le_bytes(),
+            &[0x0E, 0x03, 0x20, 0x01, 0x24, 0x01],
+        ]
+        .concat(),
+        // An item length past the packet by one.
+        [
+            &[0, 0, 0, 0, 10, 0, 2, 0, 0, 0, 0, 0, 0xB2, 0][..],
+            &7u16.to_le_bytes(),
+            &[0x0E, 0x03, 0x20, 0x01, 0x24, 0x01],
+        ]
+        .concat(),
+    ];
+    for data in &bad {
+        let reply = s.exchange(&mut w, &encap(Command::SendRrData, s.session, data));
+        let h = Header::parse(&reply).unwrap();
+        assert_eq!(h.status, Status::IncorrectData, "{data:02x?}");
+        plc.cycle(&mut w, ms(20));
+    }
+    // The session is still served, and nothing was opened or written.
+    let (h, _) = s.ask(
+        &mut w,
+        &mr(Service::GetAttributesAll, &[0x20, 0x01, 0x24, 0x01], &[]),
+    );
+    assert_eq!(h.status, GeneralStatus::Success);
+    assert_eq!(w.reg(r::STATUS_ENIP_CONNECTIONS), 1);
+    plc_moves(&mut w, &mut plc, 15);
+}
+
+#[test]
+fn a_slow_sender_dribbling_a_header_is_closed_at_the_per_packet_deadline() {
+    let mut w = world(Config::default());
+    let mut plc = plc_running(&mut w);
+    let mut slow = session_from(&mut w, attacker(1), 43_000);
+    let _ = reply_on(&mut w, &mut slow, ms(500));
+    // A ListIdentity header, one byte every 150 ms (24 bytes: 3.6 s).
+    let header = encap(Command::ListIdentity, 0, &[]);
+    let first = w.now();
+    let mut closed = None;
+    for b in &header {
+        slow.write(&[*b]);
+        plc.cycle(&mut w, ms(150));
+        if !slow.is_open() {
+            closed = Some(w.now() - first);
+            break;
+        }
+    }
+    let after = closed.expect("the slow sender is closed");
+    assert!(
+        after >= super::FRAME_DEADLINE && after <= super::FRAME_DEADLINE + ms(200),
+        "closed {after:?} after its first byte"
+    );
+    assert!(plc.tcp.is_open());
+    let h = Header::parse(&plc.exchange(&mut w, &encap(Command::ListIdentity, 0, &[]))).unwrap();
+    assert_eq!(h.status, Status::Success, "the PLC's session is served");
+    assert_eq!(w.reg(r::STATUS_COMMAND_OWNER), 1);
+}
+
+#[test]
+fn io_datagrams_from_refused_addresses_or_for_unknown_connections_are_dropped_and_counted() {
+    let mut w = world(Config {
+        enip_allow: crate::config::AllowList::parse("10.0.0.50").unwrap(),
+        ..Config::default()
+    });
+    let mut plc = plc_running(&mut w);
+    let id = plc.conn.unwrap().o_t_id;
+    let refused0 = w.reg(r::STATUS_ENIP_REFUSED);
+    // A forged datagram for the owner's connection, with Execute high and a
+    // move, from an address the list refuses: dropped unread.
+    let mut forged = plc.out.clone();
+    forged[output::CH0 + 2..output::CH0 + 4].copy_from_slice(&code::MOVE_REL_J.to_le_bytes());
+    forged[output::CH0..output::CH0 + 2].copy_from_slice(&1u16.to_le_bytes());
+    for k in 0..25u32 {
+        let d = o_t_datagram(id, 1_000_000 + k, &forged);
+        assert!(w
+            .net
+            .send_udp(SocketAddrV4::new(attacker(1), 2222), 2222, &d));
+        plc.cycle(&mut w, ms(10));
+    }
+    assert_eq!(w.reg(r::STATUS_ENIP_REFUSED), refused0 + 25);
+    assert_eq!(sent(&w, "MoveRelJ"), 0, "nothing of them applied");
+    // From the PLC's own address, for connection ids nobody opened.
+    for k in 0..30u32 {
+        let d = o_t_datagram(id ^ (0x100 + k), 5 + k, &forged);
+        assert!(w.net.send_udp(SocketAddrV4::new(LOGIX, 2222), 2222, &d));
+        plc.cycle(&mut w, ms(10));
+    }
+    assert_eq!(w.reg(r::STATUS_ENIP_IO_DROPPED), 30);
+    assert_eq!(sent(&w, "MoveRelJ"), 0);
+    // The owner's connection ran on throughout, none of its datagrams
+    // missed.
+    assert_eq!(w.reg(r::STATUS_COMMAND_OWNER), 1);
+    assert_eq!(w.reg(r::STATUS_ENIP_MISSED), 0);
+    plc_moves(&mut w, &mut plc, 16);
+    assert_eq!(sent(&w, "MoveRelJ"), 1);
+}
+
+#[test]
+fn o_t_datagrams_missing_from_the_sequence_are_counted_per_connection_and_in_enip_missed() {
+    let mut w = world(Config::default());
+    let mut s = plc_running(&mut w);
+    assert_eq!(w.reg(r::STATUS_ENIP_MISSED), 0);
+    // Three datagrams lost on the way (the sequence jumps by 4).
+    s.seq += 3;
+    s.cycle(&mut w, ms(50));
+    assert_eq!(w.reg(r::STATUS_ENIP_MISSED), 3);
+    let o = w.model(|m| m.owner.enip_owner).unwrap();
+    assert_eq!(o.missed, 3);
+    assert!(o.received >= 9, "{o:?}");
+    // A duplicate (stale) is dropped and counted, not missed.
+    let c = s.conn.unwrap();
+    let d = o_t_datagram(c.o_t_id, s.seq, &s.out);
+    assert!(w.net.send_udp(SocketAddrV4::new(LOGIX, 2222), 2222, &d));
+    s.cycle(&mut w, ms(20));
+    assert_eq!(w.reg(r::STATUS_ENIP_MISSED), 3);
+    assert_eq!(w.reg(r::STATUS_ENIP_IO_DROPPED), 1);
 }

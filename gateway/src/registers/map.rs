@@ -87,7 +87,7 @@ pub struct Area {
 /// cannot pack floats; 1.5: the protected settings, which Modbus changes
 /// only where an administrator allowed configuration over Modbus, and
 /// `ACCESS` bit 5; who owns the command inputs and the EtherNet/IP
-/// adapter's status at 59-61, Modbus writes to the command inputs refused
+/// adapter's status at 59-63, Modbus writes to the command inputs refused
 /// while an EtherNet/IP PLC owns them); the major number when a PLC
 /// program written for the old map would break.
 pub const MAP_VERSION: u16 = 0x0105;
@@ -181,6 +181,14 @@ pub const STATUS_ENIP_CONNECTIONS: u16 = 60;
 /// (`enip.allow`) and Forward_Opens refused by the ownership rule,
 /// since start (wraps).
 pub const STATUS_ENIP_REFUSED: u16 = 61;
+/// O->T class 1 datagrams missed since start, every connection: produced
+/// by the PLC at its RPI (its sequence numbers count them) and never
+/// received (wraps).
+pub const STATUS_ENIP_MISSED: u16 = 62;
+/// Datagrams on the class 1 I/O port from allowed addresses that no
+/// connection took (unknown connection id, wrong originator, malformed,
+/// stale, wrong size): dropped, counted since start (wraps).
+pub const STATUS_ENIP_IO_DROPPED: u16 = 63;
 
 /// `STATUS_ACCESS` bit: the configuration registers and trigger texts are
 /// write-protected ([`CONFIG_WRITE_PROTECT`]).
@@ -625,6 +633,8 @@ pub const TABLE: &[Area] = &[
     area!("COMMAND_OWNER", STATUS_COMMAND_OWNER, 1, Ro, U16),
     area!("ENIP_CONNECTIONS", STATUS_ENIP_CONNECTIONS, 1, Ro, U16),
     area!("ENIP_REFUSED", STATUS_ENIP_REFUSED, 1, Ro, U16),
+    area!("ENIP_MISSED", STATUS_ENIP_MISSED, 1, Ro, U16),
+    area!("ENIP_IO_DROPPED", STATUS_ENIP_IO_DROPPED, 1, Ro, U16),
     area!("CFG_ROBOT_IP", CONFIG_ROBOT_IP, 2, Rw, U16),
     area!("CFG_ROBOT_PORT", CONFIG_ROBOT_PORT, 1, Rw, U16),
     area!("CFG_LINK_MODE", CONFIG_LINK_MODE, 1, Rw, U16),
@@ -776,9 +786,10 @@ mod tests {
         assert_eq!(area_of(STATUS_JOINTS + 11).unwrap().name, "ACT_JOINTS");
         assert_eq!(area_of(57).unwrap().name, "FW_VERSION");
         assert_eq!(area_of(61).unwrap().name, "ENIP_REFUSED");
-        assert!(area_of(62).is_none());
-        assert!(check(0, 62, false).is_ok());
-        assert_eq!(check(0, 63, false), Err(AccessError::IllegalAddress));
+        assert_eq!(area_of(63).unwrap().name, "ENIP_IO_DROPPED");
+        assert!(area_of(64).is_none());
+        assert!(check(0, 64, false).is_ok());
+        assert_eq!(check(0, 65, false), Err(AccessError::IllegalAddress));
         assert!(check(NET_IP, NET_LEN, true).is_ok());
         assert!(check(NET_IP, NET_LEN + 1, true).is_err());
         assert_eq!(check(0, 1, true), Err(AccessError::IllegalAddress));

@@ -340,6 +340,8 @@ pub fn read(m: &Model, addr: u16, now: Instant) -> u16 {
         r::STATUS_COMMAND_OWNER => m.owner.code(),
         r::STATUS_ENIP_CONNECTIONS => m.owner.enip_connections,
         r::STATUS_ENIP_REFUSED => m.owner.enip_refused,
+        r::STATUS_ENIP_MISSED => m.owner.enip_missed,
+        r::STATUS_ENIP_IO_DROPPED => m.owner.enip_io_dropped,
         r::STATUS_PROTOCOL => m.link.level.map_or(0, |l| {
             let (major, minor, _) = l.parts();
             u16::from(major) * 100 + u16::from(minor)

@@ -2,7 +2,7 @@
 //! trigger bits, `PLC_HEARTBEAT`) when two PLCs are connected, one over
 //! Modbus and one over EtherNet/IP, and what the EtherNet/IP adapter
 //! reports of itself (registers `COMMAND_OWNER`, `ENIP_CONNECTIONS`,
-//! `ENIP_REFUSED`).
+//! `ENIP_REFUSED`, `ENIP_MISSED`, `ENIP_IO_DROPPED`).
 //!
 //! The rule (ENIP.md, "Who owns the command channels"):
 //! an EtherNet/IP exclusive-owner connection owns the command inputs for as
@@ -29,6 +29,11 @@ pub struct EnipOwner {
     /// No data applied yet: its first Run data is taken as the inputs'
     /// levels, without edges (an Execute already high fires nothing).
     pub fresh: bool,
+    /// O->T datagrams its connection took.
+    pub received: u32,
+    /// O->T datagrams its connection missed: produced by the PLC at its
+    /// RPI (its sequence numbers count them) and never received.
+    pub missed: u32,
 }
 
 /// Who fired the commands that may still be Busy.
@@ -55,6 +60,15 @@ pub struct Ownership {
     /// EtherNet/IP sessions and datagrams refused by `enip.allow`,
     /// and Forward_Opens refused by the ownership rule (wraps).
     pub enip_refused: u16,
+    /// O->T datagrams missed by every class 1 connection since start
+    /// (gaps in their sequence numbers: expected at the RPI, never
+    /// received; wraps).
+    pub enip_missed: u16,
+    /// Datagrams on the I/O port (UDP 2222) from allowed addresses that no
+    /// connection took: an unknown connection id, not from the
+    /// connection's originator, malformed, stale or of the wrong size
+    /// (dropped; wraps).
+    pub enip_io_dropped: u16,
 }
 
 impl Ownership {

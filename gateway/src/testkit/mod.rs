@@ -28,6 +28,8 @@
 
 pub mod broker;
 pub mod clock;
+#[cfg(feature = "enip")]
+pub mod enip;
 #[cfg(feature = "update")]
 pub mod flash;
 pub mod net;

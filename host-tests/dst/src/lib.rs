@@ -33,6 +33,17 @@
 //!   the link is not up, and the link-loss codes (39601, 39503, 39505) only
 //!   when the link was lost.
 //!
+//! * EtherNet/IP (a third of the seeds, `enip.rs`): a Logix PLC opens an
+//!   exclusive-owner class 1 connection at a random RPI, fires both
+//!   channels' commands through the output assembly, closes it or falls
+//!   silent. Its commands obey every rule above, exactly as Modbus's; the
+//!   input assembly shows what the registers show; while it owns the
+//!   command inputs every Modbus write to them is refused whole
+//!   (exception 01), and an owner Forward_Open is admitted exactly when no
+//!   command another master fired is Busy; when its connection closes or
+//!   times out during a motion the watchdog is on for, the watchdog trips
+//!   at once (the lost heartbeat: its stop, or its pause, or its report).
+//!
 //! A failure names its seed and step and replays exactly: `hans-dst --seed
 //! N` (see the README).
 
@@ -51,6 +62,8 @@ use hans_gateway::testkit::rng::Rng;
 use hans_gateway::testkit::robot::{Model as RobotModel, RandomFaults};
 use hans_gateway::testkit::world::{MemStorage, World, WorldConfig};
 use hans_gateway::{JOG_HEARTBEAT, JOG_KEEP_ALIVE as KEEP_ALIVE};
+
+mod enip;
 
 /// What one scenario did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -71,6 +84,11 @@ pub struct Stats {
     pub actions: u64,
     /// Virtual time simulated, in milliseconds.
     pub virtual_ms: u64,
+    /// Commands fired through the EtherNet/IP output assembly.
+    pub enip_commands: u64,
+    /// EtherNet/IP owner connections that closed or timed out during a
+    /// watched motion (each one a watchdog trip checked).
+    pub enip_lost: u64,
 }
 
 impl Stats {
@@ -84,6 +102,8 @@ impl Stats {
         self.requests += o.requests;
         self.actions += o.actions;
         self.virtual_ms += o.virtual_ms;
+        self.enip_commands += o.enip_commands;
+        self.enip_lost += o.enip_lost;
     }
 }
 
@@ -162,6 +182,16 @@ pub struct Checker {
     /// When the robot last accepted the start of a jog (the heartbeat is
     /// counted from the later of it and the last beat).
     jog_start: Instant,
+    /// At the last check: the EtherNet/IP owner's connection, the active
+    /// motion and the watchdog trips when it started.
+    enip_owner: Option<u32>,
+    motion: Option<(Source, u16)>,
+    /// The watchdog must have tripped (more than this many) by then, unless
+    /// this motion ended otherwise: the owner's connection closed during a
+    /// watched motion.
+    lost_by: Option<(Instant, u16, Source)>,
+    /// How many times that was checked.
+    enip_lost: u64,
 }
 
 /// The heartbeat period a jog needs with `CFG_WATCHDOG_MS` = `watchdog_ms`.
@@ -206,7 +236,72 @@ impl Checker {
             reply_timeout_ms: w.model(|m| m.config.active.reply_timeout_ms),
             jog_period_ms: jog_period(w.model(|m| m.config.active.watchdog_ms)),
             jog_start: Instant::from_ticks(0),
+            enip_owner: None,
+            motion: None,
+            lost_by: None,
+            enip_lost: 0,
         }
+    }
+
+    /// The EtherNet/IP rules of the module documentation: a closed owner
+    /// connection during a watched motion trips the watchdog at once.
+    fn check_enip(&mut self, w: &World) -> Result<(), String> {
+        let now = w.now();
+        let (owner, active, trips, watch, lost) = w.model(|m| {
+            (
+                m.owner.enip_owner.map(|o| o.connection),
+                m.active_motion,
+                m.plc.watchdog_trips,
+                m.config.active.watchdog_ms != 0,
+                m.plc.lost,
+            )
+        });
+        if let Some((by, before, s)) = self.lost_by {
+            if trips != before || active != Some(s) {
+                self.lost_by = None;
+            } else if now > by {
+                let state = w.model(|m| {
+                    format!(
+                        "active {:?} ({:?}), lost {}, tripped {}, last beat {} ms",
+                        m.active_motion,
+                        m.active_motion.and_then(|s| m.handshake(s).copied()),
+                        m.plc.lost,
+                        m.plc.watchdog_tripped,
+                        m.plc.last_beat.as_millis()
+                    )
+                });
+                return Err(format!(
+                    "the EtherNet/IP owner's connection closed during a watched motion; no watchdog trip by {} ms: {state}",
+                    by.as_millis()
+                ));
+            }
+        }
+        // The owner's connection is gone; the motion that ran before runs
+        // still (so it ran when the connection closed), watched, not yet
+        // tripped for: the watchdog must act (its stop, pause or report).
+        if let (Some(_), None, Some((s, at_start))) = (self.enip_owner, owner, self.motion) {
+            if watch && active == Some(s) && at_start == trips {
+                // At once the heartbeat is lost (the engine trips on it
+                // when it next decides).
+                if !lost {
+                    return Err(format!(
+                        "the EtherNet/IP owner's connection closed during {s:?}'s watched motion: the heartbeat is not lost"
+                    ));
+                }
+                // At once: when the engine next decides, which a request in
+                // flight may delay by its reply timeout.
+                let by = now + ms(u64::from(self.reply_timeout_ms) + 20);
+                self.lost_by = Some((by, trips, s));
+                self.enip_lost += 1;
+            }
+        }
+        self.enip_owner = owner;
+        self.motion = match (active, self.motion) {
+            (Some(s), Some((was, t))) if s == was => Some((s, t)),
+            (Some(s), _) => Some((s, trips)),
+            (None, _) => None,
+        };
+        Ok(())
     }
 
     /// The configuration changed (watchdog, reply timeout).
@@ -496,7 +591,8 @@ impl Checker {
                 .collect()
         });
         self.busy = busy;
-        self.check_jogs(w)
+        self.check_jogs(w)?;
+        self.check_enip(w)
     }
 }
 
@@ -522,9 +618,50 @@ fn check_views(m: &Model, now: Instant) -> Result<(), String> {
             ));
         }
     }
+    // The input assembly is one more view of the same state: each
+    // channel's status, sequence echo, ErrorID and source as the registers
+    // (judged where the adapter runs: the scenarios without it spend
+    // nothing on it).
+    if m.config.active.enip_enabled {
+        check_assembly(m, now)?;
+    }
     let used = view::read(m, r::STATUS_QUEUE_USED, now);
     if usize::from(used) != m.queue.len() {
         return Err(format!("QUEUE_USED {used}, queue {}", m.queue.len()));
+    }
+    Ok(())
+}
+
+/// The input assembly shows what the registers show.
+fn check_assembly(m: &Model, now: Instant) -> Result<(), String> {
+    let mut image = [0u8; hans_gateway::enip::assembly::SIZE];
+    hans_gateway::enip::assembly::encode_input(m, now, &mut image);
+    let word = |at: usize| u16::from_le_bytes([image[at], image[at + 1]]);
+    for (ch, at) in [
+        (0, hans_gateway::enip::assembly::input::CH0),
+        (1, hans_gateway::enip::assembly::input::CH1),
+    ] {
+        let base = r::channel_base(ch);
+        let id = i32::from_le_bytes([image[at + 4], image[at + 5], image[at + 6], image[at + 7]]);
+        let regs = (
+            view::read(m, base + r::CH_STATUS, now),
+            view::read(m, base + r::CH_SEQ_ECHO, now),
+            view::read(m, base + r::CH_ERROR_ID, now),
+            view::read(m, base + r::CH_ERROR_ID + 1, now),
+            view::read(m, base + r::CH_ERROR_SOURCE, now),
+        );
+        // The registers' ErrorID in the configured word order.
+        let (hi, lo) = ((id as u32 >> 16) as u16, id as u16);
+        let (first, second) = match m.config.active.word_order {
+            WordOrder::HighFirst => (hi, lo),
+            WordOrder::LowFirst => (lo, hi),
+        };
+        let ids = (word(at), word(at + 2), first, second, word(at + 8));
+        if regs != ids {
+            return Err(format!(
+                "channel {ch}: the input assembly shows {ids:?}, the registers {regs:?}"
+            ));
+        }
     }
     Ok(())
 }
@@ -680,6 +817,8 @@ pub struct Scenario {
     seq: u16,
     /// The robot comes back on the network then.
     online_at: Option<Instant>,
+    /// The EtherNet/IP PLC, in a third of the seeds.
+    enip: Option<enip::EnipPlc>,
     /// What it did.
     pub stats: Stats,
 }
@@ -723,8 +862,10 @@ impl Scenario {
             wait_in_position: rng.chance(200),
             start_grace_ms: rng.below(400) as u16,
             auto_reset: rng.chance(300),
+            enip_enabled: enip::enabled(seed),
             ..Config::default()
         };
+        let config = enip::watched(seed, config);
         let mut world = World::new(WorldConfig {
             seed: rng.next_u64(),
             listen_mode: rng.chance(200),
@@ -777,6 +918,7 @@ impl Scenario {
             heartbeat: 0,
             seq: 0,
             online_at: None,
+            enip: enip::enabled(seed).then(enip::EnipPlc::default),
             stats: Stats {
                 scenarios: 1,
                 ..Stats::default()
@@ -814,6 +956,12 @@ impl Scenario {
     /// Fires `source` after writing what `prepare` gives, and checks the
     /// rising-edge rules at once.
     fn fire(&mut self, source: Source, kind: Kind) -> Result<(), String> {
+        self.fire_via(source, kind, false)
+    }
+
+    /// [`Scenario::fire`], the edge written through the output assembly
+    /// when `enip` (a channel's Execute).
+    fn fire_via(&mut self, source: Source, kind: Kind, enip: bool) -> Result<(), String> {
         let urgent = kind.urgent;
         let (busy, seq_before, link_up, full) = self.world.model(|m| {
             let h = m.handshake(source).copied().unwrap_or_default();
@@ -825,6 +973,7 @@ impl Scenario {
         }
         let i = self.plc();
         match source {
+            Source::Channel(c) if enip => self.enip_execute(c, true),
             Source::Channel(c) => {
                 self.write(i, r::channel_base(usize::from(c)), &[1]);
             }
@@ -906,6 +1055,17 @@ impl Scenario {
             21..=23 => vec![r.below(9) as f32, r.below(2) as f32],
             _ => vec![],
         };
+        let kind = Kind {
+            motion: matches!(code, 10..=14 | 60..=71 | 80..=91),
+            bring_up: matches!(code, 1 | 3),
+            urgent: matches!(code, 4..=8 | 31..=33),
+            stop: code == 6,
+            jog: matches!(code, 60..=71 | 80..=91),
+            steps: if code == 1 { 3 } else { 1 },
+        };
+        if self.enip_drives() {
+            return self.enip_channel(ch, code, &params, kind);
+        }
         let order = self.world.model(|m| m.config.active.word_order);
         self.seq = self.seq.wrapping_add(1);
         let mut words = vec![0, code, self.seq, 0];
@@ -930,17 +1090,7 @@ impl Scenario {
             self.checker.released(Source::Channel(ch), &self.world);
             self.write(i, base, &[0]);
         }
-        self.fire(
-            Source::Channel(ch),
-            Kind {
-                motion: matches!(code, 10..=14 | 60..=71 | 80..=91),
-                bring_up: matches!(code, 1 | 3),
-                urgent: matches!(code, 4..=8 | 31..=33),
-                stop: code == 6,
-                jog: matches!(code, 60..=71 | 80..=91),
-                steps: if code == 1 { 3 } else { 1 },
-            },
-        )
+        self.fire(Source::Channel(ch), kind)
     }
 
     fn release(&mut self, source: Source) -> Result<(), String> {
@@ -1100,7 +1250,28 @@ impl Scenario {
             self.note("robot: back online".into());
         }
         let r = self.rng.below(100);
+        // While the EtherNet/IP PLC owns the command inputs, the Modbus
+        // PLCs' actions on them are probes of the ownership rule; the
+        // channels are driven through the assemblies (if it talks).
+        let owned = self.enip_owns();
+        let drives = self.enip_drives();
+        // The EtherNet/IP PLC's connection ends during a motion more often
+        // than the 9 % of its connection actions would make it: that is the
+        // case the watchdog must catch (no random number drawn otherwise).
+        let moving = drives && self.world.model(|m| m.active_motion.is_some());
+        let r = if moving && self.rng.chance(80) { 95 } else { r };
         let result = match r {
+            30..=41 if drives => {
+                let ch = self.rng.below(2) as u8;
+                self.enip_release(ch)
+            }
+            42..=67 if owned => self.enip_probe(),
+            68..=79 if drives => {
+                self.enip_heartbeat();
+                Ok(())
+            }
+            0..=41 | 68..=79 if owned && !drives => self.enip_probe(),
+            91..=99 if self.enip.is_some() => self.enip_connection(),
             0..=29 => {
                 let ch = self.rng.below(2) as u8;
                 self.channel(ch)
@@ -1150,18 +1321,17 @@ impl Scenario {
             _ => ms(self.rng.below(30)),
         };
         let end = self.world.now() + wait;
-        while self.world.turn(end) {
-            self.checker
-                .check(&self.world)
-                .map_err(|e| self.fail(n, e))?;
-        }
-        self.checker.check(&self.world).map_err(|e| self.fail(n, e))
+        self.advance(end, n)
     }
 
     /// The end: faults off, the robot back, a paused motion continued, the
     /// heartbeat kept; after a while nothing may be Busy any more.
     pub fn drain(&mut self, n: usize) -> Result<(), Failure> {
         self.note("drain".into());
+        self.enip_stop();
+        self.checker
+            .check(&self.world)
+            .map_err(|e| self.fail(n, e))?;
         let w = &mut self.world;
         w.robot.faults = RandomFaults::default();
         w.robot.script.clear();
@@ -1229,6 +1399,7 @@ impl Scenario {
         self.stats.aborted += a;
         self.stats.requests += self.world.robot.log.len() as u64;
         self.stats.virtual_ms += self.world.now().as_millis();
+        self.stats.enip_lost += self.checker.enip_lost;
         self.stats
     }
 }
@@ -1276,13 +1447,15 @@ pub fn summary(stats: &Stats, secs: f64) -> String {
     let mut out = String::new();
     let _ = write!(
         out,
-        "{} scenarios, {} commands ({} Done, {} Error, {} CommandAborted), {} robot requests, {:.0} s simulated in {:.1} s: {:.0} commands/s",
+        "{} scenarios, {} commands ({} over EtherNet/IP; {} Done, {} Error, {} CommandAborted), {} robot requests, {} EtherNet/IP owners lost during a watched motion, {:.0} s simulated in {:.1} s: {:.0} commands/s",
         stats.scenarios,
         stats.commands,
+        stats.enip_commands,
         stats.done,
         stats.errors,
         stats.aborted,
         stats.requests,
+        stats.enip_lost,
         stats.virtual_ms as f64 / 1000.0,
         secs,
         stats.commands as f64 / secs.max(1e-9)

@@ -2,11 +2,13 @@
 //! every invariant checked after every step. The long runs are `hans-dst`'s
 //! (see the README).
 
+/// 114 seeds: as long as the 120 seeds it ran before a third of them had
+/// an EtherNet/IP PLC (its datagrams and checks cost ~5 %).
 #[test]
-fn seeds_0_to_119_keep_every_invariant() {
+fn seeds_0_to_113_keep_every_invariant() {
     let mut total = hans_dst::Stats::default();
     let start = std::time::Instant::now();
-    for seed in 0..120 {
+    for seed in 0..114 {
         match hans_dst::run(seed, 200) {
             Ok(s) => total.add(&s),
             Err(f) => {
@@ -18,9 +20,15 @@ fn seeds_0_to_119_keep_every_invariant() {
         "{}",
         hans_dst::summary(&total, start.elapsed().as_secs_f64())
     );
-    assert!(total.commands > 120 * 40, "too few commands: {total:?}");
+    assert!(total.commands > 114 * 40, "too few commands: {total:?}");
     assert!(
         total.done > 0 && total.errors > 0 && total.aborted > 0,
+        "{total:?}"
+    );
+    // The EtherNet/IP PLC (a third of the seeds) fired commands through
+    // its assemblies, and lost its connection during watched motions.
+    assert!(
+        total.enip_commands > 100 && total.enip_lost > 0,
         "{total:?}"
     );
 }

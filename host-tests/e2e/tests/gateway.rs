@@ -367,7 +367,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     );
     // Unmapped address -> 02; read-only register written -> 02.
     assert_eq!(
-        raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 62, 0, 1]).await,
+        raw_frame(&mut s, &[0, 3, 0, 0, 0, 6, 1, 3, 0, 64, 0, 1]).await,
         [0x83, 2]
     );
     assert_eq!(
@@ -430,7 +430,7 @@ async fn malformed_frames_get_exceptions_and_harm_no_other_client() {
     let e = rig
         .plc
         .ctx
-        .read_holding_registers(62, 1)
+        .read_holding_registers(64, 1)
         .await
         .expect("transport");
     assert_eq!(e, Err(ExceptionCode::IllegalDataAddress));
