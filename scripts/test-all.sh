@@ -102,7 +102,7 @@ ended() {
 #
 #   step_bg ID [--idle] NAME COMMAND...
 #
-# --idle: it runs at low priority (nice 10, and its own scheduling group's,
+# --idle: it runs at the lowest priority (nice 19, and its own scheduling group's,
 # since setsid gives it one), so it takes only what the foreground leaves.
 declare -A BG_PID BG_NAME BG_LOG BG_START
 step_bg() {
@@ -122,9 +122,9 @@ step_bg() {
   # A process group of its own (setsid), so that stopping it stops all of it.
   setsid -w bash -c '
     if [ "$1" = 1 ]; then
-      echo 10 >/proc/self/autogroup 2>/dev/null || true
+      echo 19 >/proc/self/autogroup 2>/dev/null || true
       shift
-      exec nice -n 10 "$@"
+      exec nice -n 19 "$@"
     fi
     shift
     exec "$@"' bg "$idle" "$@" >"${BG_LOG[$id]}" 2>&1 &

@@ -483,9 +483,16 @@ fn a_fresh_device_asks_for_the_setup_code_and_wrong_passwords_show_the_wait() {
     rig.wait_live();
     // Fresh: the page asks for the administrator first (with the setup
     // code), and nothing can change.
-    rig.wait_for("the first-administrator form", |r| {
-        (r.session() == "fresh" && r.visible("pw-first")).then_some(())
-    });
+    // (The configuration form is drawn from /api/config, answered after
+    // the status that shows the first-administrator form: waited for too.)
+    rig.wait_for(
+        "the first-administrator form and the configuration form",
+        |r| {
+            let drawn = r.js("document.getElementById('f-link.poll_ms') !== null")
+                == serde_json::Value::Bool(true);
+            (r.session() == "fresh" && r.visible("pw-first") && drawn).then_some(())
+        },
+    );
     for id in ["cfg-apply", "f-link.poll_ms", "t-save-0", "import-btn"] {
         assert!(rig.disabled(id), "#{id} usable before a password is set");
     }
