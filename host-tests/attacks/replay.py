@@ -648,7 +648,7 @@ def write_table(out, args, m0, m1, elapsed, a, quiet, loud, bc, c, checks):
         f"- Commit: {m0['commit']}; run {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC, "
         f"{elapsed:.0f} s",
         f"- Machine: {m0['cores']} cores, Linux {m0['kernel']}; load average (1, 5, 15 min) "
-        f"{m0['load']} at the start, {m1['load']} at the end (other builds shared the machine)",
+        f"{m0['load']} at the start, {m1['load']} at the end",
         "",
         "| case | figure | value |",
         "|---|---|---|",
