@@ -150,12 +150,15 @@ stop_bg() {
 }
 trap 'rm -rf "$LOG_DIR"; stop_bg' EXIT
 
-# --- in the background from the start, at low priority, each in a target
-# directory of its own: the firmware's release builds (long single-threaded
-# fat-LTO links) with their size budgets, the fuzz targets' build (nightly),
-# and the documentation. They fill the idle core of the host steps below and
-# are joined where their results are needed.
-step_bg firmware --idle "firmware: release builds of both boards and bootloaders (each the clippy run of what it compiles), size budgets" \
+# --- in the background from the start, each in a target directory of its
+# own: the firmware's release builds at normal priority in a scheduling
+# group of their own (a fair share of the cores: their long
+# single-threaded fat-LTO links must be done before the QEMU tests need
+# them; at the lowest priority the host steps starved them and the run
+# waited ~6 minutes at the join, one core idle), with their size budgets;
+# the fuzz targets' build (nightly) and the documentation at the lowest
+# priority. They are joined where their results are needed.
+step_bg firmware "firmware: release builds of both boards and bootloaders (each the clippy run of what it compiles), size budgets" \
   bash scripts/firmware-build.sh
 step_bg fuzz-build --idle "fuzz targets build (nightly, host-tests/fuzz/target)" \
   bash host-tests/fuzz/run.sh --build-only
@@ -242,11 +245,6 @@ step "EtherNet/IP against pycomm3, cpppo, ethernetip and tshark (runner and gate
   env ENIP_IO_SECONDS=10 ENIP_GW_SECONDS=60 bash scripts/enip-tests.sh
 
 # --- no_std builds for the microcontroller target
-# Bounded fuzzing, 12 s a target, alongside the thumbv7em steps below
-# (they use one core most of the time; the fuzz targets were built in the
-# background, in their own target directory, host-tests/fuzz/target).
-join fuzz-build
-step_bg fuzz "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, audit export paging, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 step "codec builds for thumbv7em-none-eabihf (with defmt and v6: their clippy run)" \
   cargo build -p hans-codec --target thumbv7em-none-eabihf --features defmt,v6 --locked
 step "codec as a crate: cargo package, publish --dry-run, check with its declared MSRV toolchain" \
@@ -270,9 +268,15 @@ join rustdoc
 
 # --- firmware: the release builds (in the background since the start),
 # then the QEMU tests
-join fuzz
 join firmware
+# Bounded fuzzing, 12 s a target (wall time), at the lowest priority beside
+# the QEMU tests, which keep one core busy (the fuzz targets were built in
+# the background, in their own target directory, host-tests/fuzz/target).
+join fuzz-build
+step_bg fuzz --idle "fuzz: codec (framer, request, reply, DataSheet), gateway (Modbus session, robot bytes, stored image, HTTP, audit export paging, MQTT broker input, firmware image and its upload) and EtherNet/IP (encapsulation stream, CPF items, CIP requests), 12 s each" bash host-tests/fuzz/run.sh 12
 step "firmware: QEMU tests, EtherNet/IP scanners on the QEMU field device (the release builds joined above)" bash scripts/firmware-tests.sh
+
+join fuzz
 
 # --- the first hour as written: README's "The first ten minutes" and
 # REGISTERS.md's example, line by line, against scripts/demo.sh (the
