@@ -69,9 +69,9 @@ if [ -f "$ELF" ]; then
   first=" (built before: only what changed is compiled)"
 else
   # On 2 cores with the crates already downloaded (README, "The first ten
-  # minutes"; measured on a 2-core machine shared with other builds); a
-  # first download adds a minute or two.
-  first=" (the first build: 10 to 20 minutes on 2 cores, the firmware and its dependencies in release with LTO)"
+  # minutes"; measured 2026-11-30 from a fresh clone on an idle 2-core
+  # machine: 2m11s); a first download or a busy machine adds minutes.
+  first=" (the first build: about 2 minutes on 2 cores, more on a busy machine; the firmware and its dependencies in release with LTO)"
 fi
 stage "building the field-device firmware and its bootloader$first"
 (cd firmware && CARGO_TARGET_DIR="$FW_TARGET" firmware_cargo build --release -p board-mps2-an386 \
