@@ -754,8 +754,9 @@ fn safety_flags_are_grey_while_off_and_unmistakable_while_on() {
 
 /// Issue 27: a name the device does not answer to (DNS rebinding) got raw
 /// JSON 421 in the browser. The browser gets a page that says why and
-/// links the address to use, which then shows the live page. Chromium
-/// resolves `*.localhost` to the loopback itself (no resolver involved).
+/// links the address to use, which then shows the live page. The browser
+/// maps `gw.localhost` to 127.0.0.1 (`cdp`'s switches; no DNS involved,
+/// and not ::1, where the gateway does not listen).
 #[test]
 fn a_refused_host_name_gets_a_page_that_links_the_address_to_use() {
     let mut rig = WebRig::start("refused-name");
