@@ -268,6 +268,37 @@ impl Gateway {
         self.serve(net, clock, &mut storage).await
     }
 
+    /// Runs the gateway as [`Self::run`] does until `stop` gives a reason
+    /// (a platform's stop request, e.g. `"SIGTERM"`), then stops in order
+    /// while the gateway goes on serving: with the audit log (feature
+    /// `audit`) a `stop` record with the reason, the log's counting periods
+    /// ended with a record of what they counted, and both kept by the
+    /// storage task before this returns (at most 5 s). A gateway stopped
+    /// by dropping its future loses what the running periods counted.
+    pub async fn run_until<N: Net, C: Clock, S: Storage>(
+        &self,
+        net: &N,
+        clock: &C,
+        storage: S,
+        stop: impl core::future::Future<Output = &'static str>,
+    ) -> Stopped {
+        use embassy_futures::select::{select, Either};
+        let run = pin!(self.run(net, clock, storage));
+        let stopping = pin!(async {
+            let why = stop.await;
+            info!("stopping ({})", why);
+            #[cfg(feature = "audit")]
+            let kept = crate::audit::keep::closing(&self.hub.audit, clock, Some(why)).await;
+            #[cfg(not(feature = "audit"))]
+            let kept = true;
+            Stopped { kept }
+        });
+        match select(run, stopping).await {
+            Either::First(never) => match never {},
+            Either::Second(stopped) => stopped,
+        }
+    }
+
     /// The network settings to run with, once [`Self::load`] has run:
     /// the configuration's on boards (the caller applies address, mask,
     /// gateway and DHCP to its stack), and in any case the ports.
@@ -518,6 +549,30 @@ impl Gateway {
     }
 }
 
+/// How a gateway's run ended when it was asked to stop
+/// ([`Gateway::run_until`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stopped {
+    /// Every audit record, the stop's included, was kept on the medium
+    /// (or nothing is kept on this platform); `false`: the medium did not
+    /// keep them within the stop's wait.
+    pub kept: bool,
+}
+
+/// Runs a gateway with `opts` on `net` until `stop` gives a reason, then
+/// stops in order (see [`Gateway::run_until`]).
+pub async fn run_until<N: Net, C: Clock, S: Storage>(
+    net: &N,
+    clock: &C,
+    storage: S,
+    opts: Options,
+    stop: impl core::future::Future<Output = &'static str>,
+) -> Stopped {
+    Gateway::new(opts)
+        .run_until(net, clock, storage, stop)
+        .await
+}
+
 /// Runs a gateway with `opts` on `net` until the future is dropped (see
 /// [`Gateway::run`]).
 pub async fn run<N: Net, C: Clock, S: Storage>(
@@ -646,6 +701,8 @@ async fn trial<C: Clock>(hub: &Hub, clock: &C, opts: &Options, web_port: u16) ->
     if opts.self_check_fails || !web_up {
         warn!("update: the new firmware's self-check failed: restarting into the previous one");
         clock.sleep(embassy_time::Duration::from_secs(1)).await;
+        #[cfg(feature = "audit")]
+        crate::audit::keep::closing(&hub.audit, clock, None).await;
         match opts.restart {
             Some(restart) => restart(),
             None => warn!(

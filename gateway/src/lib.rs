@@ -196,7 +196,7 @@ pub use engine::jog::{HEARTBEAT as JOG_HEARTBEAT, KEEP_ALIVE as JOG_KEEP_ALIVE};
 #[cfg(feature = "update")]
 pub use gateway::TRIAL_CHECK;
 pub use gateway::{needs, Storage};
-pub use gateway::{run, Gateway, MqttOverride, Options, RobotOverride};
+pub use gateway::{run, run_until, Gateway, MqttOverride, Options, RobotOverride, Stopped};
 pub use storage::{AuditStore, ConfigStore, Medium, NoStorage, StorageError, WithAudit};
 #[cfg(feature = "update")]
 pub use update::{NoSlots, SlotStore, WithSlots};

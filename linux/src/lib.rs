@@ -28,13 +28,12 @@ pub mod net;
 mod tls;
 mod waker;
 
-use core::convert::Infallible;
 use core::fmt;
 use core::net::{Ipv4Addr, SocketAddrV4};
 use std::io;
 use std::path::PathBuf;
 use std::string::{String, ToString};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc, Mutex};
 use std::thread;
 
 use hans_gateway::config::HostName;
@@ -43,7 +42,7 @@ use hans_gateway::storage::image::{self, Entries};
 use hans_gateway::storage::{Image, IMAGE_LEN};
 use hans_gateway::{
     AuditStore, Config, ConfigStore, Medium, MqttOverride, NoSlots, NoStorage, Options,
-    RobotOverride, SetupCode, StorageError, SystemClock, WithAudit, WithSlots,
+    RobotOverride, SetupCode, Stopped, StorageError, SystemClock, WithAudit, WithSlots,
 };
 
 use crate::net::TokioNet;
@@ -291,12 +290,34 @@ struct Bound {
     enip: Option<(SocketAddrV4, u16)>,
 }
 
-/// A gateway running on its own thread. Dropping it stops it (sockets
-/// closed, thread joined).
+/// A gateway running on its own thread. Dropping it stops it, in order
+/// (as [`Stopper::stop`]; its sockets closed, its thread joined).
 pub struct RunningGateway {
     bound: Bound,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    thread: Option<thread::JoinHandle<()>>,
+    stop: Stopper,
+    thread: Option<thread::JoinHandle<Option<Stopped>>>,
+}
+
+/// Asks a [`RunningGateway`] to stop, from any thread (`hans-gateway`'s
+/// signal thread). Cloned, each clone asks the same gateway; the first
+/// request counts.
+#[derive(Clone)]
+pub struct Stopper(Arc<Mutex<Option<tokio::sync::oneshot::Sender<&'static str>>>>);
+
+impl Stopper {
+    /// Asks the gateway to stop for `why` (the audit log's `stop` record
+    /// says it): it records the stop, keeps what its audit log's counting
+    /// periods counted, and ends (see `hans_gateway::Gateway::run_until`).
+    /// Returns at once; [`RunningGateway::wait`] returns when it is done.
+    pub fn stop(&self, why: &'static str) {
+        let tx = match self.0.lock() {
+            Ok(mut g) => g.take(),
+            Err(poisoned) => poisoned.into_inner().take(),
+        };
+        if let Some(tx) = tx {
+            let _ = tx.send(why);
+        }
+    }
 }
 
 impl RunningGateway {
@@ -310,7 +331,7 @@ impl RunningGateway {
                 .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, e.to_string()))?;
         }
         let (ready_tx, ready_rx) = mpsc::channel::<io::Result<Bound>>();
-        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<&'static str>();
         let thread = thread::Builder::new()
             .name(String::from("hans-gateway"))
             .stack_size(8 << 20)
@@ -322,15 +343,15 @@ impl RunningGateway {
                     Ok(rt) => rt,
                     Err(e) => {
                         let _ = ready_tx.send(Err(e));
-                        return;
+                        return None;
                     }
                 };
-                rt.block_on(serve(opts, ready_tx, stop_rx));
+                rt.block_on(serve(opts, ready_tx, stop_rx))
             })?;
         match ready_rx.recv() {
             Ok(Ok(bound)) => Ok(RunningGateway {
                 bound,
-                stop: Some(stop_tx),
+                stop: Stopper(Arc::new(Mutex::new(Some(stop_tx)))),
                 thread: Some(thread),
             }),
             Ok(Err(e)) => {
@@ -371,18 +392,19 @@ impl RunningGateway {
         self.bound.enip
     }
 
-    /// Blocks until the gateway ends, which it does only when it fails:
-    /// its thread panicked (a bug, or the system refused it something it
-    /// cannot do without, such as a thread for the file work of a save).
-    /// The error says why. Its sockets are closed then and nothing is
+    /// Blocks until the gateway ends: `Ok` when it stopped on request
+    /// ([`Self::stopper`]), else it failed: its thread panicked (a bug, or
+    /// the system refused it something it cannot do without, such as a
+    /// thread for the file work of a save). The error says why. Its sockets are closed then and nothing is
     /// served any more: a process that runs the gateway should exit with a
     /// failure status, so that a supervisor restarts it (`hans-gateway`
     /// exits with status 101).
-    pub fn wait(mut self) -> io::Result<Infallible> {
+    pub fn wait(mut self) -> io::Result<Stopped> {
         // `self.stop` stays alive while joining: dropping it would stop
         // the gateway.
         let why = match self.thread.take().map(|t| t.join()) {
-            None | Some(Ok(())) => String::from("the gateway's thread ended"),
+            Some(Ok(Some(stopped))) => return Ok(stopped),
+            None | Some(Ok(None)) => String::from("the gateway's thread ended"),
             Some(Err(panic)) => {
                 let message = panic
                     .downcast_ref::<&str>()
@@ -395,30 +417,36 @@ impl RunningGateway {
         Err(io::Error::other(why))
     }
 
-    /// Stops the gateway and waits for its thread.
-    pub fn stop(mut self) {
-        self.shutdown();
+    /// What asks this gateway to stop, from another thread.
+    pub fn stopper(&self) -> Stopper {
+        self.stop.clone()
     }
 
-    fn shutdown(&mut self) {
-        if let Some(tx) = self.stop.take() {
-            let _ = tx.send(());
-        }
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
+    /// Stops the gateway in order and waits for its thread: how it ended
+    /// (`None`: it had failed before).
+    pub fn stop(mut self) -> Option<Stopped> {
+        self.shutdown()
+    }
+
+    fn shutdown(&mut self) -> Option<Stopped> {
+        self.stop.stop("stopped by its program");
+        self.thread.take().and_then(|t| t.join().ok().flatten())
     }
 }
 
 impl Drop for RunningGateway {
     fn drop(&mut self) {
-        self.shutdown();
+        let _ = self.shutdown();
     }
 }
 
 type Ready = mpsc::Sender<io::Result<Bound>>;
 
-async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Receiver<()>) {
+async fn serve(
+    opts: HostOptions,
+    ready: Ready,
+    stop: tokio::sync::oneshot::Receiver<&'static str>,
+) -> Option<Stopped> {
     let bind_ip = opts
         .robot_listen
         .map(|a| *a.ip())
@@ -486,7 +514,7 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         Ok(b) => b,
         Err(e) => {
             let _ = ready.send(Err(e));
-            return;
+            return None;
         }
     };
     let options = Options {
@@ -539,11 +567,11 @@ async fn serve(opts: HostOptions, ready: Ready, stop: tokio::sync::oneshot::Rece
         storage,
         slots: NoSlots,
     };
-    let run = waker::steady_waker(hans_gateway::run(&net, &clock, storage, options));
-    tokio::select! {
-        _ = run => {}
-        _ = stop => {}
-    }
+    // A stop request (or its sender dropped with the RunningGateway) ends
+    // the run in order: the audit log's last records are kept first.
+    let stop = async { stop.await.unwrap_or("stopped by its program") };
+    let run = hans_gateway::run_until(&net, &clock, storage, options, stop);
+    Some(waker::steady_waker(run).await)
 }
 
 /// Where a Linux gateway keeps its things: the files of `--config`, or

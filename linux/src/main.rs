@@ -11,8 +11,9 @@
 //!
 //! The command line is read by clap; `--help` prints the options, the
 //! configuration file, the setup code and the exit status ([`AFTER_HELP`]).
-//! The process runs until it is stopped by a signal, or until the gateway
-//! fails (status 101, for a supervisor to restart it).
+//! The process runs until SIGTERM or SIGINT stops it in order (status 0:
+//! the audit log's last records kept first, [`StopSignals`]), or until the
+//! gateway fails (status 101, for a supervisor to restart it).
 
 use std::fmt;
 use std::io::Write;
@@ -24,9 +25,9 @@ use clap::error::ErrorKind;
 use clap::{ArgAction, CommandFactory, FromArgMatches, Parser};
 use hans_gateway::config::HostName;
 use hans_gateway::registers::MAP_VERSION;
-use hans_gateway::{MqttOverride, SetupCode, SETUP_CODE_LEN};
+use hans_gateway::{MqttOverride, SetupCode, Stopped, SETUP_CODE_LEN};
 use hans_gateway_linux::config_file::{self, Error as FileProblem};
-use hans_gateway_linux::{os_random, FileStorage, HostOptions, RunningGateway};
+use hans_gateway_linux::{os_random, FileStorage, HostOptions, RunningGateway, Stopper};
 
 /// The robot controller's command port, used when `--robot` names none.
 const ROBOT_PORT: u16 = 10003;
@@ -92,12 +93,16 @@ HOST is an IPv4 address or a host name. A name is resolved once, at start, to it
 IPv4 address (the gateway speaks IPv4 only); the log shows the address used.
 
 The register map for PLC programmers is REGISTERS.md beside the crate's Cargo.toml.
-Logs go to stderr (RUST_LOG=debug for more). SIGINT or SIGTERM stops the gateway.
+Logs go to stderr (RUST_LOG=debug for more). SIGINT or SIGTERM stops the gateway in order:
+its audit log records the stop and keeps what it had counted (at most 5 s); a second
+signal ends it at once.
 
 Exit status:
-  0    --help or --version
+  0    --help or --version, or stopped in order by SIGTERM or SIGINT
   1    the gateway could not start (a host name does not resolve to an IPv4 address,
-       an address cannot be bound, the configuration file cannot be read)
+       an address cannot be bound, the configuration file cannot be read), or at a stop
+       the audit log's last records could not be kept
+  130, 143  a second SIGINT or SIGTERM ended a stop at once
   2    bad command line, or a configuration file that is refused (FILE:LINE:COLUMN: reason)
   101  the gateway failed while running (the line before says why): nothing is served any
        more, start it again (systemd: Restart=on-failure, linux/dist/hans-gateway.service)";
@@ -416,6 +421,67 @@ fn publish_setup_code(code: &SetupCode, path: &Path) {
 
 /// A line on stderr, `hans-gateway: ` first; a failure to write it is
 /// ignored (there is nowhere else to say it).
+/// SIGTERM (systemd's stop) and SIGINT (Ctrl-C), taken from the process's
+/// default (which ended it at once: what the audit log's counting periods
+/// had counted was lost, and no `stop` record said the end was ordered).
+/// The first stops the gateway in order ([`Stopper::stop`]: the gateway
+/// records the stop and keeps its last records, at most 5 s); a second
+/// one while it stops ends the process at once (status 130 or 143).
+/// tokio's signal handling, on a thread of its own.
+struct StopSignals {
+    rt: tokio::runtime::Runtime,
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+}
+
+impl StopSignals {
+    /// Takes the signals now: one that arrives before [`Self::stop`]
+    /// waits for it.
+    fn take() -> std::io::Result<StopSignals> {
+        use tokio::signal::unix::{signal, SignalKind};
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_io()
+            .build()?;
+        let (term, int) = {
+            let _in = rt.enter();
+            (
+                signal(SignalKind::terminate())?,
+                signal(SignalKind::interrupt())?,
+            )
+        };
+        Ok(StopSignals { rt, term, int })
+    }
+
+    /// Stops the gateway of `stopper` at the first signal (on a thread of
+    /// its own).
+    fn stop(self, stopper: Stopper) -> std::io::Result<()> {
+        let StopSignals {
+            rt,
+            mut term,
+            mut int,
+        } = self;
+        std::thread::Builder::new()
+            .name(String::from("signals"))
+            .spawn(move || {
+                rt.block_on(async move {
+                    let why = tokio::select! {
+                        _ = term.recv() => "SIGTERM",
+                        _ = int.recv() => "SIGINT",
+                    };
+                    log::info!("{why}: stopping (a second signal ends the process at once)");
+                    stopper.stop(why);
+                    let status = tokio::select! {
+                        _ = term.recv() => 128 + 15,
+                        _ = int.recv() => 128 + 2,
+                    };
+                    say("a second stop signal: ending at once");
+                    std::process::exit(status);
+                })
+            })?;
+        Ok(())
+    }
+}
+
 fn say(line: &str) {
     let _ = writeln!(std::io::stderr(), "hans-gateway: {line}");
 }
@@ -623,6 +689,15 @@ fn main() -> ExitCode {
         log::info!("robot controller at {a}");
     }
     let setup_code = opts.setup_code;
+    // From here a SIGTERM or SIGINT waits for the gateway to be up, and
+    // then stops it in order.
+    let signals = match StopSignals::take() {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("hans-gateway: the stop signals (SIGTERM, SIGINT) cannot be handled: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     let gw = match RunningGateway::start(opts) {
         Ok(g) => g,
         Err(e) => {
@@ -630,6 +705,10 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    if let Err(e) = signals.stop(gw.stopper()) {
+        eprintln!("hans-gateway: the stop signals (SIGTERM, SIGINT) cannot be handled: {e}");
+        return ExitCode::FAILURE;
+    }
     log::info!("modbus server on {}", gw.modbus_addr());
     if let Some(a) = gw.robot_listen_addr() {
         log::info!("waiting for the robot controller on {a}");
@@ -653,7 +732,14 @@ fn main() -> ExitCode {
     // must end too, with a failure status for a supervisor to restart it,
     // rather than live on serving nothing.
     match gw.wait() {
-        Ok(never) => match never {},
+        Ok(Stopped { kept: true }) => {
+            log::info!("stopped; the audit log's last records are kept");
+            ExitCode::SUCCESS
+        }
+        Ok(Stopped { kept: false }) => {
+            say("stopped, but the audit log's last records could not be kept in time");
+            ExitCode::FAILURE
+        }
         Err(e) => {
             say(&format!(
                 "{e}: exiting with status {FAILED_RUNNING} (nothing is served any more)"

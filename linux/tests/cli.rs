@@ -1172,3 +1172,93 @@ fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
         );
     }
 }
+
+/// A stop in order: SIGTERM (systemd's stop) and SIGINT keep what the
+/// audit log had counted and record the stop, then exit 0. Before, the
+/// signal ended the process at once: the failed logins counted in the
+/// running period were lost (an attacker's guesses of up to an hour gone
+/// from the evidence at every stop or package upgrade), nothing told an
+/// ordered stop from a crash, and the status was that of a killed process.
+#[test]
+fn sigterm_and_sigint_keep_the_counted_failures_and_record_the_stop() {
+    for (signal, name) in [("TERM", "SIGTERM"), ("INT", "SIGINT")] {
+        let config = TempFile::new("gateway.toml");
+        let args = [
+            "--config",
+            config.arg(),
+            "--robot",
+            "127.0.0.1:1",
+            "--modbus-listen",
+            "127.0.0.1:0",
+            "--web-listen",
+            "127.0.0.1:0",
+        ];
+        let (mut gw, log) = start(&args);
+        let addr = web_addr(&log);
+        // Wrong setup codes (failed logins of a device without accounts):
+        // the first is recorded as it comes, the next two are counted.
+        for code in ["AAAA-AAAA-AAAA", "BBBB-BBBB-BBBB", "CCCC-CCCC-CCCC"] {
+            let body = format!(r#"{{"code":"{code}","name":"admin","password":"correct horse"}}"#);
+            let answer = http_exchange(
+                &addr,
+                &format!(
+                    "POST /api/setup HTTP/1.1\r\nHost: {addr}\r\nOrigin: http://{addr}\r\nContent-Type: application/json\r\nContent-Length: {}\r\n\r\n{body}",
+                    body.len()
+                ),
+            );
+            assert!(answer.starts_with("HTTP/1.1 403"), "{answer}");
+        }
+        let start_wait = Instant::now();
+        while !kept_records(&config.0)
+            .iter()
+            .any(|(k, _)| k == "login-failed")
+        {
+            assert!(
+                start_wait.elapsed() < WAIT,
+                "{:#?}",
+                kept_records(&config.0)
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let status = Command::new("kill")
+            .arg(format!("-{signal}"))
+            .arg(gw.0.id().to_string())
+            .status()
+            .expect("kill");
+        assert!(status.success());
+        let stopped = Instant::now();
+        let exit = loop {
+            if let Some(s) = gw.0.try_wait().expect("wait") {
+                break s;
+            }
+            assert!(
+                stopped.elapsed() < WAIT,
+                "still running {WAIT:?} after SIG{signal}"
+            );
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        assert_eq!(
+            exit.code(),
+            Some(0),
+            "SIG{signal}: {exit:?}: {:#?}",
+            log.rest()
+        );
+        let kept = kept_records(&config.0);
+        let failed: Vec<_> = kept
+            .iter()
+            .filter(|(k, _)| k == "login-failed")
+            .map(|(_, d)| d.as_str())
+            .collect();
+        assert_eq!(failed.len(), 2, "{kept:#?}");
+        assert!(
+            failed[1].starts_with("2 more failed logins in "),
+            "the counted ones kept: {kept:#?}"
+        );
+        assert_eq!(
+            kept.last(),
+            Some(&("stop".to_string(), name.to_string())),
+            "{kept:#?}"
+        );
+        drop(gw);
+    }
+}

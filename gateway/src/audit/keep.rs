@@ -1,12 +1,13 @@
 //! The storage task's side of the log: the kept records read back at
 //! start, the records of a start, the stamper (which gives new records
-//! their time) and keeping records on the medium.
+//! their time), keeping records on the medium, and the last records
+//! before a stop or a restart.
 
 use core::convert::Infallible;
 use core::fmt::Write;
 
 use embassy_futures::select::{select, Either};
-use embassy_time::Instant;
+use embassy_time::{Duration, Instant};
 
 use super::page::{Filled, Query, Window};
 use super::{Interface, Kind, Log, Record, Who, RECORD_MAX};
@@ -112,6 +113,33 @@ pub(crate) fn started(log: &Log, s: &Start<'_>, now: Instant) {
         log.config_changed(loaded, running, &button);
     }
     log.stamp(now);
+}
+
+/// How long a stop or a restart waits for its last records to be kept
+/// (a flash sector erase takes up to ~2 s on the NUCLEO; a stuck medium
+/// must not keep the device from stopping).
+pub(crate) const CLOSING_WAIT: Duration = Duration::from_secs(5);
+
+/// Before the gateway stops or restarts: ends every counting period now
+/// (what it counted is recorded, not lost with the RAM), records the stop
+/// (`why`, if any: a restart has its own record), and waits until
+/// the storage task kept these records and every one before them, at most
+/// [`CLOSING_WAIT`]. The storage task must run meanwhile (this is joined
+/// or selected with the gateway's run). `true`: all kept (or nothing is
+/// kept on this device); `false`: the wait ended first.
+pub(crate) async fn closing<C: Clock>(log: &Log, clock: &C, why: Option<&str>) -> bool {
+    let now = clock.now();
+    log.close_periods(now);
+    // The stop is the run's last record: what the periods counted before it.
+    if let Some(why) = why {
+        log.add(Kind::Stop, &Who::SYSTEM, |d| d.push(why.as_bytes()));
+        log.stamp(now);
+    }
+    let end = log.next_seq();
+    matches!(
+        select(log.wait_kept(end), clock.sleep(CLOSING_WAIT)).await,
+        Either::First(())
+    )
 }
 
 /// Gives new records their time: runs beside the storage task's work (so

@@ -13,14 +13,16 @@
 //! Repeated failures are counted, not recorded one by one (a flood of them
 //! must not push the evidence out of the medium, nor keep the medium
 //! busy): per class ([`Class`]: refused connections per interface, failed
-//! logins and setup codes, setting changes over Modbus, refused changes of
-//! protected settings), over a period of [`REFUSED_PERIOD`] that doubles
-//! while they go on, up to [`REFUSED_PERIOD_MAX`], one record at its end
-//! says how many, from how many addresses. Of the failed logins, the
-//! changes over Modbus and the refused changes, the first of a period is
-//! recorded as it happens (with its name or setting and its address); of
-//! refused connections none is. Each class thus writes at most two records
-//! a period: a storm of any length writes a few a day per class.
+//! logins and setup codes, guesses refused unchecked (429), setting changes
+//! over Modbus, refused changes of protected settings), over a period of
+//! [`REFUSED_PERIOD`] that doubles while they go on, up to
+//! [`REFUSED_PERIOD_MAX`], one record at its end says how many, from how
+//! many addresses. Of the failed logins, the changes over Modbus and the
+//! refused changes, the first of a period is recorded as it happens (with
+//! its name or setting and its address); of refused connections and
+//! unchecked guesses none is. Each class thus writes at most two records a
+//! period: a storm of any length writes a few a day per class. A stop in
+//! order or a restart ends the running periods first (`keep::closing`).
 //!
 //! Time: a record is made without its time, and the storage task's
 //! stamper (which has the clock, see `keep`) stamps it with the uptime and
@@ -82,16 +84,20 @@ pub(crate) enum Class {
     ModbusConfig = 4,
     /// Changes of protected settings refused.
     ConfigRefused = 5,
+    /// Guesses (logins, setup codes, current passwords) refused without
+    /// being checked: their address or account had to wait (429).
+    LoginLimited = 6,
 }
 
 /// The classes, in the order of [`Inner::tallies`].
-const CLASSES: [Class; 6] = [
+const CLASSES: [Class; 7] = [
     Class::RefusedModbus,
     Class::RefusedWeb,
     Class::RefusedRobot,
     Class::LoginFailed,
     Class::ModbusConfig,
     Class::ConfigRefused,
+    Class::LoginLimited,
 ];
 
 impl Class {
@@ -437,6 +443,14 @@ impl Log {
         }
     }
 
+    /// A guess (a login, a setup code, a current password) from `from`
+    /// refused unchecked, with 429: it had to wait. Counted over a period,
+    /// never recorded one by one (a flood of them is the attack the wait
+    /// answers).
+    pub(crate) fn login_limited(&self, from: Option<Ipv4Addr>) {
+        self.repeated(Class::LoginLimited, from, "", false);
+    }
+
     /// A wrong setup code from `from`: as a failed login for a name no
     /// account has.
     pub(crate) fn setup_failed(&self, from: Option<Ipv4Addr>) {
@@ -592,10 +606,27 @@ impl Log {
     /// Ends the counting periods due at `now`, with a record each that
     /// counted something (stamped `now`).
     pub(crate) fn end_refusal_periods(&self, now: Instant) {
+        self.end_periods(now, false);
+    }
+
+    /// Ends every counting period now, due or not, with a record each that
+    /// counted something: before the gateway stops or restarts, so that
+    /// what a period counted is kept instead of lost with the RAM.
+    pub(crate) fn close_periods(&self, now: Instant) {
+        self.end_periods(now, true);
+    }
+
+    /// Ends the periods due at `now` (all running ones if `all`).
+    fn end_periods(&self, now: Instant, all: bool) {
+        if all {
+            // A period counted but not stamped yet starts now (and is
+            // ended with the others).
+            self.stamp(now);
+        }
         for (n, class) in CLASSES.iter().enumerate() {
             let ended = self.with(|i| {
                 let t = i.tallies.get_mut(n)?;
-                let since = t.since.filter(|s| *s + t.period <= now)?;
+                let since = t.since.filter(|s| all || *s + t.period <= now)?;
                 let ended = *t;
                 *t = Tally {
                     ended: Some(now),
@@ -620,7 +651,7 @@ impl Log {
     /// Records what the period of `class` counted (`t`, over `over`).
     fn tally_recorded(&self, class: Class, t: &Tally, over: Duration) {
         let interface = match class {
-            Class::RefusedWeb | Class::LoginFailed => Interface::Web,
+            Class::RefusedWeb | Class::LoginFailed | Class::LoginLimited => Interface::Web,
             Class::RefusedRobot => Interface::Robot,
             _ => Interface::Modbus,
         };
@@ -632,7 +663,7 @@ impl Log {
         let (count, secs, addrs) = (t.count, over.as_secs(), t.addresses());
         let more = if t.more { "more than " } else { "" };
         let kind = match class {
-            Class::LoginFailed => Kind::LoginFailed,
+            Class::LoginFailed | Class::LoginLimited => Kind::LoginFailed,
             Class::ModbusConfig => Kind::Config,
             Class::ConfigRefused => Kind::ConfigRefused,
             _ => Kind::Refused,
@@ -651,6 +682,10 @@ impl Log {
                     d,
                     "{count} more failed logins in {secs} s ({} unknown names), {more}{addrs} addresses",
                     t.unknown
+                ),
+                Class::LoginLimited => write!(
+                    d,
+                    "{count} guesses not checked in {secs} s (429: wait), {more}{addrs} addresses"
                 ),
                 Class::ModbusConfig => write!(
                     d,

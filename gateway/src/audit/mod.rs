@@ -24,6 +24,7 @@
 //! | `recovery` | a recovery start ([`crate::Options::recovery`]), then a `config` record per setting it changed, interface `button` | `keep::started` |
 //! | `config` | a setting changed: `key: old -> new`; a trigger entry: `triggers.N = text` | `Hub::config_command` (Modbus `CONFIG_COMMAND` 1), `Hub::change` / `Hub::change_by` (the page), `Hub::write_registers` (trigger texts over Modbus) |
 //! | `refused` | connections refused by an allow-list, or by the robot link's listen port (not the controller's address), counted per interface over a period (60 s, doubling while they go on, up to 1 h), with the last address | `Hub::admit_modbus`, `Hub::admit_web`, `Hub::audit_refused_robot` (the engine) |
+//! | `stop` | the platform stopped the gateway in order (detail: why, e.g. `SIGTERM`); the running counting periods are ended and recorded first, a restart from the page ends them too | `Gateway::run_until`, `keep::closing` |
 //! | `watchdog` | the PLC watchdog tripped | `engine::watchdog::audit_trip` |
 //! | `lost` | records were lost before they could be kept (how many) | the log itself |
 //! | `time` | the wall clock was set by a time server | `Log::set_wall_time` |

@@ -146,11 +146,15 @@ coded! {
         /// setting, and why): Modbus while configuration over Modbus is
         /// off.
         ConfigRefused = 18, "config-refused";
+        /// The gateway stopped in order (detail: why, e.g. `SIGTERM`):
+        /// the records after it are of the next start. A start without a
+        /// stop before it followed a power cut, a crash or a kill.
+        Stop = 19, "stop";
     }
 }
 
 impl Kind {
-    /// A security record: a start, the configuration loaded or changed, a
+    /// A security record: a start or stop, the configuration loaded or changed, a
     /// login or logout, an account's change, a restart, a firmware update,
     /// the wall clock set. The others (failed logins, refused connections
     /// and changes, the watchdog, lost records, unknown kinds) are failure
@@ -171,6 +175,7 @@ impl Kind {
                 | Kind::Config
                 | Kind::ConfigLoaded
                 | Kind::Restart
+                | Kind::Stop
                 | Kind::Firmware
                 | Kind::Time
         )

@@ -170,6 +170,10 @@ std::thread_local! {
     /// Set when the gateway asked the platform to restart (its
     /// `Options::restart`), read by [`World::restart_asked`].
     static RESTART_ASKED: Cell<bool> = const { Cell::new(false) };
+    /// A stop asked by [`World::stop`], not yet seen by the gateway.
+    static STOP_ASKED: Cell<Option<&'static str>> = const { Cell::new(None) };
+    /// How the gateway's run ended after [`World::stop`].
+    static STOPPED: Cell<Option<crate::gateway::Stopped>> = const { Cell::new(None) };
 }
 
 fn ask_restart() {
@@ -390,7 +394,32 @@ impl World {
         storage: MemStorage,
     ) -> Pin<Box<dyn Future<Output = Infallible>>> {
         let (c, n, g) = (clock.clone(), net.clone(), gateway.clone());
-        Box::pin(async move { g.run(&n, &*c, storage).await })
+        STOP_ASKED.with(|s| s.set(None));
+        STOPPED.with(|s| s.set(None));
+        // Until a stop is asked (World::stop raises the waker's flag).
+        let stop = core::future::poll_fn(|_| match STOP_ASKED.with(|s| s.take()) {
+            Some(why) => Poll::Ready(why),
+            None => Poll::Pending,
+        });
+        Box::pin(async move {
+            let stopped = g.run_until(&n, &*c, storage, stop).await;
+            STOPPED.with(|s| s.set(Some(stopped)));
+            core::future::pending().await
+        })
+    }
+
+    /// The platform stops the gateway in order for `why` (a Linux host's
+    /// SIGTERM): [`Gateway::run_until`]'s stop. Runs until the gateway's
+    /// run has ended (at most 10 s of virtual time); how it ended, `None`
+    /// if it did not. [`Self::restart`] starts it again on the same
+    /// storage.
+    pub fn stop(&mut self, why: &'static str) -> Option<crate::gateway::Stopped> {
+        STOP_ASKED.with(|s| s.set(Some(why)));
+        self.flag.0.store(true, Ordering::Relaxed);
+        self.run_until_cond(Duration::from_secs(10), |_| {
+            STOPPED.with(|s| s.get()).is_some()
+        });
+        STOPPED.with(|s| s.get())
     }
 
     /// Gives the gateway an administrator account (`admin`), as a

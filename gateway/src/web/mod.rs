@@ -1350,6 +1350,9 @@ impl<C: Clock> PathRouterService<()> for App<'_, C> {
                 warn!("web: restart requested");
                 // Let the answer leave before the device goes.
                 self.clock.sleep(Duration::from_millis(500)).await;
+                // What the audit log's periods counted is kept, not lost
+                // with the RAM (the restart's own record is kept already).
+                crate::audit::keep::closing(&self.hub.audit, self.clock, None).await;
                 if let Some(restart) = self.web.restart {
                     restart();
                 }

@@ -454,6 +454,13 @@ impl<C: Clock> App<'_, C> {
         });
     }
 
+    /// A guess refused unchecked (its address or account must wait):
+    /// counted in the audit log, answered 429 with the wait.
+    fn unchecked(&self, wait: embassy_time::Duration) -> Reply {
+        self.hub.audit.login_limited(self.ip());
+        too_many(wait)
+    }
+
     /// A failed login (or a wrong current password) for `name` (`known`:
     /// an account of that name exists), for the audit log: the first of a
     /// period is recorded, the rest counted (`crate::audit::log`: a flood
@@ -515,7 +522,7 @@ impl<C: Clock> App<'_, C> {
             .reserve(ip, guess, self.clock.now())
         {
             Ok(t) => t,
-            Err(wait) => return too_many(wait),
+            Err(wait) => return self.unchecked(wait),
         };
         let hash = found.map_or(NOBODY, |f| f.1 .0);
         let right = hash.verify(pw).await && found.is_some();
@@ -567,7 +574,7 @@ impl<C: Clock> App<'_, C> {
                 .reserve(self.ip(), Guess::Nobody, self.clock.now())
             {
                 Ok(t) => t,
-                Err(wait) => return too_many(wait),
+                Err(wait) => return self.unchecked(wait),
             };
         match (&self.web.setup_code, SetupCode::parse(bytes(&doc.code))) {
             (Some(code), Some(given)) if code.matches(&given) => {}
@@ -685,7 +692,7 @@ impl<C: Clock> App<'_, C> {
             .reserve(ip, guess, self.clock.now())
         {
             Ok(t) => t,
-            Err(wait) => return too_many(wait),
+            Err(wait) => return self.unchecked(wait),
         };
         if !acc.hash.verify(bytes(&doc.current)).await {
             warn!("web: wrong password");
