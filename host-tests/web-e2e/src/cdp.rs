@@ -534,13 +534,15 @@ const SWITCHES: &[&str] = &[
     "--enable-automation",
     "--password-store=basic",
     "--use-mock-keychain",
-    // The host-name checks' tests open `gw.localhost` and `localhost`,
-    // which Chromium resolves itself to ::1 and 127.0.0.1 and tries on ::1
-    // first (seen: two connections to a listener on [::1] and none to
-    // 127.0.0.1): whatever else listens on [::1] with the gateway's port
-    // number answered instead (CI: ERR_SOCKET_NOT_CONNECTED). The gateway
-    // and QEMU's forwards listen on 127.0.0.1 only.
-    "--host-resolver-rules=MAP gw.localhost 127.0.0.1, MAP localhost 127.0.0.1",
+    // The host-name check's test opens `gw.localhost`, which Chromium
+    // resolves itself to ::1 and 127.0.0.1 and tries on ::1 first (seen:
+    // two connections to a listener on [::1] and none to 127.0.0.1):
+    // whatever else listened on [::1] with the gateway's port number
+    // answered instead (CI: ERR_SOCKET_NOT_CONNECTED). The gateway listens
+    // on 127.0.0.1 only. (`localhost` itself is not mapped: mapped, the
+    // QEMU test's navigation to it met an empty answer once; not
+    // understood yet, see the closing note of 2026-11-30.)
+    "--host-resolver-rules=MAP gw.localhost 127.0.0.1",
 ];
 
 fn str_field(v: &Value, name: &str, method: &str) -> Result<String, Error> {
