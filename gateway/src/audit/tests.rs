@@ -457,16 +457,22 @@ fn a_host_refused_by_the_listen_port_is_recorded_with_its_address() {
     );
 }
 
-#[test]
-fn refused_modbus_clients_are_counted_over_a_period_not_recorded_one_by_one() {
-    let mut w = world(WorldConfig {
+/// A world whose Modbus allow-list admits only the first PLC's address
+/// (10.0.0.10), and an address it refuses.
+fn allow_list_world() -> (World, Ipv4Addr) {
+    let w = world(WorldConfig {
         config: Config {
             modbus_allow: AllowList::parse("10.0.0.10").unwrap(),
             ..Config::default()
         },
         ..WorldConfig::default()
     });
-    let stranger = Ipv4Addr::new(10, 0, 0, 99);
+    (w, Ipv4Addr::new(10, 0, 0, 99))
+}
+
+#[test]
+fn refused_modbus_clients_are_counted_over_a_period_not_recorded_one_by_one() {
+    let (mut w, stranger) = allow_list_world();
     for _ in 0..5 {
         let i = w.connect_plc(stranger);
         assert!(!w.plc_open(i));
@@ -499,14 +505,7 @@ fn refused_modbus_clients_are_counted_over_a_period_not_recorded_one_by_one() {
 /// an ordered stop from a power cut.
 #[test]
 fn a_stop_keeps_what_the_periods_counted_and_says_it_stopped() {
-    let mut w = world(WorldConfig {
-        config: Config {
-            modbus_allow: AllowList::parse("10.0.0.10").unwrap(),
-            ..Config::default()
-        },
-        ..WorldConfig::default()
-    });
-    let stranger = Ipv4Addr::new(10, 0, 0, 99);
+    let (mut w, stranger) = allow_list_world();
     for _ in 0..7 {
         let i = w.connect_plc(stranger);
         assert!(!w.plc_open(i));
