@@ -1036,6 +1036,21 @@ fn http_exchange(addr: &str, request: &str) -> String {
     }
 }
 
+/// A gateway keeping its configuration (and audit files) in `config`,
+/// with its web page, the robot absent, every port the kernel's choice.
+fn kept_web_args(config: &TempFile) -> [&str; 8] {
+    [
+        "--config",
+        config.arg(),
+        "--robot",
+        "127.0.0.1:1",
+        "--modbus-listen",
+        "127.0.0.1:0",
+        "--web-listen",
+        "127.0.0.1:0",
+    ]
+}
+
 /// The records kept in the audit files beside `config`, oldest first:
 /// (kind, detail).
 fn kept_records(config: &Path) -> Vec<(String, String)> {
@@ -1069,16 +1084,7 @@ fn kept_records(config: &Path) -> Vec<(String, String)> {
 #[test]
 fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
     let config = TempFile::new("gateway.toml");
-    let args = [
-        "--config",
-        config.arg(),
-        "--robot",
-        "127.0.0.1:1",
-        "--modbus-listen",
-        "127.0.0.1:0",
-        "--web-listen",
-        "127.0.0.1:0",
-    ];
+    let args = kept_web_args(&config);
     let (mut gw, log) = start(&args);
     let code_file = config.1 .0.join("setup-code");
     let (code, _) = shown_setup_code(&log.wait_for("setup code for the first"), &code_file);
@@ -1183,16 +1189,7 @@ fn a_change_answered_is_on_disk_even_if_the_gateway_is_killed_at_once() {
 fn sigterm_and_sigint_keep_the_counted_failures_and_record_the_stop() {
     for (signal, name) in [("TERM", "SIGTERM"), ("INT", "SIGINT")] {
         let config = TempFile::new("gateway.toml");
-        let args = [
-            "--config",
-            config.arg(),
-            "--robot",
-            "127.0.0.1:1",
-            "--modbus-listen",
-            "127.0.0.1:0",
-            "--web-listen",
-            "127.0.0.1:0",
-        ];
+        let args = kept_web_args(&config);
         let (mut gw, log) = start(&args);
         let addr = web_addr(&log);
         // Wrong setup codes (failed logins of a device without accounts):
